@@ -1,0 +1,282 @@
+"""Rigid-load dynamics at a wrist force-torque sensor (Kubus & Wahl, Sec. III).
+
+Plain numpy, no Drake types. Conventions (DESIGN §4):
+
+* Everything is expressed in the sensor frame S, origin at its measuring point.
+* ``a`` is the translational acceleration of S's origin in the world, ``alpha``
+  and ``omega`` are S's angular acceleration and velocity in the world, ``g``
+  is gravity; all (3,) or (N, 3), in m/s², rad/s², rad/s, m/s².
+* A wrench is ``[f; tau]`` (N, N·m): what the sensor exerts *on the load*
+  (Eqs. 1–2), torque about S's origin.
+* ``phi = [m, m cx, m cy, m cz, Ixx, Ixy, Ixz, Iyy, Iyz, Izz]`` (Eq. 6), the
+  inertia taken about S's origin. Offsets ``[f_o; tau_o]`` come first in the
+  extended vector (Eq. 7).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+PHI_NAMES = ("m", "m*cx", "m*cy", "m*cz", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz")
+OFFSET_NAMES = ("fx_o", "fy_o", "fz_o", "tx_o", "ty_o", "tz_o")
+
+# Rows of the symmetric inertia matrix as indices into the 6 inertia entries
+# [Ixx, Ixy, Ixz, Iyy, Iyz, Izz] of phi.
+_SYM_INDEX = np.array([[0, 1, 2], [1, 3, 4], [2, 4, 5]])
+
+
+def _finite_array(name: str, value, shape_tail: tuple[int, ...]) -> np.ndarray:
+    """Returns ``value`` as a float array of shape ``shape_tail`` or (N, *shape_tail)."""
+    x = np.asarray(value, dtype=float)
+    if x.shape != shape_tail and x.shape[1:] != shape_tail:
+        raise ValueError(
+            f"{name} must have shape {shape_tail} or (N, {', '.join(map(str, shape_tail))}); "
+            f"got {x.shape}"
+        )
+    finite = math.isfinite(sum(x.ravel().tolist())) if x.size <= 16 else np.isfinite(x).all()
+    if not finite:
+        raise ValueError(f"{name} contains NaN or inf; drop or repair that sample before use")
+    return x
+
+
+def _motion_inputs(a, alpha, omega, g):
+    """Validates and broadcasts the four kinematic inputs to a common (N, 3) or (3,)."""
+    arrays = [_finite_array(n, v, (3,)) for n, v in
+              (("a", a), ("alpha", alpha), ("omega", omega), ("g", g))]
+    batched = [x.ndim == 2 for x in arrays]
+    if any(batched):
+        lengths = {x.shape[0] for x in arrays if x.ndim == 2}
+        if len(lengths) != 1:
+            raise ValueError(f"a, alpha, omega and g have different sample counts {sorted(lengths)}")
+        n = lengths.pop()
+        arrays = [np.broadcast_to(x, (n, 3)) for x in arrays]
+    return arrays, any(batched)
+
+
+# [v]x as a gather of (0, ±v_k): flat 3×3 entries index into [0, v, −v].
+_CROSS_GATHER = np.array([0, 6, 2, 3, 0, 4, 5, 1, 0])
+# L(v) (3×6) with I·v = L(v)·[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]: entry (r, _SYM_INDEX[r, c]) = v_c.
+_INERTIA_ROWS = np.repeat(np.arange(3), 3)
+_INERTIA_COLS = _SYM_INDEX.ravel()
+_INERTIA_SOURCE = np.tile(np.arange(3), 3)
+
+
+def _cross_matrix(v: np.ndarray) -> np.ndarray:
+    """[v]x for v of shape (..., 3) → (..., 3, 3)."""
+    padded = np.concatenate((np.zeros(v.shape[:-1] + (1,)), v, -v), axis=-1)
+    return padded[..., _CROSS_GATHER].reshape(v.shape[:-1] + (3, 3))
+
+
+def _inertia_product_matrix(v: np.ndarray) -> np.ndarray:
+    """L(v) of shape (..., 3, 6) with I·v = L(v)·[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]."""
+    out = np.zeros(v.shape[:-1] + (3, 6))
+    out[..., _INERTIA_ROWS, _INERTIA_COLS] = v[..., _INERTIA_SOURCE]
+    return out
+
+
+def regressor(a, alpha, omega, g) -> np.ndarray:
+    """The matrix V of Eq. 5 with wrench = V(a, alpha, omega, g) @ phi.
+
+    Inputs of shape (3,) give (6, 10); inputs of shape (N, 3) give (N, 6, 10)
+    (a (3,) input is broadcast against (N, 3) ones). Derived from Eqs. 1–2:
+    f = m(a − g) + α×(mc) + ω×(ω×(mc)),  τ = Iα + ω×(Iω) + (mc)×(a − g).
+    """
+    single = _single_sample_regressor(a, alpha, omega, g)
+    if single is not None:
+        return single
+    (a, alpha, omega, g), batched = _motion_inputs(a, alpha, omega, g)
+    a_minus_g = a - g
+    w_x = _cross_matrix(omega)
+    V = np.zeros(a.shape[:-1] + (6, 10))
+    V[..., 0:3, 0] = a_minus_g
+    V[..., 0:3, 1:4] = _cross_matrix(alpha) + w_x @ w_x
+    V[..., 3:6, 1:4] = -_cross_matrix(a_minus_g)
+    V[..., 3:6, 4:10] = _inertia_product_matrix(alpha) + w_x @ _inertia_product_matrix(omega)
+    return V if batched else V.reshape(6, 10)
+
+
+def _single_sample_regressor(a, alpha, omega, g):
+    """The (6, 10) V of one sample in scalar arithmetic (a few µs, for per-tick use),
+    or None when the inputs are not four finite (3,) arrays (the general path then
+    handles or rejects them)."""
+    if not all(isinstance(x, np.ndarray) and x.shape == (3,) for x in (a, alpha, omega, g)):
+        return None
+    ax, ay, az = (a - g).tolist()
+    alx, aly, alz = alpha.tolist()
+    wx, wy, wz = omega.tolist()
+    if not math.isfinite(ax + ay + az + alx + aly + alz + wx + wy + wz):
+        return None
+    wxx, wyy, wzz, wxy, wxz, wyz = wx * wx, wy * wy, wz * wz, wx * wy, wx * wz, wy * wz
+    return np.array((
+        (ax, -wyy - wzz, wxy - alz, wxz + aly, 0, 0, 0, 0, 0, 0),
+        (ay, wxy + alz, -wxx - wzz, wyz - alx, 0, 0, 0, 0, 0, 0),
+        (az, wxz - aly, wyz + alx, -wxx - wyy, 0, 0, 0, 0, 0, 0),
+        (0, 0, az, -ay, alx, aly - wxz, alz + wxy, -wyz, wyy - wzz, wyz),
+        (0, -az, 0, ax, wxz, alx + wyz, wzz - wxx, aly, alz - wxy, -wxz),
+        (0, ay, -ax, 0, -wxy, wxx - wyy, alx - wyz, wxy, aly + wxz, alz)))
+
+
+def regressor_with_offsets(a, alpha, omega, g) -> np.ndarray:
+    """The extended matrix [E₆ V] of Eq. 8, (6, 16) or (N, 6, 16); unknowns as Eq. 7."""
+    V = regressor(a, alpha, omega, g)
+    out = np.zeros(V.shape[:-1] + (16,))
+    out[..., :, :6] = np.eye(6)
+    out[..., :, 6:] = V
+    return out
+
+
+def noncontact_wrench(phi, a, alpha, omega, g) -> np.ndarray:
+    """Eq. 12: the load's own wrench V·phi, (6,) or (N, 6)."""
+    phi = _finite_array("phi", phi, (10,))
+    if phi.ndim != 1:
+        raise ValueError(f"phi must have shape (10,); got {phi.shape}")
+    return regressor(a, alpha, omega, g) @ phi
+
+
+def contact_wrench(wrench, offsets, phi, a, alpha, omega, g) -> np.ndarray:
+    """Eq. 13: measured wrench minus offsets minus the non-contact wrench, (6,) or (N, 6)."""
+    wrench = _finite_array("wrench", wrench, (6,))
+    offsets = _finite_array("offsets", offsets, (6,))
+    return wrench - offsets - noncontact_wrench(phi, a, alpha, omega, g)
+
+
+def inertia_matrix(entries) -> np.ndarray:
+    """The symmetric 3×3 matrix of Eq. 3 from [Ixx, Ixy, Ixz, Iyy, Iyz, Izz]."""
+    entries = np.asarray(entries, dtype=float)
+    return entries[_SYM_INDEX]
+
+
+def inertia_entries(matrix) -> np.ndarray:
+    """[Ixx, Ixy, Ixz, Iyy, Iyz, Izz] of a symmetric 3×3 matrix."""
+    m = np.asarray(matrix, dtype=float)
+    return np.array([m[0, 0], m[0, 1], m[0, 2], m[1, 1], m[1, 2], m[2, 2]])
+
+
+def _steiner(mass: float, p) -> np.ndarray:
+    """Parallel-axis term m([p]ₓᵀ[p]ₓ) = m(|p|²E − ppᵀ) for a point mass at p."""
+    p = np.asarray(p, dtype=float)
+    return mass * (p @ p * np.eye(3) - np.outer(p, p))
+
+
+@dataclasses.dataclass(frozen=True)
+class InertialParameters:
+    """A rigid load: mass (kg), centre of mass p_SC_S (m) and inertia about
+    the COM I_C_S (kg·m², axes parallel to S), all expressed in the frame S
+    they are given in."""
+
+    mass: float
+    com: np.ndarray
+    inertia_com: np.ndarray
+
+    def __post_init__(self):
+        mass = float(self.mass)
+        if not np.isfinite(mass):
+            raise ValueError(f"mass must be finite; got {self.mass}")
+        com = _finite_array("com", self.com, (3,))
+        inertia = _finite_array("inertia_com", self.inertia_com, (3, 3))
+        if com.ndim != 1 or inertia.ndim != 2:
+            raise ValueError("com must be (3,) and inertia_com (3, 3)")
+        if not np.allclose(inertia, inertia.T, rtol=0, atol=1e-12 * max(1.0, np.abs(inertia).max())):
+            raise ValueError("inertia_com must be symmetric")
+        object.__setattr__(self, "mass", mass)
+        object.__setattr__(self, "com", com.copy())
+        object.__setattr__(self, "inertia_com", 0.5 * (inertia + inertia.T))
+
+    # --- conversions -------------------------------------------------------
+    @classmethod
+    def from_inertia_about_origin(cls, mass, com, inertia_origin) -> "InertialParameters":
+        """From the inertia about S's origin (parallel-axis theorem)."""
+        if not mass > 0:
+            raise ValueError(f"mass must be > 0 to locate the COM; got {mass}")
+        inertia_origin = _finite_array("inertia_origin", inertia_origin, (3, 3))
+        return cls(mass, com, inertia_origin - _steiner(mass, com))
+
+    @classmethod
+    def from_phi(cls, phi) -> "InertialParameters":
+        """From the Eq. 6 vector; needs m > 0 (a massless phi has no COM)."""
+        phi = _finite_array("phi", phi, (10,))
+        if phi.ndim != 1:
+            raise ValueError(f"phi must have shape (10,); got {phi.shape}")
+        if not phi[0] > 0:
+            raise ValueError(f"phi[0] (mass) must be > 0 to convert to a COM; got {phi[0]}")
+        return cls.from_inertia_about_origin(phi[0], phi[1:4] / phi[0], inertia_matrix(phi[4:]))
+
+    @property
+    def inertia_origin(self) -> np.ndarray:
+        """Inertia about S's origin, expressed in S (kg·m²)."""
+        return self.inertia_com + _steiner(self.mass, self.com)
+
+    def to_phi(self) -> np.ndarray:
+        """The Eq. 6 vector."""
+        return np.concatenate(([self.mass], self.mass * self.com, inertia_entries(self.inertia_origin)))
+
+    def expressed_in(self, R_AS, p_AS) -> "InertialParameters":
+        """The same body described in frame A, given S's pose in A (R_AS (3,3), p_AS (3,))."""
+        R_AS = _finite_array("R_AS", R_AS, (3, 3))
+        p_AS = _finite_array("p_AS", p_AS, (3,))
+        if not np.allclose(R_AS.T @ R_AS, np.eye(3), atol=1e-9) or np.linalg.det(R_AS) < 0:
+            raise ValueError("R_AS must be a proper rotation matrix")
+        return InertialParameters(self.mass, R_AS @ self.com + p_AS, R_AS @ self.inertia_com @ R_AS.T)
+
+    @classmethod
+    def random(cls, rng: np.random.Generator, mass_range=(0.2, 5.0), com_radius=0.15,
+               size_range=(0.01, 0.15)) -> "InertialParameters":
+        """A physically valid random body: a solid with random second moments of mass
+        (m), randomly rotated, its COM within ``com_radius`` (m) of S's origin."""
+        mass = rng.uniform(*mass_range)
+        second_moments = mass * rng.uniform(*size_range, 3) ** 2  # ∫x², ∫y², ∫z² (kg·m²)
+        principal = second_moments.sum() - second_moments          # Jx = ∫y² + ∫z², …
+        R = Rotation.random(random_state=rng).as_matrix()
+        com = rng.normal(size=3)
+        com *= com_radius * rng.uniform() ** (1 / 3) / np.linalg.norm(com)
+        return cls(mass, com, R @ np.diag(principal) @ R.T)
+
+    # --- body algebra ------------------------------------------------------
+    def __add__(self, other: "InertialParameters") -> "InertialParameters":
+        """The composite of two bodies described in the same frame."""
+        return InertialParameters.from_phi(self.to_phi() + other.to_phi())
+
+    def __sub__(self, other: "InertialParameters") -> "InertialParameters":
+        """The body that, added to ``other``, gives ``self`` (e.g. object = load − gripper)."""
+        return InertialParameters.from_phi(self.to_phi() - other.to_phi())
+
+    # --- physical consistency ----------------------------------------------
+    def violations(self, tol: float = 1e-12) -> list[str]:
+        """Names every physical-consistency condition this body violates (empty if none)."""
+        problems = []
+        if not self.mass > 0:
+            problems.append(f"mass {self.mass:g} kg is not positive")
+        principal = np.linalg.eigvalsh(self.inertia_com)
+        scale = tol * max(1.0, np.abs(principal).max())
+        if principal[0] <= scale:
+            problems.append(
+                f"inertia about the COM is not positive definite (principal moments {principal} kg·m²)")
+        j1, j2, j3 = principal
+        for name, lhs, rhs in (("J1 + J2 >= J3", j1 + j2, j3), ("J1 + J3 >= J2", j1 + j3, j2),
+                               ("J2 + J3 >= J1", j2 + j3, j1)):
+            if lhs < rhs - scale:
+                problems.append(f"triangle inequality {name} fails for principal moments {principal} kg·m²")
+        return problems
+
+    def is_physical(self) -> bool:
+        return not self.violations()
+
+    def require_physical(self, what: str = "inertial parameters") -> "InertialParameters":
+        """Returns self, or raises ValueError naming every violated condition."""
+        problems = self.violations()
+        if problems:
+            raise ValueError(f"{what} are not physical: " + "; ".join(problems))
+        return self
+
+
+def modified_phi(phi_gripper, phi_object, eta: float) -> np.ndarray:
+    """Eq. 14: phi_mod = phi_gr + (1 − η)·phi_obj; with σ = 0 the operator then
+    feels the fraction η of the object's non-contact wrench and none of the gripper's."""
+    if not 0.0 <= eta <= 1.0:
+        raise ValueError(f"eta must lie in [0, 1]; got {eta}")
+    return _finite_array("phi_gripper", phi_gripper, (10,)) + (1.0 - eta) * _finite_array(
+        "phi_object", phi_object, (10,))
