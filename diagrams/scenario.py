@@ -1,0 +1,161 @@
+"""Scenarios: everything a simulated run needs, as dataclasses loaded from YAML.
+
+Load with :func:`load_scenario`; a malformed file gets a ValueError naming the
+field. Units are SI; frames as DESIGN §4 (W world, R slave base, B master base).
+"""
+
+
+import dataclasses
+import math
+import typing
+from pathlib import Path
+
+import yaml
+
+from pydrake.common.yaml import yaml_load_typed
+
+from heft.systems.sensor_models import AccelerometerParams, ForceTorqueSensorParams
+
+
+@dataclasses.dataclass
+class LoadSpec:
+    """What hangs on the wrist sensor, below its measuring frame S.
+
+    kind: "tool" (the paper's 3.13 kg tool, Fig. 5), "gripper_object" (a gripper
+    holding an object, for Eq. 14's η split), or "custom" (a rigid body given by
+    the fields below, in S).
+    """
+    kind: str = "tool"
+    mass: float = 1.0                       # kg, "custom" only
+    com: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.05])  # p_SC_S, m
+    # Inertia about the COM, axes of S: [Ixx, Ixy, Ixz, Iyy, Iyz, Izz], kg·m².
+    inertia_com: list[float] = dataclasses.field(default_factory=lambda: [1e-3, 0, 0, 1e-3, 0, 1e-3])
+
+
+@dataclasses.dataclass
+class EnvironmentSpec:
+    """The sheet spring of Fig. 5: a plate on a vertical spring-damper, or nothing.
+
+    kind: "sheet_spring" or "none". ``plate_top_W`` is the plate's top-centre in W
+    at rest (m); the plate moves along W's z axis.
+    """
+    kind: str = "sheet_spring"
+    stiffness: float = 5000.0               # N/m
+    damping: float = 20.0                   # N·s/m
+    plate_mass: float = 0.2                 # kg
+    plate_size: list[float] = dataclasses.field(default_factory=lambda: [0.3, 0.06, 0.002])  # m
+    plate_top_W: list[float] = dataclasses.field(default_factory=lambda: [0.55, 0.0, 0.05])
+
+
+@dataclasses.dataclass
+class OperatorSpec:
+    """The simulated operator's hand: an impedance pulling the stylus tip along
+    ``reference`` (a sum of sines about the start pose, in B). Hand numbers from
+    Kuchenbecker et al. 2005 / Hogan 1989 ranges, see diagrams/models/SOURCES.md."""
+    hand_mass: float = 0.3                  # kg, added at the stylus
+    stiffness: float = 300.0                # N/m
+    damping: float = 8.0                    # N·s/m
+    rotational_stiffness: float = 1.0       # N·m/rad
+    rotational_damping: float = 0.02        # N·m·s/rad
+    amplitude: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.03])  # m, in B
+    frequency: float = 1.0                  # Hz
+    rotation_amplitude: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])  # rad
+    start_time: float = 0.2                 # s before the hand starts moving
+
+
+@dataclasses.dataclass
+class Scenario:
+    """One simulated station and run."""
+    robot: str = "rx90"                     # "rx90" or "rx60"
+    slave_initial_q: list[float] = dataclasses.field(
+        default_factory=lambda: [0.0, 0.5, 1.8, 0.0, 0.84, 0.0])  # rad
+    master_initial_q: list[float] = dataclasses.field(default_factory=lambda: [0.0] * 6)  # rad
+    load: LoadSpec = dataclasses.field(default_factory=LoadSpec)
+    environment: EnvironmentSpec = dataclasses.field(default_factory=EnvironmentSpec)
+    ft_sensor: ForceTorqueSensorParams = dataclasses.field(default_factory=ForceTorqueSensorParams)
+    accelerometer: AccelerometerParams = dataclasses.field(default_factory=AccelerometerParams)
+    operator: OperatorSpec = dataclasses.field(default_factory=OperatorSpec)
+    plant_time_step: float = 0.0005         # s, discrete MultibodyPlant (SAP) step
+    controller_period: float = 0.0005       # s, 2 kHz
+    slave_servo_stiffness: list[float] = dataclasses.field(
+        default_factory=lambda: [4e4, 4e4, 2e4, 2e3, 2e3, 5e2])  # N·m/rad, the robot's own joint loop
+    slave_servo_damping_ratio: float = 1.0
+    encoder_counts_per_rev: float = 2.0 ** 20  # slave; the master's is in the model notes
+    duration: float = 2.0                   # s
+
+    def validate(self) -> "Scenario":
+        """Raises ValueError naming the first field that is out of range."""
+        def need(ok, field, what):
+            if not ok:
+                raise ValueError(f"scenario field '{field}' {what}")
+        need(self.robot in ("rx90", "rx60"), "robot", f"must be 'rx90' or 'rx60', not {self.robot!r}")
+        need(len(self.slave_initial_q) == 6, "slave_initial_q", "needs 6 joint angles (rad)")
+        need(len(self.master_initial_q) == 6, "master_initial_q", "needs 6 joint angles (rad)")
+        need(self.load.kind in ("tool", "gripper_object", "custom"), "load.kind",
+             f"must be 'tool', 'gripper_object' or 'custom', not {self.load.kind!r}")
+        need(len(self.load.com) == 3, "load.com", "needs 3 numbers (m)")
+        need(len(self.load.inertia_com) == 6, "load.inertia_com", "needs 6 numbers [Ixx, Ixy, Ixz, Iyy, Iyz, Izz]")
+        need(self.environment.kind in ("sheet_spring", "none"), "environment.kind",
+             f"must be 'sheet_spring' or 'none', not {self.environment.kind!r}")
+        need(self.environment.stiffness > 0, "environment.stiffness", "must be > 0 (N/m)")
+        need(self.environment.damping >= 0, "environment.damping", "must be >= 0 (N·s/m)")
+        need(self.environment.plate_mass > 0, "environment.plate_mass", "must be > 0 (kg)")
+        need(len(self.environment.plate_size) == 3 and min(self.environment.plate_size) > 0,
+             "environment.plate_size", "needs 3 positive sizes (m)")
+        need(len(self.environment.plate_top_W) == 3, "environment.plate_top_W", "needs 3 numbers (m)")
+        op = self.operator
+        for name in ("hand_mass", "stiffness", "damping", "rotational_stiffness", "rotational_damping"):
+            need(getattr(op, name) >= 0, f"operator.{name}", "must be >= 0")
+        need(len(op.amplitude) == 3, "operator.amplitude", "needs 3 numbers (m)")
+        need(len(op.rotation_amplitude) == 3, "operator.rotation_amplitude", "needs 3 numbers (rad)")
+        need(self.plant_time_step > 0, "plant_time_step", "must be > 0 (s)")
+        need(self.controller_period > 0, "controller_period", "must be > 0 (s)")
+        need(len(self.slave_servo_stiffness) == 6 and min(self.slave_servo_stiffness) > 0,
+             "slave_servo_stiffness", "needs 6 positive gains (N·m/rad)")
+        need(self.duration > 0, "duration", "must be > 0 (s)")
+        for value, field in ((self.duration, "duration"), (self.plant_time_step, "plant_time_step")):
+            need(math.isfinite(value), field, "must be finite")
+        return self
+
+
+def _check_fields(data, schema, path=""):
+    """Checks raw YAML ``data`` against dataclass ``schema`` so that every error
+    names its field (dotted path) and what was expected."""
+    if not isinstance(data, dict):
+        raise ValueError(f"field '{path or '<top>'}' must be a mapping of field names to values")
+    fields = {f.name: f for f in dataclasses.fields(schema)}
+    hints = typing.get_type_hints(schema)
+    for key, value in data.items():
+        name = f"{path}{key}"
+        if key not in fields:
+            raise ValueError(f"unknown field '{name}'; known fields here: {', '.join(fields)}")
+        hint = hints[key]
+        if dataclasses.is_dataclass(hint):
+            _check_fields(value, hint, name + ".")
+        elif typing.get_origin(hint) is list:
+            if not isinstance(value, list) or not all(
+                    isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+                raise ValueError(f"field '{name}' must be a list of numbers, got {value!r}")
+        elif hint is float and (not isinstance(value, (int, float)) or isinstance(value, bool)):
+            raise ValueError(f"field '{name}' must be a number, got {value!r}")
+        elif hint is int and (not isinstance(value, int) or isinstance(value, bool)):
+            raise ValueError(f"field '{name}' must be an integer, got {value!r}")
+        elif hint is bool and not isinstance(value, bool):
+            raise ValueError(f"field '{name}' must be true or false, got {value!r}")
+        elif hint is str and not isinstance(value, str):
+            raise ValueError(f"field '{name}' must be a string, got {value!r}")
+
+
+def load_scenario(path) -> Scenario:
+    """Reads a scenario YAML file; errors name the file and the offending field."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"scenario file {path} does not exist")
+    text = path.read_text()
+    try:
+        _check_fields(yaml.safe_load(text) or {}, Scenario)
+        return yaml_load_typed(schema=Scenario, data=text).validate()
+    except yaml.YAMLError as error:
+        raise ValueError(f"scenario file {path} is not valid YAML: {error}") from None
+    except ValueError as error:
+        raise ValueError(f"scenario file {path}: {error}") from None

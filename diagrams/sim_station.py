@@ -1,0 +1,266 @@
+"""The simulated station: slave arm with wrist sensor, load and sheet spring; the
+Phantom master with a simulated operator; sensor and encoder models.
+
+``MakeSimStation(scenario)`` returns a Diagram whose exported ports are the
+station ports of DESIGN §3, plus ``truth.*`` outputs for analysis.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from pydrake.math import RigidTransform
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
+from pydrake.multibody.tree import (FixedOffsetFrame, JointActuatorIndex, PdControllerGains, PrismaticJoint, PrismaticSpring,
+                                   RotationalInertia, SpatialInertia)
+from pydrake.geometry import AddContactMaterial, Box, ProximityProperties
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import (ConstantVectorSource, Demultiplexer, Saturation,
+                                        StateInterpolatorWithDiscreteDerivative)
+
+from heft.diagrams.models import model_path
+from heft.diagrams.scenario import Scenario
+from heft.systems.encoders import EncoderQuantizer
+from heft.systems.gravity_compensation import GravityCompensation
+from heft.systems.load_dynamics import InertialParameters, inertia_matrix
+from heft.systems.operator_hand import OperatorHand
+from heft.systems.sensor_models import AccelerometerModel, ForceTorqueSensorModel
+from heft.systems.station_truth import (ContactWrenchAtSensor, ReactionWrench, SensorFrameKinematics,
+                                       TrueNonContactWrench)
+
+GRAVITY_W = np.array([0.0, 0.0, -9.81])
+# Point-contact stiffness of the ball tip on the plate (N/m): steel on steel is far stiffer than the
+# sheet spring, which then sets the felt stiffness; stiffer would only shrink the stable time step.
+CONTACT_STIFFNESS = 2e5
+# Phantom Premium 1.5 nominal position resolution ≈ 0.03 mm at ≈ 0.2 m links → ≈ 1.5e-4 rad.
+MASTER_ENCODER_COUNTS_PER_REV = 4.2e4
+
+
+@dataclasses.dataclass
+class SlaveParts:
+    """Handles into a plant holding the slave arm, its wrist sensor and load."""
+    arm: object                 # ModelInstanceIndex of the arm
+    sensor_body: object         # the JR3 body; its frame is on the flange
+    S: object                   # the sensor frame S
+    load_bodies: list           # bodies below S (tool, or gripper and object, or custom)
+    sensor_weld: object         # the weld joint S → load; its reaction is the FT measurement
+    gripper_bodies: list        # the gripper part of a gripper_object load (else empty)
+
+
+def _custom_load_inertia(spec) -> SpatialInertia:
+    load = InertialParameters(spec.mass, spec.com, inertia_matrix(spec.inertia_com)).require_physical("load")
+    I = load.inertia_com
+    return SpatialInertia.MakeFromCentralInertia(
+        load.mass, load.com, RotationalInertia(I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]))
+
+
+def AddSlave(plant: MultibodyPlant, scenario: Scenario) -> SlaveParts:
+    """Adds the arm (base welded at W = R), the JR3 on its flange and the load welded at S."""
+    parser = Parser(plant)
+    parser.SetAutoRenaming(True)
+    (arm,) = parser.AddModels(model_path(f"{scenario.robot}.urdf"))
+    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(f"{scenario.robot}_base", arm))
+    (sensor_instance,) = parser.AddModels(model_path("jr3_sensor.urdf"))
+    sensor_body = plant.GetBodyByName("jr3_sensor", sensor_instance)
+    plant.WeldFrames(plant.GetFrameByName("flange", arm), sensor_body.body_frame())
+    S = plant.GetFrameByName("S", sensor_instance)
+    kind = scenario.load.kind
+    gripper_bodies = []
+    if kind == "tool":
+        (instance,) = parser.AddModels(model_path("tool.urdf"))
+        load_bodies = [plant.GetBodyByName("tool", instance)]
+    elif kind == "gripper_object":
+        (instance,) = parser.AddModels(model_path("gripper_object.urdf"))
+        gripper, obj = plant.GetBodyByName("gripper", instance), plant.GetBodyByName("object", instance)
+        plant.WeldFrames(gripper.body_frame(), obj.body_frame())
+        load_bodies, gripper_bodies = [gripper, obj], [gripper]
+    else:
+        instance = plant.AddModelInstance("custom_load")
+        load_bodies = [plant.AddRigidBody("load", instance, _custom_load_inertia(scenario.load))]
+    weld = plant.WeldFrames(S, load_bodies[0].body_frame())
+    return SlaveParts(arm, sensor_body, S, load_bodies, weld, gripper_bodies)
+
+
+def _add_sheet_spring(plant: MultibodyPlant, spec) -> PrismaticJoint:
+    """A plate on a vertical prismatic joint with a linear spring-damper (Fig. 5),
+    resting with its top at ``spec.plate_top_W`` (its own weight preloads the spring)."""
+    instance = plant.AddModelInstance("sheet_spring")
+    size = np.asarray(spec.plate_size, dtype=float)
+    plate = plant.AddRigidBody("plate", instance, SpatialInertia.SolidBoxWithMass(spec.plate_mass, *size))
+    rest = plant.AddFrame(FixedOffsetFrame(
+        "plate_rest", plant.world_frame(), RigidTransform(np.asarray(spec.plate_top_W) - [0, 0, size[2] / 2])))
+    joint = plant.AddJoint(PrismaticJoint("plate_slide", rest, plate.body_frame(), [0.0, 0.0, 1.0],
+                                          damping=spec.damping))
+    # The spring's free length sits m·g/k above the rest position, so the plate rests at 0.
+    plant.AddForceElement(PrismaticSpring(joint, nominal_position=-spec.plate_mass * GRAVITY_W[2] / spec.stiffness,
+                                          stiffness=spec.stiffness))
+    properties = ProximityProperties()
+    AddContactMaterial(dissipation=0.0, point_stiffness=CONTACT_STIFFNESS, properties=properties)
+    plant.RegisterCollisionGeometry(plate, RigidTransform(), Box(*size), "plate", properties)
+    plant.RegisterVisualGeometry(plate, RigidTransform(), Box(*size), "plate", [0.6, 0.6, 0.65, 1.0])
+    return joint
+
+
+def _phi_about_S(plant: MultibodyPlant, S, bodies) -> np.ndarray:
+    """φ (Eq. 6) of ``bodies`` about S's origin in S, from the plant's own composite inertia."""
+    context = plant.CreateDefaultContext()
+    M = plant.CalcSpatialInertia(context, S, [b.index() for b in bodies])
+    I = M.CalcRotationalInertia().CopyToFullMatrix3()
+    return np.concatenate(([M.get_mass()], M.get_mass() * M.get_com(),
+                           [I[0, 0], I[0, 1], I[0, 2], I[1, 1], I[1, 2], I[2, 2]]))
+
+
+def _add_slave(builder: DiagramBuilder, scenario: Scenario):
+    """The slave plant (discrete SAP, point contact), its joint servo and gravity feed-forward."""
+    plant, scene_graph = AddMultibodyPlant(
+        MultibodyPlantConfig(time_step=scenario.plant_time_step, contact_model="point",
+                             discrete_contact_approximation="sap", use_sampled_output_ports=False), builder)
+    plant.set_name("slave_plant")
+    parts = AddSlave(plant, scenario)
+    if scenario.environment.kind == "sheet_spring":
+        _add_sheet_spring(plant, scenario.environment)
+    plant.mutable_gravity_field().set_gravity_vector(GRAVITY_W)
+
+    # The robot controller's model of arm + payload, for gravity feed-forward and servo damping.
+    control_plant = MultibodyPlant(time_step=0.0)
+    AddSlave(control_plant, scenario)
+    control_plant.mutable_gravity_field().set_gravity_vector(GRAVITY_W)
+    control_plant.Finalize()
+    control_context = control_plant.CreateDefaultContext()
+    control_plant.SetPositions(control_context, scenario.slave_initial_q)
+    inertia_diagonal = np.diag(control_plant.CalcMassMatrix(control_context))
+
+    # Stiff joint servo standing in for the robot's own 10 kHz loop: implicit PD in SAP,
+    # damping for the chosen damping ratio at the joint's inertia in the start pose.
+    kp = np.asarray(scenario.slave_servo_stiffness, dtype=float)
+    kd = 2 * scenario.slave_servo_damping_ratio * np.sqrt(kp * inertia_diagonal)
+    # (GetJointActuatorIndices is empty before Finalize; the arm's actuators come in joint order.)
+    arm_actuators = [plant.get_mutable_joint_actuator(JointActuatorIndex(i)) for i in range(plant.num_actuators())
+                     if plant.get_joint_actuator(JointActuatorIndex(i)).model_instance() == parts.arm]
+    for actuator, p, d in zip(arm_actuators, kp, kd, strict=True):
+        actuator.set_controller_gains(PdControllerGains(p=p, d=d))
+    plant.Finalize()
+    plant.SetDefaultPositions(parts.arm, scenario.slave_initial_q)
+
+    state = builder.AddSystem(Demultiplexer([6, 6]))
+    builder.Connect(plant.get_state_output_port(parts.arm), state.get_input_port())
+    gravity = builder.AddSystem(GravityCompensation(control_plant))
+    gravity.set_name("slave_gravity_feedforward")
+    builder.Connect(state.get_output_port(0), gravity.get_input_port())
+    builder.Connect(gravity.get_output_port(), plant.get_actuation_input_port(parts.arm))
+    interpolator = builder.AddSystem(StateInterpolatorWithDiscreteDerivative(
+        6, scenario.controller_period, suppress_initial_transient=True))
+    interpolator.set_name("slave_command_interpolator")
+    builder.Connect(interpolator.get_output_port(), plant.get_desired_state_input_port(parts.arm))
+    builder.ExportInput(interpolator.get_input_port(), "slave.position_commanded")
+
+    encoders = builder.AddSystem(EncoderQuantizer(6, scenario.encoder_counts_per_rev))
+    encoders.set_name("slave_encoders")
+    builder.Connect(state.get_output_port(0), encoders.get_input_port())
+    builder.ExportOutput(encoders.get_output_port(), "slave.position_measured")
+    builder.ExportOutput(state.get_output_port(1), "slave.velocity_estimated")
+    builder.ExportOutput(state.get_output_port(0), "truth.slave_position")
+    return plant, parts
+
+
+def _add_wrist_sensor(builder: DiagramBuilder, scenario: Scenario, plant: MultibodyPlant, parts: SlaveParts):
+    """JR3 force-torque + accelerometer models on the plant's truth, and the truth itself."""
+    p_BS = parts.S.GetFixedPoseInBodyFrame().translation()
+    reaction = builder.AddSystem(ReactionWrench(parts.sensor_weld.index()))
+    builder.Connect(plant.get_reaction_forces_output_port(), reaction.get_input_port())
+    kinematics = builder.AddSystem(SensorFrameKinematics(parts.sensor_body.index(), p_BS, GRAVITY_W))
+    builder.Connect(plant.get_body_poses_output_port(), kinematics.GetInputPort("body_poses"))
+    builder.Connect(plant.get_body_spatial_velocities_output_port(), kinematics.GetInputPort("body_spatial_velocities"))
+    builder.Connect(plant.get_body_spatial_accelerations_output_port(),
+                    kinematics.GetInputPort("body_spatial_accelerations"))
+    contact = builder.AddSystem(ContactWrenchAtSensor([b.index() for b in parts.load_bodies],
+                                                      parts.sensor_body.index(), p_BS))
+    builder.Connect(plant.get_contact_results_output_port(), contact.GetInputPort("contact_results"))
+    builder.Connect(plant.get_body_poses_output_port(), contact.GetInputPort("body_poses"))
+
+    ft = builder.AddSystem(ForceTorqueSensorModel(scenario.ft_sensor))
+    builder.Connect(reaction.get_output_port(), ft.GetInputPort("wrench_true"))
+    accelerometer = builder.AddSystem(AccelerometerModel(scenario.accelerometer))
+    builder.Connect(kinematics.GetOutputPort("acceleration"), accelerometer.GetInputPort("acceleration_true"))
+    builder.ExportOutput(ft.GetOutputPort("wrench_measured"), "ft.wrench_measured")
+    builder.ExportOutput(accelerometer.GetOutputPort("acceleration_measured"), "ft.acceleration_measured")
+
+    phi = _phi_about_S(plant, parts.S, parts.load_bodies)
+    phi_gripper = _phi_about_S(plant, parts.S, parts.gripper_bodies) if parts.gripper_bodies else np.zeros(10)
+    noncontact = builder.AddSystem(TrueNonContactWrench(phi))
+    for name in ("acceleration", "omega", "gravity"):
+        builder.Connect(kinematics.GetOutputPort(name), noncontact.GetInputPort(name))
+    for port, name in ((reaction.get_output_port(), "truth.wrench_sensor"),
+                       (contact.get_output_port(), "truth.wrench_contact"),
+                       (noncontact.get_output_port(), "truth.wrench_noncontact"),
+                       (kinematics.GetOutputPort("acceleration"), "truth.acceleration"),
+                       (kinematics.GetOutputPort("omega"), "truth.omega"),
+                       (kinematics.GetOutputPort("gravity"), "truth.gravity_S"),
+                       (ft.GetOutputPort("offsets_true"), "truth.ft_offsets"),
+                       (ft.GetOutputPort("saturated"), "truth.ft_saturated"),
+                       (accelerometer.GetOutputPort("saturated"), "truth.accelerometer_saturated"),
+                       (builder.AddSystem(ConstantVectorSource(phi)).get_output_port(), "truth.phi"),
+                       (builder.AddSystem(ConstantVectorSource(phi_gripper)).get_output_port(),
+                        "truth.phi_gripper")):
+        builder.ExportOutput(port, name)
+
+
+def _add_master(builder: DiagramBuilder, scenario: Scenario):
+    """The Phantom (its own discrete plant, without gravity: the Premium is
+    counterbalanced) with the operator's hand mass on the stylus and its impedance."""
+    master = builder.AddSystem(MultibodyPlant(time_step=scenario.plant_time_step))
+    master.set_name("master_plant")
+    (phantom,) = Parser(master).AddModels(model_path("phantom_premium_6dof.urdf"))
+    master.WeldFrames(master.world_frame(), master.GetFrameByName("phantom_base", phantom))
+    stylus = master.GetBodyByName("stylus", phantom)
+    hand = master.AddRigidBody("operator_hand", phantom,
+                               SpatialInertia.SolidSphereWithMass(max(scenario.operator.hand_mass, 1e-6), 0.04))
+    master.WeldFrames(stylus.body_frame(), hand.body_frame())
+    master.mutable_gravity_field().set_gravity_vector(np.zeros(3))
+    master.Finalize()
+    master.SetDefaultPositions(phantom, scenario.master_initial_q)
+
+    limits = np.array([master.get_joint_actuator(i).effort_limit() for i in master.GetJointActuatorIndices(phantom)])
+    amplifiers = builder.AddSystem(Saturation(-limits, limits))
+    amplifiers.set_name("master_amplifiers")
+    builder.Connect(amplifiers.get_output_port(), master.get_actuation_input_port(phantom))
+    builder.ExportInput(amplifiers.get_input_port(), "master.torque_commanded")
+
+    context = master.CreateDefaultContext()
+    operator = builder.AddSystem(OperatorHand(stylus.index(), master.EvalBodyPoseInWorld(context, stylus),
+                                              scenario.operator))
+    operator.set_name("operator")
+    builder.Connect(master.get_body_poses_output_port(), operator.GetInputPort("body_poses"))
+    builder.Connect(master.get_body_spatial_velocities_output_port(), operator.GetInputPort("body_spatial_velocities"))
+    builder.Connect(operator.get_output_port(), master.get_applied_spatial_force_input_port())
+
+    state = builder.AddSystem(Demultiplexer([6, 6]))
+    builder.Connect(master.get_state_output_port(phantom), state.get_input_port())
+    encoders = builder.AddSystem(EncoderQuantizer(6, MASTER_ENCODER_COUNTS_PER_REV))
+    encoders.set_name("master_encoders")
+    builder.Connect(state.get_output_port(0), encoders.get_input_port())
+    builder.ExportOutput(encoders.get_output_port(), "master.position_measured")
+    builder.ExportOutput(state.get_output_port(1), "master.velocity_estimated")
+    builder.ExportOutput(master.get_body_poses_output_port(), "truth.master_body_poses")
+    return master
+
+
+def MakeSimStation(scenario: Scenario):
+    """The simulated station Diagram for ``scenario`` (validated here).
+
+    Inputs: ``master.torque_commanded`` (6, N·m), ``slave.position_commanded`` (6, rad).
+    Outputs: ``master.position_measured``, ``master.velocity_estimated``,
+    ``slave.position_measured``, ``slave.velocity_estimated`` (6 each, rad, rad/s),
+    ``ft.wrench_measured`` ([f; τ] on the load at S in S), ``ft.acceleration_measured``
+    ([a; α] of S in S), and ``truth.*`` (see ``_add_wrist_sensor``).
+    """
+    scenario.validate()
+    builder = DiagramBuilder()
+    plant, parts = _add_slave(builder, scenario)
+    _add_wrist_sensor(builder, scenario, plant, parts)
+    _add_master(builder, scenario)
+    diagram = builder.Build()
+    diagram.set_name("sim_station")
+    return diagram

@@ -1,0 +1,368 @@
+"""The simulated JR3 85M35A3-I40-D 200N12: a six-axis force-torque sensor with a
+built-in six-axis accelerometer, as a sampled, noisy, offset, saturating and
+quantising instrument.
+
+Measurement model, per axis, at the sample instants t_k (period T):
+
+    y_k = Q(sat(u(t_k) + o_k + n_k)),   held constant until t_{k+1}
+
+* u, the true value on the input port;
+* o_k, the offset: o_k = o_d + (o_0 − o_d)·exp(−t_k/τ) + w_k, a first-order
+  approach from the initial offset o_0 to the drifted offset o_d with a time
+  constant τ of minutes (warm-up of the gauges and electronics), plus a random
+  walk w_k = w_{k−1} + q·√T·ν_k, w_0 = 0 (slow temperature wander);
+* n_k, white Gaussian noise of RMS σ, independent across axes and samples;
+* sat, clipping to ±full scale with a per-axis flag (JR3: an axis is saturated
+  when it reaches or exceeds its limit);
+* Q, rounding to the step full_scale / counts_per_full_scale (the JR3 DSP scales
+  its decoupled data so that ±16384 counts are ±full scale).
+
+Noise is reproducible and lives in the Context. Each draw is SplitMix64
+(Steele, Lea & Flood, OOPSLA 2014) evaluated at a position given by the seed,
+the instrument and the sample index, paired into normals by Box–Muller; the
+only generator state is the sample index, kept in the discrete state. So a
+cloned Context continues the same stream on its own, a fresh Context replays
+it, and the seed comes from the parameters. Drake's RandomSource was the
+alternative, but in pydrake 1.51 its seed can only be drawn from
+`SetRandomContext` on the whole diagram (`set_fixed_seed` is not bound), not
+set per sensor.
+
+Port conventions (DESIGN §4): the wrench is [f; τ] that the sensor exerts on
+the load, at S, expressed in S; the acceleration is [a; α] of S, expressed in
+S. The sign flip of real sensors belongs to the hardware interface.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+from pydrake.systems.framework import LeafSystem
+
+NUM_AXES = 6
+
+_FORCE_TORQUE_STREAM = 0
+_ACCELEROMETER_STREAM = 1
+# Samples of noise drawn at once (each sample's draws depend on its index only).
+_NOISE_BLOCK = 256
+
+# SplitMix64's increment and finaliser constants.
+_GOLDEN_GAMMA = np.uint64(0x9E3779B97F4A7C15)
+_MIX_1 = np.uint64(0xBF58476D1CE4E5B9)
+_MIX_2 = np.uint64(0x94D049BB133111EB)
+
+
+@dataclasses.dataclass
+class SixAxisSensorParams:
+    """Settings common to both instruments. Each list has one entry per axis,
+    in the instrument's port order and units (see the subclasses)."""
+
+    noise: bool = True
+    """Master switch: False turns every effect below off, so the output is the
+    input sampled at t_k and held."""
+
+    white_noise: bool = True
+    """Adds white Gaussian noise of RMS `noise_rms`."""
+
+    offsets: bool = True
+    """Adds offsets, starting at `initial_offsets`."""
+
+    drift: bool = True
+    """Lets the offsets drift (needs `offsets`): the first-order approach to
+    `drifted_offsets` plus the random walk; without it they stay at
+    `initial_offsets`."""
+
+    saturation: bool = True
+    """Clips each axis to ±`full_scale` and raises its `saturated` flag."""
+
+    quantization: bool = True
+    """Rounds to the step full_scale / `counts_per_full_scale`."""
+
+    sample_period: float = 0.0005
+    """Sample period T (s). The JR3 samples at up to 8 kHz (1/8000 s); the default
+    is the controller's 2 kHz, because a 2 kHz controller reading an 8 kHz
+    sample-and-hold without a filter sees the same white noise, and each sample
+    costs a Python event."""
+
+    counts_per_full_scale: int = 16384
+    """Resolution: counts between zero and full scale (JR3 DSP: 16384)."""
+
+    drift_time_constant: float = 300.0
+    """Time constant τ (s) of the approach to `drifted_offsets` (assumed)."""
+
+    seed: int = 0
+    """Seed of the noise, 0 ≤ seed < 2⁶⁴. The force-torque sensor and the
+    accelerometer use different streams even with the same seed."""
+
+    def validate(self) -> None:
+        """Raises ValueError naming the first field that is out of range."""
+        for name in ("noise_rms", "full_scale", "initial_offsets", "drifted_offsets",
+                     "offset_random_walk"):
+            value = getattr(self, name)
+            if len(value) != NUM_AXES:
+                raise ValueError(f"{name} needs {NUM_AXES} entries, one per axis; got {len(value)}")
+            if not all(math.isfinite(x) for x in value):
+                raise ValueError(f"{name} must be finite; got {value}")
+        for name in ("noise_rms", "offset_random_walk"):
+            if min(getattr(self, name)) < 0:
+                raise ValueError(f"{name} must be >= 0; got {getattr(self, name)}")
+        if min(self.full_scale) <= 0:
+            raise ValueError(f"full_scale must be > 0; got {self.full_scale}")
+        for name in ("sample_period", "drift_time_constant"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be finite and > 0; got {value}")
+        if self.counts_per_full_scale < 1:
+            raise ValueError(f"counts_per_full_scale must be >= 1; got {self.counts_per_full_scale}")
+        if not 0 <= self.seed < 2**64:
+            raise ValueError(f"seed must lie in [0, 2**64); got {self.seed}")
+
+
+@dataclasses.dataclass
+class ForceTorqueSensorParams(SixAxisSensorParams):
+    """The force-torque channels [fx, fy, fz, τx, τy, τz] in N and N·m."""
+
+    noise_rms: list[float] = dataclasses.field(
+        default_factory=lambda: [0.1, 0.1, 0.1, 0.005, 0.005, 0.005])
+    """RMS of the white noise (N, N·m): the project's floor (DESIGN §6)."""
+
+    full_scale: list[float] = dataclasses.field(
+        default_factory=lambda: [200.0, 200.0, 200.0, 12.0, 12.0, 12.0])
+    """Measuring range ± (N, N·m): the 200 N / 12 N·m rating in the model code
+    "200N12", taken for every axis (the datasheet was not available)."""
+
+    initial_offsets: list[float] = dataclasses.field(
+        default_factory=lambda: [2.0, -1.5, 3.0, 0.04, -0.03, 0.02])
+    """Offsets at t = 0 (N, N·m): a few newtons, a few 0.01 N·m (assumed)."""
+
+    drifted_offsets: list[float] = dataclasses.field(
+        default_factory=lambda: [2.8, -0.9, 4.5, 0.06, -0.01, 0.035])
+    """Offsets approached after warm-up (N, N·m) (assumed)."""
+
+    offset_random_walk: list[float] = dataclasses.field(
+        default_factory=lambda: [0.005, 0.005, 0.005, 0.0003, 0.0003, 0.0003])
+    """Random-walk intensity q of the offsets (N/√s, N·m/√s): about 0.3 N and
+    0.02 N·m of wander per hour (assumed)."""
+
+
+@dataclasses.dataclass
+class AccelerometerParams(SixAxisSensorParams):
+    """The accelerometer channels [ax, ay, az, αx, αy, αz] in m/s² and rad/s².
+    The model adds no gravity: whether a includes it is the caller's convention."""
+
+    noise_rms: list[float] = dataclasses.field(
+        default_factory=lambda: [0.05, 0.05, 0.05, 0.5, 0.5, 0.5])
+    """RMS of the white noise (m/s², rad/s²): the project's floor (DESIGN §6)."""
+
+    full_scale: list[float] = dataclasses.field(
+        default_factory=lambda: [100.0, 100.0, 100.0, 1000.0, 1000.0, 1000.0])
+    """Measuring range ± (m/s², rad/s²): assumed (≈ 10 g; no datasheet found)."""
+
+    initial_offsets: list[float] = dataclasses.field(
+        default_factory=lambda: [0.08, -0.05, 0.1, 0.3, -0.2, 0.25])
+    """Biases at t = 0 (m/s², rad/s²) (assumed)."""
+
+    drifted_offsets: list[float] = dataclasses.field(
+        default_factory=lambda: [0.12, -0.02, 0.15, 0.4, -0.1, 0.3])
+    """Biases approached after warm-up (m/s², rad/s²) (assumed)."""
+
+    offset_random_walk: list[float] = dataclasses.field(
+        default_factory=lambda: [0.001, 0.001, 0.001, 0.01, 0.01, 0.01])
+    """Random-walk intensity q of the biases (m/s²/√s, rad/s²/√s) (assumed)."""
+
+
+# --- pure helpers -------------------------------------------------------------
+
+def quantize(value, step) -> np.ndarray:
+    """``value`` rounded to the nearest multiple of ``step`` (per axis, step > 0)."""
+    step = np.asarray(step, dtype=float)
+    return step * np.round(np.asarray(value, dtype=float) / step)
+
+
+def saturate(value, limit) -> tuple[np.ndarray, np.ndarray]:
+    """(``value`` clipped to ±``limit``, 1.0 on each axis that reached or passed its
+    limit, else 0.0), per axis."""
+    value = np.asarray(value, dtype=float)
+    limit = np.asarray(limit, dtype=float)
+    return np.minimum(np.maximum(value, -limit), limit), (np.abs(value) >= limit).astype(float)
+
+
+def drift_offsets(t, initial_offsets, drifted_offsets, time_constant: float) -> np.ndarray:
+    """The deterministic part of the offsets at time ``t`` (s, scalar → (6,), (N,) →
+    (N, 6)): o_d + (o_0 − o_d)·exp(−t/τ)."""
+    initial = np.asarray(initial_offsets, dtype=float)
+    drifted = np.asarray(drifted_offsets, dtype=float)
+    t = np.asarray(t, dtype=float)
+    decay = np.exp(-t / time_constant)[..., np.newaxis] if t.ndim else math.exp(-t / time_constant)
+    return drifted + (initial - drifted) * decay
+
+
+def _mix64(z: np.ndarray) -> np.ndarray:
+    """SplitMix64's finaliser, a bijection of uint64 arrays."""
+    z = (z ^ (z >> np.uint64(30))) * _MIX_1
+    z = (z ^ (z >> np.uint64(27))) * _MIX_2
+    return z ^ (z >> np.uint64(31))
+
+
+def noise_key(seed: int, stream: int) -> np.uint64:
+    """The 64-bit key of the noise stream ``stream`` under ``seed``."""
+    mixed_seed = _mix64(np.array([seed], dtype=np.uint64))
+    return _mix64(mixed_seed ^ np.array([stream], dtype=np.uint64))[0]
+
+
+def standard_normals(key: np.uint64, sample_index, size: int) -> np.ndarray:
+    """The ``size`` (even) standard normal draws of sample ``sample_index`` (int → (size,),
+    int array (N,) → (N, size)): SplitMix64 of stream ``key`` at positions
+    sample_index·size + 1 … (sample_index + 1)·size, paired by Box–Muller."""
+    lanes = np.arange(1, size + 1, dtype=np.uint64)
+    positions = np.asarray(sample_index, dtype=np.uint64)[..., np.newaxis] * np.uint64(size) + lanes
+    bits = _mix64(key + positions * _GOLDEN_GAMMA)
+    uniform = (bits >> np.uint64(11)).astype(float) * 2.0**-53  # [0, 1)
+    half = size // 2
+    radius = np.sqrt(-2.0 * np.log1p(-uniform[..., :half]))
+    angle = 2.0 * np.pi * uniform[..., half:]
+    return np.concatenate((radius * np.cos(angle), radius * np.sin(angle)), axis=-1)
+
+
+# --- Drake systems ------------------------------------------------------------
+
+class _SampledSixAxisSensor(LeafSystem):
+    """The measurement model of the module docstring behind one vector input.
+
+    An initialization event takes the first sample at the initial time, a
+    periodic event the next ones at t = T, 2T, …; before initialization the
+    outputs are zero. To resume a Context with a new Simulator, initialize it
+    with ``InitializeParams(suppress_initialization_events=True)``, or the
+    initialization event takes an extra sample. Outputs are discrete state, so
+    the system has no direct feedthrough.
+    """
+
+    def __init__(self, params: SixAxisSensorParams, stream: int, input_name: str,
+                 output_name: str):
+        super().__init__()
+        params.validate()
+        effects = params.noise
+        self._white_noise_rms = (np.array(params.noise_rms, dtype=float)
+                                 if effects and params.white_noise else None)
+        self._offsets_on = effects and params.offsets
+        self._drift_on = self._offsets_on and params.drift
+        self._initial_offsets = np.array(params.initial_offsets, dtype=float)
+        self._drifted_offsets = np.array(params.drifted_offsets, dtype=float)
+        self._drift_time_constant = params.drift_time_constant
+        self._walk_step_rms = (np.array(params.offset_random_walk, dtype=float)
+                               * math.sqrt(params.sample_period))
+        self._full_scale = (np.array(params.full_scale, dtype=float)
+                            if effects and params.saturation else None)
+        self._step = (np.array(params.full_scale, dtype=float) / params.counts_per_full_scale
+                      if effects and params.quantization else None)
+        self._draws_noise = self._white_noise_rms is not None or self._drift_on
+        self._key = noise_key(params.seed, stream)
+        # (first sample index, draws): a memo of the pure function standard_normals,
+        # not generator state, so Contexts and their clones stay independent.
+        self._noise_block = (0, np.empty((0, 2 * NUM_AXES)))
+
+        self._input = self.DeclareVectorInputPort(input_name, NUM_AXES)
+        self._measured = self.DeclareDiscreteState(NUM_AXES)
+        self._offsets = self.DeclareDiscreteState(NUM_AXES)
+        self._saturated = self.DeclareDiscreteState(NUM_AXES)
+        # The random-walk part of the offsets (6), the index of the next sample, and the
+        # time of the last sample.
+        self._walk_and_index = self.DeclareDiscreteState(np.append(np.zeros(NUM_AXES + 1), -np.inf))
+        # Offset 0, like a discrete plant's steps: sample instants k·T then coincide exactly
+        # with the plant's (an offset of T gives T + k·T, which round-off can put just after).
+        self.DeclareInitializationDiscreteUpdateEvent(self._take_first_sample)
+        self.DeclarePeriodicDiscreteUpdateEvent(params.sample_period, 0.0, self._take_next_sample)
+        self.DeclareStateOutputPort(output_name, self._measured)
+        self.DeclareStateOutputPort("offsets_true", self._offsets)
+        self.DeclareStateOutputPort("saturated", self._saturated)
+
+    def _take_first_sample(self, context, discrete_state):
+        self._take_sample(context, discrete_state, advance_walk=False)
+
+    def _take_next_sample(self, context, discrete_state):
+        # The periodic event also fires at the start time, already sampled at initialization:
+        # one sample per instant, so the discrete state (pre-filled with the current one) stays.
+        if context.get_time() == context.get_discrete_state(self._walk_and_index).get_value()[-1]:
+            return
+        self._take_sample(context, discrete_state, advance_walk=True)
+
+    def _normals(self, index: int) -> np.ndarray:
+        """The 12 standard normal draws of sample ``index``: white noise, then walk steps."""
+        start, block = self._noise_block
+        if not start <= index < start + len(block):
+            start = index
+            block = standard_normals(self._key, np.arange(index, index + _NOISE_BLOCK),
+                                     2 * NUM_AXES)
+            self._noise_block = (start, block)
+        return block[index - start]
+
+    def _take_sample(self, context, discrete_state, advance_walk: bool):
+        walk_and_index = context.get_discrete_state(self._walk_and_index).get_value()
+        walk = walk_and_index[:NUM_AXES]
+        index = int(walk_and_index[NUM_AXES])
+        normals = self._normals(index) if self._draws_noise else None
+        if self._drift_on:
+            if advance_walk:
+                walk = walk + self._walk_step_rms * normals[NUM_AXES:]
+            offsets = drift_offsets(context.get_time(), self._initial_offsets,
+                                    self._drifted_offsets, self._drift_time_constant) + walk
+        elif self._offsets_on:
+            offsets = self._initial_offsets
+        else:
+            offsets = np.zeros(NUM_AXES)
+        value = self._input.Eval(context)
+        if self._offsets_on:
+            value = value + offsets
+        if self._white_noise_rms is not None:
+            value = value + self._white_noise_rms * normals[:NUM_AXES]
+        saturated = np.zeros(NUM_AXES)
+        if self._full_scale is not None:
+            value, saturated = saturate(value, self._full_scale)
+        if self._step is not None:
+            value = quantize(value, self._step)
+        discrete_state.set_value(self._measured, value)
+        discrete_state.set_value(self._offsets, offsets)
+        discrete_state.set_value(self._saturated, saturated)
+        discrete_state.set_value(self._walk_and_index, np.append(walk, [index + 1, context.get_time()]))
+
+
+class ForceTorqueSensorModel(_SampledSixAxisSensor):
+    """The JR3's force-torque channels: samples the true wrench [f; τ] that the
+    sensor exerts on the load (at S, in S; N, N·m) every T and holds the
+    measurement. ``offsets_true`` is the offset inside the held measurement,
+    ``saturated`` its per-axis flags (0/1).
+
+    .. pydrake_system::
+
+        name: ForceTorqueSensorModel
+        input_ports:
+        - wrench_true
+        output_ports:
+        - wrench_measured
+        - offsets_true
+        - saturated
+    """
+
+    def __init__(self, params: ForceTorqueSensorParams | None = None):
+        super().__init__(params or ForceTorqueSensorParams(), _FORCE_TORQUE_STREAM,
+                         "wrench_true", "wrench_measured")
+
+
+class AccelerometerModel(_SampledSixAxisSensor):
+    """The JR3's accelerometer: samples the true acceleration [a; α] of S (in S;
+    m/s², rad/s²) every T and holds the measurement. ``offsets_true`` is the bias
+    inside the held measurement, ``saturated`` its per-axis flags (0/1).
+
+    .. pydrake_system::
+
+        name: AccelerometerModel
+        input_ports:
+        - acceleration_true
+        output_ports:
+        - acceleration_measured
+        - offsets_true
+        - saturated
+    """
+
+    def __init__(self, params: AccelerometerParams | None = None):
+        super().__init__(params or AccelerometerParams(), _ACCELEROMETER_STREAM,
+                         "acceleration_true", "acceleration_measured")

@@ -1,0 +1,282 @@
+"""The simulated station: physics at the wrist sensor, the sheet spring, the
+operator, the ports, and scenario files."""
+
+import numpy as np
+import pytest
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import JacobianWrtVariable
+from pydrake.systems.analysis import Simulator
+
+from heft.diagrams.scenario import Scenario, load_scenario
+from heft.diagrams.sim_station import AddSlave, MakeSimStation
+from heft.systems.load_dynamics import InertialParameters, regressor
+
+STATION_PORTS = {
+    "inputs": {"master.torque_commanded", "slave.position_commanded"},
+    "outputs": {"master.position_measured", "master.velocity_estimated", "slave.position_measured",
+                "slave.velocity_estimated", "ft.wrench_measured", "ft.acceleration_measured"},
+}
+
+
+def ideal(scenario: Scenario) -> Scenario:
+    scenario.ft_sensor.noise = False
+    scenario.accelerometer.noise = False
+    return scenario
+
+
+class Run:
+    """A station with its simulator; ``step(q_cmd)`` advances one controller period."""
+
+    def __init__(self, scenario: Scenario):
+        self.scenario = scenario
+        self.station = MakeSimStation(scenario)
+        self.context = self.station.CreateDefaultContext()
+        self.port = self.station.GetInputPort
+        self.port("master.torque_commanded").FixValue(self.context, np.zeros(6))
+        self.port("slave.position_commanded").FixValue(self.context, scenario.slave_initial_q)
+        self.simulator = Simulator(self.station, self.context)
+        self.simulator.Initialize()
+        self.ticks = 0
+
+    def out(self, name):
+        return self.station.GetOutputPort(name).Eval(self.context).copy()
+
+    def command(self, q_cmd=None, torque=None):
+        if q_cmd is not None:
+            self.port("slave.position_commanded").FixValue(self.context, q_cmd)
+        if torque is not None:
+            self.port("master.torque_commanded").FixValue(self.context, torque)
+
+    def advance(self):
+        # Stop half-way between sample instants, never on one (robust to round-off).
+        self.ticks += 1
+        self.simulator.AdvanceTo((self.ticks + 0.5) * self.scenario.controller_period)
+
+    def step(self, q_cmd=None, torque=None):
+        self.command(q_cmd, torque)
+        self.advance()
+
+
+@pytest.fixture(scope="module")
+def free_space():
+    scenario = ideal(Scenario())
+    scenario.environment.kind = "none"
+    return Run(scenario)
+
+
+@pytest.fixture(scope="module")
+def sheet_spring():
+    scenario = ideal(Scenario())
+    scenario.environment.plate_top_W = [0.552, 0.0, 0.075]  # 5 mm below the ball at rest
+    return Run(scenario)
+
+
+def test_station_exports_the_design_ports(free_space):
+    station = free_space.station
+    inputs = {station.get_input_port(i).get_name() for i in range(station.num_input_ports())}
+    outputs = {station.get_output_port(i).get_name() for i in range(station.num_output_ports())}
+    assert inputs == STATION_PORTS["inputs"]
+    assert STATION_PORTS["outputs"] <= outputs
+    assert {"truth.wrench_contact", "truth.wrench_noncontact", "truth.acceleration", "truth.omega",
+            "truth.gravity_S", "truth.ft_offsets", "truth.phi"} <= outputs
+
+
+def test_true_phi_is_the_papers_tool(free_space):
+    phi = free_space.out("truth.phi")
+    assert phi[0] == pytest.approx(3.13)
+    assert InertialParameters.from_phi(phi).is_physical()
+
+
+def test_free_space_sensor_reads_the_load_dynamics(free_space):
+    """Slave swinging fast in free space: the weld reaction equals V(a, α, ω, g)·φ from
+    the sensor frame's true motion (our regressor, Drake's accelerations), and the ideal
+    sensors hold exactly what they sampled at the start of the step."""
+    run = free_space
+    q0 = np.array(run.scenario.slave_initial_q)
+    phi = run.out("truth.phi")
+    worst_physics, worst_sensor, peak_dynamic = 0.0, 0.0, 0.0
+    for k in range(600):
+        t = run.context.get_time()
+        run.command(q0 + 0.25 * (1 - np.cos(2 * np.pi * 2.0 * t)) * np.array([1, -1, 1, 1, 1, 1]))
+        reaction, accel = run.out("truth.wrench_sensor"), run.out("truth.acceleration")
+        omega, g = run.out("truth.omega"), run.out("truth.gravity_S")
+        expected = regressor(accel[:3], accel[3:], omega, g) @ phi
+        worst_physics = max(worst_physics, np.abs(reaction - expected).max())
+        peak_dynamic = max(peak_dynamic, np.abs(reaction[:3] + 3.13 * g).max())
+        run.advance()
+        worst_sensor = max(worst_sensor, np.abs(run.out("ft.wrench_measured") - reaction).max(),
+                           np.abs(run.out("ft.acceleration_measured") - accel).max())
+        np.testing.assert_array_equal(run.out("truth.wrench_contact"), np.zeros(6))
+    assert peak_dynamic > 5.0  # the motion was dynamic: inertial force beyond the weight
+    assert worst_physics < 1e-6
+    assert worst_sensor < 1e-9
+
+
+def test_slave_servo_tracks_its_command(free_space):
+    run = free_space
+    target = np.array(run.scenario.slave_initial_q) + [0.05, -0.05, 0.05, 0.1, -0.1, 0.1]
+    for _ in range(1000):
+        run.step(target)
+    np.testing.assert_allclose(run.out("truth.slave_position"), target, atol=2e-4)
+    np.testing.assert_allclose(run.out("slave.velocity_estimated"), 0, atol=1e-3)
+    step = 2 * np.pi / run.scenario.encoder_counts_per_rev
+    measured = run.out("slave.position_measured")
+    np.testing.assert_allclose(measured / step, np.round(measured / step), atol=1e-6)
+    assert np.abs(measured - run.out("truth.slave_position")).max() <= step / 2 + 1e-12
+
+
+def tip_lowered(scenario, depths):
+    """Joint angles that move the tool tip straight down by each of ``depths`` (m),
+    orientation kept (Newton steps on Drake's kinematics, warm-started)."""
+    plant = MultibodyPlant(0.0)
+    AddSlave(plant, scenario)
+    plant.Finalize()
+    context = plant.CreateDefaultContext()
+    tip = plant.GetFrameByName("tool_tip")
+    q = np.array(scenario.slave_initial_q, dtype=float)
+    plant.SetPositions(context, q)
+    X_start = tip.CalcPoseInWorld(context)
+    solutions = []
+    for dz in depths:
+        for _ in range(10):
+            plant.SetPositions(context, q)
+            X = tip.CalcPoseInWorld(context)
+            rotation_error = (X_start.rotation() @ X.rotation().inverse()).ToAngleAxis()
+            error = np.concatenate((rotation_error.angle() * rotation_error.axis(),
+                                    X_start.translation() - [0, 0, dz] - X.translation()))
+            J = plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kQDot, tip, np.zeros(3),
+                                                  plant.world_frame(), plant.world_frame())
+            q = q + np.linalg.solve(J, error)
+        solutions.append(q.copy())
+    return solutions
+
+
+def test_contact_with_the_sheet_spring(sheet_spring):
+    """Pressing the ball into the plate: the sensor reads V·φ plus the contact wrench,
+    the contact force is vertical and equals the spring's k·deflection at rest."""
+    run = sheet_spring
+    q0 = np.array(run.scenario.slave_initial_q)
+    plant = run.station.GetSubsystemByName("slave_plant")
+    plant_context = plant.GetMyContextFromRoot(run.context)
+    slide = plant.GetJointByName("plate_slide")
+    phi = run.out("truth.phi")
+    # 15 mm straight down in 1.5 s (5 mm gap, then 10 mm into the spring), then hold.
+    waypoints = tip_lowered(run.scenario, np.linspace(0, 0.015, 31))
+    for k in range(3000):
+        s = min(k / 1500, 1.0) * 30
+        i = min(int(s), 29)
+        run.step(waypoints[i] + (s - i) * (waypoints[i + 1] - waypoints[i]))
+        reaction, contact = run.out("truth.wrench_sensor"), run.out("truth.wrench_contact")
+        accel, omega, g = run.out("truth.acceleration"), run.out("truth.omega"), run.out("truth.gravity_S")
+        np.testing.assert_allclose(reaction, regressor(accel[:3], accel[3:], omega, g) @ phi + contact, atol=1e-6)
+    deflection = -slide.get_translation(plant_context)
+    assert deflection > 0.005  # the plate was pushed down by several millimetres
+    R_WS = plant.GetFrameByName("S").CalcPoseInWorld(plant_context).rotation().matrix()
+    f_env_W = -R_WS @ run.out("truth.wrench_contact")[:3]  # the plate's push on the ball
+    k = run.scenario.environment.stiffness
+    assert f_env_W[2] == pytest.approx(k * deflection, rel=0.02)
+    assert abs(f_env_W[1]) < 1e-6 * f_env_W[2]  # the motion is in the arm's x-z plane
+    assert abs(f_env_W[0]) < f_env_W[2]  # the rest is friction, inside the cone (μ ≤ 1)
+
+
+def stylus_height(run):
+    master = run.station.GetSubsystemByName("master_plant")
+    context = master.GetMyContextFromRoot(run.context)
+    return master.EvalBodyPoseInWorld(context, master.GetBodyByName("stylus")).translation()[2]
+
+
+def operator_run(amplitude_z):
+    scenario = ideal(Scenario())
+    scenario.environment.kind = "none"
+    scenario.operator.amplitude = [0.0, 0.0, amplitude_z]
+    scenario.operator.frequency = 0.5
+    scenario.operator.start_time = 0.0
+    return Run(scenario)
+
+
+def test_operator_pulls_the_stylus_along_its_reference():
+    """Device torque off: the stylus follows the hand's reference up by 2 cm."""
+    run = operator_run(0.02)
+    z0 = stylus_height(run)
+    for _ in range(2000):  # half a period: the reference is at its top, at rest
+        run.step()
+    assert stylus_height(run) - z0 == pytest.approx(0.02, abs=0.002)
+
+
+def test_operator_yields_to_a_rendered_force_by_its_stiffness():
+    """A constant 2 N downward force rendered through Jᵀ moves the held stylus by F/k."""
+    run = operator_run(0.0)
+    scenario = run.scenario
+    z = stylus_height(run)
+    master = run.station.GetSubsystemByName("master_plant")
+    master_context = master.GetMyContextFromRoot(run.context)
+    stylus = master.GetBodyByName("stylus")
+    J = master.CalcJacobianTranslationalVelocity(master_context, JacobianWrtVariable.kV, stylus.body_frame(),
+                                                 np.zeros(3), master.world_frame(), master.world_frame())
+    force = np.array([0.0, 0.0, -2.0])
+    for _ in range(1500):
+        run.step(torque=J.T @ force)
+    assert z - stylus_height(run) == pytest.approx(2.0 / scenario.operator.stiffness, rel=0.05)
+
+
+def test_custom_and_gripper_loads_give_their_parameters():
+    custom = Scenario()
+    custom.load.kind = "custom"
+    custom.load.mass, custom.load.com = 1.2, [0.01, 0.02, 0.08]
+    custom.load.inertia_com = [0.004, 0.0, 0.0, 0.005, 0.0, 0.003]
+    plant = MultibodyPlant(0.0)
+    parts = AddSlave(plant, custom)
+    plant.Finalize()
+    M = plant.CalcSpatialInertia(plant.CreateDefaultContext(), parts.S, [b.index() for b in parts.load_bodies])
+    expected = InertialParameters(1.2, [0.01, 0.02, 0.08], np.diag([0.004, 0.005, 0.003]))
+    np.testing.assert_allclose(M.CalcRotationalInertia().CopyToFullMatrix3(), expected.inertia_origin, atol=1e-12)
+    gripper = Scenario()
+    gripper.load.kind = "gripper_object"
+    station = MakeSimStation(ideal(gripper))
+    context = station.CreateDefaultContext()
+    phi, phi_gripper = (station.GetOutputPort(n).Eval(context) for n in ("truth.phi", "truth.phi_gripper"))
+    obj = InertialParameters.from_phi(phi) - InertialParameters.from_phi(phi_gripper)
+    assert obj.mass == pytest.approx(0.5024, rel=1e-6) and obj.is_physical()
+
+
+def test_non_physical_custom_load_is_rejected():
+    scenario = Scenario()
+    scenario.load.kind = "custom"
+    scenario.load.inertia_com = [0.001, 0, 0, 0.001, 0, 0.01]  # violates the triangle inequality
+    with pytest.raises(ValueError, match="load are not physical: triangle inequality"):
+        MakeSimStation(scenario)
+
+
+# --- scenario files -----------------------------------------------------------
+
+def test_scenario_file_round_trip(tmp_path):
+    path = tmp_path / "s.yaml"
+    path.write_text("robot: rx60\nload: {kind: custom, mass: 2.0}\nenvironment: {kind: none}\n"
+                    "ft_sensor: {noise: false}\noperator: {stiffness: 250.0}\n")
+    scenario = load_scenario(path)
+    assert scenario.robot == "rx60" and scenario.load.mass == 2.0 and scenario.environment.kind == "none"
+    assert scenario.ft_sensor.noise is False and scenario.operator.stiffness == 250.0
+
+
+@pytest.mark.parametrize("text,field", [
+    ("operator: {stiffness: soft}\n", "operator.stiffness"),
+    ("load: {knd: tool}\n", "load.knd"),
+    ("environment: {stiffness: -5.0}\n", "environment.stiffness"),
+    ("slave_initial_q: [0, 1]\n", "slave_initial_q"),
+    ("robot: kuka\n", "robot"),
+    ("ft_sensor: {noise_rms: 0.1}\n", "ft_sensor.noise_rms"),
+])
+def test_malformed_scenario_names_the_field(tmp_path, text, field):
+    path = tmp_path / "bad.yaml"
+    path.write_text(text)
+    with pytest.raises(ValueError, match=f"'{field}'"):
+        load_scenario(path)
+
+
+def test_scenario_that_is_not_yaml(tmp_path):
+    path = tmp_path / "broken.yaml"
+    path.write_text("robot: rx90\n  load: [\n")
+    with pytest.raises(ValueError, match="not valid YAML"):
+        load_scenario(path)
+    with pytest.raises(ValueError, match="does not exist"):
+        load_scenario(tmp_path / "missing.yaml")
