@@ -1,0 +1,141 @@
+"""Force feedback to the master (Fig. 4: f′ → f̄_M, τ̄_M → m̄_M = J_Mᵀ·[f̄_M; τ̄_M]).
+
+Sign: f′ = [f; τ] is what the sensor exerts ON THE LOAD (DESIGN §4). The operator
+must feel what the environment does to the tool, and the environment's (and
+gravity's) wrench on the load is, in equilibrium, minus the sensor's. So
+
+    f_E = −k_f·R_BR·R_RS·f,   τ_E = −k_τ·R_BR·R_RS·τ
+
+(in B): a contact pushing the tool up pushes the stylus up, and the load's weight,
+which the sensor holds up, pulls the stylus down. The moment about S is rendered
+as the moment about E (the point the motion scaling maps onto the tool); S's
+position does not enter. Then each of f_E and τ_E is clamped to the device's
+magnitude limit, keeping its direction.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+from pydrake.math import RollPitchYaw, RotationMatrix
+from pydrake.systems.framework import LeafSystem
+
+from heft.systems.pose_vectors import POSE_SIZE, rigid_transform
+
+WRENCH_SIZE = 6
+JACOBIAN_SIZE = 36
+
+
+@dataclasses.dataclass
+class FeedbackMappingParams:
+    """Scaling and device limits of the force feedback; loadable with ``yaml_load_typed``."""
+
+    force_scale: float = 1 / 17.5
+    """k_f (master N per slave N): the paper's 1/17.5 (Sec. VI-B)."""
+
+    torque_scale: float = 1 / 17.5
+    """k_τ (master N·m per slave N·m)."""
+
+    max_force: float = 8.5
+    """Largest force magnitude rendered (N): Phantom Premium 1.5 6DoF, CHAI3D's table (DESIGN §6)."""
+
+    max_torque: float = 0.188
+    """Largest torque magnitude rendered (N·m): same source."""
+
+    R_RB: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    """The fixed rotation from the master base B to the slave base R as roll-pitch-yaw (rad),
+    as in MotionScalingParams."""
+
+    def validate(self) -> None:
+        """Raises ValueError naming the first field out of range."""
+        for name in ("force_scale", "torque_scale"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be finite and >= 0 (a negative one reverses the feedback); "
+                                 f"got {value}")
+        for name in ("max_force", "max_torque"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be finite and > 0; got {value}")
+        if len(self.R_RB) != 3 or not all(math.isfinite(x) for x in self.R_RB):
+            raise ValueError(f"R_RB must be 3 finite roll-pitch-yaw angles (rad); got {self.R_RB}")
+
+
+def clamp_norm(v: np.ndarray, limit: float) -> np.ndarray:
+    """``v`` scaled down to magnitude ``limit`` if longer, same direction."""
+    norm = float(np.linalg.norm(v))
+    return v * (limit / norm) if norm > limit else v
+
+
+def rendered_wrench(wrench_S, R_BS: np.ndarray, force_scale: float, torque_scale: float, max_force: float,
+                    max_torque: float) -> np.ndarray:
+    """[f_E; τ_E] (6, N and N·m, in B) rendered on the hand from the sensor-on-load wrench
+    [f; τ] at S in S (module docstring); R_BS (3×3) = R_BR·R_RS."""
+    wrench_S = np.asarray(wrench_S, dtype=float)
+    f = clamp_norm(-force_scale * (R_BS @ wrench_S[:3]), max_force)
+    tau = clamp_norm(-torque_scale * (R_BS @ wrench_S[3:]), max_torque)
+    return np.concatenate((f, tau))
+
+
+def joint_torque(jacobian, wrench_E) -> np.ndarray:
+    """τ_M = J_Mᵀ·[f_E; τ_E] (N·m), J_M (6×6 or its 36 row-major entries) with rows [v_E; ω_E]."""
+    return np.reshape(jacobian, (6, 6)).T @ np.asarray(wrench_E, dtype=float)
+
+
+class FeedbackMapping(LeafSystem):
+    """Sensor wrench → wrench on the operator's hand and master joint torques.
+
+    Inputs: ``wrench_S`` (6: f′, [f; τ] the sensor exerts on the load, at S, in S; N, N·m),
+    ``pose_RS`` (7: S in R, [p; w, x, y, z]; only its rotation is used), ``jacobian``
+    (36: J_M row-major, rows [v_E; ω_E] in B, as MasterKinematics gives).
+    Outputs: ``wrench_E`` (6: [f; τ] on the hand at E, in B), ``torque`` (6: τ_M = J_Mᵀ·wrench_E,
+    N·m), ``fault`` (1: 1.0 while an input is not finite or the pose's quaternion is zero).
+
+    Safe on bad data: ``wrench_E`` is zero while ``wrench_S`` or ``pose_RS`` is bad, and
+    ``torque`` zero while any input is bad. Outputs are computed with narrow prerequisites:
+    ``wrench_E`` feeds through from ``wrench_S`` and ``pose_RS`` only; ``torque`` and
+    ``fault`` from all three inputs. A loop closed through the master plant needs that
+    plant's state (e.g. a discrete MultibodyPlant) to break it.
+    """
+
+    def __init__(self, params: FeedbackMappingParams | None = None):
+        super().__init__()
+        params = params or FeedbackMappingParams()
+        params.validate()
+        self._params = params
+        self._R_BR = RotationMatrix(RollPitchYaw(params.R_RB)).inverse()
+        self._wrench_S = self.DeclareVectorInputPort("wrench_S", WRENCH_SIZE)
+        self._pose_RS = self.DeclareVectorInputPort("pose_RS", POSE_SIZE)
+        self._jacobian = self.DeclareVectorInputPort("jacobian", JACOBIAN_SIZE)
+        wrench_inputs = {self._wrench_S.ticket(), self._pose_RS.ticket()}
+        all_inputs = wrench_inputs | {self._jacobian.ticket()}
+        self._wrench_E = self.DeclareVectorOutputPort("wrench_E", WRENCH_SIZE, self._calc_wrench,
+                                                      prerequisites_of_calc=wrench_inputs)
+        self.DeclareVectorOutputPort("torque", WRENCH_SIZE, self._calc_torque, prerequisites_of_calc=all_inputs)
+        self.DeclareVectorOutputPort("fault", 1, self._calc_fault, prerequisites_of_calc=all_inputs)
+
+    def _wrench_inputs_ok(self, context) -> bool:
+        pose = self._pose_RS.Eval(context)
+        return bool(np.isfinite(self._wrench_S.Eval(context)).all() and np.isfinite(pose).all()
+                    and np.linalg.norm(pose[3:]) > 1e-9)
+
+    def _inputs_ok(self, context) -> bool:
+        return self._wrench_inputs_ok(context) and bool(np.isfinite(self._jacobian.Eval(context)).all())
+
+    def _calc_wrench(self, context, output):
+        if not self._wrench_inputs_ok(context):
+            output.SetFromVector(np.zeros(WRENCH_SIZE))
+            return
+        p = self._params
+        R_BS = (self._R_BR @ rigid_transform(self._pose_RS.Eval(context)).rotation()).matrix()
+        output.SetFromVector(rendered_wrench(self._wrench_S.Eval(context), R_BS, p.force_scale, p.torque_scale,
+                                             p.max_force, p.max_torque))
+
+    def _calc_torque(self, context, output):
+        if not self._inputs_ok(context):
+            output.SetFromVector(np.zeros(WRENCH_SIZE))
+            return
+        output.SetFromVector(joint_torque(self._jacobian.Eval(context), self._wrench_E.Eval(context)))
+
+    def _calc_fault(self, context, output):
+        output.SetAtIndex(0, 0.0 if self._inputs_ok(context) else 1.0)

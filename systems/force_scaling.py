@@ -1,0 +1,219 @@
+"""Scaling and elimination of non-contact wrenches (Kubus & Wahl, Sec. V, Fig. 2).
+
+All vectors are expressed in the sensor frame S (DESIGN §4): wrenches [f; τ]
+(N, N·m) that the sensor exerts on the load, torque about S's origin;
+accelerations [a; α] (m/s², rad/s²) of S; ω (rad/s) of S; g (m/s²) in S.
+
+With the load's estimated parameters φ̂ (Eq. 6) and the sensor offsets o, the
+measurement f splits into the non-contact wrench n = V·φ̂ (Eq. 12) and the
+contact wrench c = f − o − n (Eq. 13). The operator is sent
+
+    f′ = γ·c + σ·n                               (Fig. 2; no gripper split)
+    f′ = γ·c + σ·V·φ_gr + η·V·(φ̂ − φ_gr)         (gripper φ_gr known)
+
+so σ scales the apparent mass of the load (σ = 0 eliminates it, σ = 1 keeps
+it), γ scales the contact wrench, and with the split σ acts on the gripper and
+η on the gripped object. For σ = 0, γ = 1 the split law equals Eq. 14:
+f′ = f − o − V·φ_mod with φ_mod = φ_gr + (1 − η)·φ̂_obj.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import LeafSystem, ValueProducer
+
+from .load_dynamics import regressor
+
+
+@dataclasses.dataclass
+class ForceScalingParams:
+    """Settings of `ForceScalingElimination`."""
+
+    sigma: float = 1.0
+    """σ ≥ 0: scale of the non-contact wrench (of the gripper's, with a split),
+    in effect at the start and requested while the `sigma` input is unconnected."""
+
+    gamma: float = 1.0
+    """γ ≥ 0: scale of the contact wrench (start value and default request)."""
+
+    eta: float = 1.0
+    """η ∈ [0, 1]: share of the gripped object's non-contact wrench that is kept
+    (start value and default request); used only with `phi_gripper`."""
+
+    slew_rate: float = 2.0
+    """Largest change of each of σ, γ, η per second (1/s), so that a new request
+    fades in instead of jumping (default: 0 → 1 in 0.5 s)."""
+
+    period: float = 0.0005
+    """Update period (s) of the scales and the fault memory (the controller's rate)."""
+
+    phi_gripper: list[float] | None = None
+    """The gripper's φ (Eq. 6, about S's origin, in S) for the Eq. 14 split; None
+    treats the whole load as one body."""
+
+    fault_decay_time: float = 0.01
+    """Time constant τ (s) with which f′ decays to zero while faulted, applied per
+    tick as exp(−period/τ) from the last f′ in effect; 0 drops it to zero at once."""
+
+    def validate(self) -> None:
+        """Raises ValueError naming the first field that is out of range."""
+        for name in ("sigma", "gamma"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be finite and >= 0; got {value}")
+        if not 0.0 <= self.eta <= 1.0:
+            raise ValueError(f"eta must lie in [0, 1]; got {self.eta}")
+        for name in ("slew_rate", "period"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be finite and > 0; got {value}")
+        if not (math.isfinite(self.fault_decay_time) and self.fault_decay_time >= 0):
+            raise ValueError(
+                f"fault_decay_time must be finite and >= 0; got {self.fault_decay_time}")
+        if self.phi_gripper is not None and (
+                len(self.phi_gripper) != 10 or not all(math.isfinite(x) for x in self.phi_gripper)):
+            raise ValueError(f"phi_gripper needs 10 finite entries (Eq. 6); got {self.phi_gripper}")
+
+
+# --- pure numpy core ------------------------------------------------------------
+
+def scale_wrench(wrench, offsets, phi, acceleration, omega, gravity, sigma: float, gamma: float,
+                 eta: float, phi_gripper=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(f′, contact c (Eq. 13), non-contact V·φ̂ (Eq. 12)), each (6,) in S, from one
+    finite sample: wrench, offsets (6,), phi (10,), acceleration [a; α] (6,), omega,
+    gravity (3,), all float arrays. The law is the module docstring's."""
+    acceleration = np.asarray(acceleration, dtype=float)
+    V = regressor(acceleration[:3], acceleration[3:], np.asarray(omega, dtype=float),
+                  np.asarray(gravity, dtype=float))
+    noncontact = V @ phi
+    contact = wrench - offsets
+    contact -= noncontact
+    if phi_gripper is None:
+        feedback = gamma * contact + sigma * noncontact
+    else:
+        gripper = V @ phi_gripper
+        feedback = gamma * contact + sigma * gripper + eta * (noncontact - gripper)
+    return feedback, contact, noncontact
+
+
+def clamp_scales(sigma: float, gamma: float, eta: float) -> tuple[float, float, float]:
+    """The request limited to its meaningful range: σ, γ ≥ 0 (a negative σ would
+    render a negative mass, an active element), η ∈ [0, 1] (Eq. 14)."""
+    return max(sigma, 0.0), max(gamma, 0.0), min(max(eta, 0.0), 1.0)
+
+
+def slew(current: float, target: float, max_step: float) -> float:
+    """``current`` moved toward ``target`` by at most ``max_step`` (landing on it exactly)."""
+    if abs(target - current) <= max_step:
+        return target
+    return current + math.copysign(max_step, target - current)
+
+
+# --- Drake system -----------------------------------------------------------------
+
+# Layout of the cached evaluation: f′, contact, non-contact, fault flag.
+_FEEDBACK, _CONTACT, _NONCONTACT, _FAULT = slice(0, 6), slice(6, 12), slice(12, 18), 18
+
+
+class ForceScalingElimination(LeafSystem):
+    """Fig. 2 with the Eq. 14 split, as the module docstring describes.
+
+    Inputs: ``wrench`` (6, the measured [f; τ] on the load), ``acceleration`` (6,
+    [a; α] of S), ``omega`` (3), ``gravity`` (3), ``phi`` (10, φ̂ of the whole load),
+    ``offsets`` (6), ``sigma``, ``gamma``, ``eta`` (1 each, requested; when
+    unconnected the parameter value is requested).
+    Outputs: ``wrench_feedback`` f′ (6), ``wrench_contact`` (6, Eq. 13),
+    ``wrench_noncontact`` (6, Eq. 12), ``scales`` (3, σ, γ, η in effect), ``fault``
+    (1: 1.0 while f′ is not computed from the inputs).
+
+    Timing. f′, c, n and fault are a feedthrough calculation from the six signal
+    inputs and the discrete state (narrow prerequisites: no time, no requests,
+    no all-sources ticket). The controller reads ``ft.wrench_measured``, already
+    a sampled state output, so no algebraic loop forms, and f′ reflects the
+    newest sample without the extra tick of delay a state output would add.
+    The scales in effect are discrete state: every ``period`` they move toward
+    the clamped request (`clamp_scales`) by at most ``slew_rate·period`` each, so
+    the requests reach f′ only through the state and do not feed through.
+    Nothing depends on time, so in a simulation f′ is computed once per tick:
+    the update reuses the value the controller read.
+
+    Faults. While a signal input holds a NaN or inf (or the result overflows),
+    or from the update that consumed a non-finite request (the scales are then
+    held), f′ decays to zero by exp(−period/fault_decay_time) per tick from the
+    last f′ in effect, c and n are zero and ``fault`` is 1. Decay rather than an
+    immediate zero because a step of several newtons at the stylus is a jolt
+    the operator's hand turns into motion; decay rather than hold because a stale
+    force rendered indefinitely is a phantom force. On recovery f′ returns to the
+    live value.
+    """
+
+    def __init__(self, params: ForceScalingParams | None = None):
+        super().__init__()
+        params = params or ForceScalingParams()
+        params.validate()
+        self._max_step = params.slew_rate * params.period
+        self._defaults = (params.sigma, params.gamma, params.eta)
+        self._phi_gripper = (None if params.phi_gripper is None
+                             else np.array(params.phi_gripper, dtype=float))
+        self._decay_per_tick = (math.exp(-params.period / params.fault_decay_time)
+                                if params.fault_decay_time > 0 else 0.0)
+
+        self._signals = tuple(self.DeclareVectorInputPort(name, size) for name, size in (
+            ("wrench", 6), ("acceleration", 6), ("omega", 3), ("gravity", 3), ("phi", 10),
+            ("offsets", 6)))
+        self._requests = tuple(self.DeclareVectorInputPort(name, 1)
+                               for name in ("sigma", "gamma", "eta"))
+
+        self._scales = self.DeclareDiscreteState(np.array(self._defaults))
+        # The f′ in effect during the last tick (6; N, N·m) and a flag (1) raised by a
+        # non-finite request.
+        self._memory = self.DeclareDiscreteState(7)
+        self.DeclarePeriodicDiscreteUpdateEvent(params.period, 0.0, self._update)
+
+        self._evaluation = self.DeclareCacheEntry(
+            "evaluation",
+            ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(19)), calc=self._evaluate),
+            prerequisites_of_calc={port.ticket() for port in self._signals} | {self.xd_ticket()})
+        for name, part in (("wrench_feedback", _FEEDBACK), ("wrench_contact", _CONTACT),
+                           ("wrench_noncontact", _NONCONTACT)):
+            self.DeclareVectorOutputPort(
+                name, 6, lambda context, output, part=part: output.SetFromVector(
+                    self._evaluation.Eval(context)[part]),
+                prerequisites_of_calc={self._evaluation.ticket()})
+        self.DeclareStateOutputPort("scales", self._scales)
+        self.DeclareVectorOutputPort(
+            "fault", 1, lambda context, output: output.SetAtIndex(
+                0, self._evaluation.Eval(context)[_FAULT]),
+            prerequisites_of_calc={self._evaluation.ticket()})
+
+    def _evaluate(self, context, value):
+        out = value.get_mutable_value()
+        wrench, acceleration, omega, gravity, phi, offsets = (port.Eval(context)
+                                                              for port in self._signals)
+        memory = context.get_discrete_state(self._memory).get_value()
+        if memory[6] == 0.0 and math.isfinite(
+                np.concatenate((wrench, acceleration, omega, gravity, phi, offsets)).sum()):
+            sigma, gamma, eta = context.get_discrete_state(self._scales).get_value()
+            out[_FEEDBACK], out[_CONTACT], out[_NONCONTACT] = scale_wrench(
+                wrench, offsets, phi, acceleration, omega, gravity, sigma, gamma, eta,
+                self._phi_gripper)
+            out[_FAULT] = 0.0
+            if math.isfinite(out.sum()):
+                return
+        out[_FEEDBACK] = self._decay_per_tick * memory[:6]
+        out[_CONTACT] = 0.0
+        out[_NONCONTACT] = 0.0
+        out[_FAULT] = 1.0
+
+    def _update(self, context, discrete_state):
+        requested = [port.Eval(context)[0] if port.HasValue(context) else default
+                     for port, default in zip(self._requests, self._defaults)]
+        request_ok = math.isfinite(sum(requested))
+        discrete_state.set_value(self._memory, np.append(
+            self._evaluation.Eval(context)[_FEEDBACK], 0.0 if request_ok else 1.0))
+        if request_ok:
+            current = context.get_discrete_state(self._scales).get_value().tolist()
+            discrete_state.set_value(self._scales, [
+                slew(c, r, self._max_step) for c, r in zip(current, clamp_scales(*requested))])

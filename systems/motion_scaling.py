@@ -1,0 +1,176 @@
+"""Motion scaling with a clutch (Fig. 4: ᴮT_E → ᴿT_E, "for orientation scaling
+quaternions are employed").
+
+At engagement the stylus pose X_BE0 and the slave tool pose X_RT0 are stored as
+anchors. While engaged, the desired tool pose is
+
+    p_RT* = p_RT0 + k_t·R_RB·(p_BE − p_BE0)
+    R_RT* = R_RB·ΔR^k_r·R_RBᵀ·R_RT0,   ΔR = R_BE·R_BE0ᵀ  (the stylus rotation since engagement, in B)
+
+where ΔR^k_r is the quaternion power (the slerp from the identity to ΔR at k_r): the
+same axis, the angle θ ∈ [0, π] scaled by k_r. R_RB·AngleAxis(kθ, a)·R_RBᵀ =
+AngleAxis(kθ, R_RB·a), so the scaled rotation turns about the mapped axis. As for any
+quaternion power, a stylus rotation through π from the anchor flips the axis; with
+k_r ≠ 1 the output then jumps: re-index (clutch) before that.
+
+No jumps: the clutch released holds the last desired pose; at re-engagement the
+anchors are the current stylus pose and the slave's measured pose, so the output
+continues from where the slave is (it steps by the slave's tracking error only, zero
+for a settled slave); a change of k_t or k_r while engaged re-anchors at the current
+stylus pose and the desired pose just computed with the old scales.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+from pydrake.common.eigen_geometry import AngleAxis
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
+from pydrake.systems.framework import LeafSystem
+
+from heft.systems.pose_vectors import POSE_SIZE, pose_vector, rigid_transform
+
+IDENTITY_POSE = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+# Layout of the memory state: [engaged, k_t, k_r, pose_BE0 (7), pose_RT0 (7)].
+_ENGAGED, _SCALES, _BE0, _RT0 = 0, slice(1, 3), slice(3, 10), slice(10, 17)
+MEMORY_SIZE = 17
+
+
+@dataclasses.dataclass
+class MotionScalingParams:
+    """Master-to-slave motion mapping; loadable with ``yaml_load_typed``."""
+
+    translation_scale: float = 1.0
+    """k_t (slave m per master m), ≥ 0; used while the ``translation_scale`` port is unconnected."""
+
+    rotation_scale: float = 1.0
+    """k_r (slave rad per master rad), ≥ 0; used while the ``rotation_scale`` port is unconnected."""
+
+    R_RB: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    """The fixed rotation from the master base B to the slave base R as roll-pitch-yaw (rad)."""
+
+    period: float = 0.0005
+    """Update period (s): the controller's 2 kHz by default."""
+
+    def validate(self) -> None:
+        """Raises ValueError naming the first field out of range."""
+        for name in ("translation_scale", "rotation_scale"):
+            if not valid_scale(getattr(self, name)):
+                raise ValueError(f"{name} must be finite and >= 0; got {getattr(self, name)}")
+        if len(self.R_RB) != 3 or not all(math.isfinite(x) for x in self.R_RB):
+            raise ValueError(f"R_RB must be 3 finite roll-pitch-yaw angles (rad); got {self.R_RB}")
+        if not (math.isfinite(self.period) and self.period > 0):
+            raise ValueError(f"period must be finite and > 0; got {self.period}")
+
+
+def valid_scale(k: float) -> bool:
+    """True if ``k`` is a usable motion scale: finite and ≥ 0."""
+    return math.isfinite(k) and k >= 0
+
+
+def valid_pose(pose) -> bool:
+    """True if ``pose`` is 7 finite numbers with a non-zero quaternion."""
+    pose = np.asarray(pose, dtype=float)
+    return pose.shape == (POSE_SIZE,) and bool(np.isfinite(pose).all()) and np.linalg.norm(pose[3:]) > 1e-9
+
+
+def scaled_pose(X_BE: RigidTransform, X_BE0: RigidTransform, X_RT0: RigidTransform, R_RB: RotationMatrix,
+                translation_scale: float, rotation_scale: float) -> RigidTransform:
+    """X_RT* of the module docstring: the stylus motion since the anchor X_BE0, scaled
+    and mapped into R, applied to the tool's anchor X_RT0."""
+    delta = (X_BE.rotation() @ X_BE0.rotation().inverse()).ToAngleAxis()
+    scaled = RotationMatrix(AngleAxis(rotation_scale * delta.angle(), R_RB.multiply(delta.axis())))
+    p_RT = X_RT0.translation() + translation_scale * R_RB.multiply(X_BE.translation() - X_BE0.translation())
+    return RigidTransform(scaled @ X_RT0.rotation(), p_RT)
+
+
+def motion_scaling_update(memory, desired, pose_BE, engaged: bool, pose_RT_measured, translation_scale: float,
+                          rotation_scale: float, R_RB: RotationMatrix) -> tuple[np.ndarray, np.ndarray]:
+    """One tick of the clutch logic: (memory, desired pose) → the new (memory, desired pose).
+
+    ``memory`` is [engaged, k_t, k_r, pose_BE0, pose_RT0] (17), ``desired`` the pose of
+    the last tick (7). Disengaged, or an invalid stylus pose or scale: hold ``desired``
+    and drop the engagement (so the next valid engaged tick re-anchors). Rising edge:
+    anchor at ``pose_BE`` and ``pose_RT_measured`` (held if the latter is invalid).
+    Engaged: the scaled pose with the stored scales; if the scales changed, re-anchor
+    at ``pose_BE`` and that pose, and store the new scales.
+    """
+    memory = np.array(memory, dtype=float)
+    desired = np.array(desired, dtype=float)
+    usable = engaged and valid_pose(pose_BE) and valid_scale(translation_scale) and valid_scale(rotation_scale)
+    if not usable or (memory[_ENGAGED] < 0.5 and not valid_pose(pose_RT_measured)):
+        memory[_ENGAGED] = 0.0
+        return memory, desired
+    X_BE = rigid_transform(pose_BE)
+    if memory[_ENGAGED] < 0.5:
+        X_RT = rigid_transform(pose_RT_measured)
+    else:
+        X_RT = scaled_pose(X_BE, rigid_transform(memory[_BE0]), rigid_transform(memory[_RT0]), R_RB,
+                           *memory[_SCALES])
+    desired = pose_vector(X_RT)
+    if memory[_ENGAGED] < 0.5 or tuple(memory[_SCALES]) != (translation_scale, rotation_scale):
+        memory[_ENGAGED] = 1.0
+        memory[_SCALES] = translation_scale, rotation_scale
+        memory[_BE0] = pose_vector(X_BE)
+        memory[_RT0] = desired
+    return memory, desired
+
+
+class MotionScaling(LeafSystem):
+    """Stylus pose → desired slave tool pose, scaled, with a clutch (module docstring).
+
+    Inputs: ``pose_BE`` (7, stylus E in master base B), ``clutch`` (1, > 0.5 = engaged),
+    ``pose_RT_measured`` (7, the slave tool frame T in slave base R, read at engagement
+    and initialization), ``translation_scale`` and ``rotation_scale`` (1 each, optional:
+    unconnected, the parameters' values are used). Output: ``pose_RT_desired`` (7).
+    Poses are [p (m); quaternion w, x, y, z].
+
+    Updated at initialization and every ``period`` (offset 0). Initialization clears the
+    engagement and sets the desired pose to the measured one (so a start with the clutch
+    released holds the slave where it is), then runs the tick (a start engaged anchors).
+    The output is discrete state: no direct feedthrough, so the closed bilateral loop has
+    no algebraic loop through here.
+    """
+
+    def __init__(self, params: MotionScalingParams | None = None):
+        super().__init__()
+        params = params or MotionScalingParams()
+        params.validate()
+        self._params = params
+        self._R_RB = RotationMatrix(RollPitchYaw(params.R_RB))
+        self._pose_BE = self.DeclareVectorInputPort("pose_BE", POSE_SIZE)
+        self._clutch = self.DeclareVectorInputPort("clutch", 1)
+        self._measured = self.DeclareVectorInputPort("pose_RT_measured", POSE_SIZE)
+        self._translation_scale = self.DeclareVectorInputPort("translation_scale", 1)
+        self._rotation_scale = self.DeclareVectorInputPort("rotation_scale", 1)
+        memory = np.concatenate(([0.0, params.translation_scale, params.rotation_scale], IDENTITY_POSE,
+                                 IDENTITY_POSE))
+        self._memory = self.DeclareDiscreteState(memory)
+        self._desired = self.DeclareDiscreteState(IDENTITY_POSE)
+        self.DeclareInitializationDiscreteUpdateEvent(self._initialize)
+        self.DeclarePeriodicDiscreteUpdateEvent(params.period, 0.0, self._update)
+        self.DeclareStateOutputPort("pose_RT_desired", self._desired)
+
+    def _scale(self, context, port, default: float) -> float:
+        return float(port.Eval(context)[0]) if port.HasValue(context) else default
+
+    def _tick(self, context, discrete_state, memory, desired):
+        memory, desired = motion_scaling_update(
+            memory, desired, self._pose_BE.Eval(context), self._clutch.Eval(context)[0] > 0.5,
+            self._measured.Eval(context),
+            self._scale(context, self._translation_scale, self._params.translation_scale),
+            self._scale(context, self._rotation_scale, self._params.rotation_scale), self._R_RB)
+        discrete_state.set_value(self._memory, memory)
+        discrete_state.set_value(self._desired, desired)
+
+    def _initialize(self, context, discrete_state):
+        memory = context.get_discrete_state(self._memory).get_value().copy()
+        memory[_ENGAGED] = 0.0
+        measured = self._measured.Eval(context)
+        desired = (pose_vector(rigid_transform(measured)) if valid_pose(measured)
+                   else context.get_discrete_state(self._desired).get_value())
+        self._tick(context, discrete_state, memory, desired)
+
+    def _update(self, context, discrete_state):
+        self._tick(context, discrete_state, context.get_discrete_state(self._memory).get_value(),
+                   context.get_discrete_state(self._desired).get_value())

@@ -1,0 +1,162 @@
+"""Time-domain passivity observer and controller (PO/PC) at the master port.
+
+After Hannaford & Ryu, "Time-domain passivity control of haptic interfaces"
+(IEEE T-RO 18(1), 2002), with one PO/PC pair for the translational and one for
+the rotational channel as in Preusche, Hirzinger, Ryu & Hannaford, "Time
+domain passivity control for 6 degrees of freedom haptic displays" (IROS 2003).
+
+The port. The controller (teleoperator, slave and environment: the network)
+exerts the wrench w = [f; τ] on the operator's hand at the stylus E, expressed
+in the master base B; the stylus moves with the twist [v; ω] of E in B, ω about
+and v of E's origin, so w·[v; ω] = f·v + τ·ω is the power (W) the network
+delivers to the hand.
+
+Sign convention: the observed energy counts energy flowing from the hand INTO
+the network as positive, per channel and sample (period T):
+
+    E_t(n) = E_t(n−1) − f(n)·v(n)·T,    E_r(n) = E_r(n−1) − τ(n)·ω(n)·T.
+
+A passive network keeps E ≥ 0 for all n (it never returns more than it
+received); E < 0 flags active behaviour. The PC is the series damper of the
+impedance-type port (velocity in, force out): the applied wrench is
+f − α_t·v, τ − α_r·ω, which adds α·|v|²·T to E. When E would go negative,
+α = −E / (T·|v|²), clamped to [0, α_max], so the PC dissipates exactly the
+observed deficit as far as the bound allows (a deficit beyond it is carried
+forward).
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+from pydrake.systems.framework import LeafSystem
+
+
+@dataclasses.dataclass
+class PassivityParams:
+    """Settings of `PassivityController`."""
+
+    max_translational_damping: float = 5.0
+    """Bound of α_t (N·s/m): the Phantom Premium 1.5's maximum linear damping as
+    tabulated by CHAI3D."""
+
+    max_rotational_damping: float = 0.004
+    """Bound of α_r (N·m·s/rad): CHAI3D's maximum angular damping for the Phantom
+    Premium 1.5 6DOF (m_maxAngularDamping in its cPhantomDevice specifications)."""
+
+    period: float = 0.0005
+    """Sample period T (s) of the PO/PC (the haptic loop's)."""
+
+    enabled: bool = True
+    """False keeps the observer running but never damps (α = 0)."""
+
+    def validate(self) -> None:
+        """Raises ValueError naming the first field that is out of range."""
+        for name in ("max_translational_damping", "max_rotational_damping"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be finite and >= 0; got {value}")
+        if not (math.isfinite(self.period) and self.period > 0):
+            raise ValueError(f"period must be finite and > 0; got {self.period}")
+
+
+# --- pure numpy core ----------------------------------------------------------
+
+def passivity_channel(energy: float, power: float, speed_squared: float, period: float,
+                      max_damping: float) -> tuple[float, float, float]:
+    """One PO/PC step of one channel → (energy after the PC (J), α, energy the PC
+    dissipated in this step (J)).
+
+    ``energy`` is E(n−1); ``power`` (W) is w·v of the desired wrench, the power the
+    network would deliver to the hand; ``speed_squared`` is |v|² (m²/s² or
+    rad²/s²); ``max_damping`` 0 disables the PC. At rest (|v| = 0) a deficit
+    cannot be dissipated: α is then reported as the bound and E stays negative."""
+    energy -= power * period
+    if energy >= 0.0:
+        return energy, 0.0, 0.0
+    capacity = max_damping * speed_squared * period
+    if capacity <= -energy:
+        return energy + capacity, max_damping, capacity
+    return 0.0, -energy / (speed_squared * period), -energy
+
+
+def passivity_step(wrench, twist, energy, period: float, max_damping) -> tuple[
+        np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One PO/PC step of both channels.
+
+    ``wrench`` (6) desired [f; τ] on the hand, ``twist`` (6) [v; ω] of the stylus,
+    ``energy`` (2) [E_t, E_r] after the last step, ``max_damping`` (2) [α_t max,
+    α_r max]. Returns (applied wrench [f − α_t v; τ − α_r ω] (6), energy (2), α (2),
+    energy dissipated in this step (2))."""
+    fx, fy, fz, tx, ty, tz = np.asarray(wrench, dtype=float).tolist()
+    vx, vy, vz, wx, wy, wz = np.asarray(twist, dtype=float).tolist()
+    e_t, a_t, d_t = passivity_channel(float(energy[0]), fx * vx + fy * vy + fz * vz,
+                                      vx * vx + vy * vy + vz * vz, period, max_damping[0])
+    e_r, a_r, d_r = passivity_channel(float(energy[1]), tx * wx + ty * wy + tz * wz,
+                                      wx * wx + wy * wy + wz * wz, period, max_damping[1])
+    applied = np.array((fx - a_t * vx, fy - a_t * vy, fz - a_t * vz,
+                        tx - a_r * wx, ty - a_r * wy, tz - a_r * wz))
+    return applied, np.array((e_t, e_r)), np.array((a_t, a_r)), np.array((d_t, d_r))
+
+
+# --- Drake system -------------------------------------------------------------
+
+class PassivityController(LeafSystem):
+    """The PO/PC of the module docstring in front of the master's actuators.
+
+    Inputs: ``wrench`` (6, desired [f; τ] on the hand at E, in B; N, N·m),
+    ``velocity`` (6, q̇_M, rad/s), ``jacobian`` (36, row-major 6×6 J_M with
+    [v_E; ω_E] = J_M·q̇_M, translational rows first).
+    Outputs (discrete state, held between samples): ``torque`` (6, τ_M =
+    J_Mᵀ·applied wrench, N·m), ``energy_observed`` (2, [E_t, E_r] after the PC, J),
+    ``damping`` (2, [α_t (N·s/m), α_r (N·m·s/rad)] applied), ``energy_dissipated``
+    (2, cumulative energy the PC removed, J).
+
+    Timing: every ``period`` the update samples the inputs and computes the
+    torque, which is held until the next sample, as a device driver does (read
+    encoders, compute, write the amplifiers). The outputs are state, so the
+    system has no direct feedthrough and closes any loop. The PO pairs each
+    desired wrench with the velocity it was computed from (Hannaford & Ryu's
+    E(n) = T·Σ f(k)·v(k)); that the hold then acts over the following interval is
+    the usual sampled-data approximation of the port energy.
+
+    A sample with a NaN or inf in any input commands zero torque and leaves
+    the energies unchanged (the step is not observed).
+    """
+
+    def __init__(self, params: PassivityParams | None = None):
+        super().__init__()
+        params = params or PassivityParams()
+        params.validate()
+        self._period = params.period
+        self._max_damping = ((params.max_translational_damping, params.max_rotational_damping)
+                             if params.enabled else (0.0, 0.0))
+        self._wrench = self.DeclareVectorInputPort("wrench", 6)
+        self._velocity = self.DeclareVectorInputPort("velocity", 6)
+        self._jacobian = self.DeclareVectorInputPort("jacobian", 36)
+        self._torque = self.DeclareDiscreteState(6)
+        self._energy = self.DeclareDiscreteState(2)
+        self._damping = self.DeclareDiscreteState(2)
+        self._dissipated = self.DeclareDiscreteState(2)
+        self.DeclarePeriodicDiscreteUpdateEvent(params.period, 0.0, self._update)
+        self.DeclareStateOutputPort("torque", self._torque)
+        self.DeclareStateOutputPort("energy_observed", self._energy)
+        self.DeclareStateOutputPort("damping", self._damping)
+        self.DeclareStateOutputPort("energy_dissipated", self._dissipated)
+
+    def _update(self, context, discrete_state):
+        wrench = self._wrench.Eval(context)
+        velocity = self._velocity.Eval(context)
+        jacobian = self._jacobian.Eval(context).reshape(6, 6)
+        if not math.isfinite(wrench.sum() + velocity.sum() + jacobian.sum()):
+            discrete_state.set_value(self._torque, np.zeros(6))
+            discrete_state.set_value(self._damping, np.zeros(2))
+            return
+        applied, energy, damping, dissipated = passivity_step(
+            wrench, jacobian @ velocity, context.get_discrete_state(self._energy).get_value(),
+            self._period, self._max_damping)
+        discrete_state.set_value(self._torque, jacobian.T @ applied)
+        discrete_state.set_value(self._energy, energy)
+        discrete_state.set_value(self._damping, damping)
+        discrete_state.set_value(
+            self._dissipated, context.get_discrete_state(self._dissipated).get_value() + dissipated)
