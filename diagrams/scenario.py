@@ -14,6 +14,10 @@ import yaml
 
 from pydrake.common.yaml import yaml_load_typed
 
+from heft.systems.feedback_mapping import FeedbackMappingParams
+from heft.systems.force_scaling import ForceScalingParams
+from heft.systems.motion_scaling import MotionScalingParams
+from heft.systems.passivity_controller import PassivityParams
 from heft.systems.sensor_models import AccelerometerParams, ForceTorqueSensorParams
 
 
@@ -64,6 +68,22 @@ class OperatorSpec:
 
 
 @dataclasses.dataclass
+class ControllerSpec:
+    """The teleoperation controller's settings (its rate is ``Scenario.controller_period``).
+
+    ``load_estimate``: an estimate.yaml written by ``heft identify``; empty means the
+    load is identified in simulation first (as in the paper's Sec. VI-B).
+    ``sigmas``: the σ values one ``heft simulate`` run compares (the paper's 1, 0.5, 0).
+    """
+    load_estimate: str = ""
+    sigmas: list[float] = dataclasses.field(default_factory=lambda: [1.0, 0.5, 0.0])
+    motion: MotionScalingParams = dataclasses.field(default_factory=MotionScalingParams)
+    force: ForceScalingParams = dataclasses.field(default_factory=ForceScalingParams)
+    feedback: FeedbackMappingParams = dataclasses.field(default_factory=FeedbackMappingParams)
+    passivity: PassivityParams = dataclasses.field(default_factory=PassivityParams)
+
+
+@dataclasses.dataclass
 class Scenario:
     """One simulated station and run."""
     robot: str = "rx90"                     # "rx90" or "rx60"
@@ -75,6 +95,7 @@ class Scenario:
     ft_sensor: ForceTorqueSensorParams = dataclasses.field(default_factory=ForceTorqueSensorParams)
     accelerometer: AccelerometerParams = dataclasses.field(default_factory=AccelerometerParams)
     operator: OperatorSpec = dataclasses.field(default_factory=OperatorSpec)
+    controller: ControllerSpec = dataclasses.field(default_factory=ControllerSpec)
     plant_time_step: float = 0.0005         # s, discrete MultibodyPlant (SAP) step
     controller_period: float = 0.0005       # s, 2 kHz
     slave_servo_stiffness: list[float] = dataclasses.field(

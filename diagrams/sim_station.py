@@ -56,16 +56,24 @@ def _custom_load_inertia(spec) -> SpatialInertia:
         load.mass, load.com, RotationalInertia(I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]))
 
 
-def AddSlave(plant: MultibodyPlant, scenario: Scenario) -> SlaveParts:
-    """Adds the arm (base welded at W = R), the JR3 on its flange and the load welded at S."""
+def AddArmWithSensor(plant: MultibodyPlant, robot: str):
+    """Adds the arm ``robot`` ("rx90" or "rx60", base welded at W = R) and the JR3 on its
+    flange; returns (arm model instance, sensor body, sensor frame S)."""
     parser = Parser(plant)
     parser.SetAutoRenaming(True)
-    (arm,) = parser.AddModels(model_path(f"{scenario.robot}.urdf"))
-    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(f"{scenario.robot}_base", arm))
+    (arm,) = parser.AddModels(model_path(f"{robot}.urdf"))
+    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(f"{robot}_base", arm))
     (sensor_instance,) = parser.AddModels(model_path("jr3_sensor.urdf"))
     sensor_body = plant.GetBodyByName("jr3_sensor", sensor_instance)
     plant.WeldFrames(plant.GetFrameByName("flange", arm), sensor_body.body_frame())
-    S = plant.GetFrameByName("S", sensor_instance)
+    return arm, sensor_body, plant.GetFrameByName("S", sensor_instance)
+
+
+def AddSlave(plant: MultibodyPlant, scenario: Scenario) -> SlaveParts:
+    """Adds the arm with its JR3 (``AddArmWithSensor``) and the scenario's load welded at S."""
+    arm, sensor_body, S = AddArmWithSensor(plant, scenario.robot)
+    parser = Parser(plant)
+    parser.SetAutoRenaming(True)
     kind = scenario.load.kind
     gripper_bodies = []
     if kind == "tool":

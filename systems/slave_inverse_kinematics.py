@@ -1,0 +1,85 @@
+"""The slave's inverse kinematics as a sampled block (Fig. 4: X_RT* → q̄_S)."""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.math import RigidTransform
+from pydrake.systems.framework import EventStatus, LeafSystem
+
+from heft.systems.pose_vectors import POSE_SIZE, rigid_transform
+from heft.systems.rx_inverse_kinematics import RxKinematics
+
+NUM_JOINTS = 6
+
+
+class SlaveInverseKinematics(LeafSystem):
+    """Desired tool pose → joint command, every ``period`` s, never jumping.
+
+    Input ``pose_desired`` (7): X_RT*, the desired pose of tool frame T in the slave base R,
+    [p (m); w, x, y, z]. T sits at ``X_FT`` in the flange F (e.g. the tool tip, or S).
+    Input ``position_measured`` (6, rad), optional: when connected (and finite), the command
+    starts there at initialization, clipped to the joint limits; else at ``q_initial``.
+
+    Every tick the nearest IK branch to the last command is taken (RxKinematics.solve_nearest)
+    and the command moves toward it by at most velocity limit × period per joint. An
+    unreachable or non-finite pose leaves the command where it is.
+
+    Outputs, all discrete state (no direct feedthrough):
+    ``position_commanded`` (6, rad): q̄_S, always within the joint limits.
+    ``status`` (2): [1 if this tick's pose was reachable else 0, ticks rejected so far].
+    ``slewing`` (1): 1 if the speed limits held the command back from the solution this tick.
+    """
+
+    def __init__(self, kinematics: RxKinematics, X_FT: RigidTransform, q_initial, period: float):
+        super().__init__()
+        q_initial = np.asarray(q_initial, dtype=float)
+        if q_initial.shape != (NUM_JOINTS,) or not kinematics.within_limits(q_initial):
+            raise ValueError(f"q_initial must be 6 joint angles within the limits; got {q_initial}")
+        if not (np.isfinite(period) and period > 0):
+            raise ValueError(f"period must be finite and > 0 (s); got {period}")
+        self._kinematics = kinematics
+        self._X_TF = X_FT.inverse()
+        self._max_step = kinematics.velocity * period  # rad per tick
+        self._pose = self.DeclareVectorInputPort("pose_desired", POSE_SIZE)
+        self._measured = self.DeclareVectorInputPort("position_measured", NUM_JOINTS)
+        self._command = self.DeclareDiscreteState(q_initial)
+        self._status = self.DeclareDiscreteState(np.array([1.0, 0.0]))
+        self._slewing = self.DeclareDiscreteState(np.zeros(1))
+        self.DeclareInitializationDiscreteUpdateEvent(self._initialize)
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
+        self.DeclareStateOutputPort("position_commanded", self._command)
+        self.DeclareStateOutputPort("status", self._status)
+        self.DeclareStateOutputPort("slewing", self._slewing)
+
+    def _initialize(self, context, discrete_state) -> EventStatus:
+        if not self._measured.HasValue(context):
+            return EventStatus.DidNothing()
+        q_measured = self._measured.Eval(context)
+        if not np.isfinite(q_measured).all():
+            return EventStatus.DidNothing()
+        discrete_state.set_value(self._command, np.clip(q_measured, self._kinematics.lower, self._kinematics.upper))
+        return EventStatus.Succeeded()
+
+    def _flange_target(self, pose):
+        """(R_RF, p_RF (m)) for the desired tool pose vector, or None if it is not a pose."""
+        try:
+            X_RF = rigid_transform(pose) @ self._X_TF
+        except ValueError:  # non-finite, or a zero quaternion
+            return None
+        return X_RF.rotation().matrix(), X_RF.translation()
+
+    def _update(self, context, discrete_state) -> EventStatus:
+        q_last = context.get_discrete_state(self._command).get_value()
+        rejected = context.get_discrete_state(self._status).get_value()[1]
+        target = self._flange_target(self._pose.Eval(context))
+        result = None if target is None else self._kinematics.solve_nearest(*target, q_last)
+        if result is None or not result.reachable:
+            discrete_state.set_value(self._status, [0.0, rejected + 1])
+            discrete_state.set_value(self._slewing, [0.0])
+            return EventStatus.Succeeded()
+        step = result.q - q_last
+        limited = np.clip(step, -self._max_step, self._max_step)
+        discrete_state.set_value(self._command, q_last + limited)
+        discrete_state.set_value(self._status, [1.0, rejected])
+        discrete_state.set_value(self._slewing, [float((limited != step).any())])
+        return EventStatus.Succeeded()

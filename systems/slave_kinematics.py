@@ -1,0 +1,77 @@
+"""Motion of the wrist sensor frame S from the slave's joint state (Fig. 4: q_S, q̇_S → R_WS, ω_S)."""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.systems.framework import Context, LeafSystem, ValueProducer
+
+from heft.systems.pose_vectors import POSE_SIZE, pose_vector
+
+NUM_JOINTS = 6
+GRAVITY_R = (0.0, 0.0, -9.81)  # m/s², with the base R level (W = R)
+
+
+class SlaveKinematics(LeafSystem):
+    """Inputs ``position`` q_S (6, rad) and ``velocity`` q̇_S (6, rad/s) → outputs
+
+    ``pose_RS`` (7): X_RS, the sensor frame S in the slave base R, [p (m); w, x, y, z];
+    ``omega_S`` (3): ω_RS expressed in S (rad/s), S's angular velocity (R is fixed);
+    ``gravity_S`` (3): the gravity vector expressed in S (m/s²).
+
+    ``model`` is a finalized MultibodyPlant of arm + sensor + load (e.g. built with
+    diagrams.sim_station.AddSlave), or a function returning one. ``base_frame`` and
+    ``sensor_frame`` name R and S in it; the joints are those of R's model instance.
+    ``gravity_R`` is gravity expressed in R (m/s²). Direct feedthrough: pose_RS and
+    gravity_S from ``position``, omega_S from both inputs.
+    """
+
+    def __init__(self, model: MultibodyPlant | Callable[[], MultibodyPlant], base_frame: str = "rx90_base",
+                 sensor_frame: str = "S", gravity_R=GRAVITY_R):
+        super().__init__()
+        plant = model if isinstance(model, MultibodyPlant) else model()
+        if not plant.is_finalized():
+            raise ValueError("SlaveKinematics needs a finalized plant")
+        self._plant = plant
+        self._R = plant.GetFrameByName(base_frame)
+        self._S = plant.GetFrameByName(sensor_frame)
+        self._arm = self._R.model_instance()
+        if plant.num_positions(self._arm) != NUM_JOINTS or plant.num_velocities(self._arm) != NUM_JOINTS:
+            raise ValueError(f"the model instance of '{base_frame}' must have {NUM_JOINTS} positions and velocities")
+        self._g_R = np.asarray(gravity_R, dtype=float).reshape(3)
+        self._position = self.DeclareVectorInputPort("position", NUM_JOINTS)
+        self._velocity = self.DeclareVectorInputPort("velocity", NUM_JOINTS)
+        # The scratch plant context lives in the cache: every context of this system has its own.
+        self._scratch = self.DeclareCacheEntry(
+            "plant_context",
+            ValueProducer(allocate=lambda: AbstractValue.Make(plant.CreateDefaultContext()),
+                          calc=lambda context, value: None),
+            prerequisites_of_calc={self.nothing_ticket()})
+        position = {self._position.ticket()}
+        self.DeclareVectorOutputPort("pose_RS", POSE_SIZE, self._calc_pose, prerequisites_of_calc=position)
+        self.DeclareVectorOutputPort("omega_S", 3, self._calc_omega,
+                                     prerequisites_of_calc=position | {self._velocity.ticket()})
+        self.DeclareVectorOutputPort("gravity_S", 3, self._calc_gravity, prerequisites_of_calc=position)
+
+    def _scratch_at_position(self, context) -> Context:
+        """The scratch plant context, with q_S from the input port."""
+        scratch = self._scratch.get_mutable_cache_entry_value(context).GetMutableValueOrThrow()
+        self._plant.SetPositions(scratch, self._arm, self._position.Eval(context))
+        return scratch
+
+    def _calc_pose(self, context, output):
+        scratch = self._scratch_at_position(context)
+        output.SetFromVector(pose_vector(self._plant.CalcRelativeTransform(scratch, self._R, self._S)))
+
+    def _calc_omega(self, context, output):
+        scratch = self._scratch_at_position(context)
+        self._plant.SetVelocities(scratch, self._arm, self._velocity.Eval(context))
+        output.SetFromVector(self._S.CalcAngularVelocity(scratch, self._R, self._S))
+
+    def _calc_gravity(self, context, output):
+        scratch = self._scratch_at_position(context)
+        R_SR = self._plant.CalcRelativeRotationMatrix(scratch, self._S, self._R)
+        output.SetFromVector(R_SR @ self._g_R)
