@@ -101,6 +101,7 @@ class Scenario:
     slave_servo_stiffness: list[float] = dataclasses.field(
         default_factory=lambda: [4e4, 4e4, 2e4, 2e3, 2e3, 5e2])  # N·m/rad, the robot's own joint loop
     slave_servo_damping_ratio: float = 1.0
+    slave_setpoint_bandwidth: float = 20.0  # Hz, the robot controller's setpoint filter
     encoder_counts_per_rev: float = 2.0 ** 20  # slave; the master's is in the model notes
     duration: float = 2.0                   # s
 
@@ -134,6 +135,7 @@ class Scenario:
         need(len(self.slave_servo_stiffness) == 6 and min(self.slave_servo_stiffness) > 0,
              "slave_servo_stiffness", "needs 6 positive gains (N·m/rad)")
         need(self.duration > 0, "duration", "must be > 0 (s)")
+        need(self.slave_setpoint_bandwidth > 0, "slave_setpoint_bandwidth", "must be > 0 (Hz)")
         for value, field in ((self.duration, "duration"), (self.plant_time_step, "plant_time_step")):
             need(math.isfinite(value), field, "must be finite")
         return self

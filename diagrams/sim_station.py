@@ -17,8 +17,7 @@ from pydrake.multibody.tree import (FixedOffsetFrame, JointActuatorIndex, PdCont
                                    RotationalInertia, SpatialInertia)
 from pydrake.geometry import AddContactMaterial, Box, ProximityProperties
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import (ConstantVectorSource, Demultiplexer, Saturation,
-                                        StateInterpolatorWithDiscreteDerivative)
+from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, Saturation
 
 from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
@@ -26,6 +25,7 @@ from heft.systems.encoders import EncoderQuantizer
 from heft.systems.gravity_compensation import GravityCompensation
 from heft.systems.load_dynamics import InertialParameters, inertia_matrix
 from heft.systems.operator_hand import OperatorHand
+from heft.systems.setpoint_filter import SetpointFilter
 from heft.systems.sensor_models import AccelerometerModel, ForceTorqueSensorModel
 from heft.systems.station_truth import (ContactWrenchAtSensor, ReactionWrench, SensorFrameKinematics,
                                        TrueNonContactWrench)
@@ -158,11 +158,11 @@ def _add_slave(builder: DiagramBuilder, scenario: Scenario):
     gravity.set_name("slave_gravity_feedforward")
     builder.Connect(state.get_output_port(0), gravity.get_input_port())
     builder.Connect(gravity.get_output_port(), plant.get_actuation_input_port(parts.arm))
-    interpolator = builder.AddSystem(StateInterpolatorWithDiscreteDerivative(
-        6, scenario.controller_period, suppress_initial_transient=True))
-    interpolator.set_name("slave_command_interpolator")
-    builder.Connect(interpolator.get_output_port(), plant.get_desired_state_input_port(parts.arm))
-    builder.ExportInput(interpolator.get_input_port(), "slave.position_commanded")
+    setpoints = builder.AddSystem(SetpointFilter(
+        scenario.slave_initial_q, scenario.slave_setpoint_bandwidth, scenario.plant_time_step))
+    setpoints.set_name("slave_setpoint_filter")
+    builder.Connect(setpoints.get_output_port(), plant.get_desired_state_input_port(parts.arm))
+    builder.ExportInput(setpoints.get_input_port(), "slave.position_commanded")
 
     encoders = builder.AddSystem(EncoderQuantizer(6, scenario.encoder_counts_per_rev))
     encoders.set_name("slave_encoders")

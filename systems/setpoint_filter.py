@@ -1,0 +1,51 @@
+"""A robot controller's setpoint conditioning: joint commands arriving at the
+controller rate pass a critically damped second-order filter before the joint
+servo, which then gets a smooth [q; q̇] instead of steps (quantised master
+motion would otherwise hit the stiff servo as velocity spikes)."""
+
+import numpy as np
+from pydrake.systems.framework import EventStatus, LeafSystem
+from scipy.linalg import expm
+
+
+def critically_damped_step_matrices(bandwidth_hz: float, period: float):
+    """Exact zero-order-hold discretisation (A_d, B_d) of q̈ = ω²(u − q) − 2ωq̇ for one joint,
+    state [q; q̇], ω = 2π·bandwidth (rad/s)."""
+    w = 2 * np.pi * bandwidth_hz
+    continuous = np.array([[0.0, 1.0, 0.0], [-w * w, -2 * w, w * w], [0.0, 0.0, 0.0]])
+    step = expm(continuous * period)
+    return step[:2, :2], step[:2, 2]
+
+
+class SetpointFilter(LeafSystem):
+    """Input ``position`` (n, rad) → output ``state`` [q_f; q̇_f] (2n), updated every ``period`` s.
+
+    Critically damped with the given bandwidth (Hz): unity static gain, no overshoot.
+    Starts at rest at the first input (initialization event); until then (e.g. while other
+    systems' initialization events read it) at rest at ``initial_position``. Output is
+    state: no feedthrough.
+    """
+
+    def __init__(self, initial_position, bandwidth_hz: float, period: float):
+        super().__init__()
+        if not (bandwidth_hz > 0 and period > 0):
+            raise ValueError(f"bandwidth_hz and period must be > 0; got {bandwidth_hz}, {period}")
+        A, B = critically_damped_step_matrices(bandwidth_hz, period)
+        # The same 2×2 filter on every joint, applied to the (2, n) array [q_f; q̇_f].
+        self._A, self._B = A, B[:, None]
+        initial_position = np.asarray(initial_position, dtype=float)
+        size = self._size = initial_position.size
+        self._input = self.DeclareVectorInputPort("position", size)
+        self._state = self.DeclareDiscreteState(np.concatenate((initial_position, np.zeros(size))))
+        self.DeclareInitializationDiscreteUpdateEvent(self._start)
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
+        self.DeclareStateOutputPort("state", self._state)
+
+    def _start(self, context, discrete_state):
+        discrete_state.set_value(self._state, np.concatenate((self._input.Eval(context), np.zeros(self._size))))
+        return EventStatus.Succeeded()
+
+    def _update(self, context, discrete_state):
+        x = context.get_discrete_state(self._state).get_value().reshape(2, self._size)
+        u = self._input.Eval(context)
+        discrete_state.set_value(self._state, (self._A @ x + self._B * u).ravel())
