@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from importlib.metadata import version
+from pathlib import Path
 
 import numpy as np
 
@@ -46,6 +48,39 @@ def _bench_regressor(args) -> int:
     return 0
 
 
+def _simulate(args) -> int:
+    from heft.diagrams.simulate import read_load_estimate, resolve_scenario, simulate, with_overrides
+
+    scenario = with_overrides(resolve_scenario(args.scenario), gamma=args.gamma, eta=args.eta,
+                              noise=None if args.noise is None else args.noise == "on", duration=args.duration)
+    out = Path(args.out or f"out/{Path(args.scenario).stem}")
+    estimate = args.estimate or scenario.controller.load_estimate
+    if estimate:
+        load = read_load_estimate(estimate)
+        print(f"load estimate from {estimate}")
+    else:
+        from heft.diagrams.identify import identify_in_simulation
+        print("no load estimate given: identifying the load in simulation first (Sec. IV)")
+        load = identify_in_simulation(scenario, out / "identify")
+    sigmas = [args.sigma] if args.sigma is not None else scenario.controller.sigmas
+    metrics = simulate(scenario, load, out, sigmas, name=Path(args.scenario).stem)
+    print(json.dumps(metrics, indent=2))
+    print(f"wrote {out}/log.npz, metrics.json, figure.png")
+    return 0
+
+
+def _identify(args) -> int:
+    from heft.diagrams.identify import identify
+    from heft.diagrams.simulate import resolve_scenario
+    from heft.systems.excitation import ExcitationSettings
+
+    scenario = resolve_scenario(args.scenario)
+    settings = ExcitationSettings.quick() if args.quick else ExcitationSettings()
+    identify(scenario, args.out, method=args.method, signals=args.signals, settings=settings, periods=args.periods)
+    print(f"wrote {args.out}/estimate.yaml, metrics.json, convergence.png")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="heft",
@@ -58,6 +93,30 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("--seed", type=int, default=0, help="random load and motion (default 0)")
     check.add_argument("--duration", type=float, default=2.0, help="simulated seconds (default 2)")
     check.set_defaults(run=_check)
+
+    simulate = commands.add_parser("simulate", help="replay one of the paper's experiments (fig6, fig7, fig8) "
+                                                    "or a scenario file in the simulated station")
+    simulate.add_argument("scenario", help="fig6 | fig7 | fig8 | path to a scenario YAML")
+    simulate.add_argument("--sigma", type=float, help="σ: non-contact scale (default: the scenario's set)")
+    simulate.add_argument("--gamma", type=float, help="γ: contact scale")
+    simulate.add_argument("--eta", type=float, help="η: share of the gripped object's non-contact wrench kept")
+    simulate.add_argument("--noise", choices=("on", "off"), help="sensor noise, offsets, drift, quantisation")
+    simulate.add_argument("--duration", type=float, help="simulated seconds")
+    simulate.add_argument("--estimate", help="estimate.yaml from `heft identify` (default: identify first)")
+    simulate.add_argument("--out", help="output folder (default out/SCENARIO)")
+    simulate.set_defaults(run=_simulate)
+
+    identify = commands.add_parser("identify", help="identify the load's inertial parameters and the sensor "
+                                                    "offsets from an excitation motion (Sec. IV)")
+    identify.add_argument("--scenario", required=True, help="fig6 | fig7 | fig8 | path to a scenario YAML")
+    identify.add_argument("--out", required=True, help="output folder")
+    identify.add_argument("--method", default="tls", choices=("ols", "wls", "tls", "rls", "riv", "rtls"),
+                          help="the estimate written to estimate.yaml (all are reported; default tls)")
+    identify.add_argument("--signals", default="accelerometer", choices=("accelerometer", "encoders"),
+                          help="where a and α come from (ω and g always from the encoders)")
+    identify.add_argument("--periods", type=int, default=1, help="excitation periods recorded (default 1)")
+    identify.add_argument("--quick", action="store_true", help="a short, quickly optimised excitation")
+    identify.set_defaults(run=_identify)
 
     bench = commands.add_parser("bench", help="benchmarks, each printed beside a reference measured in the same run")
     benches = bench.add_subparsers(dest="bench", metavar="BENCH", required=True)

@@ -85,7 +85,9 @@ class ControllerSpec:
 
 @dataclasses.dataclass
 class Scenario:
-    """One simulated station and run."""
+    """One simulated station and run. ``experiment`` names which of the paper's
+    experiments it replays ("fig6", "fig7", "fig8"), choosing metrics and figure; "" for none."""
+    experiment: str = ""
     robot: str = "rx90"                     # "rx90" or "rx60"
     slave_initial_q: list[float] = dataclasses.field(
         default_factory=lambda: [0.0, 0.5, 1.8, 0.0, 0.84, 0.0])  # rad
@@ -110,6 +112,10 @@ class Scenario:
         def need(ok, field, what):
             if not ok:
                 raise ValueError(f"scenario field '{field}' {what}")
+        need(self.experiment in ("", "fig6", "fig7", "fig8"), "experiment",
+             f"must be '', 'fig6', 'fig7' or 'fig8', not {self.experiment!r}")
+        need(len(self.controller.sigmas) >= 1 and min(self.controller.sigmas) >= 0, "controller.sigmas",
+             "needs at least one σ >= 0")
         need(self.robot in ("rx90", "rx60"), "robot", f"must be 'rx90' or 'rx60', not {self.robot!r}")
         need(len(self.slave_initial_q) == 6, "slave_initial_q", "needs 6 joint angles (rad)")
         need(len(self.master_initial_q) == 6, "master_initial_q", "needs 6 joint angles (rad)")

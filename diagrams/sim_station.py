@@ -12,7 +12,7 @@ import dataclasses
 import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
-from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
+from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, MultibodyPlant, MultibodyPlantConfig
 from pydrake.multibody.tree import (FixedOffsetFrame, JointActuatorIndex, PdControllerGains, PrismaticJoint, PrismaticSpring,
                                    RotationalInertia, SpatialInertia)
 from pydrake.geometry import AddContactMaterial, Box, ProximityProperties
@@ -36,6 +36,8 @@ GRAVITY_W = np.array([0.0, 0.0, -9.81])
 CONTACT_STIFFNESS = 2e5
 # Phantom Premium 1.5 nominal position resolution ≈ 0.03 mm at ≈ 0.2 m links → ≈ 1.5e-4 rad.
 MASTER_ENCODER_COUNTS_PER_REV = 4.2e4
+# Ball tip sliding on the steel sheet: steel on steel, lightly oiled (≈ 0.1–0.2; dry ≈ 0.5).
+PLATE_FRICTION = 0.2
 
 
 @dataclasses.dataclass
@@ -105,7 +107,8 @@ def _add_sheet_spring(plant: MultibodyPlant, spec) -> PrismaticJoint:
     plant.AddForceElement(PrismaticSpring(joint, nominal_position=-spec.plate_mass * GRAVITY_W[2] / spec.stiffness,
                                           stiffness=spec.stiffness))
     properties = ProximityProperties()
-    AddContactMaterial(dissipation=0.0, point_stiffness=CONTACT_STIFFNESS, properties=properties)
+    AddContactMaterial(dissipation=0.0, point_stiffness=CONTACT_STIFFNESS,
+                       friction=CoulombFriction(PLATE_FRICTION, PLATE_FRICTION), properties=properties)
     plant.RegisterCollisionGeometry(plate, RigidTransform(), Box(*size), "plate", properties)
     plant.RegisterVisualGeometry(plate, RigidTransform(), Box(*size), "plate", [0.6, 0.6, 0.65, 1.0])
     return joint

@@ -1,0 +1,112 @@
+"""`heft simulate`: the paper's experiments (Sec. VI) in the simulated station.
+
+One closed-loop run per σ; each writes a log, and the set gives metrics.json and
+the paper-style figure (analysis/figures.py).
+"""
+
+import dataclasses
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+from pydrake.systems.analysis import Simulator
+
+from heft.analysis.experiment_metrics import experiment_metrics
+from heft.analysis.figures import paper_figure
+from heft.diagrams.progress import ProgressBar
+from heft.diagrams.scenario import Scenario, load_scenario
+from heft.diagrams.teleop import LoadEstimate, MakeTeleopSimulation
+
+SCENARIO_DIR = Path(__file__).resolve().parent / "scenarios"
+
+
+def resolve_scenario(name_or_path: str) -> Scenario:
+    """A bundled scenario by name (fig6, fig7, fig8, …) or a YAML file by path."""
+    path = Path(name_or_path)
+    if not path.suffix:
+        path = SCENARIO_DIR / f"{name_or_path}.yaml"
+        if not path.is_file():
+            bundled = sorted(p.stem for p in SCENARIO_DIR.glob("*.yaml"))
+            raise ValueError(f"no bundled scenario {name_or_path!r}; bundled: {', '.join(bundled)}")
+    return load_scenario(path)
+
+
+def read_load_estimate(path) -> LoadEstimate:
+    """φ̂ and offsets from an estimate.yaml written by ``heft identify``."""
+    path = Path(path)
+    try:
+        data = yaml.safe_load(path.read_text())
+        phi, offsets = np.asarray(data["phi"], dtype=float), np.asarray(data["offsets"], dtype=float)
+    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError) as error:
+        raise ValueError(f"cannot read a load estimate from {path}: {error}; "
+                         "write one with `heft identify --scenario FILE --out DIR`") from None
+    if phi.shape != (10,) or offsets.shape != (6,) or not (np.isfinite(phi).all() and np.isfinite(offsets).all()):
+        raise ValueError(f"{path}: 'phi' needs 10 and 'offsets' 6 finite numbers")
+    return LoadEstimate(phi=phi, offsets=offsets)
+
+
+def run_teleop(scenario: Scenario, load: LoadEstimate, sigma: float, label: str = "") -> dict:
+    """Simulates ``scenario.duration`` s of the closed loop with σ = ``sigma``; returns the
+    log arrays (names as the README's log.npz) and the achieved real-time factor."""
+    diagram, loggers = MakeTeleopSimulation(scenario, load, sigma=sigma)
+    simulator = Simulator(diagram)
+    simulator.Initialize()
+    context = simulator.get_context()
+    progress = ProgressBar(scenario.duration, label or f"σ = {sigma:g}")
+    start = time.perf_counter()
+    chunk = 0.05
+    t = 0.0
+    while t < scenario.duration:
+        t = min(t + chunk, scenario.duration)
+        simulator.AdvanceTo(t)
+        progress.update(t)
+    wall = time.perf_counter() - start
+    progress.close()
+    logs = {key: logger.FindLog(context) for key, logger in loggers.items()}
+    station = diagram.GetSubsystemByName("station")
+    phi_true = station.GetOutputPort("truth.phi").Eval(station.GetMyContextFromRoot(context))
+    data = {key: log.data().T.copy() for key, log in logs.items()}
+    data["t"] = logs["wrench_measured"].sample_times().copy()
+    data["master_force"] = data.pop("master_wrench")
+    data["phi_true"] = np.asarray(phi_true).copy()
+    data["phi_hat"] = np.asarray(load.phi, dtype=float)
+    data["offsets_hat"] = np.asarray(load.offsets, dtype=float)
+    data["sigma"] = np.array(sigma)
+    data["realtime_factor"] = np.array(scenario.duration / wall)
+    return data
+
+
+def simulate(scenario: Scenario, load: LoadEstimate, out_dir, sigmas, name: str) -> dict:
+    """Runs every σ, writes log.npz (the first σ) and log_sigma<σ>.npz (each), metrics.json
+    and figure.png into ``out_dir``; returns the metrics."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    runs = {}
+    for sigma in sigmas:
+        runs[sigma] = run_teleop(scenario, load, sigma)
+        np.savez_compressed(out / f"log_sigma{sigma:g}.npz", **runs[sigma])
+    np.savez_compressed(out / "log.npz", **runs[sigmas[0]])
+    metrics = experiment_metrics(scenario.experiment, runs, scenario.controller.feedback.force_scale)
+    metrics["realtime_factor"] = float(min(run["realtime_factor"] for run in runs.values()))
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    paper_figure(runs, scenario.experiment, out / "figure.png", title=name)
+    return metrics
+
+
+def with_overrides(scenario: Scenario, gamma=None, eta=None, noise=None, duration=None) -> Scenario:
+    """A copy of ``scenario`` with the command line's overrides applied."""
+    scenario = dataclasses.replace(scenario)
+    force = scenario.controller.force
+    if gamma is not None:
+        force = dataclasses.replace(force, gamma=gamma)
+    if eta is not None:
+        force = dataclasses.replace(force, eta=eta)
+    scenario.controller = dataclasses.replace(scenario.controller, force=force)
+    if noise is not None:
+        scenario.ft_sensor = dataclasses.replace(scenario.ft_sensor, noise=noise)
+        scenario.accelerometer = dataclasses.replace(scenario.accelerometer, noise=noise)
+    if duration is not None:
+        scenario.duration = duration
+    return scenario.validate()

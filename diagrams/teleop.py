@@ -1,0 +1,168 @@
+"""The bilateral teleoperation controller of Fig. 4 and its simulation.
+
+``MakeTeleopController`` knows nothing of the station: its inputs and outputs
+carry the station port names of DESIGN §3, so it connects unchanged to
+``MakeSimStation`` or to the hardware station. ``MakeTeleopSimulation`` wires it
+to the simulated station and logs what analysis needs.
+"""
+
+import dataclasses
+
+import numpy as np
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
+
+from heft.diagrams.models import model_path
+from heft.diagrams.scenario import ControllerSpec, Scenario
+from heft.diagrams.sim_station import AddArmWithSensor, MakeSimStation
+from heft.systems.feedback_mapping import FeedbackMapping
+from heft.systems.force_scaling import ForceScalingElimination
+from heft.systems.master_kinematics import MasterKinematics
+from heft.systems.motion_scaling import MotionScaling
+from heft.systems.passivity_controller import PassivityController
+from heft.systems.rx_inverse_kinematics import RxKinematics
+from heft.systems.slave_inverse_kinematics import SlaveInverseKinematics
+from heft.systems.slave_kinematics import SlaveKinematics
+
+STATION_OUTPUTS_READ = ("master.position_measured", "master.velocity_estimated", "slave.position_measured",
+                        "slave.velocity_estimated", "ft.wrench_measured", "ft.acceleration_measured")
+STATION_INPUTS_DRIVEN = ("master.torque_commanded", "slave.position_commanded")
+# Controller outputs logged for analysis (name → size).
+CONTROLLER_LOG = {"log.wrench_feedback": 6, "log.wrench_contact": 6, "log.wrench_noncontact": 6,
+                  "log.master_wrench": 6, "log.pose_RS_desired": 7, "log.passivity_energy": 2,
+                  "log.passivity_damping": 2, "log.ik_status": 2, "log.force_fault": 1, "log.scales": 3}
+
+
+@dataclasses.dataclass
+class LoadEstimate:
+    """The load model the controller uses: φ̂ (Eq. 6) and offsets [f_o; τ_o] (N, N·m)."""
+    phi: np.ndarray
+    offsets: np.ndarray
+
+
+def _slave_model(robot: str) -> MultibodyPlant:
+    """The controller's kinematic model of the slave: arm and wrist sensor (no load needed)."""
+    plant = MultibodyPlant(time_step=0.0)
+    AddArmWithSensor(plant, robot)
+    plant.Finalize()
+    return plant
+
+
+def _master_model() -> MultibodyPlant:
+    plant = MultibodyPlant(time_step=0.0)
+    (phantom,) = Parser(plant).AddModels(model_path("phantom_premium_6dof.urdf"))
+    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("phantom_base", phantom))
+    plant.Finalize()
+    return plant
+
+
+def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, period: float, slave_initial_q):
+    """The hardware-agnostic controller Diagram of Fig. 4 (DESIGN §3), ticking every ``period`` s.
+
+    Inputs: the station outputs ``STATION_OUTPUTS_READ``; ``clutch`` (1, > 0.5 engaged);
+    optional ``sigma``, ``gamma``, ``eta`` (1 each; unconnected → ``spec.force``'s values).
+    Outputs: ``master.torque_commanded`` (6, N·m), ``slave.position_commanded`` (6, rad),
+    and the ``CONTROLLER_LOG`` signals. The slave's tool frame T of the motion mapping is S.
+    """
+    builder = DiagramBuilder()
+    rate = {"period": period}
+    slave = _slave_model(robot)
+    master_kinematics = builder.AddNamedSystem("master_kinematics", MasterKinematics(_master_model()))
+    slave_kinematics = builder.AddNamedSystem(
+        "slave_kinematics", SlaveKinematics(slave, base_frame=f"{robot}_base", sensor_frame="S"))
+    motion = builder.AddNamedSystem("motion_scaling", MotionScaling(dataclasses.replace(spec.motion, **rate)))
+    kinematics = RxKinematics.rx90() if robot == "rx90" else RxKinematics.rx60()
+    X_FS = slave.GetFrameByName("S").CalcPose(slave.CreateDefaultContext(), slave.GetFrameByName("flange"))
+    ik = builder.AddNamedSystem("slave_ik", SlaveInverseKinematics(kinematics, X_FS, slave_initial_q, period))
+    force = builder.AddNamedSystem("force_scaling", ForceScalingElimination(dataclasses.replace(spec.force, **rate)))
+    feedback = builder.AddNamedSystem("feedback_mapping", FeedbackMapping(spec.feedback))
+    passivity = builder.AddNamedSystem("passivity", PassivityController(dataclasses.replace(spec.passivity, **rate)))
+    phi = builder.AddNamedSystem("phi_hat", ConstantVectorSource(np.asarray(load.phi, dtype=float)))
+    offsets = builder.AddNamedSystem("offsets_hat", ConstantVectorSource(np.asarray(load.offsets, dtype=float)))
+
+    def export_input(name, *ports):
+        builder.ExportInput(ports[0], name)
+        for port in ports[1:]:
+            builder.ConnectInput(name, port)
+
+    export_input("master.position_measured", master_kinematics.get_input_port())
+    export_input("master.velocity_estimated", passivity.GetInputPort("velocity"))
+    export_input("slave.position_measured", slave_kinematics.GetInputPort("position"),
+                 ik.GetInputPort("position_measured"))
+    export_input("slave.velocity_estimated", slave_kinematics.GetInputPort("velocity"))
+    export_input("ft.wrench_measured", force.GetInputPort("wrench"))
+    export_input("ft.acceleration_measured", force.GetInputPort("acceleration"))
+    export_input("clutch", motion.GetInputPort("clutch"))
+    for name in ("sigma", "gamma", "eta"):
+        export_input(name, force.GetInputPort(name))
+
+    connect = builder.Connect
+    connect(master_kinematics.GetOutputPort("pose_BE"), motion.GetInputPort("pose_BE"))
+    connect(slave_kinematics.GetOutputPort("pose_RS"), motion.GetInputPort("pose_RT_measured"))
+    connect(motion.GetOutputPort("pose_RT_desired"), ik.GetInputPort("pose_desired"))
+    connect(slave_kinematics.GetOutputPort("omega_S"), force.GetInputPort("omega"))
+    connect(slave_kinematics.GetOutputPort("gravity_S"), force.GetInputPort("gravity"))
+    connect(phi.get_output_port(), force.GetInputPort("phi"))
+    connect(offsets.get_output_port(), force.GetInputPort("offsets"))
+    connect(force.GetOutputPort("wrench_feedback"), feedback.GetInputPort("wrench_S"))
+    connect(slave_kinematics.GetOutputPort("pose_RS"), feedback.GetInputPort("pose_RS"))
+    connect(master_kinematics.GetOutputPort("jacobian"), feedback.GetInputPort("jacobian"))
+    connect(feedback.GetOutputPort("wrench_E"), passivity.GetInputPort("wrench"))
+    connect(master_kinematics.GetOutputPort("jacobian"), passivity.GetInputPort("jacobian"))
+
+    builder.ExportOutput(passivity.GetOutputPort("torque"), "master.torque_commanded")
+    builder.ExportOutput(ik.GetOutputPort("position_commanded"), "slave.position_commanded")
+    for name, port in (("log.wrench_feedback", force.GetOutputPort("wrench_feedback")),
+                       ("log.wrench_contact", force.GetOutputPort("wrench_contact")),
+                       ("log.wrench_noncontact", force.GetOutputPort("wrench_noncontact")),
+                       ("log.master_wrench", feedback.GetOutputPort("wrench_E")),
+                       ("log.pose_RS_desired", motion.GetOutputPort("pose_RT_desired")),
+                       ("log.passivity_energy", passivity.GetOutputPort("energy_observed")),
+                       ("log.passivity_damping", passivity.GetOutputPort("damping")),
+                       ("log.ik_status", ik.GetOutputPort("status")),
+                       ("log.force_fault", force.GetOutputPort("fault")),
+                       ("log.scales", force.GetOutputPort("scales"))):
+        builder.ExportOutput(port, name)
+    diagram = builder.Build()
+    diagram.set_name("teleop_controller")
+    return diagram
+
+
+# Station outputs logged by the simulation (name → log key).
+STATION_LOG = {"ft.wrench_measured": "wrench_measured", "ft.acceleration_measured": "accel_measured",
+               "truth.wrench_contact": "wrench_contact_true", "truth.wrench_noncontact": "wrench_noncontact_true",
+               "truth.acceleration": "accel_true", "truth.omega": "omega_true", "truth.gravity_S": "gravity_S",
+               "truth.ft_offsets": "offsets_true", "truth.slave_position": "slave_q",
+               "master.position_measured": "master_q", "master.velocity_estimated": "master_v",
+               "truth.ft_saturated": "ft_saturated"}
+
+
+def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, sigma: float | None = None):
+    """The controller closed around the simulated station, with loggers.
+
+    Returns (diagram, loggers) where loggers maps a log key to its VectorLogSink
+    (sampled every controller period). ``sigma`` overrides ``scenario.controller.force.sigma``.
+    """
+    spec = scenario.controller
+    if sigma is not None:
+        spec = dataclasses.replace(spec, force=dataclasses.replace(spec.force, sigma=sigma))
+    builder = DiagramBuilder()
+    station = builder.AddNamedSystem("station", MakeSimStation(scenario))
+    controller = builder.AddNamedSystem("controller", MakeTeleopController(
+        spec, load, scenario.robot, scenario.controller_period, scenario.slave_initial_q))
+    for name in STATION_OUTPUTS_READ:
+        builder.Connect(station.GetOutputPort(name), controller.GetInputPort(name))
+    for name in STATION_INPUTS_DRIVEN:
+        builder.Connect(controller.GetOutputPort(name), station.GetInputPort(name))
+    builder.Connect(builder.AddNamedSystem("clutch", ConstantVectorSource([1.0])).get_output_port(),
+                    controller.GetInputPort("clutch"))
+    period = scenario.controller_period
+    loggers = {key: LogVectorOutput(station.GetOutputPort(name), builder, period)
+               for name, key in STATION_LOG.items()}
+    for name in CONTROLLER_LOG:
+        loggers[name.removeprefix("log.")] = LogVectorOutput(controller.GetOutputPort(name), builder, period)
+    diagram = builder.Build()
+    diagram.set_name("teleop_simulation")
+    return diagram, loggers
