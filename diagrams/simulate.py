@@ -20,6 +20,9 @@ from heft.diagrams.scenario import Scenario, load_scenario
 from heft.diagrams.teleop import LoadEstimate, MakeTeleopSimulation
 
 SCENARIO_DIR = Path(__file__).resolve().parent / "scenarios"
+# Plant-truth logs, re-timed to the sensor sample they belong to (see run_teleop).
+SAMPLE_ALIGNED_TRUTH = ("wrench_contact_true", "wrench_noncontact_true", "accel_true", "omega_true", "gravity_S",
+                        "slave_q")
 
 
 def resolve_scenario(name_or_path: str) -> Scenario:
@@ -68,6 +71,11 @@ def run_teleop(scenario: Scenario, load: LoadEstimate, sigma: float, label: str 
     station = diagram.GetSubsystemByName("station")
     phi_true = station.GetOutputPort("truth.phi").Eval(station.GetMyContextFromRoot(context))
     data = {key: log.data().T.copy() for key, log in logs.items()}
+    # A logger publishes before the discrete updates of its instant, so at t_k it sees the
+    # sensor sample taken at t_{k−1} (and what the controller made of it) beside the plant's
+    # truth at t_k. Delay the truth by one sample: each row pairs a sample with its truth.
+    for key in SAMPLE_ALIGNED_TRUTH:
+        data[key] = np.concatenate((data[key][:1], data[key][:-1]))
     data["t"] = logs["wrench_measured"].sample_times().copy()
     data["master_force"] = data.pop("master_wrench")
     data["phi_true"] = np.asarray(phi_true).copy()
