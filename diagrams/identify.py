@@ -215,8 +215,8 @@ def identify(scenario: Scenario, out_dir, method: str = "tls", signals: str = "a
     return metrics
 
 
-def identify_in_simulation(scenario: Scenario, out_dir) -> LoadEstimate:
-    """Identifies the scenario's load (default method and settings) and returns the estimate."""
-    identify(scenario, out_dir)
+def identify_in_simulation(scenario: Scenario, out_dir, settings: ExcitationSettings | None = None) -> LoadEstimate:
+    """Identifies the scenario's load (default method) and returns the estimate."""
+    identify(scenario, out_dir, settings=settings)
     record = yaml.safe_load((Path(out_dir) / "estimate.yaml").read_text())
     return LoadEstimate(phi=np.asarray(record["phi"]), offsets=np.asarray(record["offsets"]))

@@ -1,0 +1,74 @@
+"""`heft identify` end to end on a short excitation, and its output files."""
+
+import json
+
+import numpy as np
+import pytest
+import yaml
+
+from heft.diagrams.identify import ALL_METHODS, identify
+from heft.diagrams.scenario import Scenario
+from heft.diagrams.simulate import read_load_estimate
+from heft.systems.excitation import ExcitationSettings
+
+
+def short_excitation() -> ExcitationSettings:
+    settings = ExcitationSettings.quick()
+    settings.base_frequency, settings.duration = 0.5, 2.0
+    return settings
+
+
+@pytest.fixture(scope="module")
+def identified(tmp_path_factory):
+    """A noisy 2 s excitation of the paper's tool, identified with every method."""
+    out = tmp_path_factory.mktemp("identify")
+    metrics = identify(Scenario(), out, method="tls", settings=short_excitation())
+    return out, metrics
+
+
+def test_every_method_recovers_the_tool(identified):
+    _, metrics = identified
+    assert set(metrics["errors"]) == set(ALL_METHODS)
+    phi_true = np.array(metrics["phi_true"])
+    assert phi_true[0] == pytest.approx(3.13)
+    for method in ("tls", "riv", "rtls"):  # the errors-in-variables methods
+        errors = metrics["errors"][method]
+        assert errors["mass_kg"] < 0.005 and errors["com_m"] < 0.001 and errors["inertia_relative"] < 0.03
+    # The accelerometer's own bias (0.1 m/s² class) times the mass is not separable from the
+    # FT force offsets: the offset error is that size, not the noise level.
+    assert metrics["errors"]["tls"]["force_offsets_N"] < 0.6
+
+
+def test_estimate_file_is_what_the_controller_loads(identified):
+    out, metrics = identified
+    record = yaml.safe_load((out / "estimate.yaml").read_text())
+    assert record["method"] == "tls" and record["signals"] == "accelerometer"
+    assert all(record["identifiable"]) and not record["physical_violations"]
+    assert record["mass"] == pytest.approx(3.13, abs=0.005)
+    load = read_load_estimate(out / "estimate.yaml")
+    np.testing.assert_allclose(load.phi, record["phi"])
+    assert json.loads((out / "metrics.json").read_text())["samples"] == 4000
+    assert (out / "convergence.png").stat().st_size > 10_000
+
+
+def test_noise_free_identification_is_exact_to_the_encoder_resolution(tmp_path):
+    scenario = Scenario()
+    scenario.ft_sensor.noise = False
+    scenario.accelerometer.noise = False
+    metrics = identify(scenario, tmp_path, method="ols", settings=short_excitation())
+    errors = metrics["errors"]["ols"]
+    assert errors["mass_kg"] < 5e-4 and errors["inertia_relative"] < 5e-3 and errors["force_offsets_N"] < 0.01
+
+
+def test_bad_estimate_file_says_what_to_do(tmp_path):
+    path = tmp_path / "estimate.yaml"
+    path.write_text("phi: [1, 2, 3]\noffsets: [0, 0, 0, 0, 0, 0]\n")
+    with pytest.raises(ValueError, match="'phi' needs 10"):
+        read_load_estimate(path)
+    with pytest.raises(ValueError, match="heft identify"):
+        read_load_estimate(tmp_path / "missing.yaml")
+
+
+def test_unknown_method_is_rejected(tmp_path):
+    with pytest.raises(ValueError, match="method must be one of"):
+        identify(Scenario(), tmp_path, method="magic")
