@@ -41,3 +41,38 @@ def test_bench_regressor_prints_both_sides(capsys):
     assert main(["bench", "regressor", "--batch", "1000"]) == 0
     out = capsys.readouterr().out
     assert "one sample (µs)" in out and "Drake/heft" in out
+
+
+def test_simulate_writes_the_log_metrics_and_figure(tmp_path):
+    import json
+
+    import numpy as np
+    import yaml
+
+    from heft.diagrams.simulate import resolve_scenario
+    from heft.diagrams.sim_station import MakeSimStation
+
+    station = MakeSimStation(resolve_scenario("fig6"))
+    phi = station.GetOutputPort("truth.phi").Eval(station.CreateDefaultContext())
+    estimate = tmp_path / "estimate.yaml"
+    estimate.write_text(yaml.safe_dump({"phi": np.asarray(phi).tolist(), "offsets": [2.0, -1.5, 3.0, 0.04, -0.03, 0.02]}))
+    out = tmp_path / "run"
+    assert main(["simulate", "fig6", "--sigma", "0", "--duration", "0.1", "--estimate", str(estimate),
+                 "--out", str(out)]) == 0
+    log = np.load(out / "log.npz")
+    n = len(log["t"])
+    assert n == 201
+    for key in ("wrench_measured", "wrench_feedback", "wrench_contact_true", "wrench_noncontact_true", "accel_true",
+                "master_force", "offsets_true"):
+        assert log[key].shape == (n, 6), key
+    for key in ("omega_true", "gravity_S"):
+        assert log[key].shape == (n, 3), key
+    assert log["phi_true"].shape == (10,)
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert {"noncontact_peak_N", "residual_peak_N", "residual_ratio", "realtime_factor"} <= set(metrics)
+    assert (out / "figure.png").stat().st_size > 10_000
+
+
+def test_simulate_rejects_an_unknown_scenario():
+    result = run_heft("simulate", "fig9")
+    assert result.returncode != 0 and "bundled: fig6, fig7, fig8" in result.stderr
