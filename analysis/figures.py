@@ -4,7 +4,6 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
 
 from heft.analysis.experiment_metrics import plotted_axis  # noqa: E402
 
@@ -33,4 +32,3 @@ def paper_figure(runs: dict, experiment: str, path, title: str = ""):
     figure.tight_layout()
     figure.savefig(path, dpi=120)
     plt.close(figure)
-    return np.asarray(panels)

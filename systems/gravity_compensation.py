@@ -1,9 +1,9 @@
 """Gravity feed-forward of a robot's own controller, from its model of arm + payload."""
 
-import numpy as np
-from pydrake.common.value import AbstractValue
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.systems.framework import LeafSystem, ValueProducer
+from pydrake.systems.framework import LeafSystem
+
+from heft.systems.scratch_context import declare_plant_scratch
 
 
 class GravityCompensation(LeafSystem):
@@ -17,16 +17,11 @@ class GravityCompensation(LeafSystem):
         self._plant = plant
         n = plant.num_positions()
         self._position = self.DeclareVectorInputPort("position", n)
-        # The scratch plant context lives in the cache: every context of this system has its own.
-        self._scratch = self.DeclareCacheEntry(
-            "plant_context",
-            ValueProducer(allocate=lambda: AbstractValue.Make(plant.CreateDefaultContext()),
-                          calc=lambda context, value: None),
-            prerequisites_of_calc={self.nothing_ticket()})
+        self._scratch = declare_plant_scratch(self, plant)
         self.DeclareVectorOutputPort("torque", n, self._calc, prerequisites_of_calc={
             self._position.ticket()})
 
     def _calc(self, context, output):
-        scratch = self._scratch.get_mutable_cache_entry_value(context).GetMutableValueOrThrow()
+        scratch = self._scratch(context)
         self._plant.SetPositions(scratch, self._position.Eval(context))
         output.SetFromVector(-self._plant.CalcGravityGeneralizedForces(scratch))

@@ -11,14 +11,14 @@ from __future__ import annotations
 import os
 
 import numpy as np
-from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import Frame, JacobianWrtVariable
-from pydrake.systems.framework import Context, LeafSystem, ValueProducer
+from pydrake.systems.framework import Context, LeafSystem
 
 from heft.systems.pose_vectors import POSE_SIZE, pose_vector
+from heft.systems.scratch_context import declare_plant_scratch
 
 NUM_JOINTS = 6
 JACOBIAN_SIZE = 6 * NUM_JOINTS
@@ -78,12 +78,7 @@ class MasterKinematics(LeafSystem):
         self._B = plant.GetFrameByName(BASE_FRAME)
         self._E = plant.GetFrameByName(STYLUS_FRAME)
         self._position = self.DeclareVectorInputPort("position", NUM_JOINTS)
-        # The scratch plant context lives in the cache: every context of this system has its own.
-        self._scratch = self.DeclareCacheEntry(
-            "plant_context",
-            ValueProducer(allocate=lambda: AbstractValue.Make(plant.CreateDefaultContext()),
-                          calc=lambda context, value: None),
-            prerequisites_of_calc={self.nothing_ticket()})
+        self._scratch = declare_plant_scratch(self, plant)
         if period is None:
             inputs = {self._position.ticket()}
             self.DeclareVectorOutputPort("pose_BE", POSE_SIZE, self._calc_pose, prerequisites_of_calc=inputs)
@@ -101,7 +96,7 @@ class MasterKinematics(LeafSystem):
 
     def _scratch_at_input(self, context) -> Context:
         """The scratch plant context, with q_M from the input port."""
-        scratch = self._scratch.get_mutable_cache_entry_value(context).GetMutableValueOrThrow()
+        scratch = self._scratch(context)
         self._plant.SetPositions(scratch, self._position.Eval(context))
         return scratch
 
@@ -113,7 +108,7 @@ class MasterKinematics(LeafSystem):
         output.SetFromVector(stylus_jacobian(self._plant, self._scratch_at_input(context), self._B, self._E).ravel())
 
     def _sample(self, context, discrete_state):
-        scratch = self._scratch.get_mutable_cache_entry_value(context).GetMutableValueOrThrow()
+        scratch = self._scratch(context)
         X_BE, J = pose_and_jacobian(self._plant, scratch, self._B, self._E, self._position.Eval(context))
         discrete_state.set_value(self._pose_state, pose_vector(X_BE))
         discrete_state.set_value(self._jacobian_state, J.ravel())

@@ -5,11 +5,11 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from pydrake.common.value import AbstractValue
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.systems.framework import Context, LeafSystem, ValueProducer
+from pydrake.systems.framework import Context, LeafSystem
 
 from heft.systems.pose_vectors import POSE_SIZE, pose_vector
+from heft.systems.scratch_context import declare_plant_scratch
 
 NUM_JOINTS = 6
 GRAVITY_R = (0.0, 0.0, -9.81)  # m/s², with the base R level (W = R)
@@ -44,12 +44,7 @@ class SlaveKinematics(LeafSystem):
         self._g_R = np.asarray(gravity_R, dtype=float).reshape(3)
         self._position = self.DeclareVectorInputPort("position", NUM_JOINTS)
         self._velocity = self.DeclareVectorInputPort("velocity", NUM_JOINTS)
-        # The scratch plant context lives in the cache: every context of this system has its own.
-        self._scratch = self.DeclareCacheEntry(
-            "plant_context",
-            ValueProducer(allocate=lambda: AbstractValue.Make(plant.CreateDefaultContext()),
-                          calc=lambda context, value: None),
-            prerequisites_of_calc={self.nothing_ticket()})
+        self._scratch = declare_plant_scratch(self, plant)
         position = {self._position.ticket()}
         self.DeclareVectorOutputPort("pose_RS", POSE_SIZE, self._calc_pose, prerequisites_of_calc=position)
         self.DeclareVectorOutputPort("omega_S", 3, self._calc_omega,
@@ -58,7 +53,7 @@ class SlaveKinematics(LeafSystem):
 
     def _scratch_at_position(self, context) -> Context:
         """The scratch plant context, with q_S from the input port."""
-        scratch = self._scratch.get_mutable_cache_entry_value(context).GetMutableValueOrThrow()
+        scratch = self._scratch(context)
         self._plant.SetPositions(scratch, self._arm, self._position.Eval(context))
         return scratch
 

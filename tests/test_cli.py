@@ -4,7 +4,6 @@ import subprocess
 import sys
 from importlib.metadata import entry_points, version
 
-import pytest
 
 from heft.diagrams.cli import main
 

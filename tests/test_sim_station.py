@@ -155,7 +155,6 @@ def test_contact_with_the_sheet_spring(sheet_spring):
     """Pressing the ball into the plate: the sensor reads V·φ plus the contact wrench,
     the contact force is vertical and equals the spring's k·deflection at rest."""
     run = sheet_spring
-    q0 = np.array(run.scenario.slave_initial_q)
     plant = run.station.GetSubsystemByName("slave_plant")
     plant_context = plant.GetMyContextFromRoot(run.context)
     slide = plant.GetJointByName("plate_slide")
