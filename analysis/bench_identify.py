@@ -19,7 +19,7 @@ import numpy as np
 
 from heft.systems.estimators import (
     METHODS, PARAMETER_NAMES, NoiseLevels, RecursiveInstrumentalVariables, RecursiveLeastSquares,
-    RecursiveTotalLeastSquares, batch_estimate)
+    RecursiveTotalLeastSquares, batch_estimate, feed)
 from heft.systems.load_dynamics import regressor_with_offsets
 
 RECURSIVE = {"rls": RecursiveLeastSquares, "riv": RecursiveInstrumentalVariables, "rtls": RecursiveTotalLeastSquares}
@@ -40,12 +40,8 @@ def _estimate(method, wrench, signals, instruments, noise):
         result = batch_estimate(wrench, a, alpha, omega, g, method=method, noise=noise)
         return np.concatenate((result.offsets, result.phi))
     estimator = RECURSIVE[method](noise=noise)
-    for k in range(len(wrench)):
-        sample = (wrench[k], a[k], alpha[k], omega[k], g[k])
-        if method == "riv":
-            estimator.update(*sample, instrument=tuple(x[k] for x in instruments))
-        else:
-            estimator.update(*sample)
+    for _ in feed(estimator, wrench, a, alpha, omega, g, instruments):
+        pass
     return np.concatenate((estimator.offsets, estimator.phi))
 
 
@@ -75,13 +71,10 @@ def update_costs(wrench, a, alpha, omega, g, noise: NoiseLevels, samples: int = 
     n = min(samples, len(wrench))
     for method, cls in RECURSIVE.items():
         estimator = cls(noise=noise)
+        signals = (x[:n] for x in (wrench, a, alpha, omega, g))
         start = time.perf_counter()
-        for k in range(n):
-            sample = (wrench[k], a[k], alpha[k], omega[k], g[k])
-            if method == "riv":
-                estimator.update(*sample, instrument=(a[k], alpha[k], omega[k], g[k]))
-            else:
-                estimator.update(*sample)
+        for _ in feed(estimator, *signals, instruments=(a[:n], alpha[:n], omega[:n], g[:n])):
+            pass
         costs[method] = (time.perf_counter() - start) / n
     for method in METHODS:
         start = time.perf_counter()

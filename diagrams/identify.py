@@ -26,7 +26,7 @@ from heft.diagrams.sim_station import AddSlave, MakeSimStation
 from heft.diagrams.teleop import LoadEstimate
 from heft.systems.estimators import (
     METHODS, NoiseLevels, RecursiveInstrumentalVariables, RecursiveLeastSquares, RecursiveTotalLeastSquares,
-    batch_estimate)
+    batch_estimate, feed)
 from heft.systems.load_dynamics import InertialParameters
 from heft.systems.excitation import ExcitationSettings, JointLimits, SensorFrameMotion, optimize_excitation
 from heft.systems.periodic_differentiation import differentiate_periodic
@@ -146,16 +146,11 @@ def estimate_all(wrench, signals, instruments, noise: NoiseLevels):
     progress = ProgressBar(len(wrench) * len(recursive), "recursive estimators")
     for done, (method, estimator) in enumerate(recursive.items()):
         steps, thetas = [], []
-        for k in range(len(wrench)):
-            sample = (wrench[k], a[k], alpha[k], omega[k], g[k])
-            if method == "riv":
-                estimator.update(*sample, instrument=tuple(x[k] for x in instruments))
-            else:
-                estimator.update(*sample)
-            if (k + 1) % HISTORY_STRIDE == 0:
-                steps.append(k + 1)
+        for taken in feed(estimator, wrench, a, alpha, omega, g, instruments):
+            if taken % HISTORY_STRIDE == 0:
+                steps.append(taken)
                 thetas.append(np.concatenate((estimator.offsets, estimator.phi)))
-                progress.update(done * len(wrench) + k + 1)
+                progress.update(done * len(wrench) + taken)
         results[method], histories[method] = estimator, (np.array(steps), np.array(thetas))
     progress.close()
     return results, histories

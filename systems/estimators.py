@@ -914,12 +914,21 @@ class RecursiveTotalLeastSquares(_RecursiveEstimator):
 
     Each update does one step of inverse iteration warm-started from the previous estimate
     (cf. Davila, IEEE Trans. Signal Process. 1994, who tracks the same eigenvector
-    recursively): x = (C + P)⁻¹ N v, v ← −x/x_y, solved by Cholesky (LAPACK posv).
-    P = κ·[E φ̂]ᵀ N_V [E φ̂] (κ = ``prior_weight``) is a pseudo-measurement "φ = φ̂ (previous)"
-    worth κ units of noise: it vanishes on v at the fixed point (so it does not bias the
-    result), keeps C + P positive definite, and lifts directions the data do not excite to
-    eigenvalues ≈ κ, far above the solution's ≈ 1, so the iteration never locks onto an
-    unexcited direction. The offsets follow as the per-axis means of y − Vφ.
+    recursively), shifted by κ = ``prior_weight`` units of noise: x = (C + κN)⁻¹ N v,
+    v ← −x/x_y, solved by Cholesky (LAPACK posv). Equivalently, C is augmented by the
+    pseudo-measurement "the direction of v is v̂ (previous)" worth κ units of noise,
+    P = κ(N − N v̂ v̂ᵀN / v̂ᵀN v̂), which vanishes on v̂ and lifts every direction N-orthogonal
+    to it by κ (Sherman–Morrison: (C + P)⁻¹ N v̂ ∝ (C + κN)⁻¹ N v̂). C + κN is positive
+    definite whatever the data; the fixed points are exactly the pencil's eigenvectors, so
+    nothing is biased, and only the smallest one attracts: from any estimate, the other
+    components shrink relative to it by (μ₀ + κ)/(μⱼ + κ) per sample (μ the pencil's
+    eigenvalues), and a direction the data excite less than the solution (never, or below
+    the assumed noise) grows by at most 1 + μ₀/κ per sample. The pseudo-measurement must be
+    on the direction, not on φ: "φ = φ̂", κ·[E φ̂]ᵀN_V[E φ̂], weighs changes of v's scale by
+    κ(1 + φ̂ᵀN_Vφ̂/N_y) instead of κ, so an estimate once inflated along weakly excited
+    directions (as a start-up transient does when the kinematics are much cleaner than the
+    assumed noise) can no longer shrink back and runs away. The offsets follow as the
+    per-axis means of y − Vφ.
     """
 
     def __init__(self, offsets: bool = True, forgetting: float = 1.0, noise: NoiseLevels | None = None,
@@ -969,12 +978,12 @@ class RecursiveTotalLeastSquares(_RecursiveEstimator):
         phi = self._theta[-10:]
         H, rhs = self._H, self._rhs
         np.matmul(noise_v, phi, out=rhs[:10])                  # N_V φ
-        np.multiply(noise_v, self._kappa, out=H[:10, :10])
-        np.multiply(rhs[:10], self._kappa, out=H[:10, 10])
-        H[10, :10] = H[:10, 10]
-        H[10, 10] = H[:10, 10] @ phi
-        H += C
         rhs[10] = -6.0 * s                                     # N_y · (−1)
+        np.multiply(noise_v, self._kappa, out=H[:10, :10])     # H = C + κN
+        H[:10, 10] = 0.0
+        H[10, :10] = 0.0
+        H[10, 10] = 6.0 * s * self._kappa
+        H += C
         _, x, info = lapack.dposv(H, rhs)
         if info == 0 and abs(x[10]) > 1e-12 * np.abs(x).max():
             np.divide(x[:10], -x[10], out=phi)
@@ -1013,3 +1022,19 @@ class RecursiveTotalLeastSquares(_RecursiveEstimator):
         eigenvalue = max(v @ self._C @ v, 0.0) / (v[:10] @ noise_v @ v[:10] + 6.0 * self._weight[0])
         return _tls_covariance(self._axis_information(), variance, self._noise_axes, noise_v,
                                self._theta[-10:], self._weight[0], eigenvalue, basis)
+
+
+def feed(estimator, wrench, a, alpha, omega, g, instruments=None):
+    """Updates a recursive estimator with every sample of (N, 6)/(N, 3) arrays, yielding the
+    number of samples taken so far after each. ``instruments`` (a, α, ω, g arrays) are
+    required by, and only passed to, RecursiveInstrumentalVariables."""
+    needs_instruments = isinstance(estimator, RecursiveInstrumentalVariables)
+    if needs_instruments and instruments is None:
+        raise ValueError("RecursiveInstrumentalVariables needs instruments (a, alpha, omega, g)")
+    for k in range(len(wrench)):
+        if needs_instruments:
+            estimator.update(wrench[k], a[k], alpha[k], omega[k], g[k],
+                             instrument=tuple(x[k] for x in instruments))
+        else:
+            estimator.update(wrench[k], a[k], alpha[k], omega[k], g[k])
+        yield k + 1

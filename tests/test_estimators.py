@@ -242,6 +242,36 @@ def test_rtls_tracks_the_batch_tls_solution(errors_in_variables):
     np.testing.assert_allclose(np.sqrt(np.diag(rtls.covariance)), tls.std, rtol=0.05)
 
 
+@pytest.mark.parametrize("seed", [2, 4, 5])
+def test_rtls_recovers_from_a_start_up_transient_when_the_kinematics_are_cleaner_than_assumed(seed):
+    """a and α as differentiated encoders give them: exact but for a start-up transient (10×
+    the assumed noise, decaying in 0.1 s), then far cleaner than the default noise levels
+    assumed. The transient drives the early estimate out along directions the data excite
+    below one noise unit; RTLS must still end at the batch TLS solution. (A pseudo-measurement
+    "φ = φ̂" in φ's coordinates froze the scale of such an inflated estimate: it ran away, to
+    ~10⁴ batch standard deviations.)"""
+    rng = np.random.default_rng(seed)
+    phi, bias = random_load_and_offsets(rng)
+    n = 4000
+    t = np.arange(n) * 5e-4
+    ramp = np.minimum(t, 1.0)[:, None]                       # from rest to full motion in 1 s
+    a, alpha, omega = ramp * multisine(rng, t, 2.0), ramp * multisine(rng, t, 4.0), ramp * multisine(rng, t, 1.5)
+    tilt = ramp * multisine(rng, t, 0.5)
+    g = np.column_stack((tilt[:, 0], tilt[:, 1], np.ones(n)))
+    g *= 9.81 / np.linalg.norm(g, axis=1)[:, None]
+    wrench = regressor(a, alpha, omega, g) @ phi + bias + rng.normal(size=(n, 6)) * WRENCH_NOISE
+    noise = NoiseLevels()
+    transient = 10.0 * np.exp(-t / 0.1)[:, None]
+    measured = (a + transient * noise.linear_acceleration * multisine(rng, t, 1.0),
+                alpha + transient * noise.angular_acceleration * multisine(rng, t, 1.0), omega, g)
+    tls = batch_estimate(wrench, *measured, method="tls", noise=noise)
+    assert abs(tls.phi[0] - phi[0]) < 0.01 * phi[0]
+    rtls = RecursiveTotalLeastSquares(noise=noise)
+    feed(rtls, wrench, *measured)
+    assert np.all(np.abs(rtls.phi - tls.phi) < 0.5 * tls.std[6:])
+    assert np.all(np.abs(rtls.offsets - tls.offsets) < 0.5 * tls.std[:6])
+
+
 # --- identifiability -----------------------------------------------------------------
 
 @pytest.mark.parametrize("method", ["ols", "wls", "tls"])
@@ -481,3 +511,15 @@ def test_recursive_update_rejects_bad_samples_and_keeps_its_state():
         RecursiveTotalLeastSquares(prior_weight=0.5)
     with pytest.raises(ValueError, match="noise.torque"):
         NoiseLevels(torque=0.0)
+
+
+def test_feed_runs_every_sample_and_requires_instruments_for_riv():
+    from heft.systems.estimators import feed
+    rng = np.random.default_rng(11)
+    signals = [rng.normal(size=(50, 3)) for _ in range(4)]
+    wrench = rng.normal(size=(50, 6))
+    estimator = RecursiveLeastSquares()
+    assert list(feed(estimator, wrench, *signals)) == list(range(1, 51))
+    assert estimator.num_samples == 50
+    with pytest.raises(ValueError, match="needs instruments"):
+        next(feed(RecursiveInstrumentalVariables(), wrench, *signals))
