@@ -54,8 +54,7 @@ class EnvironmentSpec:
 @dataclasses.dataclass
 class OperatorSpec:
     """The simulated operator's hand: an impedance pulling the stylus tip along
-    ``reference`` (a sum of sines about the start pose, in B). Hand numbers from
-    Defaults are estimates of a relaxed grip on a stylus, inside the ranges reported for
+    ``reference`` (smooth sines about the start pose, in B). Defaults are estimates of a relaxed grip on a stylus, inside the ranges reported for
     the human hand/wrist holding a haptic device (Kuchenbecker, Park & Niemeyer, Haptics
     Symposium 2003: some 100s of N/m, a few N·s/m, a few 100 g) and the arm's endpoint
     stiffness rising with co-contraction (Hogan, IEEE T-AC 1985)."""
