@@ -54,10 +54,11 @@ class EnvironmentSpec:
 @dataclasses.dataclass
 class OperatorSpec:
     """The simulated operator's hand: an impedance pulling the stylus tip along
-    ``reference`` (smooth sines about the start pose, in B). Defaults are estimates of a relaxed grip on a stylus, inside the ranges reported for
-    the human hand/wrist holding a haptic device (Kuchenbecker, Park & Niemeyer, Haptics
-    Symposium 2003: some 100s of N/m, a few N·s/m, a few 100 g) and the arm's endpoint
-    stiffness rising with co-contraction (Hogan, IEEE T-AC 1985)."""
+    ``reference`` (smooth sines about the start pose, in B). Defaults are estimates of a
+    relaxed grip on a stylus, inside the ranges reported for the hand/wrist holding a haptic
+    device (Kuchenbecker, Park & Niemeyer, Haptics Symposium 2003: some 100s of N/m, a few
+    N·s/m, a few 100 g); the arm's endpoint stiffness rises with co-contraction (Hogan,
+    IEEE T-AC 1985)."""
     hand_mass: float = 0.3                  # kg, added at the stylus
     stiffness: float = 300.0                # N/m
     damping: float = 8.0                    # N·s/m
