@@ -62,8 +62,8 @@ class OperatorSpec:
     hand_mass: float = 0.3                  # kg, added at the stylus
     stiffness: float = 300.0                # N/m
     damping: float = 8.0                    # N·s/m
-    rotational_stiffness: float = 1.0       # N·m/rad
-    rotational_damping: float = 0.02        # N·m·s/rad
+    rotational_stiffness: float = 2.0       # N·m/rad
+    rotational_damping: float = 0.1         # N·m·s/rad: with 0.02, σ = 1 torque feedback limit-cycles
     amplitude: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.03])  # m, in B
     frequency: float = 1.0                  # Hz
     rotation_amplitude: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])  # rad

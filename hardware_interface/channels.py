@@ -1,0 +1,45 @@
+"""LCM channel names and nominal rates of the lab hardware (DESIGN §5, §6).
+
+Message types: the master uses ``heft_haptic_state`` / ``heft_haptic_command``
+and the wrist sensor ``heft_ft_sample`` (``heft.hardware_interface.lcmtypes``).
+The slave arm reuses Drake's ``lcmt_iiwa_status`` / ``lcmt_iiwa_command``:
+their arrays are sized by ``num_joints`` (6 for the RX90/RX60), they carry
+measured and commanded position, estimated velocity and torques, and Drake's
+``IiwaStatusReceiver`` / ``IiwaCommandSender`` take ``num_joints``. Only the
+name says "iiwa".
+"""
+
+import dataclasses
+
+
+@dataclasses.dataclass
+class LcmChannel:
+    """One channel: its name and the rate its publisher nominally runs at (Hz)."""
+
+    name: str
+    rate: float
+
+
+@dataclasses.dataclass
+class LcmChannels:
+    """Every channel between heft and the lab; loadable with ``yaml_load_typed``.
+
+    ``lcm_url`` defaults to UDP multicast that cannot leave the machine (ttl=0).
+    """
+
+    lcm_url: str = "udpm://239.255.76.67:7667?ttl=0"
+    master_state: LcmChannel = dataclasses.field(
+        default_factory=lambda: LcmChannel("HEFT_MASTER_STATE", 2000.0))
+    """heft_haptic_state from the Phantom driver (haptic loop above 2 kHz)."""
+    master_command: LcmChannel = dataclasses.field(
+        default_factory=lambda: LcmChannel("HEFT_MASTER_COMMAND", 2000.0))
+    """heft_haptic_command from the controller (controller rate)."""
+    slave_status: LcmChannel = dataclasses.field(
+        default_factory=lambda: LcmChannel("HEFT_SLAVE_STATUS", 2000.0))
+    """lcmt_iiwa_status from the arm driver."""
+    slave_command: LcmChannel = dataclasses.field(
+        default_factory=lambda: LcmChannel("HEFT_SLAVE_COMMAND", 2000.0))
+    """lcmt_iiwa_command from the controller (controller rate)."""
+    ft_sample: LcmChannel = dataclasses.field(
+        default_factory=lambda: LcmChannel("HEFT_FT_SAMPLE", 8000.0))
+    """heft_ft_sample from the JR3 driver (the paper samples up to 8 kHz)."""

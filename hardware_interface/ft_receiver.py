@@ -1,0 +1,119 @@
+"""The wrist sensor's LCM samples → ``ft.wrench_measured``, ``ft.acceleration_measured``.
+
+The one place where the sensor's sign becomes DESIGN §4's: a JR3 reports the
+wrench the load exerts on it; heft's ports carry the wrench the sensor exerts
+on the load, [f; τ] at S, in S (N, N·m).
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.lcm import DrakeLcmInterface
+from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
+from pydrake.systems.lcm import LcmSubscriberSystem
+
+from .lcmtypes import heft_ft_sample
+
+STATUS_FIELDS = ("stale", "non_finite", "saturated", "error", "age", "dropped")
+"""Entries of the ``status`` output: 0/1 flags, then the age of the held sample
+(s; inf before the first good one) and the count of out-of-order samples dropped."""
+
+# Bookkeeping state: the last accepted (counter, utime), the last pair seen on
+# the input, diagram time of the last good sample, flags of the last accepted
+# sample, dropped count.
+_LAST_COUNTER, _LAST_UTIME, _SEEN_COUNTER, _SEEN_UTIME, _T_GOOD, _NON_FINITE, _SATURATED, _ERROR, _DROPPED = range(9)
+_BOOK_INITIAL = (-1.0, 0.0, -1.0, 0.0, -math.inf, 0.0, 0.0, 0.0, 0.0)
+
+
+@dataclasses.dataclass
+class FtReceiverParams:
+    """Sampling of the receiver; loadable with ``yaml_load_typed``."""
+
+    period: float = 1.0 / 2000.0
+    """Update period (s); the controller's rate."""
+    stale_after: float = 0.005
+    """The held sample is stale when older than this (s, diagram time)."""
+
+
+class FtSampleReceiver(LeafSystem):
+    """Samples the latest ``heft_ft_sample`` every ``period`` and holds it.
+
+    A sample is accepted when both ``sample_counter`` and ``utime`` exceed the
+    last accepted ones; one with ``utime`` ≤ 0 is "no sample yet". The same
+    sample seen again (the subscriber holds its last message, and a duplicate
+    is indistinguishable from it) changes nothing; any other sample that does
+    not advance both is dropped and counted. An accepted sample that is
+    non-finite, saturated on any axis or flagged ``error`` is not passed on:
+    the outputs hold the last good sample and ``status`` flags it until the
+    next good one. Outputs are state, so the system has no direct feedthrough.
+
+    .. pydrake_system::
+
+        name: FtSampleReceiver
+        input_ports:
+        - ft_sample
+        output_ports:
+        - wrench_measured
+        - acceleration_measured
+        - status
+    """
+
+    def __init__(self, params: FtReceiverParams | None = None):
+        super().__init__()
+        self._params = params or FtReceiverParams()
+        self._input = self.DeclareAbstractInputPort("ft_sample", AbstractValue.Make(heft_ft_sample()))
+        self._wrench = self.DeclareDiscreteState(6)
+        self._acceleration = self.DeclareDiscreteState(6)
+        self._book = self.DeclareDiscreteState(BasicVector(np.array(_BOOK_INITIAL)))
+        self.DeclareStateOutputPort("wrench_measured", self._wrench)
+        self.DeclareStateOutputPort("acceleration_measured", self._acceleration)
+        self.DeclareVectorOutputPort("status", len(STATUS_FIELDS), self._calc_status,
+                                     prerequisites_of_calc={self.time_ticket(), self.xd_ticket()})
+        self.DeclarePeriodicDiscreteUpdateEvent(self._params.period, 0.0, self._update)
+
+    def _update(self, context, discrete_state):
+        sample = self._input.Eval(context)
+        counter, utime = float(sample.sample_counter), float(sample.utime)
+        book = discrete_state.get_mutable_vector(self._book).get_mutable_value()
+        if utime <= 0.0 or (counter == book[_SEEN_COUNTER] and utime == book[_SEEN_UTIME]):
+            return
+        book[_SEEN_COUNTER], book[_SEEN_UTIME] = counter, utime
+        if counter <= book[_LAST_COUNTER] or utime <= book[_LAST_UTIME]:
+            book[_DROPPED] += 1.0
+            return
+        book[_LAST_COUNTER], book[_LAST_UTIME] = counter, utime
+        wrench_sensor = np.asarray(sample.wrench, dtype=float)
+        acceleration = np.asarray(sample.acceleration, dtype=float)
+        non_finite = not (np.all(np.isfinite(wrench_sensor)) and np.all(np.isfinite(acceleration)))
+        saturated = sample.saturated != 0
+        error = bool(sample.error)
+        book[_NON_FINITE], book[_SATURATED], book[_ERROR] = non_finite, saturated, error
+        if non_finite or saturated or error:
+            return
+        book[_T_GOOD] = context.get_time()
+        # The sign flip of DESIGN §4: sensor-on-load = −(load-on-sensor).
+        discrete_state.get_mutable_vector(self._wrench).SetFromVector(-wrench_sensor)
+        discrete_state.get_mutable_vector(self._acceleration).SetFromVector(acceleration)
+
+    def _calc_status(self, context, output):
+        book = context.get_discrete_state(self._book).get_value()
+        age = context.get_time() - book[_T_GOOD]
+        output.SetFromVector([float(age > self._params.stale_after), book[_NON_FINITE], book[_SATURATED],
+                              book[_ERROR], age, book[_DROPPED]])
+
+
+def AddFtSampleReceiver(builder: DiagramBuilder, lcm: DrakeLcmInterface, channel: str,
+                        params: FtReceiverParams | None = None) -> FtSampleReceiver:
+    """Adds an ``LcmSubscriberSystem`` on ``channel`` feeding a new ``FtSampleReceiver``.
+
+    The subscriber never blocks ``Initialize()``; the receiver reports ``stale``
+    until the first good sample arrives.
+    """
+    subscriber = builder.AddNamedSystem("ft_subscriber", LcmSubscriberSystem.Make(
+        channel=channel, lcm_type=heft_ft_sample, lcm=lcm, use_cpp_serializer=False,
+        wait_for_message_on_initialization_timeout=0.0))
+    receiver = builder.AddNamedSystem("ft_receiver", FtSampleReceiver(params))
+    builder.Connect(subscriber.get_output_port(), receiver.get_input_port())
+    return receiver
