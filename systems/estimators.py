@@ -34,6 +34,7 @@ regressor *as measured*: a column excited only by accelerometer noise counts as 
 and least squares then biases it towards zero (errors in variables: use TLS or RIV).
 """
 
+import abc
 import copy
 import dataclasses
 import math
@@ -552,7 +553,7 @@ def _total_least_squares(V, wrench, omega, offsets, noise, rcond):
 
 # --- recursive estimation --------------------------------------------------------------
 
-class _RecursiveEstimator:
+class _RecursiveEstimator(abc.ABC):
     """Shared machinery of the recursive estimators: the whole state in one flat float vector
     (named views into it), preallocated work buffers, input checks, residual tracking."""
 
@@ -647,13 +648,14 @@ class _RecursiveEstimator:
         identifiable, basis, _ = self._excitation()
         return _mask_unidentifiable(self._covariance(basis), identifiable)
 
+    @abc.abstractmethod
     def _excitation(self):
         """(identifiable mask, basis (p, r) of the identified subspace, reciprocal condition,
         0 when some direction is unidentifiable)."""
-        raise NotImplementedError
 
+    @abc.abstractmethod
     def _covariance(self, basis: np.ndarray) -> np.ndarray | None:
-        raise NotImplementedError
+        """Covariance of the unknowns restricted to ``basis`` (None before enough samples)."""
 
     def _axis_error_variance(self) -> np.ndarray | None:
         """Row-weighted residual variance per wrench axis (≈ 1 where the noise model fits), or
