@@ -125,13 +125,13 @@ def kinematic_signals(scenario: Scenario, recording: Recording, base_frequency: 
 
 def noise_levels(scenario: Scenario) -> NoiseLevels:
     """The sensor model's RMS levels (its defaults when noise is off: they then only weight)."""
-    ft = scenario.ft_sensor.noise_rms if scenario.ft_sensor.noise else NoiseLevels().force * np.ones(6)
-    acc = scenario.accelerometer.noise_rms if scenario.accelerometer.noise else None
     defaults = NoiseLevels()
-    return NoiseLevels(force=float(max(ft[:3])), torque=float(max(ft[3:])) if scenario.ft_sensor.noise
-                       else defaults.torque,
-                       linear_acceleration=float(max(acc[:3])) if acc else defaults.linear_acceleration,
-                       angular_acceleration=float(max(acc[3:])) if acc else defaults.angular_acceleration)
+    ft, acc = scenario.ft_sensor, scenario.accelerometer
+    return NoiseLevels(
+        force=float(max(ft.noise_rms[:3])) if ft.noise else defaults.force,
+        torque=float(max(ft.noise_rms[3:])) if ft.noise else defaults.torque,
+        linear_acceleration=float(max(acc.noise_rms[:3])) if acc.noise else defaults.linear_acceleration,
+        angular_acceleration=float(max(acc.noise_rms[3:])) if acc.noise else defaults.angular_acceleration)
 
 
 def estimate_all(wrench, signals, instruments, noise: NoiseLevels):
