@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import sys
 from importlib.metadata import version
 from pathlib import Path
@@ -147,6 +148,44 @@ def _bench_identify(args) -> int:
     return 0
 
 
+def _stand_in(args) -> int:
+    from heft.diagrams.simulate import resolve_scenario
+    from heft.diagrams.stand_in import FaultInjection, run_stand_in
+    from heft.hardware_interface.channels import LcmChannels
+
+    scenario = resolve_scenario(args.scenario)
+    faults = FaultInjection(drop_rate=args.drop_rate, nan_rate=args.nan_rate,
+                            die_at_s=math.inf if args.die_at is None else args.die_at, seed=args.seed)
+    channels = LcmChannels(lcm_url=args.lcm_url)
+    print(f"stand-in: {args.scenario} on {args.lcm_url} for {args.duration:g} s at real time", flush=True)
+    reached = run_stand_in(scenario, channels, args.lcm_url, args.duration, realtime_rate=1.0, faults=faults)
+    print(f"stand-in: stopped at t = {reached:g} s{' (died, as injected)' if reached < args.duration else ''}",
+          flush=True)
+    return 0
+
+
+def _teleop(args) -> int:
+    from heft.diagrams.hardware_teleop import format_summary, run_hardware_teleop
+    from heft.diagrams.simulate import read_load_estimate, resolve_scenario
+    from heft.diagrams.teleop import LoadEstimate
+
+    if not args.hardware:
+        raise ValueError("only --hardware is supported here; use `heft simulate` for the simulated station")
+    scenario = resolve_scenario(args.scenario)
+    estimate = args.estimate or scenario.controller.load_estimate
+    if estimate:
+        load = read_load_estimate(estimate)
+    else:
+        print("teleop: no load estimate given: φ̂ = 0, offsets 0 (nothing is eliminated)", flush=True)
+        load = LoadEstimate(phi=np.zeros(10), offsets=np.zeros(6))
+    print(f"teleop: controller on {args.lcm_url} for {args.duration:g} s at real time", flush=True)
+    summary = run_hardware_teleop(scenario, load, args.lcm_url, args.duration)
+    print(format_summary(summary), flush=True)
+    if args.out:
+        Path(args.out).write_text(json.dumps(summary, indent=2) + "\n")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="heft",
@@ -201,6 +240,26 @@ def build_parser() -> argparse.ArgumentParser:
     identification.add_argument("--methods", nargs="+", choices=("ols", "wls", "tls", "rls", "riv", "rtls"))
     identification.add_argument("--out", help="write every number as JSON here")
     identification.set_defaults(run=_bench_identify)
+
+    default_url = "udpm://239.255.76.67:7667?ttl=0"
+    stand_in = commands.add_parser("stand-in", help="the simulated lab behind the drivers' LCM channels, at real time")
+    stand_in.add_argument("--scenario", default="fig6", help="fig6 | fig7 | fig8 | path to a scenario YAML")
+    stand_in.add_argument("--lcm-url", default=default_url, help=f"LCM URL (default {default_url})")
+    stand_in.add_argument("--duration", type=float, default=10.0, help="seconds (default 10)")
+    stand_in.add_argument("--drop-rate", type=float, default=0.0, help="probability a message is lost")
+    stand_in.add_argument("--nan-rate", type=float, default=0.0, help="probability an FT sample is NaN")
+    stand_in.add_argument("--die-at", type=float, help="stop publishing and exit at this time (s)")
+    stand_in.add_argument("--seed", type=int, default=0, help="fault seed (default 0)")
+    stand_in.set_defaults(run=_stand_in)
+
+    teleop = commands.add_parser("teleop", help="the teleoperation controller on the lab's LCM channels")
+    teleop.add_argument("--hardware", action="store_true", help="run against the lab's LCM channels (required)")
+    teleop.add_argument("--scenario", default="fig6", help="controller settings from this scenario (default fig6)")
+    teleop.add_argument("--lcm-url", default=default_url, help=f"LCM URL (default {default_url})")
+    teleop.add_argument("--estimate", help="estimate.yaml from `heft identify` (default: φ̂ = 0)")
+    teleop.add_argument("--duration", type=float, default=10.0, help="seconds (default 10)")
+    teleop.add_argument("--out", help="also write the summary as JSON here")
+    teleop.set_defaults(run=_teleop)
     return parser
 
 

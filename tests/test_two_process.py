@@ -1,0 +1,123 @@
+"""`heft stand-in` and `heft teleop --hardware` as two processes over LCM UDP multicast.
+
+Both run inside a network namespace this test creates (only its own `lo`, with
+the multicast route on it) on ``udpm://239.255.76.67:7667?ttl=0``, so no packet
+can leave the machine (DESIGN §5). Needs root and `ip`; skipped otherwise.
+Timing asserts are generous: on a loaded 2-core machine both processes run
+slower than real time.
+"""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+import uuid
+
+import pytest
+
+pytestmark = pytest.mark.slow
+
+LCM_URL = "udpm://239.255.76.67:7667?ttl=0"
+STARTUP_TIMEOUT = 60.0
+RUN_TIMEOUT = 120.0
+
+
+def _ip(*args, check=True):
+    return subprocess.run(["ip", *args], capture_output=True, text=True, timeout=10, check=check)
+
+
+@pytest.fixture
+def netns():
+    """A fresh network namespace with `lo` up and multicast routed to it; always deleted."""
+    if shutil.which("ip") is None:
+        pytest.skip("needs the `ip` tool (iproute2) to create a network namespace")
+    if os.geteuid() != 0:
+        pytest.skip("needs root to create a network namespace (`ip netns add`)")
+    name = f"heft_test_{uuid.uuid4().hex[:8]}"
+    created = _ip("netns", "add", name, check=False)
+    if created.returncode != 0:
+        pytest.skip(f"cannot create a network namespace: {created.stderr.strip()}")
+    try:
+        _ip("netns", "exec", name, "ip", "link", "set", "lo", "up")
+        _ip("netns", "exec", name, "ip", "route", "add", "224.0.0.0/4", "dev", "lo")
+        yield name
+    finally:
+        _ip("netns", "del", name, check=False)
+
+
+class _Process:
+    """A `heft` subcommand inside the namespace; output to a file in ``folder``."""
+
+    def __init__(self, ns, folder, label, *args):
+        self.log = folder / f"{label}.log"
+        env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONUNBUFFERED="1")
+        with open(self.log, "w") as out:
+            self.popen = subprocess.Popen(
+                ["ip", "netns", "exec", ns, sys.executable, "-m", "heft.diagrams.cli", *args],
+                stdout=out, stderr=subprocess.STDOUT, cwd=folder, env=env)
+
+    def text(self) -> str:
+        return self.log.read_text()
+
+    def wait_for(self, marker: str, timeout: float = STARTUP_TIMEOUT):
+        deadline = time.monotonic() + timeout
+        while marker not in self.text():
+            assert self.popen.poll() is None, f"exited early:\n{self.text()}"
+            assert time.monotonic() < deadline, f"no {marker!r} within {timeout} s:\n{self.text()}"
+            time.sleep(0.05)
+
+    def wait(self, timeout: float = RUN_TIMEOUT) -> int:
+        return self.popen.wait(timeout=timeout)
+
+    def stop(self):
+        if self.popen.poll() is None:
+            self.popen.terminate()
+            try:
+                self.popen.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self.popen.kill()
+                self.popen.wait()
+
+
+def _run(netns, folder, teleop_duration, stand_in_args):
+    """Starts the controller, then (once it is building) the stand-in; returns the
+    controller's JSON summary and both outputs."""
+    out = folder / "teleop.json"
+    teleop = _Process(netns, folder, "teleop", "teleop", "--hardware", "--lcm-url", LCM_URL,
+                      "--duration", str(teleop_duration), "--out", str(out))
+    stand_in = None
+    try:
+        teleop.wait_for("teleop: controller on")
+        stand_in = _Process(netns, folder, "stand_in", "stand-in", "--scenario", "fig6", "--lcm-url", LCM_URL,
+                            *stand_in_args)
+        assert teleop.wait() == 0, teleop.text()
+        return json.loads(out.read_text()), teleop, stand_in
+    finally:
+        for process in (teleop, stand_in):
+            if process is not None:
+                process.stop()
+
+
+def test_controller_runs_against_the_stand_in(netns, tmp_path):
+    summary, teleop, stand_in = _run(netns, tmp_path, 3.0, ["--duration", "1000"])
+    print(teleop.text())
+    assert summary["fresh_ticks"] > 0, "no fresh data on every channel"
+    assert summary["first_healthy"] is not None, "the watchdog never became healthy"
+    assert summary["healthy_ticks"] > 0.2 * summary["ticks"], teleop.text()
+    assert summary["master_torque_finite"]
+    assert summary["timing"]["achieved_rate_hz"] > 50  # generous: a loaded 2-core machine
+
+
+def test_controller_goes_safe_when_the_stand_in_dies(netns, tmp_path):
+    summary, teleop, stand_in = _run(netns, tmp_path, 4.0, ["--duration", "1000", "--die-at", "1.0"])
+    print(teleop.text())
+    assert stand_in.wait(timeout=10) == 0 and "died" in stand_in.text(), stand_in.text()
+    assert summary["first_healthy"] is not None, "the watchdog never became healthy"
+    assert summary["fault_onset"] is not None, "no fault after the stand-in died"
+    assert not summary["final_healthy"] and summary["final_fault"] != 0
+    assert not summary["final_master_enable"], "master torque still enabled"
+    # Watchdog timeout 20 ms of controller time; allow far more.
+    assert summary["fault_onset"] - summary["last_fresh"] < 0.5
+    assert summary["master_torque_finite"]
