@@ -19,10 +19,9 @@ import numpy as np
 from pydrake.lcm import DrakeLcm
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource
 
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.teleop import STATION_INPUTS_DRIVEN, STATION_OUTPUTS_READ, LoadEstimate, MakeTeleopController
+from heft.diagrams.teleop import ConnectControllerToStation, LoadEstimate, MakeTeleopController
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import STATUS_FIELDS, HardwareStationParams, MakeHardwareStation
 
@@ -39,12 +38,7 @@ def MakeHardwareTeleop(scenario: Scenario, load: LoadEstimate, lcm_url: str):
         channels, DrakeLcm(lcm_url), HardwareStationParams(period=period)))
     controller = builder.AddNamedSystem("controller", MakeTeleopController(
         scenario.controller, load, scenario.robot, period, scenario.slave_initial_q))
-    for name in STATION_OUTPUTS_READ:
-        builder.Connect(station.GetOutputPort(name), controller.GetInputPort(name))
-    for name in STATION_INPUTS_DRIVEN:
-        builder.Connect(controller.GetOutputPort(name), station.GetInputPort(name))
-    builder.Connect(builder.AddNamedSystem("clutch", ConstantVectorSource([1.0])).get_output_port(),
-                    controller.GetInputPort("clutch"))
+    ConnectControllerToStation(builder, controller, station)
     diagram = builder.Build()
     diagram.set_name("hardware_teleop")
     return diagram, station

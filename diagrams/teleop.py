@@ -139,6 +139,16 @@ STATION_LOG = {"ft.wrench_measured": "wrench_measured", "ft.acceleration_measure
                "truth.ft_saturated": "ft_saturated"}
 
 
+def ConnectControllerToStation(builder: DiagramBuilder, controller, station):
+    """Closes the loop by port name (either station kind) and holds the clutch engaged."""
+    for name in STATION_OUTPUTS_READ:
+        builder.Connect(station.GetOutputPort(name), controller.GetInputPort(name))
+    for name in STATION_INPUTS_DRIVEN:
+        builder.Connect(controller.GetOutputPort(name), station.GetInputPort(name))
+    builder.Connect(builder.AddNamedSystem("clutch", ConstantVectorSource([1.0])).get_output_port(),
+                    controller.GetInputPort("clutch"))
+
+
 def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, sigma: float | None = None):
     """The controller closed around the simulated station, with loggers.
 
@@ -152,12 +162,7 @@ def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, sigma: float | 
     station = builder.AddNamedSystem("station", MakeSimStation(scenario))
     controller = builder.AddNamedSystem("controller", MakeTeleopController(
         spec, load, scenario.robot, scenario.controller_period, scenario.slave_initial_q))
-    for name in STATION_OUTPUTS_READ:
-        builder.Connect(station.GetOutputPort(name), controller.GetInputPort(name))
-    for name in STATION_INPUTS_DRIVEN:
-        builder.Connect(controller.GetOutputPort(name), station.GetInputPort(name))
-    builder.Connect(builder.AddNamedSystem("clutch", ConstantVectorSource([1.0])).get_output_port(),
-                    controller.GetInputPort("clutch"))
+    ConnectControllerToStation(builder, controller, station)
     period = scenario.controller_period
     loggers = {key: LogVectorOutput(station.GetOutputPort(name), builder, period)
                for name, key in STATION_LOG.items()}
