@@ -17,12 +17,12 @@ from drake import lcmt_iiwa_command, lcmt_iiwa_status
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.sim_station import MakeSimStation
 from heft.hardware_interface.channels import LcmChannels
+from heft.hardware_interface.lcm_mailbox import LcmMailbox
 from heft.hardware_interface.lcmtypes import (
     heft_ft_sample,
     heft_haptic_command,
     heft_haptic_state,
 )
-from pydrake.common.value import AbstractValue
 from pydrake.lcm import DrakeLcm, DrakeLcmInterface
 from pydrake.manipulation import IiwaCommandReceiver, IiwaControlMode
 from pydrake.systems.analysis import Simulator
@@ -176,19 +176,26 @@ class FtSamplePublisher(_DriverPublisher):
 
 
 class HapticCommandReceiver(LeafSystem):
-    """The Phantom driver's side of ``heft_haptic_command``: samples it every ``period`` s
-    and holds the torque (N·m) it applies; zero before the first command, while not
-    ``enable``, or when the message is malformed or non-finite (the driver rejects it)."""
+    """The Phantom driver's side of ``heft_haptic_command``: samples the latest in
+    ``mailbox`` every ``period`` s and holds the torque (N·m) it applies; zero before
+    the first command, while not ``enable``, or when the message is malformed or
+    non-finite (the driver rejects it)."""
 
-    def __init__(self, period: float):
+    def __init__(self, mailbox: LcmMailbox, period: float):
         super().__init__()
-        self._input = self.DeclareAbstractInputPort("haptic_command", AbstractValue.Make(heft_haptic_command()))
+        self._mailbox = mailbox
         self._torque = self.DeclareDiscreteState(NUM_JOINTS)
+        self._taken = self.DeclareDiscreteState(1)  # mailbox arrivals taken
         self.DeclareStateOutputPort("torque", self._torque)
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
 
     def _update(self, context, discrete_state):
-        msg = self._input.Eval(context)
+        taken = discrete_state.get_mutable_vector(self._taken)
+        payload = self._mailbox.newer_than(taken.GetAtIndex(0))
+        if payload is None:
+            return
+        taken.SetAtIndex(0, self._mailbox.count)
+        msg = heft_haptic_command.decode(payload)
         torque = np.asarray(msg.torque, dtype=float)
         ok = msg.enable and msg.num_joints == NUM_JOINTS and bool(np.all(np.isfinite(torque)))
         discrete_state.get_mutable_vector(self._torque).SetFromVector(torque if ok else np.zeros(NUM_JOINTS))
@@ -212,12 +219,8 @@ def MakeStandIn(scenario: Scenario, channels: LcmChannels, lcm: DrakeLcmInterfac
         port = station.get_output_port(i)
         builder.ExportOutput(port, f"sim.{port.get_name()}")
 
-    master_sub = builder.AddNamedSystem("master_command_subscriber", LcmSubscriberSystem.Make(
-        channel=channels.master_command.name, lcm_type=heft_haptic_command, lcm=bus, use_cpp_serializer=False,
-        wait_for_message_on_initialization_timeout=0.0))
-    master_command = builder.AddNamedSystem("master_command_receiver",
-                                            HapticCommandReceiver(1.0 / channels.master_command.rate))
-    builder.Connect(master_sub.get_output_port(), master_command.get_input_port())
+    master_command = builder.AddNamedSystem("master_command_receiver", HapticCommandReceiver(
+        LcmMailbox(lcm, channels.master_command.name), 1.0 / channels.master_command.rate))
     builder.Connect(master_command.get_output_port(), station.GetInputPort("master.torque_commanded"))
 
     slave_sub = builder.AddNamedSystem("slave_command_subscriber", LcmSubscriberSystem.Make(

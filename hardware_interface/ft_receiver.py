@@ -9,22 +9,22 @@ import dataclasses
 import math
 
 import numpy as np
-from pydrake.common.value import AbstractValue
 from pydrake.lcm import DrakeLcmInterface
 from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
-from pydrake.systems.lcm import LcmSubscriberSystem
 
+from .lcm_mailbox import LcmMailbox
 from .lcmtypes import heft_ft_sample
 
 STATUS_FIELDS = ("stale", "non_finite", "saturated", "error", "age", "dropped")
 """Entries of the ``status`` output: 0/1 flags, then the age of the held sample
 (s; inf before the first good one) and the count of out-of-order samples dropped."""
 
-# Bookkeeping state: the last accepted (counter, utime), the last pair seen on
-# the input, diagram time of the last good sample, flags of the last accepted
-# sample, dropped count.
-_LAST_COUNTER, _LAST_UTIME, _SEEN_COUNTER, _SEEN_UTIME, _T_GOOD, _NON_FINITE, _SATURATED, _ERROR, _DROPPED = range(9)
-_BOOK_INITIAL = (-1.0, 0.0, -1.0, 0.0, -math.inf, 0.0, 0.0, 0.0, 0.0)
+# Bookkeeping state: the last accepted (counter, utime), the last pair seen in
+# the mailbox, diagram time of the last good sample, flags of the last accepted
+# sample, dropped count, mailbox arrivals taken.
+(_LAST_COUNTER, _LAST_UTIME, _SEEN_COUNTER, _SEEN_UTIME, _T_GOOD, _NON_FINITE, _SATURATED, _ERROR, _DROPPED,
+ _TAKEN) = range(10)
+_BOOK_INITIAL = (-1.0, 0.0, -1.0, 0.0, -math.inf, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
 @dataclasses.dataclass
@@ -38,12 +38,12 @@ class FtReceiverParams:
 
 
 class FtSampleReceiver(LeafSystem):
-    """Samples the latest ``heft_ft_sample`` every ``period`` and holds it.
+    """Samples the latest ``heft_ft_sample`` in ``mailbox`` every ``period`` and holds it.
 
     A sample is accepted when both ``sample_counter`` and ``utime`` exceed the
     last accepted ones; one with ``utime`` ≤ 0 is "no sample yet". The same
-    sample seen again (the subscriber holds its last message, and a duplicate
-    is indistinguishable from it) changes nothing; any other sample that does
+    sample seen again (a duplicate is indistinguishable from a re-read) changes
+    nothing; any other sample that does
     not advance both is dropped and counted. An accepted sample that is
     non-finite, saturated on any axis or flagged ``error`` is not passed on:
     the outputs hold the last good sample and ``status`` flags it until the
@@ -52,18 +52,16 @@ class FtSampleReceiver(LeafSystem):
     .. pydrake_system::
 
         name: FtSampleReceiver
-        input_ports:
-        - ft_sample
         output_ports:
         - wrench_measured
         - acceleration_measured
         - status
     """
 
-    def __init__(self, params: FtReceiverParams | None = None):
+    def __init__(self, mailbox: LcmMailbox, params: FtReceiverParams | None = None):
         super().__init__()
         self._params = params or FtReceiverParams()
-        self._input = self.DeclareAbstractInputPort("ft_sample", AbstractValue.Make(heft_ft_sample()))
+        self._mailbox = mailbox
         self._wrench = self.DeclareDiscreteState(6)
         self._acceleration = self.DeclareDiscreteState(6)
         self._book = self.DeclareDiscreteState(BasicVector(np.array(_BOOK_INITIAL)))
@@ -74,9 +72,13 @@ class FtSampleReceiver(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(self._params.period, 0.0, self._update)
 
     def _update(self, context, discrete_state):
-        sample = self._input.Eval(context)
-        counter, utime = float(sample.sample_counter), float(sample.utime)
         book = discrete_state.get_mutable_vector(self._book).get_mutable_value()
+        payload = self._mailbox.newer_than(book[_TAKEN])
+        if payload is None:
+            return
+        book[_TAKEN] = self._mailbox.count
+        sample = heft_ft_sample.decode(payload)
+        counter, utime = float(sample.sample_counter), float(sample.utime)
         if utime <= 0.0 or (counter == book[_SEEN_COUNTER] and utime == book[_SEEN_UTIME]):
             return
         book[_SEEN_COUNTER], book[_SEEN_UTIME] = counter, utime
@@ -106,14 +108,7 @@ class FtSampleReceiver(LeafSystem):
 
 def AddFtSampleReceiver(builder: DiagramBuilder, lcm: DrakeLcmInterface, channel: str,
                         params: FtReceiverParams | None = None) -> FtSampleReceiver:
-    """Adds an ``LcmSubscriberSystem`` on ``channel`` feeding a new ``FtSampleReceiver``.
-
-    The subscriber never blocks ``Initialize()``; the receiver reports ``stale``
-    until the first good sample arrives.
-    """
-    subscriber = builder.AddNamedSystem("ft_subscriber", LcmSubscriberSystem.Make(
-        channel=channel, lcm_type=heft_ft_sample, lcm=lcm, use_cpp_serializer=False,
-        wait_for_message_on_initialization_timeout=0.0))
-    receiver = builder.AddNamedSystem("ft_receiver", FtSampleReceiver(params))
-    builder.Connect(subscriber.get_output_port(), receiver.get_input_port())
-    return receiver
+    """Adds a new ``FtSampleReceiver`` on ``channel`` of ``lcm`` (pumped by the diagram's
+    ``LcmInterfaceSystem``). It never blocks ``Initialize()`` and reports ``stale``
+    until the first good sample arrives."""
+    return builder.AddNamedSystem("ft_receiver", FtSampleReceiver(LcmMailbox(lcm, channel), params))

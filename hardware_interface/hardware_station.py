@@ -16,20 +16,16 @@ import math
 
 import numpy as np
 from drake import lcmt_iiwa_command, lcmt_iiwa_status
-from pydrake.common.value import AbstractValue
 from pydrake.lcm import DrakeLcm, DrakeLcmInterface
 from pydrake.manipulation import IiwaStatusReceiver
 from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
-from pydrake.systems.lcm import (
-    LcmInterfaceSystem,
-    LcmPublisherSystem,
-    LcmSubscriberSystem,
-)
+from pydrake.systems.lcm import LcmInterfaceSystem, LcmSubscriberSystem
 from pydrake.systems.primitives import Demultiplexer, Multiplexer
 
 from .channels import LcmChannels
 from .ft_receiver import STATUS_FIELDS as FT_STATUS_FIELDS
 from .ft_receiver import AddFtSampleReceiver, FtReceiverParams
+from .lcm_mailbox import LcmMailbox
 from .lcmtypes import heft_haptic_command, heft_haptic_state
 from .watchdog import Watchdog, WatchdogParams
 
@@ -60,7 +56,7 @@ def rate_limit(previous: np.ndarray, target: np.ndarray, max_step: np.ndarray) -
 
 
 class HapticStateReceiver(LeafSystem):
-    """Samples the latest ``heft_haptic_state`` every ``period`` s and holds it.
+    """Samples the latest ``heft_haptic_state`` in ``mailbox`` every ``period`` s and holds it.
 
     A message is accepted when its ``utime`` advances, it has ``num_joints``
     joints, finite values and no driver ``error``; otherwise the outputs hold
@@ -69,14 +65,14 @@ class HapticStateReceiver(LeafSystem):
     accepted message; inf before the first).
     """
 
-    def __init__(self, num_joints: int, period: float):
+    def __init__(self, mailbox: LcmMailbox, num_joints: int, period: float):
         super().__init__()
         self._n = num_joints
-        self._input = self.DeclareAbstractInputPort("haptic_state", AbstractValue.Make(heft_haptic_state()))
+        self._mailbox = mailbox
         self._position = self.DeclareDiscreteState(num_joints)
         self._velocity = self.DeclareDiscreteState(num_joints)
-        # Last accepted utime, diagram time of its acceptance.
-        self._book = self.DeclareDiscreteState(BasicVector([0.0, -math.inf]))
+        # Last accepted utime, diagram time of its acceptance, mailbox arrivals taken.
+        self._book = self.DeclareDiscreteState(BasicVector([0.0, -math.inf, 0.0]))
         self.DeclareStateOutputPort("position_measured", self._position)
         self.DeclareStateOutputPort("velocity_estimated", self._velocity)
         self.DeclareVectorOutputPort("age", 1, self._calc_age,
@@ -84,14 +80,18 @@ class HapticStateReceiver(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
 
     def _update(self, context, discrete_state):
-        msg = self._input.Eval(context)
         book = discrete_state.get_mutable_vector(self._book).get_mutable_value()
+        payload = self._mailbox.newer_than(book[2])
+        if payload is None:
+            return
+        book[2] = self._mailbox.count
+        msg = heft_haptic_state.decode(payload)
         if msg.utime <= book[0] or msg.num_joints != self._n or msg.error:
             return
         position, velocity = np.asarray(msg.position, dtype=float), np.asarray(msg.velocity, dtype=float)
         if not (np.all(np.isfinite(position)) and np.all(np.isfinite(velocity))):
             return
-        book[:] = msg.utime, context.get_time()
+        book[:2] = msg.utime, context.get_time()
         discrete_state.get_mutable_vector(self._position).SetFromVector(position)
         discrete_state.get_mutable_vector(self._velocity).SetFromVector(velocity)
 
@@ -185,24 +185,25 @@ class CommandGate(LeafSystem):
         book[1] = healthy
 
 
-class HapticCommandSender(LeafSystem):
-    """Vectors → ``heft_haptic_command``: ``torque`` (N·m), ``enable`` (> 0.5 on), utime from diagram time."""
+class HapticCommandPublisher(LeafSystem):
+    """Publishes ``torque`` (N·m) and ``enable`` (> 0.5 on) as ``heft_haptic_command`` on
+    ``channel`` every ``period`` s; utime from diagram time."""
 
-    def __init__(self, num_joints: int):
+    def __init__(self, num_joints: int, channel: str, lcm: DrakeLcmInterface, period: float):
         super().__init__()
-        self._n = num_joints
+        self._channel, self._lcm = channel, lcm
+        self._msg = heft_haptic_command()
+        self._msg.num_joints = num_joints
         self._torque = self.DeclareVectorInputPort("torque", num_joints)
         self._enable = self.DeclareVectorInputPort("enable", 1)
-        self.DeclareAbstractOutputPort("haptic_command", lambda: AbstractValue.Make(heft_haptic_command()),
-                                       self._calc)
+        self.DeclarePeriodicPublishEvent(period, 0.0, self._publish)
 
-    def _calc(self, context, output):
-        msg = heft_haptic_command()
+    def _publish(self, context):
+        msg = self._msg
         msg.utime = round(context.get_time() * 1e6)
-        msg.num_joints = self._n
         msg.torque = self._torque.Eval(context).tolist()
         msg.enable = bool(self._enable.Eval(context)[0] > 0.5)
-        output.set_value(msg)
+        self._lcm.Publish(self._channel, msg.encode(), context.get_time())
 
 
 class SlaveCommandPublisher(LeafSystem):
@@ -244,11 +245,8 @@ def MakeHardwareStation(channels: LcmChannels, lcm: DrakeLcmInterface | None = N
     lcm = DrakeLcm(channels.lcm_url) if lcm is None else lcm
     bus = builder.AddNamedSystem("lcm", LcmInterfaceSystem(lcm))
 
-    master_sub = builder.AddNamedSystem("master_subscriber", LcmSubscriberSystem.Make(
-        channel=channels.master_state.name, lcm_type=heft_haptic_state, lcm=bus, use_cpp_serializer=False,
-        wait_for_message_on_initialization_timeout=0.0))
-    master = builder.AddNamedSystem("master_receiver", HapticStateReceiver(NUM_JOINTS, period))
-    builder.Connect(master_sub.get_output_port(), master.get_input_port())
+    master = builder.AddNamedSystem("master_receiver", HapticStateReceiver(
+        LcmMailbox(lcm, channels.master_state.name), NUM_JOINTS, period))
     builder.ExportOutput(master.GetOutputPort("position_measured"), "master.position_measured")
     builder.ExportOutput(master.GetOutputPort("velocity_estimated"), "master.velocity_estimated")
 
@@ -263,7 +261,7 @@ def MakeHardwareStation(channels: LcmChannels, lcm: DrakeLcmInterface | None = N
     builder.ExportOutput(slave.GetOutputPort("position_measured"), "slave.position_measured")
     builder.ExportOutput(slave.GetOutputPort("velocity_estimated"), "slave.velocity_estimated")
 
-    ft = AddFtSampleReceiver(builder, bus, channels.ft_sample.name, FtReceiverParams(period=period))
+    ft = AddFtSampleReceiver(builder, lcm, channels.ft_sample.name, FtReceiverParams(period=period))
     builder.ExportOutput(ft.GetOutputPort("wrench_measured"), "ft.wrench_measured")
     builder.ExportOutput(ft.GetOutputPort("acceleration_measured"), "ft.acceleration_measured")
     ft_status = builder.AddNamedSystem("ft_status", Demultiplexer(len(FT_STATUS_FIELDS)))
@@ -289,13 +287,10 @@ def MakeHardwareStation(channels: LcmChannels, lcm: DrakeLcmInterface | None = N
     builder.Connect(watchdog.GetOutputPort("healthy"), gate.GetInputPort("healthy"))
     builder.Connect(watchdog.GetOutputPort("gain"), gate.GetInputPort("gain"))
 
-    master_sender = builder.AddNamedSystem("master_command_sender", HapticCommandSender(NUM_JOINTS))
-    builder.Connect(gate.GetOutputPort("torque"), master_sender.GetInputPort("torque"))
-    builder.Connect(gate.GetOutputPort("enable"), master_sender.GetInputPort("enable"))
-    master_pub = builder.AddNamedSystem("master_publisher", LcmPublisherSystem.Make(
-        channel=channels.master_command.name, lcm_type=heft_haptic_command, lcm=bus, publish_period=period,
-        use_cpp_serializer=False))
-    builder.Connect(master_sender.get_output_port(), master_pub.get_input_port())
+    master_pub = builder.AddNamedSystem("master_publisher", HapticCommandPublisher(
+        NUM_JOINTS, channels.master_command.name, lcm, period))
+    builder.Connect(gate.GetOutputPort("torque"), master_pub.GetInputPort("torque"))
+    builder.Connect(gate.GetOutputPort("enable"), master_pub.GetInputPort("enable"))
 
     slave_pub = builder.AddNamedSystem("slave_publisher", SlaveCommandPublisher(
         NUM_JOINTS, channels.slave_command.name, lcm, period))
