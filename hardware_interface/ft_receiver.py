@@ -13,6 +13,7 @@ from pydrake.lcm import DrakeLcmInterface
 from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
 
 from .lcm_mailbox import LcmMailbox
+from .message_order import restarted
 from .lcmtypes import heft_ft_sample
 
 STATUS_FIELDS = ("stale", "non_finite", "saturated", "error", "age", "dropped")
@@ -41,7 +42,8 @@ class FtSampleReceiver(LeafSystem):
     """Samples the latest ``heft_ft_sample`` in ``mailbox`` every ``period`` and holds it.
 
     A sample is accepted when both ``sample_counter`` and ``utime`` exceed the
-    last accepted ones; one with ``utime`` ≤ 0 is "no sample yet". The same
+    last accepted ones, or when ``utime`` is far older than the last accepted one
+    (the driver restarted: ``message_order``); one with ``utime`` ≤ 0 is "no sample yet". The same
     sample seen again (a duplicate is indistinguishable from a re-read) changes
     nothing; any other sample that does
     not advance both is dropped and counted. An accepted sample that is
@@ -82,7 +84,7 @@ class FtSampleReceiver(LeafSystem):
         if utime <= 0.0 or (counter == book[_SEEN_COUNTER] and utime == book[_SEEN_UTIME]):
             return
         book[_SEEN_COUNTER], book[_SEEN_UTIME] = counter, utime
-        if counter <= book[_LAST_COUNTER] or utime <= book[_LAST_UTIME]:
+        if not restarted(utime * 1e-6, book[_LAST_UTIME] * 1e-6) and (counter <= book[_LAST_COUNTER] or utime <= book[_LAST_UTIME]):
             book[_DROPPED] += 1.0
             return
         book[_LAST_COUNTER], book[_LAST_UTIME] = counter, utime

@@ -26,6 +26,7 @@ from .channels import LcmChannels
 from .ft_receiver import STATUS_FIELDS as FT_STATUS_FIELDS
 from .ft_receiver import AddFtSampleReceiver, FtReceiverParams
 from .lcm_mailbox import LcmMailbox
+from .message_order import stamp_accepted
 from .lcmtypes import heft_haptic_command, heft_haptic_state
 from .watchdog import Watchdog, WatchdogParams
 
@@ -58,7 +59,8 @@ def rate_limit(previous: np.ndarray, target: np.ndarray, max_step: np.ndarray) -
 class HapticStateReceiver(LeafSystem):
     """Samples the latest ``heft_haptic_state`` in ``mailbox`` every ``period`` s and holds it.
 
-    A message is accepted when its ``utime`` advances, it has ``num_joints``
+    A message is accepted when its ``utime`` advances (or its driver restarted:
+    ``message_order``), it has ``num_joints``
     joints, finite values and no driver ``error``; otherwise the outputs hold
     the last accepted one and its age keeps growing. Outputs: joint position
     (rad), velocity (rad/s) and ``age`` (s of diagram time since the last
@@ -86,7 +88,7 @@ class HapticStateReceiver(LeafSystem):
             return
         book[2] = self._mailbox.count
         msg = heft_haptic_state.decode(payload)
-        if msg.utime <= book[0] or msg.num_joints != self._n or msg.error:
+        if not stamp_accepted(msg.utime * 1e-6, book[0] * 1e-6) or msg.num_joints != self._n or msg.error:
             return
         position, velocity = np.asarray(msg.position, dtype=float), np.asarray(msg.velocity, dtype=float)
         if not (np.all(np.isfinite(position)) and np.all(np.isfinite(velocity))):
@@ -100,8 +102,8 @@ class HapticStateReceiver(LeafSystem):
 
 
 class StampAge(LeafSystem):
-    """Age (s of diagram time) of the last message whose device ``stamp`` (s) advanced
-    with finite ``values``; inf before the first. Samples every ``period`` s."""
+    """Age (s of diagram time) of the last message whose device ``stamp`` (s) advanced (or
+    whose driver restarted: ``message_order``) with finite ``values``; inf before the first. Samples every ``period`` s."""
 
     def __init__(self, size: int, period: float):
         super().__init__()
@@ -116,7 +118,7 @@ class StampAge(LeafSystem):
     def _update(self, context, discrete_state):
         stamp = self._stamp.Eval(context)[0]
         book = discrete_state.get_mutable_vector(self._book).get_mutable_value()
-        if stamp > book[0] and np.all(np.isfinite(self._values.Eval(context))):
+        if stamp_accepted(stamp, book[0]) and np.all(np.isfinite(self._values.Eval(context))):
             book[:] = stamp, context.get_time()
 
     def _calc_age(self, context, output):
@@ -130,9 +132,10 @@ class CommandGate(LeafSystem):
     while unhealthy or non-finite. Slave: ``ready`` turns 1 with the first slave
     status (``slave_age`` finite); until the station is first healthy the command
     follows ``slave_position_measured``; afterwards, while unhealthy it
-    holds the measured position latched at the fault's onset, and a non-finite
-    ``position_commanded`` holds the previous command; every change is limited to
-    ``velocity_limits`` · ``period`` (rad).
+    holds the measured position latched at the fault's onset, and on recovery the
+    command restarts from the measured position (a restarted arm driver may report
+    another one); a non-finite ``position_commanded`` holds the previous command;
+    every change is limited to ``velocity_limits`` · ``period`` (rad).
     """
 
     def __init__(self, num_joints: int, velocity_limits, period: float):
@@ -174,6 +177,8 @@ class CommandGate(LeafSystem):
                 position[:] = hold[:] = measured
                 discrete_state.get_mutable_vector(self._ready).SetAtIndex(0, 1.0)
         elif healthy:
+            if not book[1] and measured_ok:
+                position[:] = measured
             commanded = self._position_in.Eval(context)
             if np.all(np.isfinite(commanded)):
                 position[:] = rate_limit(position, commanded, self._max_step)

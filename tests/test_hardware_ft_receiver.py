@@ -123,6 +123,16 @@ def test_duplicate_and_out_of_order_dropped(rig):
     assert rig.status("dropped") == 2.0
 
 
+def test_restarted_sensor_driver_accepted(rig):
+    """Counter and clock from zero again, far behind the last sample: a restart, not a late packet."""
+    rig.send(900, 2_000_000)
+    rig.send(1, 1000, wrench=4 * RAW)
+    np.testing.assert_array_equal(rig.output("wrench_measured"), -4 * RAW)
+    rig.send(2, 2000, wrench=5 * RAW)
+    np.testing.assert_array_equal(rig.output("wrench_measured"), -5 * RAW)
+    assert rig.status("dropped") == 0.0
+
+
 def test_committed_lcm_types_are_regenerated_byte_for_byte(tmp_path):
     names = lcmtypes_regenerate.regenerate(tmp_path)
     committed = {p.name for p in lcmtypes_regenerate.HERE.glob("*.py")} - {"regenerate.py"}

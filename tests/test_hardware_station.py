@@ -64,17 +64,22 @@ class Rig:
         self.master_commands.clear()
         self.slave_commands.clear()
         self.tick = 0
+        self.driver_start = 0  # tick at which the drivers' clocks read zero
+
+    def restart_drivers(self):
+        """The drivers restart: their stamps and counters begin again from zero."""
+        self.driver_start = self.tick
 
     def command(self, torque, position):
         context = self.simulator.get_mutable_context()
         self.station.GetInputPort("master.torque_commanded").FixValue(context, np.asarray(torque, dtype=float))
         self.station.GetInputPort("slave.position_commanded").FixValue(context, np.asarray(position, dtype=float))
 
-    def run(self, duration, publish=ALL):
+    def run(self, duration, publish=ALL, q_slave=Q_SLAVE):
         """Plays the drivers named in ``publish`` once per period for ``duration`` s."""
         for _ in range(round(duration / PARAMS.period)):
             self.tick += 1
-            utime = 1000 * self.tick
+            utime = 1000 * (self.tick - self.driver_start)
             if "master" in publish:
                 msg = heft_haptic_state()
                 msg.utime, msg.num_joints = utime, 6
@@ -83,14 +88,14 @@ class Rig:
             if "slave" in publish:
                 msg = lcmt_iiwa_status()
                 msg.utime, msg.num_joints = utime, 6
-                msg.joint_position_measured = list(Q_SLAVE)
+                msg.joint_position_measured = list(q_slave)
                 for field in ("joint_velocity_estimated", "joint_position_commanded", "joint_position_ipo",
                               "joint_torque_measured", "joint_torque_commanded", "joint_torque_external"):
                     setattr(msg, field, [0.0] * 6)
                 self.lcm.Publish(CHANNELS.slave_status.name, msg.encode())
             if "ft" in publish:
                 msg = heft_ft_sample()
-                msg.utime, msg.sample_counter = utime, self.tick
+                msg.utime, msg.sample_counter = utime, self.tick - self.driver_start
                 msg.wrench, msg.acceleration = list(RAW), list(ACCEL)
                 self.lcm.Publish(CHANNELS.ft_sample.name, msg.encode())
             self.simulator.AdvanceTo(self.tick * PARAMS.period)
@@ -187,6 +192,34 @@ def test_stale_ft_faults_then_ramps_back_without_jump(rig):
     assert scale[0] == 0.0 and rig.status("fault") == 0.0
     assert np.all(np.diff(scale) >= -1e-12) and np.all(np.diff(scale) <= RAMP_STEP + 1e-12)
     assert 0.0 < scale[-1] < 1.0
+
+
+def test_restarted_drivers_recover_without_a_jump(rig):
+    """Every driver dies for 50 ms and comes back with its clock and counter from zero
+    (a late packet would be dropped; these are newer sessions) and the arm reporting
+    another position: the station recovers, the slave command restarts from the new
+    measured position (not where the old session held it) and moves on at most at
+    the speed limits, and master torque ramps in from 0."""
+    rig.run(1.0)
+    rig.run(0.05, publish=())
+    assert rig.status("healthy") == 0.0
+    rig.restart_drivers()
+    q_moved = Q_SLAVE + 0.2
+    rig.master_commands.clear()
+    rig.slave_commands.clear()
+    rig.run(0.3, q_slave=q_moved)
+    assert rig.status("healthy") == 1.0 and rig.status("fault") == 0.0
+    positions = rig.positions()
+    # The recovery tick restarts from the measured position and takes one limited step.
+    at_measured = np.flatnonzero(np.all(np.abs(positions - q_moved) <= MAX_STEP + 1e-12, axis=1))
+    assert at_measured.size, "the command never restarted from the measured position"
+    assert np.any(np.abs(positions[at_measured[0] - 1] - q_moved) > 0.1), "it was already there"
+    resumed = positions[at_measured[0]:]
+    assert np.all(np.abs(np.diff(resumed, axis=0)) <= MAX_STEP + 1e-12)
+    np.testing.assert_allclose(resumed[-1], Q_SLAVE + 0.5)
+    scale = rig.torques() @ TORQUE / (TORQUE @ TORQUE)
+    assert scale[0] == 0.0 and np.all(np.diff(scale) <= RAMP_STEP + 1e-12) and scale[-1] == 1.0
+    np.testing.assert_allclose(rig.output("ft.wrench_measured"), -RAW)
 
 
 def test_non_finite_commands_never_published(rig):

@@ -1,0 +1,61 @@
+"""Recording a run's LCM traffic as a log that ``lcm-logplayer`` replays.
+
+``LcmTrafficRecorder`` runs the ``lcm-logger`` of the installed ``lcm``
+package as a separate process for the duration of a ``with`` block, so
+recording costs the controller's process nothing. On memq:// there is no
+network to listen to; recording then needs a real (udpm://) URL.
+"""
+
+from __future__ import annotations
+
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+
+def _lcm_logger() -> str:
+    beside = Path(sys.executable).with_name("lcm-logger")
+    found = str(beside) if beside.exists() else shutil.which("lcm-logger")
+    if found is None:
+        raise RuntimeError("lcm-logger not found: it comes with the `lcm` package (pip install lcm); "
+                           "install heft's dependencies or run without recording")
+    return found
+
+
+class LcmTrafficRecorder:
+    """``with LcmTrafficRecorder(url, path):`` records every channel on ``url`` to ``path``
+    (an LCM event log; overwritten). Raises if the logger cannot start."""
+
+    def __init__(self, lcm_url: str, path):
+        if lcm_url.startswith("memq"):
+            raise ValueError(f"cannot record {lcm_url}: memq:// stays inside one process; use a udpm:// URL")
+        self.lcm_url, self.path = lcm_url, Path(path)
+        self._process = None
+
+    def __enter__(self) -> LcmTrafficRecorder:
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._process = subprocess.Popen([_lcm_logger(), "--quiet", "--force", f"--lcm-url={self.lcm_url}",
+                                          "--flush-interval=50", str(self.path)],
+                                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        deadline = time.monotonic() + 5.0
+        while not self.path.exists():
+            if self._process.poll() is not None:
+                raise RuntimeError(f"lcm-logger exited at start: {self._process.stderr.read().decode().strip()}")
+            if time.monotonic() > deadline:
+                self.__exit__(None, None, None)
+                raise RuntimeError(f"lcm-logger did not open {self.path} within 5 s")
+            time.sleep(0.01)
+        return self
+
+    def __exit__(self, *exc):
+        if self._process is not None and self._process.poll() is None:
+            self._process.send_signal(signal.SIGINT)  # lcm-logger flushes and closes on SIGINT
+            try:
+                self._process.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                self._process.kill()
+                self._process.wait()
+        return False
