@@ -179,7 +179,7 @@ def _teleop(args) -> int:
         print("teleop: no load estimate given: φ̂ = 0, offsets 0 (nothing is eliminated)", flush=True)
         load = LoadEstimate(phi=np.zeros(10), offsets=np.zeros(6))
     print(f"teleop: controller on {args.lcm_url} for {args.duration:g} s at real time", flush=True)
-    summary = run_hardware_teleop(scenario, load, args.lcm_url, args.duration)
+    summary = run_hardware_teleop(scenario, load, args.lcm_url, args.duration, record=args.record)
     print(format_summary(summary), flush=True)
     if args.out:
         Path(args.out).write_text(json.dumps(summary, indent=2) + "\n")
@@ -259,6 +259,7 @@ def build_parser() -> argparse.ArgumentParser:
     teleop.add_argument("--estimate", help="estimate.yaml from `heft identify` (default: φ̂ = 0)")
     teleop.add_argument("--duration", type=float, default=10.0, help="seconds (default 10)")
     teleop.add_argument("--out", help="also write the summary as JSON here")
+    teleop.add_argument("--record", help="record the LCM traffic to this file (lcm-logger format, for lcm-logplayer)")
     teleop.set_defaults(run=_teleop)
     return parser
 

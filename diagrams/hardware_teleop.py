@@ -4,9 +4,10 @@
 ``MakeHardwareStation`` on a ``DrakeLcm(lcm_url)`` and runs it at real-time
 rate 1, one controller period per ``AdvanceTo``, measuring every tick. It
 returns (and the CLI prints) what the run saw: whether fresh data arrived,
-when the watchdog was healthy, faulted and recovered, whether every master
-torque published was finite and how large its largest tick-to-tick step was
-(a recovery must ramp, not jump), and the timing: achieved rate, deadline misses (ticks
+when the watchdog was healthy, each fault and its recovery (with the master
+torque at the recovery tick: it must ramp in from zero, not jump), whether
+every master torque published was finite, the largest slave command step,
+and the timing: achieved rate, deadline misses (ticks
 that completed more than one period after their real-time deadline) and the
 tick cost (wall and CPU time per ``AdvanceTo``).
 """
@@ -69,9 +70,8 @@ def run_hardware_teleop(scenario: Scenario | str, estimate: LoadEstimate, lcm_ur
 
     ticks = max(1, round(duration / period))
     seen = {"fresh_ticks": 0, "healthy_ticks": 0, "torque_finite": True, "torque_peak": 0.0, "first_fresh": None,
-            "first_healthy": None, "fault_onset": None, "recovered_at": None, "last_fresh": None,
-            "was_healthy": False, "torque": np.zeros(6), "position": None, "max_torque_step": 0.0,
-            "max_slave_step": 0.0}
+            "first_healthy": None, "last_fresh": None, "faults": [], "was_healthy": False, "was_enabled": False,
+            "position": None, "max_slave_step": 0.0}
 
     def on_tick(k, t):
         status = status_port.Eval(station_context)
@@ -86,23 +86,23 @@ def run_hardware_teleop(scenario: Scenario | str, estimate: LoadEstimate, lcm_ur
             seen["healthy_ticks"] += 1
             if seen["first_healthy"] is None:
                 seen["first_healthy"] = t
-            if seen["fault_onset"] is not None and not seen["was_healthy"]:
-                seen["recovered_at"] = t
         elif seen["was_healthy"]:
-            seen["fault_onset"] = t
-        was_healthy, seen["was_healthy"] = seen["was_healthy"], healthy
+            seen["faults"].append({"onset": t, "recovered": None, "torque_at_recovery": None})
+        seen["was_healthy"] = healthy
+        # The gate acts on the watchdog's state one tick later: its enable's rising edge is the recovery.
         torque = torque_port.Eval(gate_context)
+        enabled = enable_port.Eval(gate_context)[0] > 0.5
+        recovering = enabled and not seen["was_enabled"] and bool(seen["faults"])
+        if recovering and seen["faults"][-1]["recovered"] is None:
+            seen["faults"][-1].update(recovered=t, torque_at_recovery=float(np.abs(torque).max()))
+        seen["was_enabled"] = enabled
         if not np.all(np.isfinite(torque)):
             seen["torque_finite"] = False
         else:
             seen["torque_peak"] = max(seen["torque_peak"], float(np.abs(torque).max()))
-            if healthy and was_healthy:  # a fault drops torque to zero at once, by design
-                seen["max_torque_step"] = max(seen["max_torque_step"],
-                                              float(np.abs(torque - seen["torque"]).max()))
-            seen["torque"] = torque.copy()
-        # Commands are published only once ready; the first one is the measured position.
+        # Commands are published once ready; a recovery restarts them at the measured position.
         position = position_port.Eval(gate_context).copy() if ready_port.Eval(gate_context)[0] > 0.5 else None
-        if position is not None and seen["position"] is not None:
+        if position is not None and seen["position"] is not None and not recovering:
             seen["max_slave_step"] = max(seen["max_slave_step"], float(np.abs(position - seen["position"]).max()))
         seen["position"] = position
 
@@ -121,15 +121,14 @@ def run_hardware_teleop(scenario: Scenario | str, estimate: LoadEstimate, lcm_ur
         "last_fresh": seen["last_fresh"],
         "healthy_ticks": seen["healthy_ticks"],
         "first_healthy": seen["first_healthy"],
-        "fault_onset": seen["fault_onset"],
-        "recovered_at": seen["recovered_at"],
+        "faults": seen["faults"],
+        "fault_onset": seen["faults"][-1]["onset"] if seen["faults"] else None,
         "final_healthy": bool(status[_STATUS["healthy"]] > 0.5),
         "final_fault": int(status[_STATUS["fault"]]),
         "final_ages": [float(a) if math.isfinite(a) else None for a in status[_STATUS["age_master_state"]:]],
         "final_master_enable": bool(enable_port.Eval(gate_context)[0] > 0.5),
         "master_torque_finite": seen["torque_finite"],
         "master_torque_peak": seen["torque_peak"],
-        "max_master_torque_step_healthy": seen["max_torque_step"],
         "max_slave_command_step": seen["max_slave_step"],
         "lcm_log": None if record is None else str(record),
         "timing": timing_summary(times),
@@ -138,18 +137,20 @@ def run_hardware_teleop(scenario: Scenario | str, estimate: LoadEstimate, lcm_ur
 
 def format_summary(summary: dict) -> str:
     """The summary as a few human lines."""
-    fault, recovered = summary["fault_onset"], summary["recovered_at"]
+    faults = summary["faults"]
+    fault_lines = "; ".join(
+        f"at {f['onset']:.4f} s, " + ("not recovered" if f["recovered"] is None else
+                                      f"recovered at {f['recovered']:.4f} s with {f['torque_at_recovery']:.2g} N·m")
+        for f in faults[:5]) + (f" … ({len(faults)} in all)" if len(faults) > 5 else "")
     return "\n".join((
         f"ran {summary['duration']:g} s, {summary['ticks']} ticks of {1e6 * summary['period']:.0f} µs",
         f"fresh data on every channel in {summary['fresh_ticks']} ticks (first at {summary['first_fresh']}); "
         f"watchdog healthy in {summary['healthy_ticks']} ticks (first at {summary['first_healthy']}); "
-        f"fault after healthy: {'none' if fault is None else f'at {fault:.4f} s'}; "
-        f"recovered: {'no' if recovered is None else f'at {recovered:.4f} s'}; "
+        f"faults after healthy: {fault_lines or 'none'}; "
         f"final: healthy {summary['final_healthy']}, fault bits {summary['final_fault']}, "
         f"master enable {summary['final_master_enable']}",
-        f"master torque finite: {summary['master_torque_finite']} (peak {summary['master_torque_peak']:.3g} N·m, "
-        f"largest step while healthy {summary['max_master_torque_step_healthy']:.3g} N·m); largest slave "
-        f"command step "
+        f"master torque finite: {summary['master_torque_finite']} (peak {summary['master_torque_peak']:.3g} N·m); "
+        f"largest slave command step (recoveries aside) "
         f"{summary['max_slave_command_step']:.3g} rad",
         format_timing(summary["timing"]),
     ))

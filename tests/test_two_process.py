@@ -15,7 +15,10 @@ import sys
 import time
 import uuid
 
+import lcm
 import pytest
+from heft.hardware_interface.channels import LcmChannels
+from heft.hardware_interface.hardware_station import HardwareStationParams
 
 pytestmark = pytest.mark.slow
 
@@ -81,37 +84,50 @@ class _Process:
                 self.popen.wait()
 
 
-def _run(netns, folder, teleop_duration, stand_in_args):
-    """Starts the controller, then (once it is building) the stand-in; returns the
-    controller's JSON summary and both outputs."""
+def _run(netns, folder, teleop_duration, stand_in_args, teleop_args=(), restart=False):
+    """Starts the controller, then (once it is building) the stand-in — and, with
+    ``restart``, a second stand-in once the first has died; returns the controller's
+    JSON summary and the processes."""
     out = folder / "teleop.json"
     teleop = _Process(netns, folder, "teleop", "teleop", "--hardware", "--lcm-url", LCM_URL,
-                      "--duration", str(teleop_duration), "--out", str(out))
-    stand_in = None
+                      "--duration", str(teleop_duration), "--out", str(out), *teleop_args)
+    stand_ins = []
     try:
         teleop.wait_for("teleop: controller on")
-        stand_in = _Process(netns, folder, "stand_in", "stand-in", "--scenario", "fig6", "--lcm-url", LCM_URL,
-                            *stand_in_args)
+        stand_ins.append(_Process(netns, folder, "stand_in", "stand-in", "--scenario", "fig6", "--lcm-url",
+                                  LCM_URL, *stand_in_args))
+        if restart:
+            assert stand_ins[0].wait(timeout=RUN_TIMEOUT) == 0, stand_ins[0].text()
+            stand_ins.append(_Process(netns, folder, "stand_in_again", "stand-in", "--scenario", "fig6",
+                                      "--lcm-url", LCM_URL, "--duration", "1000"))
         assert teleop.wait() == 0, teleop.text()
-        return json.loads(out.read_text()), teleop, stand_in
+        return json.loads(out.read_text()), teleop, stand_ins
     finally:
-        for process in (teleop, stand_in):
-            if process is not None:
-                process.stop()
+        for process in (teleop, *stand_ins):
+            process.stop()
 
 
 def test_controller_runs_against_the_stand_in(netns, tmp_path):
-    summary, teleop, stand_in = _run(netns, tmp_path, 3.0, ["--duration", "1000"])
+    log = tmp_path / "traffic.lcmlog"
+    summary, teleop, _ = _run(netns, tmp_path, 3.0, ["--duration", "1000"], ["--record", str(log)])
     print(teleop.text())
     assert summary["fresh_ticks"] > 0, "no fresh data on every channel"
     assert summary["first_healthy"] is not None, "the watchdog never became healthy"
     assert summary["healthy_ticks"] > 0.2 * summary["ticks"], teleop.text()
     assert summary["master_torque_finite"]
     assert summary["timing"]["achieved_rate_hz"] > 50  # generous: a loaded 2-core machine
+    # The recorded traffic is an LCM log with every channel of both sides.
+    counts = {}
+    for event in lcm.EventLog(str(log), "r"):
+        counts[event.channel] = counts.get(event.channel, 0) + 1
+    channels = LcmChannels()
+    for channel in (channels.master_state, channels.master_command, channels.slave_status, channels.slave_command,
+                    channels.ft_sample):
+        assert counts.get(channel.name, 0) > 100, counts
 
 
 def test_controller_goes_safe_when_the_stand_in_dies(netns, tmp_path):
-    summary, teleop, stand_in = _run(netns, tmp_path, 4.0, ["--duration", "1000", "--die-at", "1.0"])
+    summary, teleop, (stand_in,) = _run(netns, tmp_path, 4.0, ["--duration", "1000", "--die-at", "1.0"])
     print(teleop.text())
     assert stand_in.wait(timeout=10) == 0 and "died" in stand_in.text(), stand_in.text()
     assert summary["first_healthy"] is not None, "the watchdog never became healthy"
@@ -121,3 +137,20 @@ def test_controller_goes_safe_when_the_stand_in_dies(netns, tmp_path):
     # Watchdog timeout 20 ms of controller time; allow far more.
     assert summary["fault_onset"] - summary["last_fresh"] < 0.5
     assert summary["master_torque_finite"]
+
+
+def test_restarted_stand_in_recovers_without_a_jump(netns, tmp_path):
+    """The stand-in dies and a new one starts from scratch (clocks and counters from
+    zero): the controller recovers, master torque ramps back in and slave commands
+    never step faster than the joint speed limits allow."""
+    summary, teleop, _ = _run(netns, tmp_path, 10.0, ["--duration", "1000", "--die-at", "1.0"], restart=True)
+    print(teleop.text())
+    # The outage: from the death until the new stand-in (which takes seconds to build) publishes.
+    outages = [f for f in summary["faults"] if f["recovered"] is not None and f["recovered"] - f["onset"] > 0.1]
+    assert outages, f"no recovered outage: {summary['faults']}"
+    params = HardwareStationParams(period=summary["period"])
+    ramp_step = params.period / params.watchdog.ramp_time
+    # Torque fades in from zero: at the recovery tick at most one ramp step of the device's torque.
+    assert outages[0]["torque_at_recovery"] <= ramp_step * summary["master_torque_peak"] + 1e-12
+    assert summary["final_healthy"] and summary["final_master_enable"], teleop.text()
+    assert summary["max_slave_command_step"] <= max(params.slave_velocity_limits) * params.period + 1e-9
