@@ -13,6 +13,10 @@ from pathlib import Path
 import numpy as np
 
 
+DEFAULT_LCM_URL = "udpm://239.255.76.67:7667?ttl=0"
+"""Multicast that cannot leave the machine (ttl=0); the lab's drivers use the same."""
+
+
 def _check(args) -> int:
     """Eq. 4 against Drake's own dynamics along a simulated random motion."""
     from heft.diagrams.load_on_sensor import simulate_random_motion
@@ -78,6 +82,14 @@ def _identify(args) -> int:
 
     scenario = resolve_scenario(args.scenario)
     settings = ExcitationSettings.quick() if args.quick else ExcitationSettings()
+    if args.hardware:
+        from heft.diagrams.hardware_identify import identify_on_hardware
+        identify_on_hardware(scenario, args.out, args.lcm_url, method=args.method, signals=args.signals,
+                             settings=settings, periods=args.periods, record=args.record)
+        print(f"wrote {args.out}/estimate.yaml, metrics.json{f', {args.record}' if args.record else ''}")
+        return 0
+    if args.record:
+        raise ValueError("--record records LCM traffic: it needs --hardware")
     identify(scenario, args.out, method=args.method, signals=args.signals, settings=settings, periods=args.periods)
     print(f"wrote {args.out}/estimate.yaml, metrics.json, convergence.png")
     return 0
@@ -148,6 +160,16 @@ def _bench_identify(args) -> int:
     return 0
 
 
+def _bench_lcm(args) -> int:
+    from heft.diagrams.bench_lcm import run
+
+    rates = [float(r) for r in args.rates.split(",")]
+    results = run(rates, args.duration, args.scenario, args.lcm_url)
+    if args.out:
+        Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
+    return 0
+
+
 def _stand_in(args) -> int:
     from heft.diagrams.simulate import resolve_scenario
     from heft.diagrams.stand_in import FaultInjection, run_stand_in
@@ -172,6 +194,10 @@ def _teleop(args) -> int:
     if not args.hardware:
         raise ValueError("only --hardware is supported here; use `heft simulate` for the simulated station")
     scenario = resolve_scenario(args.scenario)
+    if args.rate is not None:
+        if not (math.isfinite(args.rate) and args.rate > 0):
+            raise ValueError(f"--rate must be a positive number of Hz; got {args.rate}")
+        scenario = dataclasses.replace(scenario, controller_period=1.0 / args.rate)
     estimate = args.estimate or scenario.controller.load_estimate
     if estimate:
         load = read_load_estimate(estimate)
@@ -225,6 +251,11 @@ def build_parser() -> argparse.ArgumentParser:
                           help="where a and α come from (ω and g always from the encoders)")
     identify.add_argument("--periods", type=int, default=1, help="excitation periods recorded (default 1)")
     identify.add_argument("--quick", action="store_true", help="a short, quickly optimised excitation")
+    identify.add_argument("--hardware", action="store_true",
+                          help="excite the real arm over LCM (the scenario gives the robot, start pose and load "
+                               "model's settings); the arm first moves slowly to the excitation's start")
+    identify.add_argument("--lcm-url", default=DEFAULT_LCM_URL, help=f"with --hardware (default {DEFAULT_LCM_URL})")
+    identify.add_argument("--record", help="with --hardware: record the LCM traffic to this file (lcm-logger format)")
     identify.set_defaults(run=_identify)
 
     bench = commands.add_parser("bench", help="benchmarks, each printed beside a reference measured in the same run")
@@ -241,7 +272,15 @@ def build_parser() -> argparse.ArgumentParser:
     identification.add_argument("--out", help="write every number as JSON here")
     identification.set_defaults(run=_bench_identify)
 
-    default_url = "udpm://239.255.76.67:7667?ttl=0"
+    default_url = DEFAULT_LCM_URL
+    lcm_bench = benches.add_parser("lcm", help="the controller against a driver probe over LCM in two processes: "
+                                               "sensor-to-torque latency and the loop rate sustained")
+    lcm_bench.add_argument("--rates", default="2000,4000", help="controller rates to try (Hz, default 2000,4000)")
+    lcm_bench.add_argument("--duration", type=float, default=5.0, help="controller seconds per rate (default 5)")
+    lcm_bench.add_argument("--scenario", default="fig6", help="controller settings (default fig6)")
+    lcm_bench.add_argument("--lcm-url", default=default_url, help=f"LCM URL (default {default_url})")
+    lcm_bench.add_argument("--out", help="write every number as JSON here")
+    lcm_bench.set_defaults(run=_bench_lcm)
     stand_in = commands.add_parser("stand-in", help="the simulated lab behind the drivers' LCM channels, at real time")
     stand_in.add_argument("--scenario", default="fig6", help="fig6 | fig7 | fig8 | path to a scenario YAML")
     stand_in.add_argument("--lcm-url", default=default_url, help=f"LCM URL (default {default_url})")
@@ -259,6 +298,7 @@ def build_parser() -> argparse.ArgumentParser:
     teleop.add_argument("--estimate", help="estimate.yaml from `heft identify` (default: φ̂ = 0)")
     teleop.add_argument("--duration", type=float, default=10.0, help="seconds (default 10)")
     teleop.add_argument("--out", help="also write the summary as JSON here")
+    teleop.add_argument("--rate", type=float, help="controller rate (Hz; default: the scenario's, 2000)")
     teleop.add_argument("--record", help="record the LCM traffic to this file (lcm-logger format, for lcm-logplayer)")
     teleop.set_defaults(run=_teleop)
     return parser
@@ -271,6 +311,12 @@ def main(argv=None) -> int:
     except ValueError as error:  # bad input: say what was wrong, no traceback
         print(f"heft {args.command}: error: {error}", file=sys.stderr)
         return 2
+    except RuntimeError as error:
+        from heft.diagrams.realtime import HardwareRunFailed
+        if not isinstance(error, HardwareRunFailed):
+            raise
+        print(f"heft {args.command}: stopped: {error}", file=sys.stderr)  # the arm is held, nothing written
+        return 3
 
 
 if __name__ == "__main__":

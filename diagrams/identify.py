@@ -50,9 +50,9 @@ class Recording:
     wrench: np.ndarray             # (S, 6) measured [f; τ] on the load at S, in S
     accel_measured: np.ndarray     # (S, 6) accelerometer [a; α]
     q: np.ndarray                  # (S, 6) encoder angles (rad)
-    phi_true: np.ndarray           # (10,)
-    offsets_true: np.ndarray       # (S, 6) the offsets in the measurement
-    accel_true: np.ndarray         # (S, 6)
+    phi_true: np.ndarray | None = None      # (10,); truth exists only in simulation
+    offsets_true: np.ndarray | None = None  # (S, 6) the offsets in the measurement
+    accel_true: np.ndarray | None = None    # (S, 6)
 
 
 def _slave_motion(scenario: Scenario):

@@ -8,6 +8,7 @@ network to listen to; recording then needs a real (udpm://) URL.
 
 from __future__ import annotations
 
+import os
 import shutil
 import signal
 import subprocess
@@ -25,6 +26,14 @@ def _lcm_logger() -> str:
     return found
 
 
+def _group_alive(group: int) -> bool:
+    try:
+        os.killpg(group, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
 class LcmTrafficRecorder:
     """``with LcmTrafficRecorder(url, path):`` records every channel on ``url`` to ``path``
     (an LCM event log; overwritten). Raises if the logger cannot start."""
@@ -39,7 +48,8 @@ class LcmTrafficRecorder:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._process = subprocess.Popen([_lcm_logger(), "--quiet", "--force", f"--lcm-url={self.lcm_url}",
                                           "--flush-interval=50", str(self.path)],
-                                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+                                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                         start_new_session=True)  # its own group: the pip entry point forks
         deadline = time.monotonic() + 5.0
         while not self.path.exists():
             if self._process.poll() is not None:
@@ -52,10 +62,12 @@ class LcmTrafficRecorder:
 
     def __exit__(self, *exc):
         if self._process is not None and self._process.poll() is None:
-            self._process.send_signal(signal.SIGINT)  # lcm-logger flushes and closes on SIGINT
-            try:
-                self._process.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                self._process.kill()
-                self._process.wait()
+            group = os.getpgid(self._process.pid)
+            os.killpg(group, signal.SIGINT)  # lcm-logger flushes and closes on SIGINT
+            deadline = time.monotonic() + 5.0
+            while _group_alive(group) and time.monotonic() < deadline:  # the logger itself, not only its wrapper
+                time.sleep(0.01)
+            if _group_alive(group):
+                os.killpg(group, signal.SIGKILL)
+            self._process.wait()
         return False

@@ -17,6 +17,11 @@ import numpy as np
 from pydrake.systems.analysis import Simulator
 
 
+class HardwareRunFailed(RuntimeError):
+    """A run against hardware that could not do its job (no hardware, a fault mid-way);
+    the hardware station has already put the arm and the master in their safe state."""
+
+
 @dataclasses.dataclass
 class TickTimes:
     """Per-tick measurements (s): wall and CPU time of each ``AdvanceTo``, lateness of its

@@ -9,11 +9,9 @@ slower than real time.
 
 import json
 import os
-import shutil
 import subprocess
 import sys
 import time
-import uuid
 
 import lcm
 import pytest
@@ -25,29 +23,6 @@ pytestmark = pytest.mark.slow
 LCM_URL = "udpm://239.255.76.67:7667?ttl=0"
 STARTUP_TIMEOUT = 60.0
 RUN_TIMEOUT = 120.0
-
-
-def _ip(*args, check=True):
-    return subprocess.run(["ip", *args], capture_output=True, text=True, timeout=10, check=check)
-
-
-@pytest.fixture
-def netns():
-    """A fresh network namespace with `lo` up and multicast routed to it; always deleted."""
-    if shutil.which("ip") is None:
-        pytest.skip("needs the `ip` tool (iproute2) to create a network namespace")
-    if os.geteuid() != 0:
-        pytest.skip("needs root to create a network namespace (`ip netns add`)")
-    name = f"heft_test_{uuid.uuid4().hex[:8]}"
-    created = _ip("netns", "add", name, check=False)
-    if created.returncode != 0:
-        pytest.skip(f"cannot create a network namespace: {created.stderr.strip()}")
-    try:
-        _ip("netns", "exec", name, "ip", "link", "set", "lo", "up")
-        _ip("netns", "exec", name, "ip", "route", "add", "224.0.0.0/4", "dev", "lo")
-        yield name
-    finally:
-        _ip("netns", "del", name, check=False)
 
 
 class _Process:

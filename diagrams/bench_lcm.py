@@ -1,0 +1,213 @@
+"""`heft bench lcm`: the controller's loop over real LCM between real processes.
+
+Two processes exchange the lab's messages over UDP multicast: ``heft teleop
+--hardware`` (the controller diagram at the rate under test) and a *probe*
+playing the three drivers at their nominal rates (master and slave state at
+2 kHz, wrist sensor at 8 kHz) with fixed joint positions. Every
+``STEP_PERIOD`` s the probe steps the sensor's force by ``STEP_FORCE`` and
+stamps the wall-clock time of the first stepped sample's publish; it also
+stamps the receipt of every master torque command. The latency of a step is
+the time from that publish to the receipt of the first command that has moved
+half-way to its new level: LCM both ways, the receiver's sampling, the
+controller's ticks and the watchdog-gated sender. The controller reports the
+loop rate it sustained and its tick cost. Where it may (root, ``ip``), the
+bench runs both processes in a private network namespace so no packet leaves
+the machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import select
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+import uuid
+from pathlib import Path
+
+import numpy as np
+
+STEP_PERIOD = 0.1
+"""Seconds between sensor force steps."""
+STEP_FORCE = 20.0
+"""Size of the sensor force step (N, along the sensor's z)."""
+SETTLE = 1.5
+"""Seconds of traffic before the first step (start guard and torque ramp)."""
+
+
+def run_probe(lcm_url: str, duration: float, out: Path, master_q, slave_q) -> None:
+    """Plays the drivers on ``lcm_url`` from when the first master command arrives (at most 30 s
+    of waiting) until the commands stop for 1 s or ``duration`` s have passed, and writes
+    {step publish times, command receipt times and torques} to ``out``."""
+    import lcm
+    from drake import lcmt_iiwa_status
+
+    from heft.hardware_interface.channels import LcmChannels
+    from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_command, heft_haptic_state
+
+    channels = LcmChannels(lcm_url=lcm_url)
+    bus = lcm.LCM(lcm_url)
+    receipts, torques = [], []
+
+    def on_command(_, data):
+        receipts.append(time.perf_counter())
+        torques.append(heft_haptic_command.decode(data).torque)
+
+    bus.subscribe(channels.master_command.name, on_command)
+    master = heft_haptic_state()
+    master.num_joints, master.position, master.velocity = 6, list(master_q), [0.0] * 6
+    master.torque_applied = [0.0] * 6
+    slave = lcmt_iiwa_status()
+    slave.num_joints, slave.joint_position_measured = 6, list(slave_q)
+    for field in ("joint_velocity_estimated", "joint_position_commanded", "joint_position_ipo",
+                  "joint_torque_measured", "joint_torque_commanded", "joint_torque_external"):
+        setattr(slave, field, [0.0] * 6)
+    ft = heft_ft_sample()
+    ft.acceleration = [0.0, 0.0, -9.81, 0.0, 0.0, 0.0]
+    streams = [(channels.master_state, master), (channels.slave_status, slave), (channels.ft_sample, ft)]
+    periods = [1.0 / channel.rate for channel, _ in streams]
+    due = [0.0] * len(streams)
+    start = time.perf_counter()
+    first_command, steps, stepped = None, [], False
+    counter = 0
+    while True:
+        now = time.perf_counter()
+        if first_command is None and receipts:
+            first_command = receipts[0]
+        if first_command is None and now - start > 30.0:
+            raise SystemExit("probe: no master command within 30 s: is `heft teleop --hardware` running?")
+        if first_command is not None and (now - first_command > duration or now - receipts[-1] > 1.0):
+            break
+        for i, ((channel, msg), period) in enumerate(zip(streams, periods)):
+            if now - start < due[i]:
+                continue
+            due[i] += period
+            utime = int((now - start) * 1e6)
+            if msg is ft:
+                counter += 1
+                level = (first_command is not None and now - first_command > SETTLE
+                         and int((now - first_command - SETTLE) / STEP_PERIOD) % 2 == 1)
+                if level != stepped:
+                    steps.append((now, 1.0 if level else -1.0))
+                    stepped = level
+                msg.sample_counter, msg.utime = counter, utime
+                msg.wrench = [0.0, 0.0, STEP_FORCE if level else 0.0, 0.0, 0.0, 0.0]
+            else:
+                msg.utime = utime
+            bus.publish(channel.name, msg.encode())
+        wait = max(0.0, min(d - (time.perf_counter() - start) for d in due))
+        if select.select([bus.fileno()], [], [], wait)[0]:
+            bus.handle()
+    out.write_text(json.dumps({"steps": steps, "receipts": receipts, "torques": torques}))
+
+
+def step_latencies(steps, receipts, torques) -> np.ndarray:
+    """Latency (s) of each force step: from its publish to the receipt of the first command
+    whose torque has covered half of the change from before the step to just before the next.
+    Steps whose torque change is below 1e-4 N·m (nothing to see) are skipped."""
+    receipts, torques = np.asarray(receipts), np.asarray(torques)
+    latencies = []
+    for (t_step, _), t_next in zip(steps, [s[0] for s in steps[1:]] + [np.inf]):
+        before = np.flatnonzero(receipts < t_step)
+        after = np.flatnonzero((receipts >= t_step) & (receipts < t_next))
+        if before.size == 0 or after.size < 2:
+            continue
+        start, end = torques[before[-1]], torques[after[-1]]
+        change = end - start
+        if np.linalg.norm(change) < 1e-4:
+            continue
+        progress = (torques[after] - start) @ change / (change @ change)
+        reached = after[np.flatnonzero(progress >= 0.5)]
+        if reached.size:
+            latencies.append(receipts[reached[0]] - t_step)
+    return np.array(latencies)
+
+
+def _namespace():
+    """(prefix for commands, cleanup) for a private network namespace, or ([], no-op) if unavailable."""
+    if os.geteuid() != 0 or shutil.which("ip") is None:
+        return [], lambda: None
+    name = f"heft_bench_{uuid.uuid4().hex[:8]}"
+    if subprocess.run(["ip", "netns", "add", name], capture_output=True).returncode != 0:
+        return [], lambda: None
+    subprocess.run(["ip", "netns", "exec", name, "ip", "link", "set", "lo", "up"], check=True)
+    subprocess.run(["ip", "netns", "exec", name, "ip", "route", "add", "224.0.0.0/4", "dev", "lo"], check=True)
+    return ["ip", "netns", "exec", name], lambda: subprocess.run(["ip", "netns", "del", name], capture_output=True)
+
+
+def bench_rate(rate_hz: float, duration: float, lcm_url: str, scenario: str, folder: Path, prefix) -> dict:
+    """One controller rate: both processes, then the latency statistics and the controller's timing."""
+    from heft.diagrams.simulate import resolve_scenario
+
+    loaded = resolve_scenario(scenario)
+    summary_path, probe_path = folder / f"teleop_{rate_hz:g}.json", folder / f"probe_{rate_hz:g}.json"
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONUNBUFFERED="1")
+    python = [*prefix, sys.executable]
+    teleop = subprocess.Popen(
+        [*python, "-m", "heft.diagrams.cli", "teleop", "--hardware", "--lcm-url", lcm_url, "--scenario", scenario,
+         "--rate", str(rate_hz), "--duration", str(duration + SETTLE), "--out", str(summary_path)],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
+    probe = subprocess.Popen(
+        [*python, "-m", "heft.diagrams.bench_lcm", "--probe", lcm_url, str(20 * (duration + SETTLE)), str(probe_path),
+         json.dumps(loaded.master_initial_q), json.dumps(loaded.slave_initial_q)],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
+    try:
+        teleop_output, _ = teleop.communicate(timeout=20 * (duration + SETTLE) + 120)
+        probe_output, _ = probe.communicate(timeout=30)
+    finally:
+        for process in (probe, teleop):
+            if process.poll() is None:
+                process.kill()
+    if probe.returncode != 0 or teleop.returncode != 0:
+        raise RuntimeError(f"bench processes failed:\n--- probe\n{probe_output}\n--- teleop\n{teleop_output}")
+    measured = json.loads(probe_path.read_text())
+    latencies = step_latencies(measured["steps"], measured["receipts"], measured["torques"])
+    timing = json.loads(summary_path.read_text())["timing"]
+    receipts = np.asarray(measured["receipts"])
+    return {
+        "rate_hz": rate_hz,
+        "steps": len(measured["steps"]),
+        "latency_samples": int(latencies.size),
+        "latency_p50_ms": float(np.percentile(latencies, 50) * 1e3) if latencies.size else None,
+        "latency_p99_ms": float(np.percentile(latencies, 99) * 1e3) if latencies.size else None,
+        "commands_received_hz": float((receipts.size - 1) / (receipts[-1] - receipts[0])) if receipts.size > 1
+        else 0.0,
+        "controller": timing,
+    }
+
+
+def run(rates, duration: float, scenario: str, lcm_url: str) -> dict:
+    """Benchmarks every rate in ``rates`` (Hz); prints a table; returns the numbers."""
+    prefix, cleanup = _namespace()
+    where = "a private network namespace" if prefix else "this host's network"
+    print(f"bench lcm: controller (heft teleop --hardware) and driver probe as two processes on {lcm_url}, in "
+          f"{where}; {duration:g} s per rate, a {STEP_FORCE:g} N sensor step every {STEP_PERIOD:g} s", flush=True)
+    results = []
+    try:
+        with tempfile.TemporaryDirectory() as folder:
+            for rate in rates:
+                results.append(bench_rate(rate, duration, lcm_url, scenario, Path(folder), prefix))
+    finally:
+        cleanup()
+    print(f"{'rate (Hz)':>10s}{'sustained (Hz)':>16s}{'ratio':>7s}{'misses':>9s}{'tick p50/p99 (µs)':>20s}"
+          f"{'commands (Hz)':>15s}{'latency p50/p99 (ms)':>22s}")
+    for r in results:
+        c = r["controller"]
+        latency = ("n/a" if r["latency_p50_ms"] is None
+                   else f"{r['latency_p50_ms']:.2f} / {r['latency_p99_ms']:.2f}")
+        print(f"{r['rate_hz']:10.0f}{c['achieved_rate_hz']:16.0f}{c['achieved_rate_hz'] / r['rate_hz']:7.2f}"
+              f"{c['deadline_misses']:9d}{c['tick_cpu_p50_us']:>11.0f} / {c['tick_cpu_p99_us']:<7.0f}"
+              f"{r['commands_received_hz']:15.0f}{latency:>22s}")
+    return {"duration_s": duration, "network": where, "results": results}
+
+
+if __name__ == "__main__":
+    arguments = argparse.ArgumentParser(description="the driver probe of `heft bench lcm`")
+    arguments.add_argument("--probe", nargs=5, metavar=("URL", "DURATION", "OUT", "MASTER_Q", "SLAVE_Q"))
+    probe_args = arguments.parse_args().probe
+    run_probe(probe_args[0], float(probe_args[1]), Path(probe_args[2]), json.loads(probe_args[3]),
+              json.loads(probe_args[4]))

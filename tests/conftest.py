@@ -1,0 +1,31 @@
+"""Shared fixtures."""
+
+import os
+import shutil
+import subprocess
+import uuid
+
+import pytest
+
+
+def _ip(*args, check=True):
+    return subprocess.run(["ip", *args], capture_output=True, text=True, timeout=10, check=check)
+
+
+@pytest.fixture
+def netns():
+    """A fresh network namespace with `lo` up and multicast routed to it; always deleted."""
+    if shutil.which("ip") is None:
+        pytest.skip("needs the `ip` tool (iproute2) to create a network namespace")
+    if os.geteuid() != 0:
+        pytest.skip("needs root to create a network namespace (`ip netns add`)")
+    name = f"heft_test_{uuid.uuid4().hex[:8]}"
+    created = _ip("netns", "add", name, check=False)
+    if created.returncode != 0:
+        pytest.skip(f"cannot create a network namespace: {created.stderr.strip()}")
+    try:
+        _ip("netns", "exec", name, "ip", "link", "set", "lo", "up")
+        _ip("netns", "exec", name, "ip", "route", "add", "224.0.0.0/4", "dev", "lo")
+        yield name
+    finally:
+        _ip("netns", "del", name, check=False)

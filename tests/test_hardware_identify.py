@@ -1,0 +1,100 @@
+"""Identification on hardware: the commander's schedule, and the whole run against
+the stand-in over LCM (memq://) with the estimate checked against the station's truth."""
+
+import numpy as np
+import pytest
+from heft.diagrams.hardware_identify import hardware_recording_in_process, identify_on_hardware
+from heft.diagrams.identify import design_excitation
+from heft.diagrams.simulate import resolve_scenario
+from heft.diagrams.stand_in import MakeStandIn
+from heft.hardware_interface.channels import LcmChannels
+from heft.systems.excitation import ExcitationSettings, FourierTrajectory
+from heft.systems.excitation_commander import (
+    QUINTIC_PEAK_SPEED,
+    ExcitationCommander,
+    Phase,
+    approach_time,
+    excitation_command,
+)
+from pydrake.lcm import DrakeLcm
+from pydrake.systems.analysis import Simulator
+
+PERIOD = 0.001
+LIMITS = np.array([2.0, 2.0, 3.0, 4.0, 4.0, 5.0])
+TRAJECTORY = FourierTrajectory.from_rest_coordinates(
+    0.5, np.random.default_rng(3).normal(scale=0.05, size=(6, 3)), [0.1, -0.4, 1.0, 0.2, 0.7, -0.3])
+Q_START = np.array([0.4, -0.1, 0.8, -0.2, 0.9, 0.3])
+
+
+def test_approach_is_a_rest_to_rest_quintic_within_the_speed_limits():
+    fraction = 0.2
+    duration = approach_time(Q_START, TRAJECTORY.position(0.0), LIMITS, fraction, minimum=0.1)
+    t = np.linspace(0.0, duration, 4001)[:-1]  # the approach only
+    q = np.array([excitation_command(ti, Q_START, TRAJECTORY, duration, 0.5, 2.0)[0] for ti in t])
+    speed = np.abs(np.diff(q, axis=0)) / np.diff(t)[:, None]
+    ratio = speed.max(axis=0) / (fraction * LIMITS)
+    assert ratio.max() == pytest.approx(1.0, abs=1e-3)  # the slowest-allowed joint sets the time
+    np.testing.assert_allclose(q[0], Q_START)
+    np.testing.assert_allclose(q[-1], TRAJECTORY.position(0.0), atol=1e-4)
+    assert speed[0].max() < 1e-3 and speed[-1].max() < 1e-2  # starts and ends at rest
+    s = np.linspace(0.0, 1.0, 1001)
+    assert QUINTIC_PEAK_SPEED == pytest.approx(np.max(30 * s**2 * (1 - s) ** 2))  # d/ds of 10s³ − 15s⁴ + 6s⁵
+
+
+def test_schedule_phases_and_excitation():
+    approach, settle, duration = 1.0, 0.5, 2.0
+    phases = [excitation_command(t, Q_START, TRAJECTORY, approach, settle, duration)[1]
+              for t in (0.0, 0.99, 1.2, 1.5, 2.7, 3.6)]
+    assert phases == [Phase.APPROACHING, Phase.APPROACHING, Phase.SETTLING, Phase.EXCITING, Phase.EXCITING,
+                      Phase.DONE]
+    q, _ = excitation_command(2.7, Q_START, TRAJECTORY, approach, settle, duration)
+    np.testing.assert_allclose(q, TRAJECTORY.position(1.2))
+
+
+def _commander_rig():
+    commander = ExcitationCommander(TRAJECTORY, 2.0, LIMITS, PERIOD, settle=0.2, minimum_approach=0.3)
+    simulator = Simulator(commander)
+    context = simulator.get_mutable_context()
+    commander.GetInputPort("position_measured").FixValue(context, Q_START)
+    return commander, simulator, context
+
+
+def test_commander_waits_for_healthy_hardware_then_aborts_on_a_fault():
+    commander, simulator, context = _commander_rig()
+    commander.GetInputPort("healthy").FixValue(context, [0.0])
+    simulator.AdvanceTo(0.5)
+    out = commander.GetOutputPort("position_commanded").Eval(context)
+    np.testing.assert_array_equal(out, Q_START)
+    assert commander.GetOutputPort("phase").Eval(context)[0] == Phase.WAITING
+    commander.GetInputPort("healthy").FixValue(context, [1.0])
+    simulator.AdvanceTo(0.6)
+    assert commander.GetOutputPort("phase").Eval(context)[0] == Phase.APPROACHING
+    frozen_at = commander.GetOutputPort("position_commanded").Eval(context).copy()
+    commander.GetInputPort("healthy").FixValue(context, [0.0])
+    simulator.AdvanceTo(0.7)
+    assert commander.GetOutputPort("phase").Eval(context)[0] == Phase.ABORTED
+    np.testing.assert_array_equal(commander.GetOutputPort("position_commanded").Eval(context), frozen_at)
+    commander.GetInputPort("healthy").FixValue(context, [1.0])
+    simulator.AdvanceTo(0.8)  # an aborted run stays aborted: its recording is unusable
+    assert commander.GetOutputPort("phase").Eval(context)[0] == Phase.ABORTED
+
+
+@pytest.mark.slow
+def test_identification_against_the_stand_in_recovers_the_load(tmp_path):
+    """The full path over LCM: stand-in (sim station with noise, offsets, accelerometer)
+    ↔ hardware station ↔ commander; estimates against the station's own truth."""
+    scenario = resolve_scenario("fig6")
+    settings = ExcitationSettings(base_frequency=0.5, harmonics=3, samples=40, constraint_samples=100,
+                                  max_iterations=40)
+    excitation = design_excitation(scenario, settings)
+    lcm = DrakeLcm("memq://")
+    stand_in = MakeStandIn(scenario, LcmChannels(), lcm)
+    recording = hardware_recording_in_process(scenario, stand_in, excitation.trajectory, 2.0, lcm)
+    metrics = identify_on_hardware(scenario, tmp_path, "memq://", settings=settings, recording=recording)
+    truth = stand_in.GetOutputPort("sim.truth.phi").Eval(stand_in.CreateDefaultContext())
+    tls = metrics["estimates"]["tls"]
+    assert tls["phi"][0] == pytest.approx(truth[0], rel=0.01)
+    np.testing.assert_allclose(np.asarray(tls["phi"][1:4]) / tls["phi"][0], truth[1:4] / truth[0], atol=2e-3)
+    assert (tmp_path / "estimate.yaml").exists()
+    # The model explains the measurement down to about the sensor's noise.
+    assert max(metrics["residual_rms"]["tls"][:3]) < 5 * max(scenario.ft_sensor.noise_rms[:3])

@@ -1,0 +1,53 @@
+"""Recording LCM traffic with lcm-logger, and the latency rule of `heft bench lcm`."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from heft.diagrams.bench_lcm import step_latencies
+from heft.diagrams.lcm_recording import LcmTrafficRecorder
+
+RECORD_AND_PUBLISH = """
+import sys, time, lcm
+from heft.diagrams.lcm_recording import LcmTrafficRecorder
+url = "udpm://239.255.76.67:7667?ttl=0"
+bus = lcm.LCM(url)
+with LcmTrafficRecorder(url, sys.argv[1]):
+    for i in range(200):
+        bus.publish("HEFT_TEST", i.to_bytes(4, "little"))
+        time.sleep(0.0005)
+    time.sleep(0.2)
+"""
+
+
+def test_step_latency_is_the_first_command_past_half_way():
+    """Commands every 0.5 ms; the torque answers each step 3.2 ms late, ramping over 2 ms."""
+    receipts = np.arange(0.0, 1.0, 0.0005)
+    steps = [(0.2, 1.0), (0.5, -1.0), (0.8, 1.0)]
+    level = np.zeros_like(receipts)
+    for t_step, direction in steps:
+        ramp = np.clip((receipts - t_step - 0.0032) / 0.002, 0.0, 1.0)
+        level = np.where(receipts >= t_step, (1.0 if direction > 0 else 0.0) * ramp
+                         + (0.0 if direction > 0 else 1.0) * (1 - ramp), level)
+    torques = np.outer(level, [0.1, -0.2, 0, 0, 0, 0.05])
+    latencies = step_latencies(steps, receipts, torques)
+    # Half-way is reached 1 ms into the ramp: 3.2 + 1.0 ms, rounded up to the next receipt.
+    np.testing.assert_allclose(latencies, [0.0045, 0.0045, 0.0045], atol=1e-9)
+
+
+def test_recorder_refuses_memq():
+    with pytest.raises(ValueError, match="udpm"):
+        LcmTrafficRecorder("memq://", "unused.lcmlog")
+
+
+def test_recorder_writes_a_log_lcm_reads_back(netns, tmp_path):
+    import lcm
+
+    path = tmp_path / "traffic.lcmlog"
+    subprocess.run(["ip", "netns", "exec", netns, sys.executable, "-c", RECORD_AND_PUBLISH, str(path)],
+                   check=True, timeout=60)
+    payloads = [int.from_bytes(event.data, "little") for event in lcm.EventLog(str(path), "r")
+                if event.channel == "HEFT_TEST"]
+    assert payloads == list(range(200))  # every message, in order
+    assert subprocess.run(["pgrep", "-f", str(path)], capture_output=True).returncode == 1, "logger left running"
