@@ -84,6 +84,9 @@ class ControllerSpec:
     force: ForceScalingParams = dataclasses.field(default_factory=ForceScalingParams)
     feedback: FeedbackMappingParams = dataclasses.field(default_factory=FeedbackMappingParams)
     passivity: PassivityParams = dataclasses.field(default_factory=PassivityParams)
+    # One-way communication delay (s) between controller and station, in each direction;
+    # a whole number of controller periods.
+    delay: float = 0.0
 
 
 @dataclasses.dataclass
@@ -141,6 +144,10 @@ class Scenario:
         need(len(op.rotation_amplitude) == 3, "operator.rotation_amplitude", "needs 3 numbers (rad)")
         need(self.plant_time_step > 0, "plant_time_step", "must be > 0 (s)")
         need(self.controller_period > 0, "controller_period", "must be > 0 (s)")
+        steps = self.controller.delay / self.controller_period
+        need(math.isfinite(steps) and steps >= 0 and abs(steps - round(steps)) < 1e-6, "controller.delay",
+             f"must be >= 0 and a whole number of controller periods ({self.controller_period:g} s); "
+             f"got {self.controller.delay!r} s")
         need(len(self.slave_servo_stiffness) == 6 and min(self.slave_servo_stiffness) > 0,
              "slave_servo_stiffness", "needs 6 positive gains (N·m/rad)")
         need(self.duration > 0, "duration", "must be > 0 (s)")

@@ -15,7 +15,7 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, MultibodyPlant, MultibodyPlantConfig
 from pydrake.multibody.tree import (FixedOffsetFrame, JointActuatorIndex, PdControllerGains, PrismaticJoint, PrismaticSpring,
                                    RotationalInertia, SpatialInertia)
-from pydrake.geometry import AddContactMaterial, Box, ProximityProperties
+from pydrake.geometry import AddContactMaterial, Box, MeshcatVisualizer, ProximityProperties
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, Saturation
 
@@ -95,7 +95,7 @@ def AddSlave(plant: MultibodyPlant, scenario: Scenario) -> SlaveParts:
     return SlaveParts(arm, sensor_body, S, load_bodies, weld, gripper_bodies)
 
 
-def _add_sheet_spring(plant: MultibodyPlant, spec) -> PrismaticJoint:
+def AddSheetSpring(plant: MultibodyPlant, spec) -> PrismaticJoint:
     """A plate on a vertical prismatic joint with a linear spring-damper (Fig. 5),
     resting with its top at ``spec.plate_top_W`` (its own weight preloads the spring)."""
     instance = plant.AddModelInstance("sheet_spring")
@@ -133,7 +133,7 @@ def _add_slave(builder: DiagramBuilder, scenario: Scenario):
     plant.set_name("slave_plant")
     parts = AddSlave(plant, scenario)
     if scenario.environment.kind == "sheet_spring":
-        _add_sheet_spring(plant, scenario.environment)
+        AddSheetSpring(plant, scenario.environment)
     plant.mutable_gravity_field().set_gravity_vector(GRAVITY_W)
 
     # The robot controller's model of arm + payload, for gravity feed-forward and servo damping.
@@ -260,8 +260,9 @@ def _add_master(builder: DiagramBuilder, scenario: Scenario):
     return master
 
 
-def MakeSimStation(scenario: Scenario):
-    """The simulated station Diagram for ``scenario`` (validated here).
+def MakeSimStation(scenario: Scenario, meshcat=None):
+    """The simulated station Diagram for ``scenario`` (validated here); with a ``meshcat``,
+    the slave, its load and environment are drawn there live.
 
     Inputs: ``master.torque_commanded`` (6, N·m), ``slave.position_commanded`` (6, rad).
     Outputs: ``master.position_measured``, ``master.velocity_estimated``,
@@ -274,6 +275,8 @@ def MakeSimStation(scenario: Scenario):
     plant, parts = _add_slave(builder, scenario)
     _add_wrist_sensor(builder, scenario, plant, parts)
     _add_master(builder, scenario)
+    if meshcat is not None:
+        MeshcatVisualizer.AddToBuilder(builder, builder.GetMutableSubsystemByName("scene_graph"), meshcat)
     diagram = builder.Build()
     diagram.set_name("sim_station")
     return diagram

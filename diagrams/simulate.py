@@ -5,7 +5,9 @@ the paper-style figure (analysis/figures.py).
 """
 
 import dataclasses
+import io
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -50,14 +52,16 @@ def read_load_estimate(path) -> LoadEstimate:
     return LoadEstimate(phi=phi, offsets=offsets)
 
 
-def run_teleop(scenario: Scenario, load: LoadEstimate, sigma: float, label: str = "") -> dict:
+def run_teleop(scenario: Scenario, load: LoadEstimate, sigma: float, label: str = "", meshcat=None,
+               quiet: bool = False) -> dict:
     """Simulates ``scenario.duration`` s of the closed loop with σ = ``sigma``; returns the
-    log arrays (names as the README's log.npz) and the achieved real-time factor."""
-    diagram, loggers = MakeTeleopSimulation(scenario, load, sigma=sigma)
+    log arrays (names as the README's log.npz) and the achieved real-time factor; a ``meshcat``
+    shows the run live; ``quiet`` hides the progress bar."""
+    diagram, loggers = MakeTeleopSimulation(scenario, load, sigma=sigma, meshcat=meshcat)
     simulator = Simulator(diagram)
     simulator.Initialize()
     context = simulator.get_context()
-    progress = ProgressBar(scenario.duration, label or f"σ = {sigma:g}")
+    progress = ProgressBar(scenario.duration, label or f"σ = {sigma:g}", stream=io.StringIO() if quiet else sys.stderr)
     start = time.perf_counter()
     chunk = 0.05
     t = 0.0
@@ -86,14 +90,14 @@ def run_teleop(scenario: Scenario, load: LoadEstimate, sigma: float, label: str 
     return data
 
 
-def simulate(scenario: Scenario, load: LoadEstimate, out_dir, sigmas, name: str) -> dict:
+def simulate(scenario: Scenario, load: LoadEstimate, out_dir, sigmas, name: str, meshcat=None) -> dict:
     """Runs every σ, writes log.npz (the first σ) and log_sigma<σ>.npz (each), metrics.json
-    and figure.png into ``out_dir``; returns the metrics."""
+    and figure.png into ``out_dir``; returns the metrics. A ``meshcat`` shows each run live."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     runs = {}
     for sigma in sigmas:
-        runs[sigma] = run_teleop(scenario, load, sigma)
+        runs[sigma] = run_teleop(scenario, load, sigma, meshcat=meshcat)
         np.savez_compressed(out / f"log_sigma{sigma:g}.npz", **runs[sigma])
     np.savez_compressed(out / "log.npz", **runs[sigmas[0]])
     metrics = experiment_metrics(scenario.experiment, runs, scenario.controller.feedback.force_scale)
