@@ -1,0 +1,154 @@
+"""``heft analyze passivity LOG.npz``: energy through the ports of a run, and what the
+passivity controller did (`analysis.passivity_analysis`).
+
+Master port: the wrench the network renders on the hand (``master_force``) against the
+stylus twist J_M(q)·q̇ from the logged master angles and velocities, as the passivity
+observer pairs them. Environment port (when the log has ``slave_q`` and
+``wrench_contact_true``): the contact part of the sensor's wrench against the twist of S,
+from the slave's angles differentiated in time; positive energy flows from the slave's
+tool into the environment.
+
+Sample alignment: the observer's energy and damping logged at row k come from the update
+that paired the stylus twist of row k (master angles and velocities) with the wrench logged
+at row k−1; `paired_wrench` shifts the wrench so that every row holds one update's inputs.
+The report checks the pairing: the observer's energy must equal the port energy plus what
+the PC dissipated (``observer_identity_gap_J``, zero up to rounding on an undelayed run).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import JacobianWrtVariable
+
+from heft.analysis.passivity_analysis import (CHANNELS, passivity_controller_summary, passivity_figure,
+                                              port_energy, port_power, sample_periods)
+from heft.diagrams.models import model_path
+from heft.diagrams.sim_station import AddArmWithSensor
+from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant, pose_and_jacobian
+
+REQUIRED_KEYS = ("t", "master_q", "master_v", "master_force", "passivity_energy", "passivity_damping")
+ENVIRONMENT_KEYS = ("slave_q", "wrench_contact_true")
+
+
+def read_log(path) -> dict:
+    """The arrays of a run's log.npz; a ValueError names a missing file or key."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"no log at {path}; write one with `heft simulate` (log.npz)")
+    with np.load(path) as archive:
+        log = {key: archive[key] for key in archive.files}
+    missing = [key for key in REQUIRED_KEYS if key not in log]
+    if missing:
+        raise ValueError(f"{path} lacks {', '.join(missing)}: the passivity analysis needs {', '.join(REQUIRED_KEYS)}")
+    if np.asarray(log["t"]).size < 3:
+        raise ValueError(f"{path} holds fewer than 3 samples")
+    return log
+
+
+def stylus_twists(master_q, master_v) -> np.ndarray:
+    """[v_E; ω_E] (N, 6; m/s, rad/s, in B) = J_M(q)·q̇ of the master at each logged sample."""
+    plant = master_plant(model_path("phantom_premium_6dof.urdf"))
+    context = plant.CreateDefaultContext()
+    B, E = plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME)
+    return np.array([pose_and_jacobian(plant, context, B, E, q)[1] @ v
+                     for q, v in zip(np.asarray(master_q, dtype=float), np.asarray(master_v, dtype=float),
+                                     strict=True)])
+
+
+def sensor_twists(robot: str, t, slave_q) -> np.ndarray:
+    """[v_S; ω_S] (N, 6; m/s, rad/s, in S) of the sensor frame, from the slave's joint angles
+    (N, 6; rad) differentiated by central differences (one-sided at the ends)."""
+    plant = MultibodyPlant(time_step=0.0)
+    _, _, S = AddArmWithSensor(plant, robot)
+    plant.Finalize()
+    context = plant.CreateDefaultContext()
+    R = plant.GetFrameByName(f"{robot}_base")
+    slave_q = np.asarray(slave_q, dtype=float)
+    rates = np.gradient(slave_q, np.asarray(t, dtype=float), axis=0)
+    twists = []
+    for q, rate in zip(slave_q, rates, strict=True):
+        plant.SetPositions(context, q)
+        J = plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV, S, np.zeros(3), R, S)
+        twists.append(np.concatenate((J[3:] @ rate, J[:3] @ rate)))
+    return np.array(twists)
+
+
+def paired_wrench(master_force) -> np.ndarray:
+    """The logged wrench (N, 6) moved down one row (zeros first), so that row k holds the
+    wrench the observer met with row k's twist (module docstring)."""
+    master_force = np.asarray(master_force, dtype=float)
+    return np.concatenate((np.zeros((1, master_force.shape[1])), master_force[:-1]))
+
+
+def _flows(power_into_network, holds) -> tuple[float, float]:
+    """(energy in, energy out) (J): the positive and negative parts of the power, integrated."""
+    energy = power_into_network * holds
+    return float(energy[energy > 0].sum()), 0.0 - float(energy[energy < 0].sum())
+
+
+def analyze_log(log: dict, robot: str = "rx90", twist=None) -> dict:
+    """The passivity report of a log (keys as `heft simulate` writes them): per channel the
+    master port's energy in/out and final value, the PC's summary, and the largest gap
+    between the observer's energy and the port energy plus what the PC dissipated (J)
+    (zero up to rounding when the log and the observer agree); with the environment keys,
+    the environment port's energies too. ``twist``: `stylus_twists` of the log, if already computed."""
+    t = np.asarray(log["t"], dtype=float)
+    holds = sample_periods(t)
+    twist = stylus_twists(log["master_q"], log["master_v"]) if twist is None else np.asarray(twist, dtype=float)
+    wrench = paired_wrench(log["master_force"])
+    damping = np.asarray(log["passivity_damping"], dtype=float)
+    observed = np.asarray(log["passivity_energy"], dtype=float)
+    summary = passivity_controller_summary(t, damping, observed, twist)
+    port = port_energy(t, wrench, twist)
+    speed_squared = np.stack(((twist[:, :3] ** 2).sum(1), (twist[:, 3:] ** 2).sum(1)), axis=1)
+    dissipated = np.cumsum(damping * speed_squared * holds[:, None], axis=0)
+    gap = np.abs(observed - (port + dissipated)).max(axis=0)
+    power_in = -port_power(wrench, twist)
+    report = {"duration_s": float(t[-1] - t[0] + holds[-1]), "master_port": {}, "passivity_controller": summary}
+    for i, name in enumerate(CHANNELS):
+        energy_in, energy_out = _flows(power_in[:, i], holds)
+        report["master_port"][name] = {
+            "energy_in_J": energy_in, "energy_out_J": energy_out, "final_J": float(port[-1, i]),
+            "min_J": float(port[:, i].min()), "observer_identity_gap_J": float(gap[i])}
+    if all(key in log for key in ENVIRONMENT_KEYS):
+        sensor = sensor_twists(robot, t, log["slave_q"])
+        contact = np.asarray(log["wrench_contact_true"], dtype=float)
+        into_environment = (contact * sensor).sum(axis=1)
+        energy_in, energy_out = _flows(into_environment, holds)
+        report["environment_port"] = {"energy_in_J": energy_in, "energy_out_J": energy_out,
+                                      "final_J": energy_in - energy_out}
+    return report
+
+
+def add_arguments(parser) -> None:
+    """The options of ``heft analyze passivity``."""
+    parser.add_argument("log", help="a run's log.npz (from `heft simulate`)")
+    parser.add_argument("--robot", default="rx90", choices=("rx90", "rx60"),
+                        help="the slave of the run, for the environment port (default rx90)")
+    parser.add_argument("--out", default=None, help="output folder (default: the log's folder)")
+
+
+def run(args) -> int:
+    """Writes passivity.png and passivity.json and prints a one-line summary; returns 0."""
+    log = read_log(args.log)
+    out = Path(args.out) if args.out else Path(args.log).parent
+    out.mkdir(parents=True, exist_ok=True)
+    twist = stylus_twists(log["master_q"], log["master_v"])
+    report = analyze_log(log, args.robot, twist)
+    paired = {**log, "master_force": paired_wrench(log["master_force"])}
+    passivity_figure(paired, out / "passivity.png", twist=twist, title=Path(args.log).name)
+    (out / "passivity.json").write_text(json.dumps(report, indent=2) + "\n")
+    pc = report["passivity_controller"]
+    ports = "; ".join(f"master {name}: in {p['energy_in_J']:.4g} J, out {p['energy_out_J']:.4g} J"
+                      for name, p in report["master_port"].items())
+    if "environment_port" in report:
+        environment = report["environment_port"]
+        ports += f"; environment: in {environment['energy_in_J']:.4g} J, out {environment['energy_out_J']:.4g} J"
+    active = ", ".join(f"{name} {100 * pc[f'{name}_active_fraction']:.1f} % active, "
+                       f"{pc[f'{name}_dissipated_J']:.4g} J dissipated" for name in CHANNELS)
+    print(f"{ports}; PC: {active}; wrote {out / 'passivity.png'} and {out / 'passivity.json'}")
+    return 0

@@ -1,0 +1,206 @@
+"""The apparent mass the operator feels, measured in closed-loop free-space runs.
+
+Scaling the non-contact wrench by σ makes the load feel like a mass σ·m (Kubus & Wahl,
+Sec. V), which at the master handle is k_f·s·σ·m (`analysis.apparent_mass.hand_mass`).
+Each run here moves the handle fast along one axis in free space (a scenario's operator
+motion) with the controller given the load's TRUE parameters, so what is measured is
+the loop, not the identification, and fits the force the master renders against:
+
+* hand: the handle's own acceleration (forward kinematics of the master's encoder
+  angles, smoothed and differentiated in `analysis.apparent_mass`): what the operator
+  feels, the slave's tracking lag included;
+* slave: the sensor's true acceleration mapped back to the master (rotated into B and
+  divided by s): the force chain from accelerometer to handle alone.
+
+The σ = 0 run's fit (the device's own baseline: rendered force not explained by the
+load) is subtracted from each. With the gripper/object split (Eq. 14) σ = 1 keeps the
+gripper and η the share of the gripped object.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from pydrake.math import RollPitchYaw, RotationMatrix  # noqa: E402
+from pydrake.multibody.plant import MultibodyPlant  # noqa: E402
+
+from heft.analysis.apparent_mass import estimate_apparent_mass, fit_apparent_mass, hand_mass  # noqa: E402
+from heft.diagrams.models import model_path  # noqa: E402
+from heft.diagrams.scenario import Scenario  # noqa: E402
+from heft.diagrams.sim_station import AddArmWithSensor, MakeSimStation  # noqa: E402
+from heft.diagrams.simulate import run_teleop  # noqa: E402
+from heft.diagrams.teleop import LoadEstimate  # noqa: E402
+from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant  # noqa: E402
+
+SETTLE_TIME = 0.25
+"""Time (s) after the operator starts moving that the fits leave out (the start transient)."""
+
+
+def stylus_positions(master_q) -> np.ndarray:
+    """p_BE (N, 3; m): the stylus origin in the master base at the joint angles (N, 6; rad)."""
+    plant = master_plant(model_path("phantom_premium_6dof.urdf"))
+    context = plant.CreateDefaultContext()
+    B, E = plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME)
+    positions = []
+    for q in np.asarray(master_q, dtype=float):
+        plant.SetPositions(context, q)
+        positions.append(plant.CalcRelativeTransform(context, B, E).translation())
+    return np.array(positions)
+
+
+def sensor_rotations(robot: str, slave_q) -> np.ndarray:
+    """R_RS (N, 3, 3): the sensor frame's orientation in the slave base at the joint angles (N, 6; rad)."""
+    plant = MultibodyPlant(time_step=0.0)
+    _, _, S = AddArmWithSensor(plant, robot)
+    plant.Finalize()
+    context = plant.CreateDefaultContext()
+    R = plant.GetFrameByName(f"{robot}_base")
+    rotations = []
+    for q in np.asarray(slave_q, dtype=float):
+        plant.SetPositions(context, q)
+        rotations.append(plant.CalcRelativeTransform(context, R, S).rotation().matrix())
+    return np.array(rotations)
+
+
+def motion_axis(scenario: Scenario) -> np.ndarray:
+    """The unit axis (in B) of the operator's translational motion."""
+    amplitude = np.asarray(scenario.operator.amplitude, dtype=float)
+    norm = float(np.linalg.norm(amplitude))
+    if norm == 0.0:
+        raise ValueError("the scenario's operator.amplitude is zero: the handle must move for a mass to show")
+    return amplitude / norm
+
+
+def true_load(scenario: Scenario) -> tuple[LoadEstimate, np.ndarray]:
+    """(the load's true φ and the sensor's starting offsets as the controller's estimate,
+    the gripper's true φ (zeros unless the load is a gripper with an object))."""
+    station = MakeSimStation(scenario)
+    context = station.CreateDefaultContext()
+    phi = np.array(station.GetOutputPort("truth.phi").Eval(context))
+    phi_gripper = np.array(station.GetOutputPort("truth.phi_gripper").Eval(context))
+    sensor = scenario.ft_sensor
+    offsets = (np.array(sensor.initial_offsets, dtype=float) if sensor.noise and sensor.offsets
+               else np.zeros(6))
+    return LoadEstimate(phi=phi, offsets=offsets), phi_gripper
+
+
+def fit_run(scenario: Scenario, log: dict, smoothing: float = 0.01) -> dict:
+    """Hand and slave fits (`analysis.apparent_mass.ApparentMassFit` as dicts) of one run's
+    log along the operator's motion axis, leaving out the start transient."""
+    u = motion_axis(scenario)
+    t = np.asarray(log["t"])
+    window = (scenario.operator.start_time + SETTLE_TIME, t[-1])
+    force = np.asarray(log["master_force"])[:, :3] @ u
+    hand = estimate_apparent_mass(t, force, stylus_positions(log["master_q"]) @ u, smoothing, window)
+    R_BR = RotationMatrix(RollPitchYaw(scenario.controller.motion.R_RB)).inverse().matrix()
+    R_BS = np.einsum("ij,njk->nik", R_BR, sensor_rotations(scenario.robot, log["slave_q"]))
+    a_B = np.einsum("nij,nj->ni", R_BS, np.asarray(log["accel_true"])[:, :3])
+    keep = (t >= window[0]) & (t <= window[1])
+    slave = fit_apparent_mass(force[keep], (a_B @ u)[keep] / scenario.controller.motion.translation_scale)
+    return {"hand": hand.as_dict(), "slave": slave.as_dict(),
+            "peak_force_N": float(np.abs(np.asarray(log["master_force"])[:, :3]).max())}
+
+
+def _run(scenario: Scenario, load: LoadEstimate, sigma: float, smoothing: float) -> dict:
+    return fit_run(scenario, run_teleop(scenario, load, sigma, quiet=True), smoothing)
+
+
+def _subtract(fits: dict, baseline: dict) -> dict:
+    """The fits' masses less the baseline's, per estimate (hand, slave)."""
+    return {key: fits[key]["mass_kg"] - baseline[key]["mass_kg"] for key in ("hand", "slave")}
+
+
+def apparent_mass_study(scenario: Scenario, sigmas=(0.0, 0.5, 1.0, 1.5, 2.0), etas=(0.0, 1.0),
+                        amplitude_scale: float = 0.4, smoothing: float = 0.01, progress=None) -> dict:
+    """Runs ``scenario`` (noise as it says; free space required) once per σ with its own load,
+    and once per η with a gripper holding an object (σ = 1, plus a σ = 0 baseline).
+
+    ``amplitude_scale`` shrinks the operator's motion so that the largest σ's force stays
+    below the device's force limit (a clamped force hides the mass); the default suits fig6
+    up to σ = 2. Returns a JSON-ready dict: per run the fits, the baseline-subtracted
+    masses and the expected k_f·s·σ·m (k_f·s·(m_gripper + η·m_object) for the split)."""
+    if scenario.environment.kind != "none":
+        raise ValueError(f"the apparent mass is measured in free space: use a scenario with environment "
+                         f"kind 'none' (got {scenario.environment.kind!r})")
+    if not amplitude_scale > 0:
+        raise ValueError(f"amplitude_scale must be > 0; got {amplitude_scale}")
+    sigmas = sorted({float(s) for s in sigmas} | {0.0})
+    scenario = dataclasses.replace(scenario, operator=dataclasses.replace(
+        scenario.operator, amplitude=[amplitude_scale * a for a in scenario.operator.amplitude])).validate()
+    k_f, s = scenario.controller.feedback.force_scale, scenario.controller.motion.translation_scale
+    step = progress or (lambda label: None)
+
+    load, _ = true_load(scenario)
+    fits = {}
+    for sigma in sigmas:
+        step(f"σ = {sigma:g}")
+        fits[sigma] = _run(scenario, load, sigma, smoothing)
+    sigma_rows = [{"sigma": sigma, "expected_kg": hand_mass(sigma, load.phi[0], k_f, s),
+                   "measured_kg": _subtract(fits[sigma], fits[0.0]), "fits": fits[sigma]} for sigma in sigmas]
+
+    split_rows = []
+    if etas:
+        gripper = dataclasses.replace(scenario, load=dataclasses.replace(scenario.load, kind="gripper_object"))
+        gripper_load, phi_gripper = true_load(gripper)
+        m_gripper, m_object = float(phi_gripper[0]), float(gripper_load.phi[0] - phi_gripper[0])
+
+        def split_scenario(eta: float) -> Scenario:
+            force = dataclasses.replace(gripper.controller.force, eta=eta, phi_gripper=phi_gripper.tolist())
+            return dataclasses.replace(gripper, controller=dataclasses.replace(gripper.controller, force=force))
+
+        step("gripper, σ = 0, η = 0")
+        baseline = _run(split_scenario(0.0), gripper_load, 0.0, smoothing)
+        for eta in etas:
+            step(f"gripper, σ = 1, η = {eta:g}")
+            fit = _run(split_scenario(float(eta)), gripper_load, 1.0, smoothing)
+            split_rows.append({"eta": float(eta), "expected_kg": hand_mass(1.0, m_gripper + eta * m_object, k_f, s),
+                               "measured_kg": _subtract(fit, baseline), "fits": fit})
+    return {"scenario": scenario.experiment, "force_scale": k_f, "motion_scale": s,
+            "load_mass_kg": float(load.phi[0]), "amplitude": list(scenario.operator.amplitude),
+            "max_force_N": scenario.controller.feedback.max_force, "sigma_runs": sigma_rows,
+            "split_runs": split_rows,
+            **({"gripper_mass_kg": m_gripper, "object_mass_kg": m_object} if etas else {})}
+
+
+def write_study(study: dict, out_dir) -> tuple[Path, Path]:
+    """apparent_mass.png (measured m_a vs σ over the line k_f·s·σ·m; the η runs beside) and
+    apparent_mass.json into ``out_dir``; returns their paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = study["sigma_runs"]
+    sigma = np.array([r["sigma"] for r in rows])
+    figure, (left, right) = plt.subplots(1, 2, figsize=(10, 4), gridspec_kw={"width_ratios": [2, 1]})
+    line = np.linspace(0.0, sigma.max(), 50)
+    left.plot(line, study["force_scale"] * study["motion_scale"] * study["load_mass_kg"] * line, "k-", lw=1,
+              label="k_f·s·σ·m")
+    for key, marker in (("hand", "o"), ("slave", "x")):
+        left.plot(sigma, [r["measured_kg"][key] for r in rows], marker, ls="none",
+                  label=f"measured ({key} acceleration)")
+    left.set_xlabel("σ")
+    left.set_ylabel("apparent mass at the handle (kg)")
+    left.set_title(f"{study['scenario'] or 'scenario'}: load {study['load_mass_kg']:.3g} kg")
+    left.legend(fontsize=8)
+    left.grid(alpha=0.3)
+    split = study["split_runs"]
+    if split:
+        x = np.arange(len(split))
+        right.bar(x - 0.2, [r["expected_kg"] for r in split], 0.4, color="0.7", label="k_f·s·(m_gr + η·m_obj)")
+        right.bar(x + 0.2, [r["measured_kg"]["hand"] for r in split], 0.4, label="measured (hand)")
+        right.set_xticks(x, [f"η = {r['eta']:g}" for r in split])
+        right.set_title("gripper + object, σ = 1")
+        right.legend(fontsize=8)
+    else:
+        right.axis("off")
+    figure.tight_layout()
+    png, document = out / "apparent_mass.png", out / "apparent_mass.json"
+    figure.savefig(png, dpi=120)
+    plt.close(figure)
+    document.write_text(json.dumps(study, indent=2) + "\n")
+    return png, document
