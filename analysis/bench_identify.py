@@ -13,10 +13,12 @@ seeded Gaussian noise of the sensor model; two noise models are run:
   what the accelerometer's noise costs each method.
 """
 
+import functools
 import time
 
 import numpy as np
 
+from heft.analysis.parallel import run_points
 from heft.systems.estimators import (
     METHODS, PARAMETER_NAMES, NoiseLevels, RecursiveInstrumentalVariables, RecursiveLeastSquares,
     RecursiveTotalLeastSquares, batch_estimate, feed)
@@ -45,24 +47,31 @@ def _estimate(method, wrench, signals, instruments, noise):
     return np.concatenate((estimator.offsets, estimator.phi))
 
 
-def monte_carlo(wrench, a, alpha, omega, g, theta_true, noise: NoiseLevels, runs: int, methods, seed: int,
-                accelerometer_noise: bool, progress=None) -> dict:
-    """{method: (runs, 16) estimates} over seeded noise realisations (run r uses seed + r)."""
-    estimates = {method: np.empty((runs, 16)) for method in methods}
+def noisy_run(data: tuple, point: int, seed_sequence: np.random.SeedSequence) -> dict:
+    """One Monte Carlo run (``point`` is its index): the sensor model's noise, drawn from
+    ``seed_sequence``, on the exact ``data`` = (wrench, a, alpha, omega, g, noise,
+    methods, accelerometer_noise); returns {method: (16,) estimate [offsets; φ]}."""
+    wrench, a, alpha, omega, g, noise, methods, accelerometer_noise = data
+    rng = np.random.default_rng(seed_sequence)
     wrench_sigma = np.array([noise.force] * 3 + [noise.torque] * 3)
-    for r in range(runs):
-        rng = np.random.default_rng(seed + r)
-        noisy_wrench = wrench + wrench_sigma * rng.standard_normal(wrench.shape)
-        a_n, alpha_n = a, alpha
-        if accelerometer_noise:
-            a_n = a + noise.linear_acceleration * rng.standard_normal(a.shape)
-            alpha_n = alpha + noise.angular_acceleration * rng.standard_normal(alpha.shape)
-        for method in methods:
-            estimates[method][r] = _estimate(method, noisy_wrench, (a_n, alpha_n, omega, g), (a, alpha, omega, g),
-                                             noise)
-        if progress:
-            progress(r + 1)
-    return estimates
+    noisy_wrench = wrench + wrench_sigma * rng.standard_normal(wrench.shape)
+    a_n, alpha_n = a, alpha
+    if accelerometer_noise:
+        a_n = a + noise.linear_acceleration * rng.standard_normal(a.shape)
+        alpha_n = alpha + noise.angular_acceleration * rng.standard_normal(alpha.shape)
+    return {method: _estimate(method, noisy_wrench, (a_n, alpha_n, omega, g), (a, alpha, omega, g), noise)
+            for method in methods}
+
+
+def monte_carlo(wrench, a, alpha, omega, g, noise: NoiseLevels, runs: int, methods, seed: int,
+                accelerometer_noise: bool, progress=None, workers: int | None = None,
+                dask_address: str | None = None) -> dict:
+    """{method: (runs, 16) estimates} over noise realisations, run r seeded by the r-th child
+    of SeedSequence(seed), in parallel (``analysis.parallel.run_points``)."""
+    data = (wrench, a, alpha, omega, g, noise, tuple(methods), accelerometer_noise)
+    results = run_points(functools.partial(noisy_run, data), range(runs), seed, dask_address=dask_address,
+                         workers=workers, label="bench identify run", progress=progress)
+    return {method: np.array([result[method] for result in results]).reshape(runs, 16) for method in methods}
 
 
 def update_costs(wrench, a, alpha, omega, g, noise: NoiseLevels, samples: int = 2000) -> dict:

@@ -69,7 +69,12 @@ def _simulate(args) -> int:
         print("no load estimate given: identifying the load in simulation first (Sec. IV)")
         load = identify_in_simulation(scenario, out / "identify")
     sigmas = [args.sigma] if args.sigma is not None else scenario.controller.sigmas
-    metrics = simulate(scenario, load, out, sigmas, name=Path(args.scenario).stem)
+    meshcat = None
+    if args.meshcat:
+        from pydrake.geometry import Meshcat
+        meshcat = Meshcat()
+        print(f"live view: {meshcat.web_url()}", flush=True)
+    metrics = simulate(scenario, load, out, sigmas, name=Path(args.scenario).stem, meshcat=meshcat)
     print(json.dumps(metrics, indent=2))
     print(f"wrote {out}/log.npz, metrics.json, figure.png")
     return 0
@@ -146,8 +151,8 @@ def _bench_identify(args) -> int:
     results = {}
     for label, accelerometer_noise in (("wrench", False), ("wrench+accelerometer", True)):
         bar = ProgressBar(args.runs, label)
-        estimates = bench.monte_carlo(exact_wrench, a, alpha, omega, g, theta_true, noise, args.runs, methods,
-                                      args.seed, accelerometer_noise, bar.update)
+        estimates = bench.monte_carlo(exact_wrench, a, alpha, omega, g, noise, args.runs, methods, args.seed,
+                                      accelerometer_noise, bar.update, workers=args.workers, dask_address=args.dask)
         bar.close()
         results[label] = bench.summarise(estimates, theta_true, bound)
         bench.print_table(f"noise on {label}: bias / std / Cramér–Rao std (efficiency σ²_CR/MSE)", results[label])
@@ -239,6 +244,7 @@ def build_parser() -> argparse.ArgumentParser:
     simulate.add_argument("--duration", type=float, help="simulated seconds")
     simulate.add_argument("--estimate", help="estimate.yaml from `heft identify` (default: identify first)")
     simulate.add_argument("--out", help="output folder (default out/SCENARIO)")
+    simulate.add_argument("--meshcat", action="store_true", help="show the simulation live in a browser (URL printed)")
     simulate.set_defaults(run=_simulate)
 
     identify = commands.add_parser("identify", help="identify the load's inertial parameters and the sensor "
@@ -270,9 +276,13 @@ def build_parser() -> argparse.ArgumentParser:
     identification.add_argument("--seed", type=int, default=0)
     identification.add_argument("--methods", nargs="+", choices=("ols", "wls", "tls", "rls", "riv", "rtls"))
     identification.add_argument("--out", help="write every number as JSON here")
+    identification.add_argument("--workers", type=int, help="local worker processes (default: every core)")
+    identification.add_argument("--dask", metavar="ADDRESS", help="run on this Dask scheduler (tcp://host:port)")
     identification.set_defaults(run=_bench_identify)
 
     default_url = DEFAULT_LCM_URL
+    commands.add_parser("analyze", help="analyses: " + ", ".join(name for name, _, _ in ANALYSES) +
+                        " (`heft analyze --help`)", add_help=False)
     lcm_bench = benches.add_parser("lcm", help="the controller against a driver probe over LCM in two processes: "
                                                "sensor-to-torque latency and the loop rate sustained")
     lcm_bench.add_argument("--rates", default="2000,4000", help="controller rates to try (Hz, default 2000,4000)")
@@ -304,8 +314,42 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+ANALYSES = (
+    ("passivity", "heft.diagrams.analyze_passivity",
+     "port energies, the passivity observer and what the passivity controller dissipated, from a run's log"),
+    ("stability", "heft.diagrams.analyze_stability",
+     "stability maps by simulation sweeps (stiffness, damping, scales, rate, delay; with/without the PC)"),
+    ("linear", "heft.diagrams.analyze_linear",
+     "the loop linearised: eigenvalues, hybrid parameters H(jω), Llewellyn, Z-width, transparency"),
+    ("apparent-mass", "heft.diagrams.analyze_apparent_mass",
+     "the mass the operator feels for σ from 0 to 2 and the gripper/object split (Sec. V: m_a = σ·m)"),
+    ("replay", "heft.diagrams.replay", "a run's log as a self-contained HTML replay (Meshcat)"),
+)
+"""``heft analyze`` subcommands: name, module (with ``add_arguments`` and ``run``), help."""
+
+
+def build_analyze_parser() -> argparse.ArgumentParser:
+    """``heft analyze``'s own parser; imports the analyses (Drake), so built only when asked for."""
+    from importlib import import_module
+
+    parser = argparse.ArgumentParser(prog="heft analyze", description="analyses writing PNG/HTML and JSON, "
+                                                                      "each with a one-line summary")
+    kinds = parser.add_subparsers(dest="analysis", required=True, metavar="ANALYSIS")
+    for name, module_name, help_text in ANALYSES:
+        module = import_module(module_name)
+        kind = kinds.add_parser(name, help=help_text, description=help_text)
+        module.add_arguments(kind)
+        kind.set_defaults(run=module.run)
+    return parser
+
+
 def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["analyze"]:
+        args = build_analyze_parser().parse_args(argv[1:])
+        args.command = f"analyze {args.analysis}"
+    else:
+        args = build_parser().parse_args(argv)
     try:
         return args.run(args)
     except ValueError as error:  # bad input: say what was wrong, no traceback
