@@ -55,8 +55,9 @@ def stability_limits(results: list[dict], x: str, split: str | None = None) -> d
 
 
 def draw_stability_map(results: list[dict], x: str, y: str | None, out_dir, split: str | None = "passivity",
-                       units: dict | None = None) -> tuple[Path, Path]:
-    """Writes stability_map.png and stability_map.json into ``out_dir``; returns their paths."""
+                       units: dict | None = None, predicted: dict | None = None) -> tuple[Path, Path]:
+    """Writes stability_map.png and stability_map.json into ``out_dir``; returns their paths.
+    ``predicted`` ({y value (0 without y): x limit}) draws a linear model's boundary on every panel."""
     if results and split not in results[0]["point"]:
         split = None
     check_map_axes(results, x, y, split)
@@ -73,6 +74,10 @@ def draw_stability_map(results: list[dict], x: str, y: str | None, out_dir, spli
                           edgecolors="black", linewidths=0.5)
             panel.annotate(f"{r['growth_ratio']:.2f}", (px, py), textcoords="offset points", xytext=(0, 9),
                            ha="center", fontsize=7)
+        if predicted:
+            levels = sorted(predicted)
+            panel.plot([predicted[v] for v in levels], levels if y else [0.0] * len(levels), "k--", lw=1,
+                       marker="|", markersize=14)
         if x in LOG_SCALED:
             panel.set_xscale("log")
         else:
@@ -91,6 +96,8 @@ def draw_stability_map(results: list[dict], x: str, y: str | None, out_dir, spli
         panel.grid(alpha=0.3)
     handles = [plt.Line2D([], [], marker="o", ls="", color=c, label=v) for v, c in VERDICT_COLOURS.items()]
     handles.append(plt.Line2D([], [], marker="X", ls="", color="grey", label="tool bouncing off the wall"))
+    if predicted:
+        handles.append(plt.Line2D([], [], ls="--", color="black", label="linear model's limit (no PC)"))
     figure.legend(handles=handles, loc="lower center", ncol=4, fontsize=8)
     figure.suptitle("Oscillation growth of the master force\n(number: RMS ratio, last ÷ middle third)", fontsize=10)
     figure.tight_layout(rect=(0, 0.08, 1, 0.93))
@@ -98,7 +105,8 @@ def draw_stability_map(results: list[dict], x: str, y: str | None, out_dir, spli
     figure.savefig(png, dpi=110)
     plt.close(figure)
     document = {"x": x, "y": y, "split": split, "axes": {a: _values(results, a) for a in results[0]["point"]},
-                "limits": stability_limits(results, x, split), "results": results}
+                "limits": stability_limits(results, x, split), "results": results,
+                "predicted_limits": None if predicted is None else {str(k): v for k, v in predicted.items()}}
     path = out / "stability_map.json"
     path.write_text(json.dumps(document, indent=2) + "\n")
     return png, path

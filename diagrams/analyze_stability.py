@@ -16,7 +16,7 @@ import numpy as np
 from heft.analysis.stability_map import draw_stability_map, stability_limits
 from heft.diagrams.progress import ProgressBar
 from heft.diagrams.simulate import resolve_scenario
-from heft.diagrams.stability_sweep import AXES, sweep
+from heft.diagrams.stability_sweep import AXES, point_scenario, sweep
 
 
 def axis_values(axis: str, count: int, period: float) -> list[float]:
@@ -71,10 +71,34 @@ def run(args) -> int:
     results = sweep(base, axes, seed=args.seed, dask_address=args.dask, workers=args.workers, progress=bar.update)
     bar.close()
     units = {name: unit for name, (_, unit) in AXES.items()}
-    png, document = draw_stability_map(results, names[0], names[1] if len(names) > 1 else None, Path(args.out),
-                                       units=units)
-    print(summary_line(results, names[0]) + f"; wrote {png} and {document}")
+    y = names[1] if len(names) > 1 else None
+    predicted = predicted_stiffness_limits(base, axes.get(y, [0.0]), y) if names[0] == "stiffness" else None
+    png, document = draw_stability_map(results, names[0], y, Path(args.out), units=units, predicted=predicted)
+    line = summary_line(results, names[0])
+    if predicted:
+        line += "; linear model's limit " + ", ".join(
+            f"{value:.4g} N/m" + (f" at {y} = {level:.3g}" if y else "") for level, value in predicted.items())
+    print(line + f"; wrote {png} and {document}")
     return 0
+
+
+def predicted_stiffness_limits(base, levels, y: str | None) -> dict | None:
+    """{level of ``y``: the linear model's stiffness limit (N/m)} (``linear_teleoperator``; no
+    passivity controller); None where the model does not apply to the scenario."""
+    from heft.analysis.linear_teleoperator import predicted_stiffness_limit
+    from heft.diagrams.linear_model_params import linear_model_params, operating_point
+
+    try:
+        point = operating_point(base)
+        limits = {}
+        for level in levels:
+            scenario = point_scenario(base, {y: level}) if y else base
+            reused = point if y not in ("period", "motion_scale") else None
+            limits[level] = predicted_stiffness_limit(linear_model_params(scenario, point=reused))
+        return limits
+    except ValueError as error:
+        print(f"no linear prediction: {error}", flush=True)
+        return None
 
 
 def summary_line(results: list[dict], x: str) -> str:

@@ -126,4 +126,5 @@ def linear_model_params(scenario: Scenario, environment_stiffness: float | None 
                                else float(environment_stiffness)),
         environment_damping=scenario.environment.damping, period=scenario.controller_period,
         setpoint_bandwidth=scenario.slave_setpoint_bandwidth, sigma=controller.force.sigma,
-        gamma=controller.force.gamma).validate()
+        gamma=controller.force.gamma,
+        communication_delay_ticks=round(controller.delay / scenario.controller_period)).validate()
