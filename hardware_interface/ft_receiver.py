@@ -84,7 +84,8 @@ class FtSampleReceiver(LeafSystem):
         if utime <= 0.0 or (counter == book[_SEEN_COUNTER] and utime == book[_SEEN_UTIME]):
             return
         book[_SEEN_COUNTER], book[_SEEN_UTIME] = counter, utime
-        if not restarted(utime * 1e-6, book[_LAST_UTIME] * 1e-6) and (counter <= book[_LAST_COUNTER] or utime <= book[_LAST_UTIME]):
+        stale = counter <= book[_LAST_COUNTER] or utime <= book[_LAST_UTIME]
+        if stale and not restarted(utime * 1e-6, book[_LAST_UTIME] * 1e-6):
             book[_DROPPED] += 1.0
             return
         book[_LAST_COUNTER], book[_LAST_UTIME] = counter, utime

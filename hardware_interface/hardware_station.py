@@ -103,7 +103,8 @@ class HapticStateReceiver(LeafSystem):
 
 class StampAge(LeafSystem):
     """Age (s of diagram time) of the last message whose device ``stamp`` (s) advanced (or
-    whose driver restarted: ``message_order``) with finite ``values``; inf before the first. Samples every ``period`` s."""
+    whose driver restarted: ``message_order``) with finite ``values``; inf before the first.
+    Samples every ``period`` s."""
 
     def __init__(self, size: int, period: float):
         super().__init__()

@@ -111,7 +111,7 @@ class FourierTrajectory:
         object.__setattr__(self, "q0", q0)
 
     @classmethod
-    def from_rest_coordinates(cls, base_frequency: float, x, q0) -> "FourierTrajectory":
+    def from_rest_coordinates(cls, base_frequency: float, x, q0) -> FourierTrajectory:
         """The trajectory at rest at q0 with rest coordinates x (n × (2N − 3), rad):
         ρ_i = B_ρ x_i[:N−1], δ_i = B_δ x_i[N−1:] with the bases of :func:`rest_basis`."""
         x = np.asarray(x, dtype=float)
@@ -338,7 +338,7 @@ class JointLimits:
             object.__setattr__(self, name, a)
 
     @classmethod
-    def from_plant(cls, plant, acceleration, model_instance=None, velocity_fraction: float = 1.0) -> "JointLimits":
+    def from_plant(cls, plant, acceleration, model_instance=None, velocity_fraction: float = 1.0) -> JointLimits:
         """Position and velocity limits from a finalized plant (e.g. the URDF's
         ``<limit>``), velocities scaled by ``velocity_fraction``; ``acceleration``
         (rad/s², scalar or (n,)) from the caller, as URDFs carry none."""
@@ -351,7 +351,7 @@ class JointLimits:
                    velocity_fraction * upper_v, np.broadcast_to(np.asarray(acceleration, dtype=float),
                                                                 upper_v.shape))
 
-    def within(self, center, half_range) -> "JointLimits":
+    def within(self, center, half_range) -> JointLimits:
         """These limits with positions also kept within center ± half_range (rad,
         scalar or (n,)): a simple way to keep an excitation clear of the
         surroundings, which joint limits alone do not."""
@@ -359,7 +359,7 @@ class JointLimits:
         return JointLimits(np.maximum(self.lower, center - half_range), np.minimum(self.upper, center + half_range),
                            self.velocity, self.acceleration)
 
-    def margins(self, trajectory: FourierTrajectory, times) -> "LimitMargins":
+    def margins(self, trajectory: FourierTrajectory, times) -> LimitMargins:
         """Smallest distances to the limits over ``times`` (s); negative means violated."""
         q, qd, qdd = (trajectory.derivative(times, order) for order in (0, 1, 2))
         return LimitMargins(position=np.minimum(q - self.lower, self.upper - q).min(axis=0),
@@ -396,7 +396,7 @@ class ExcitationSettings:
     constraint_samples: int = 200     # limit grid of the optimiser, per period
 
     @classmethod
-    def quick(cls) -> "ExcitationSettings":
+    def quick(cls) -> ExcitationSettings:
         return cls(harmonics=3, samples=40, constraint_samples=100, max_iterations=40)
 
 

@@ -188,7 +188,7 @@ class InertialParameters:
 
     # --- conversions -------------------------------------------------------
     @classmethod
-    def from_inertia_about_origin(cls, mass, com, inertia_origin) -> "InertialParameters":
+    def from_inertia_about_origin(cls, mass, com, inertia_origin) -> InertialParameters:
         """From the inertia about S's origin (parallel-axis theorem)."""
         if not mass > 0:
             raise ValueError(f"mass must be > 0 to locate the COM; got {mass}")
@@ -196,7 +196,7 @@ class InertialParameters:
         return cls(mass, com, inertia_origin - _steiner(mass, com))
 
     @classmethod
-    def from_phi(cls, phi) -> "InertialParameters":
+    def from_phi(cls, phi) -> InertialParameters:
         """From the Eq. 6 vector; needs m > 0 (a massless phi has no COM)."""
         phi = _finite_array("phi", phi, (10,))
         if phi.ndim != 1:
@@ -214,7 +214,7 @@ class InertialParameters:
         """The Eq. 6 vector."""
         return np.concatenate(([self.mass], self.mass * self.com, inertia_entries(self.inertia_origin)))
 
-    def expressed_in(self, R_AS, p_AS) -> "InertialParameters":
+    def expressed_in(self, R_AS, p_AS) -> InertialParameters:
         """The same body described in frame A, given S's pose in A (R_AS (3,3), p_AS (3,))."""
         R_AS = _finite_array("R_AS", R_AS, (3, 3))
         p_AS = _finite_array("p_AS", p_AS, (3,))
@@ -224,7 +224,7 @@ class InertialParameters:
 
     @classmethod
     def random(cls, rng: np.random.Generator, mass_range=(0.2, 5.0), com_radius=0.15,
-               size_range=(0.01, 0.15)) -> "InertialParameters":
+               size_range=(0.01, 0.15)) -> InertialParameters:
         """A physically valid random body: a solid with random second moments of mass
         (m), randomly rotated, its COM within ``com_radius`` (m) of S's origin."""
         mass = rng.uniform(*mass_range)
@@ -236,11 +236,11 @@ class InertialParameters:
         return cls(mass, com, R @ np.diag(principal) @ R.T)
 
     # --- body algebra ------------------------------------------------------
-    def __add__(self, other: "InertialParameters") -> "InertialParameters":
+    def __add__(self, other: InertialParameters) -> InertialParameters:
         """The composite of two bodies described in the same frame."""
         return InertialParameters.from_phi(self.to_phi() + other.to_phi())
 
-    def __sub__(self, other: "InertialParameters") -> "InertialParameters":
+    def __sub__(self, other: InertialParameters) -> InertialParameters:
         """The body that, added to ``other``, gives ``self`` (e.g. object = load − gripper)."""
         return InertialParameters.from_phi(self.to_phi() - other.to_phi())
 
@@ -265,7 +265,7 @@ class InertialParameters:
     def is_physical(self) -> bool:
         return not self.violations()
 
-    def require_physical(self, what: str = "inertial parameters") -> "InertialParameters":
+    def require_physical(self, what: str = "inertial parameters") -> InertialParameters:
         """Returns self, or raises ValueError naming every violated condition."""
         problems = self.violations()
         if problems:

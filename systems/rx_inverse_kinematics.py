@@ -113,12 +113,12 @@ class RxKinematics:
         self._theta_offset = np.array([0.0, -math.pi / 2, -math.pi / 2, 0.0, 0.0, math.pi])
 
     @classmethod
-    def rx90(cls) -> "RxKinematics":
+    def rx90(cls) -> RxKinematics:
         """Stäubli RX90 (rx90.urdf): SOURCES.md's table, ranges and speeds."""
         return cls()
 
     @classmethod
-    def rx60(cls) -> "RxKinematics":
+    def rx60(cls) -> RxKinematics:
         """Stäubli RX60 (rx60.urdf): SOURCES.md's table, ranges and speeds."""
         return cls(d1=0.341, a2=0.290, d3=0.049, d4=0.310, d6=0.065,
                    lower=[-2.7925, -2.2253, -2.3474, -1.5 * math.pi, -1.9111, -1.5 * math.pi],

@@ -9,7 +9,7 @@ import importlib.util
 import logging
 import sys
 import xml.etree.ElementTree as ET
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -39,7 +39,7 @@ LOAD_FILES = ("jr3_sensor.urdf", "tool.urdf", "gripper_object.urdf")
 ALL_FILES = ARM_FILES + LOAD_FILES
 
 
-@lru_cache(maxsize=None)
+@cache
 def _plant(name: str):
     """(plant, plant context) with ``name`` parsed; geometry registered with a SceneGraph."""
     builder = DiagramBuilder()
