@@ -90,7 +90,8 @@ def _identify(args) -> int:
     if args.hardware:
         from heft.diagrams.hardware_identify import identify_on_hardware
         identify_on_hardware(scenario, args.out, args.lcm_url, method=args.method, signals=args.signals,
-                             settings=settings, periods=args.periods, record=args.record)
+                             settings=settings, periods=args.periods, record=args.record,
+                             watchdog=_watchdog(args.watchdog_timeout))
         print(f"wrote {args.out}/estimate.yaml, metrics.json{f', {args.record}' if args.record else ''}")
         return 0
     if args.record:
@@ -191,6 +192,17 @@ def _stand_in(args) -> int:
     return 0
 
 
+def _watchdog(timeout):
+    """WatchdogParams with ``timeout`` (s) if given."""
+    from heft.hardware_interface.watchdog import WatchdogParams
+
+    if timeout is None:
+        return WatchdogParams()
+    if not (math.isfinite(timeout) and timeout > 0):
+        raise ValueError(f"--watchdog-timeout must be a positive number of seconds; got {timeout}")
+    return WatchdogParams(timeout=timeout)
+
+
 def _teleop(args) -> int:
     from heft.diagrams.hardware_teleop import format_summary, run_hardware_teleop
     from heft.diagrams.simulate import read_load_estimate, resolve_scenario
@@ -210,7 +222,8 @@ def _teleop(args) -> int:
         print("teleop: no load estimate given: φ̂ = 0, offsets 0 (nothing is eliminated)", flush=True)
         load = LoadEstimate(phi=np.zeros(10), offsets=np.zeros(6))
     print(f"teleop: controller on {args.lcm_url} for {args.duration:g} s at real time", flush=True)
-    summary = run_hardware_teleop(scenario, load, args.lcm_url, args.duration, record=args.record)
+    summary = run_hardware_teleop(scenario, load, args.lcm_url, args.duration, record=args.record,
+                                  watchdog=_watchdog(args.watchdog_timeout))
     print(format_summary(summary), flush=True)
     if args.out:
         Path(args.out).write_text(json.dumps(summary, indent=2) + "\n")
@@ -262,6 +275,8 @@ def build_parser() -> argparse.ArgumentParser:
                                "model's settings); the arm first moves slowly to the excitation's start")
     identify.add_argument("--lcm-url", default=DEFAULT_LCM_URL, help=f"with --hardware (default {DEFAULT_LCM_URL})")
     identify.add_argument("--record", help="with --hardware: record the LCM traffic to this file (lcm-logger format)")
+    identify.add_argument("--watchdog-timeout", type=float,
+                          help="with --hardware: stale-channel timeout (s, default 0.02)")
     identify.set_defaults(run=_identify)
 
     bench = commands.add_parser("bench", help="benchmarks, each printed beside a reference measured in the same run")
@@ -308,6 +323,7 @@ def build_parser() -> argparse.ArgumentParser:
     teleop.add_argument("--estimate", help="estimate.yaml from `heft identify` (default: φ̂ = 0)")
     teleop.add_argument("--duration", type=float, default=10.0, help="seconds (default 10)")
     teleop.add_argument("--out", help="also write the summary as JSON here")
+    teleop.add_argument("--watchdog-timeout", type=float, help="stale-channel timeout (s, default 0.02)")
     teleop.add_argument("--rate", type=float, help="controller rate (Hz; default: the scenario's, 2000)")
     teleop.add_argument("--record", help="record the LCM traffic to this file (lcm-logger format, for lcm-logplayer)")
     teleop.set_defaults(run=_teleop)

@@ -42,6 +42,7 @@ from heft.hardware_interface.hardware_station import (
     HardwareStationParams,
     MakeHardwareStation,
 )
+from heft.hardware_interface.watchdog import WatchdogParams
 from heft.systems.excitation import ExcitationSettings
 from heft.systems.excitation_commander import ExcitationCommander, Phase
 from heft.systems.load_dynamics import regressor_with_offsets
@@ -58,11 +59,11 @@ WAIT_LIMIT = 10.0
 
 
 def MakeHardwareIdentification(scenario: Scenario, trajectory, duration: float, lcm: DrakeLcmInterface,
-                               channels: LcmChannels | None = None):
+                               channels: LcmChannels | None = None, watchdog: WatchdogParams | None = None):
     """(diagram, loggers {name: logger}) driving the slave through ``trajectory`` for
     ``duration`` s over ``lcm``; the ``phase`` logger holds the commander's ``Phase``."""
     period = scenario.controller_period
-    params = HardwareStationParams(period=period)
+    params = HardwareStationParams(period=period, watchdog=watchdog or WatchdogParams())
     builder = DiagramBuilder()
     station = builder.AddNamedSystem("hardware_station", MakeHardwareStation(channels or LcmChannels(), lcm, params))
     commander = builder.AddNamedSystem("excitation", ExcitationCommander(
@@ -76,6 +77,7 @@ def MakeHardwareIdentification(scenario: Scenario, trajectory, duration: float, 
                     station.GetInputPort("master.torque_commanded"))
     loggers = {name: LogVectorOutput(station.GetOutputPort(name), builder, period) for name in LOGGED}
     loggers["phase"] = LogVectorOutput(commander.GetOutputPort("phase"), builder, period)
+    loggers["hardware.status"] = LogVectorOutput(station.GetOutputPort("hardware.status"), builder, period)
     diagram = builder.Build()
     diagram.set_name("hardware_identification")
     return diagram, loggers
@@ -98,11 +100,13 @@ def excitation_recording(logs: dict, period: float, duration: float) -> Recordin
                      q=logs["slave.position_measured"][window])
 
 
-def record_on_hardware(scenario: Scenario, trajectory, duration: float, lcm_url: str, record=None):
+def record_on_hardware(scenario: Scenario, trajectory, duration: float, lcm_url: str, record=None,
+                       watchdog: WatchdogParams | None = None):
     """Runs ``MakeHardwareIdentification`` on ``DrakeLcm(lcm_url)`` at real time until the
     excitation is done (or aborted); returns (Recording, timing summary)."""
     period = scenario.controller_period
-    diagram, loggers = MakeHardwareIdentification(scenario, trajectory, duration, DrakeLcm(lcm_url))
+    diagram, loggers = MakeHardwareIdentification(scenario, trajectory, duration, DrakeLcm(lcm_url),
+                                                  watchdog=watchdog)
     simulator = Simulator(diagram)
     context = simulator.get_context()
     phase_port = diagram.GetSubsystemByName("excitation").GetOutputPort("phase")
@@ -136,7 +140,8 @@ def residual_rms(result, signals, wrench) -> list[float]:
 
 def identify_on_hardware(scenario: Scenario, out_dir, lcm_url: str, method: str = "tls",
                          signals: str = "accelerometer", settings: ExcitationSettings | None = None,
-                         periods: int = 1, record=None, recording: Recording | None = None) -> dict:
+                         periods: int = 1, record=None, recording: Recording | None = None,
+                         watchdog: WatchdogParams | None = None) -> dict:
     """Designs the excitation, runs it on the hardware at ``lcm_url`` (or takes ``recording``),
     estimates with every method, writes estimate.yaml (``method``'s) and metrics.json. Returns metrics."""
     settings = settings or ExcitationSettings()
@@ -149,7 +154,7 @@ def identify_on_hardware(scenario: Scenario, out_dir, lcm_url: str, method: str 
     if recording is None:
         print(f"identify: excitation of {duration:g} s on {lcm_url}; the arm first moves slowly to its start",
               flush=True)
-        recording, timing = record_on_hardware(scenario, excitation.trajectory, duration, lcm_url, record)
+        recording, timing = record_on_hardware(scenario, excitation.trajectory, duration, lcm_url, record, watchdog)
         print(format_timing(timing), flush=True)
     signal_set, instruments = kinematic_signals(scenario, recording, settings.base_frequency, settings.harmonics,
                                                 signals)

@@ -27,18 +27,19 @@ from heft.diagrams.scenario import Scenario
 from heft.diagrams.teleop import ConnectControllerToStation, LoadEstimate, MakeTeleopController
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import STATUS_FIELDS, HardwareStationParams, MakeHardwareStation
+from heft.hardware_interface.watchdog import WatchdogParams
 
 _STATUS = {name: i for i, name in enumerate(STATUS_FIELDS)}
 
 
-def MakeHardwareTeleop(scenario: Scenario, load: LoadEstimate, lcm_url: str):
+def MakeHardwareTeleop(scenario: Scenario, load: LoadEstimate, lcm_url: str, watchdog: WatchdogParams | None = None):
     """Controller (clutch constant 1) + hardware station on a new ``DrakeLcm(lcm_url)``.
     Returns the diagram and its hardware station subsystem."""
     period = scenario.controller_period
     channels = LcmChannels(lcm_url=lcm_url)
     builder = DiagramBuilder()
     station = builder.AddNamedSystem("hardware_station", MakeHardwareStation(
-        channels, DrakeLcm(lcm_url), HardwareStationParams(period=period)))
+        channels, DrakeLcm(lcm_url), HardwareStationParams(period=period, watchdog=watchdog or WatchdogParams())))
     controller = builder.AddNamedSystem("controller", MakeTeleopController(
         scenario.controller, load, scenario.robot, period, scenario.slave_initial_q))
     ConnectControllerToStation(builder, controller, station)
@@ -48,16 +49,17 @@ def MakeHardwareTeleop(scenario: Scenario, load: LoadEstimate, lcm_url: str):
 
 
 def run_hardware_teleop(scenario: Scenario | str, estimate: LoadEstimate, lcm_url: str, duration: float,
-                        record=None) -> dict:
+                        record=None, watchdog: WatchdogParams | None = None) -> dict:
     """Runs the controller against the lab (or a stand-in) on ``lcm_url`` for ``duration`` s
     at real-time rate 1; returns the run's summary (JSON-serialisable; times in s).
     ``scenario``: a Scenario, or a bundled name / YAML path (its controller, robot and rate are used).
-    ``record``: a path to record the LCM traffic to (``lcm-logger`` format), or None."""
+    ``record``: a path to record the LCM traffic to (``lcm-logger`` format), or None;
+    ``watchdog``: its timeout and ramp (default ``WatchdogParams()``)."""
     if not isinstance(scenario, Scenario):
         from heft.diagrams.simulate import resolve_scenario
         scenario = resolve_scenario(scenario)
     period = scenario.controller_period
-    diagram, station = MakeHardwareTeleop(scenario, estimate, lcm_url)
+    diagram, station = MakeHardwareTeleop(scenario, estimate, lcm_url, watchdog)
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()
     station_context = station.GetMyContextFromRoot(context)
