@@ -88,8 +88,13 @@ def excitation_recording(logs: dict, period: float, duration: float) -> Recordin
     {name: (N, n)}; raises if the run faulted or the phase is incomplete."""
     phase = logs["phase"][:, 0]
     if np.any(phase == Phase.ABORTED):
-        raise IdentificationAborted("the hardware faulted during the excitation (watchdog): no estimate; check the "
-                           "LCM traffic and run again")
+        aborted = int(np.argmax(phase == Phase.ABORTED))
+        ages = ", ".join(f"{name[4:]} {1e3 * age:.0f} ms"
+                         for name, age in zip(STATUS_FIELDS[3:], logs["hardware.status"][aborted][3:]))
+        raise IdentificationAborted(
+            f"the hardware faulted during the excitation at t = {aborted * period:.3f} s (watchdog; channel ages "
+            f"{ages}): no estimate. Check the drivers' timing (or the LCM log) and run again; a stand-in slower "
+            "than real time may need a longer --watchdog-timeout")
     exciting = np.flatnonzero(phase == Phase.EXCITING)
     samples = int(round(duration / period))
     if exciting.size < samples:
