@@ -34,9 +34,14 @@ def _group_alive(group: int) -> bool:
     return True
 
 
+SYNC_CHANNEL = "HEFT_RECORDER_SYNC"
+"""Messages on this channel, published at the start until the log holds one, prove the logger listens."""
+
+
 class LcmTrafficRecorder:
     """``with LcmTrafficRecorder(url, path):`` records every channel on ``url`` to ``path``
-    (an LCM event log; overwritten). Raises if the logger cannot start."""
+    (an LCM event log; overwritten). Raises if the logger cannot start. The block starts
+    only once the logger has written a ``SYNC_CHANNEL`` message, so nothing after it is missed."""
 
     def __init__(self, lcm_url: str, path):
         if lcm_url.startswith("memq"):
@@ -50,13 +55,17 @@ class LcmTrafficRecorder:
                                           "--flush-interval=50", str(self.path)],
                                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                                          start_new_session=True)  # its own group: the pip entry point forks
+        import lcm
+
+        bus = lcm.LCM(self.lcm_url)
         deadline = time.monotonic() + 5.0
-        while not self.path.exists():
+        while not (self.path.exists() and self.path.stat().st_size > 0):
             if self._process.poll() is not None:
                 raise RuntimeError(f"lcm-logger exited at start: {self._process.stderr.read().decode().strip()}")
             if time.monotonic() > deadline:
                 self.__exit__(None, None, None)
-                raise RuntimeError(f"lcm-logger did not open {self.path} within 5 s")
+                raise RuntimeError(f"lcm-logger wrote nothing to {self.path} within 5 s: is {self.lcm_url} reachable?")
+            bus.publish(SYNC_CHANNEL, b"")
             time.sleep(0.01)
         return self
 
