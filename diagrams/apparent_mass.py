@@ -34,8 +34,8 @@ from pydrake.multibody.plant import MultibodyPlant  # noqa: E402
 from heft.analysis.apparent_mass import estimate_apparent_mass, fit_apparent_mass, hand_mass  # noqa: E402
 from heft.diagrams.models import model_path  # noqa: E402
 from heft.diagrams.scenario import Scenario  # noqa: E402
-from heft.diagrams.sim_station import AddArmWithSensor, MakeSimStation  # noqa: E402
-from heft.diagrams.simulate import run_teleop  # noqa: E402
+from heft.diagrams.sim_station import AddArmWithSensor  # noqa: E402
+from heft.diagrams.simulate import run_teleop, true_load  # noqa: E402
 from heft.diagrams.teleop import LoadEstimate  # noqa: E402
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant  # noqa: E402
 
@@ -76,19 +76,6 @@ def motion_axis(scenario: Scenario) -> np.ndarray:
     if norm == 0.0:
         raise ValueError("the scenario's operator.amplitude is zero: the handle must move for a mass to show")
     return amplitude / norm
-
-
-def true_load(scenario: Scenario) -> tuple[LoadEstimate, np.ndarray]:
-    """(the load's true φ and the sensor's starting offsets as the controller's estimate,
-    the gripper's true φ (zeros unless the load is a gripper with an object))."""
-    station = MakeSimStation(scenario)
-    context = station.CreateDefaultContext()
-    phi = np.array(station.GetOutputPort("truth.phi").Eval(context))
-    phi_gripper = np.array(station.GetOutputPort("truth.phi_gripper").Eval(context))
-    sensor = scenario.ft_sensor
-    offsets = (np.array(sensor.initial_offsets, dtype=float) if sensor.noise and sensor.offsets
-               else np.zeros(6))
-    return LoadEstimate(phi=phi, offsets=offsets), phi_gripper
 
 
 def fit_run(scenario: Scenario, log: dict, smoothing: float = 0.01) -> dict:

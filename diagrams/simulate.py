@@ -19,6 +19,7 @@ from heft.analysis.experiment_metrics import experiment_metrics
 from heft.analysis.figures import paper_figure
 from heft.diagrams.progress import ProgressBar
 from heft.diagrams.scenario import Scenario, load_scenario
+from heft.diagrams.sim_station import MakeSimStation
 from heft.diagrams.teleop import LoadEstimate, MakeTeleopSimulation
 
 SCENARIO_DIR = Path(__file__).resolve().parent / "scenarios"
@@ -50,6 +51,19 @@ def read_load_estimate(path) -> LoadEstimate:
     if phi.shape != (10,) or offsets.shape != (6,) or not (np.isfinite(phi).all() and np.isfinite(offsets).all()):
         raise ValueError(f"{path}: 'phi' needs 10 and 'offsets' 6 finite numbers")
     return LoadEstimate(phi=phi, offsets=offsets)
+
+
+def true_load(scenario: Scenario) -> tuple[LoadEstimate, np.ndarray]:
+    """(the load's true φ and the sensor's starting offsets as the controller's estimate,
+    the gripper's true φ (zeros unless the load is a gripper with an object))."""
+    station = MakeSimStation(scenario)
+    context = station.CreateDefaultContext()
+    phi = np.array(station.GetOutputPort("truth.phi").Eval(context))
+    phi_gripper = np.array(station.GetOutputPort("truth.phi_gripper").Eval(context))
+    sensor = scenario.ft_sensor
+    offsets = (np.array(sensor.initial_offsets, dtype=float) if sensor.noise and sensor.offsets
+               else np.zeros(6))
+    return LoadEstimate(phi=phi, offsets=offsets), phi_gripper
 
 
 def run_teleop(scenario: Scenario, load: LoadEstimate, sigma: float, label: str = "", meshcat=None,

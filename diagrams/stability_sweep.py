@@ -20,9 +20,7 @@ import numpy as np
 from heft.analysis.parallel import run_points
 from heft.analysis.stability import oscillation_growth
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.sim_station import MakeSimStation
-from heft.diagrams.simulate import run_teleop
-from heft.diagrams.teleop import LoadEstimate
+from heft.diagrams.simulate import run_teleop, true_load
 
 
 def _set(path: str):
@@ -75,13 +73,6 @@ def point_scenario(base: Scenario, point: dict) -> Scenario:
         raise ValueError(f"sweep point {point}: {error}") from None
 
 
-def true_load(scenario: Scenario) -> LoadEstimate:
-    """The controller's load model set to the station's true φ and zero offsets."""
-    station = MakeSimStation(scenario)
-    phi = station.GetOutputPort("truth.phi").Eval(station.CreateDefaultContext())
-    return LoadEstimate(phi=np.array(phi), offsets=np.zeros(6))
-
-
 def classify(log: dict, max_force: float) -> dict:
     """The verdict of ``oscillation_growth`` on the master force (N, in B), the same rule on
     the contact force at the slave, the share of the last third with the tool out of contact,
@@ -107,7 +98,8 @@ def simulate_point(base: Scenario, point: dict, seed_sequence: np.random.SeedSeq
     scenario = point_scenario(base, point)
     noise_seed = int(seed_sequence.generate_state(1, dtype=np.uint64)[0])
     scenario.ft_sensor.seed = scenario.accelerometer.seed = noise_seed
-    log = run_teleop(scenario, true_load(scenario), scenario.controller.force.sigma, quiet=True)
+    load, _ = true_load(scenario)
+    log = run_teleop(scenario, load, scenario.controller.force.sigma, quiet=True)
     result = classify(log, scenario.controller.feedback.max_force)
     result["realtime_factor"] = float(log["realtime_factor"])
     return {"point": dict(point), **result}

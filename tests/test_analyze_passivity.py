@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from heft.diagrams import analyze_passivity
-from heft.diagrams.apparent_mass import true_load
+from heft.diagrams.simulate import true_load
 from heft.diagrams.simulate import resolve_scenario, run_teleop, with_overrides
 from heft.systems.passivity_controller import PassivityParams
 

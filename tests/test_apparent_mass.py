@@ -69,7 +69,8 @@ def test_short_sigma_one_run_renders_the_scaled_mass(fig6):
     (slave tracking lag included) to 10 %."""
     import dataclasses
 
-    from heft.diagrams.apparent_mass import fit_run, true_load
+    from heft.diagrams.apparent_mass import fit_run
+    from heft.diagrams.simulate import true_load
     from heft.diagrams.simulate import run_teleop
     scenario = dataclasses.replace(fig6, duration=0.8, operator=dataclasses.replace(
         fig6.operator, amplitude=[0.0, 0.0, 0.028])).validate()
