@@ -91,7 +91,7 @@ def _identify(args) -> int:
         from heft.diagrams.hardware_identify import identify_on_hardware
         identify_on_hardware(scenario, args.out, args.lcm_url, method=args.method, signals=args.signals,
                              settings=settings, periods=args.periods, record=args.record,
-                             watchdog=_watchdog(args.watchdog_timeout))
+                             params=_station_params(args.watchdog_timeout))
         print(f"wrote {args.out}/estimate.yaml, metrics.json{f', {args.record}' if args.record else ''}")
         return 0
     if args.record:
@@ -192,15 +192,16 @@ def _stand_in(args) -> int:
     return 0
 
 
-def _watchdog(timeout):
-    """WatchdogParams with ``timeout`` (s) if given."""
+def _station_params(timeout):
+    """HardwareStationParams with the watchdog ``timeout`` (s) if given."""
+    from heft.hardware_interface.hardware_station import HardwareStationParams
     from heft.hardware_interface.watchdog import WatchdogParams
 
     if timeout is None:
-        return WatchdogParams()
+        return HardwareStationParams()
     if not (math.isfinite(timeout) and timeout > 0):
         raise ValueError(f"--watchdog-timeout must be a positive number of seconds; got {timeout}")
-    return WatchdogParams(timeout=timeout)
+    return HardwareStationParams(watchdog=WatchdogParams(timeout=timeout))
 
 
 def _teleop(args) -> int:
@@ -211,19 +212,18 @@ def _teleop(args) -> int:
     if not args.hardware:
         raise ValueError("only --hardware is supported here; use `heft simulate` for the simulated station")
     scenario = resolve_scenario(args.scenario)
-    if args.rate is not None:
-        if not (math.isfinite(args.rate) and args.rate > 0):
-            raise ValueError(f"--rate must be a positive number of Hz; got {args.rate}")
-        scenario = dataclasses.replace(scenario, controller_period=1.0 / args.rate)
+    rate = 1.0 / scenario.controller_period if args.rate is None else args.rate
+    if not (math.isfinite(rate) and rate > 0):
+        raise ValueError(f"--rate must be a positive number of Hz; got {rate}")
     estimate = args.estimate or scenario.controller.load_estimate
     if estimate:
         load = read_load_estimate(estimate)
     else:
         print("teleop: no load estimate given: φ̂ = 0, offsets 0 (nothing is eliminated)", flush=True)
         load = LoadEstimate(phi=np.zeros(10), offsets=np.zeros(6))
-    print(f"teleop: controller on {args.lcm_url} for {args.duration:g} s at real time", flush=True)
-    summary = run_hardware_teleop(scenario, load, args.lcm_url, args.duration, record=args.record,
-                                  watchdog=_watchdog(args.watchdog_timeout))
+    print(f"teleop: controller on {args.lcm_url} at {rate:g} Hz for {args.duration:g} s of wall time", flush=True)
+    summary = run_hardware_teleop(scenario, load, args.lcm_url, args.duration, rate, record=args.record,
+                                  params=_station_params(args.watchdog_timeout))
     print(format_summary(summary), flush=True)
     if args.out:
         Path(args.out).write_text(json.dumps(summary, indent=2) + "\n")

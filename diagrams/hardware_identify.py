@@ -1,14 +1,15 @@
 """`heft identify --hardware`: the excitation on the real arm over LCM, then Sec. IV's estimators.
 
-The diagram is DESIGN §3's estimation picture: ``MakeHardwareStation`` with an
-``ExcitationCommander`` on ``slave.position_commanded`` (it waits for the
-watchdog, moves slowly to the excitation's start, settles, excites, holds) and
-zero master torque. Loggers keep the station's wrench, accelerometer and
-encoder outputs at the controller rate; the samples of the excitation phase —
-exactly its whole periods — go to the same estimators as in simulation. There
-is no truth on hardware: the report gives each method's estimate, its standard
-deviations, the residual RMS of the wrench model per axis, and the spread
-between methods.
+``HardwareIdentification.tick`` is one tick of the real-time loop
+(``diagrams.realtime``): the hardware station receives, the
+``ExcitationCommander`` (it waits for healthy hardware, moves slowly to the
+excitation's start, settles, excites, holds) commands the slave, the master
+gets zero torque, and every tick of the excitation phase is recorded with its
+time into the excitation. ``recording`` resamples those ticks onto the
+controller rate's uniform grid — exactly the excitation's whole periods — for
+the same estimators as in simulation. There is no truth on hardware: the report
+gives each method's estimate, its standard deviations, the residual RMS of the
+wrench model per axis, and the spread between methods.
 """
 
 from __future__ import annotations
@@ -17,12 +18,9 @@ import json
 import time
 from pathlib import Path
 
+import lcm
 import numpy as np
 import yaml
-from pydrake.lcm import DrakeLcm, DrakeLcmInterface
-from pydrake.systems.analysis import Simulator
-from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, LogVectorOutput
 
 from heft.diagrams.identify import (
     Recording,
@@ -38,16 +36,13 @@ from heft.diagrams.scenario import Scenario
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import (
     NUM_JOINTS,
-    STATUS_FIELDS,
+    WATCHED_CHANNELS,
+    HardwareStation,
     HardwareStationParams,
-    MakeHardwareStation,
 )
-from heft.hardware_interface.watchdog import WatchdogParams
 from heft.systems.excitation import ExcitationSettings
 from heft.systems.excitation_commander import ExcitationCommander, Phase
 from heft.systems.load_dynamics import regressor_with_offsets
-
-LOGGED = ("ft.wrench_measured", "ft.acceleration_measured", "slave.position_measured")
 
 
 class IdentificationAborted(HardwareRunFailed):
@@ -56,84 +51,81 @@ class IdentificationAborted(HardwareRunFailed):
 
 WAIT_LIMIT = 10.0
 """Seconds to wait for healthy hardware before giving up."""
+MAX_GAP_PERIODS = 10
+"""A recording whose ticks are further apart than this many controller periods is refused."""
 
 
-def MakeHardwareIdentification(scenario: Scenario, trajectory, duration: float, lcm: DrakeLcmInterface,
-                               channels: LcmChannels | None = None, watchdog: WatchdogParams | None = None):
-    """(diagram, loggers {name: logger}) driving the slave through ``trajectory`` for
-    ``duration`` s over ``lcm``; the ``phase`` logger holds the commander's ``Phase``."""
-    period = scenario.controller_period
-    params = HardwareStationParams(period=period, watchdog=watchdog or WatchdogParams())
-    builder = DiagramBuilder()
-    station = builder.AddNamedSystem("hardware_station", MakeHardwareStation(channels or LcmChannels(), lcm, params))
-    commander = builder.AddNamedSystem("excitation", ExcitationCommander(
-        trajectory, duration, params.slave_velocity_limits, period))
-    status = builder.AddNamedSystem("status", Demultiplexer(len(STATUS_FIELDS)))
-    builder.Connect(station.GetOutputPort("hardware.status"), status.get_input_port())
-    builder.Connect(status.get_output_port(STATUS_FIELDS.index("healthy")), commander.GetInputPort("healthy"))
-    builder.Connect(station.GetOutputPort("slave.position_measured"), commander.GetInputPort("position_measured"))
-    builder.Connect(commander.GetOutputPort("position_commanded"), station.GetInputPort("slave.position_commanded"))
-    builder.Connect(builder.AddNamedSystem("no_torque", ConstantVectorSource(np.zeros(NUM_JOINTS))).get_output_port(),
-                    station.GetInputPort("master.torque_commanded"))
-    loggers = {name: LogVectorOutput(station.GetOutputPort(name), builder, period) for name in LOGGED}
-    loggers["phase"] = LogVectorOutput(commander.GetOutputPort("phase"), builder, period)
-    loggers["hardware.status"] = LogVectorOutput(station.GetOutputPort("hardware.status"), builder, period)
-    diagram = builder.Build()
-    diagram.set_name("hardware_identification")
-    return diagram, loggers
+class HardwareIdentification:
+    """The excitation ``trajectory`` (``duration`` s) on the lab at ``bus`` (module docstring).
 
+    ``tick(now, dt)`` returns True once the commander is done or aborted; it raises
+    ``IdentificationAborted`` if the hardware is not healthy within ``WAIT_LIMIT`` s."""
 
-def excitation_recording(logs: dict, period: float, duration: float) -> Recording:
-    """The excitation phase's samples (exactly ``duration`` s) from the loggers' arrays
-    {name: (N, n)}; raises if the run faulted or the phase is incomplete."""
-    phase = logs["phase"][:, 0]
-    if np.any(phase == Phase.ABORTED):
-        aborted = int(np.argmax(phase == Phase.ABORTED))
-        ages = ", ".join(f"{name[4:]} {1e3 * age:.0f} ms"
-                         for name, age in zip(STATUS_FIELDS[3:], logs["hardware.status"][aborted][3:]))
-        raise IdentificationAborted(
-            f"the hardware faulted during the excitation at t = {aborted * period:.3f} s (watchdog; channel ages "
-            f"{ages}): no estimate. Check the drivers' timing (or the LCM log) and run again; a stand-in slower "
-            "than real time may need a longer --watchdog-timeout")
-    exciting = np.flatnonzero(phase == Phase.EXCITING)
-    samples = int(round(duration / period))
-    if exciting.size < samples:
-        raise IdentificationAborted(f"the excitation did not complete: {exciting.size} of {samples} samples")
-    window = slice(exciting[0], exciting[0] + samples)
-    return Recording(t=np.arange(samples) * period, wrench=logs["ft.wrench_measured"][window],
-                     accel_measured=logs["ft.acceleration_measured"][window],
-                     q=logs["slave.position_measured"][window])
+    def __init__(self, trajectory, duration: float, bus: lcm.LCM, channels: LcmChannels,
+                 params: HardwareStationParams | None = None, capacity: int = 200_000):
+        params = params or HardwareStationParams()
+        self.station = HardwareStation(bus, channels, params)
+        self.commander = ExcitationCommander(trajectory, duration, params.slave_velocity_limits)
+        self._zero = np.zeros(NUM_JOINTS)
+        # Per excitation tick: time into the excitation (s), wrench (6), acceleration (6), q_S (6).
+        self._rows = np.empty((capacity, 19))
+        self._count = 0
+        self.abort_reason = None
+
+    def tick(self, now: float, dt: float) -> bool:
+        station, commander = self.station, self.commander
+        station.receive(now)
+        commander.step(now, station.healthy, station.slave_position)
+        station.send(now, self._zero, commander.command)
+        phase = commander.phase
+        if phase == Phase.EXCITING and self._count < len(self._rows):
+            row = self._rows[self._count]
+            row[0] = commander.excitation_time
+            row[1:7], row[7:13], row[13:] = station.wrench, station.acceleration, station.slave_position
+            self._count += 1
+        elif phase == Phase.WAITING and now > WAIT_LIMIT:
+            raise IdentificationAborted(f"no healthy hardware within {WAIT_LIMIT:g} s: are the drivers (or "
+                                        "`heft stand-in`) running on this LCM URL?")
+        elif phase == Phase.ABORTED and self.abort_reason is None:
+            ages = ", ".join(f"{name} {1e3 * age:.1f} ms" for name, age in zip(WATCHED_CHANNELS, station.ages))
+            self.abort_reason = (f"the hardware faulted at t = {now:.3f} s, {commander.excitation_time:.3f} s into "
+                                 f"the excitation (watchdog fault bits {station.fault}; channel ages {ages})")
+        return phase in (Phase.DONE, Phase.ABORTED)
+
+    def recording(self, period: float) -> Recording:
+        """The excitation's ticks resampled (linearly) onto t = 0, period, … < duration;
+        raises ``IdentificationAborted`` if the run faulted, stalled or did not complete."""
+        if self.abort_reason is not None:
+            raise IdentificationAborted(f"{self.abort_reason}: no estimate. Check the drivers' timing (or the "
+                                        "LCM log) and run again")
+        rows = self._rows[:self._count]
+        duration = self.commander.duration
+        samples = int(round(duration / period))
+        if self.commander.phase != Phase.DONE or rows.shape[0] < 2:
+            raise IdentificationAborted(f"the excitation did not complete ({rows.shape[0]} ticks recorded)")
+        gaps = np.diff(np.concatenate(([0.0], rows[:, 0], [duration])))
+        if gaps.max() > MAX_GAP_PERIODS * period:
+            at = rows[min(int(np.argmax(gaps)), rows.shape[0] - 1), 0]
+            raise IdentificationAborted(f"the loop stalled for {1e3 * gaps.max():.1f} ms near {at:.3f} s into the "
+                                        "excitation: the recording has a hole. Run again on a quieter machine")
+        t = np.arange(samples) * period
+        resampled = np.column_stack([np.interp(t, rows[:, 0], rows[:, i]) for i in range(1, rows.shape[1])])
+        return Recording(t=t, wrench=resampled[:, :6], accel_measured=resampled[:, 6:12], q=resampled[:, 12:])
 
 
 def record_on_hardware(scenario: Scenario, trajectory, duration: float, lcm_url: str, record=None,
-                       watchdog: WatchdogParams | None = None):
-    """Runs ``MakeHardwareIdentification`` on ``DrakeLcm(lcm_url)`` at real time until the
-    excitation is done (or aborted); returns (Recording, timing summary)."""
+                       params: HardwareStationParams | None = None):
+    """Runs ``HardwareIdentification`` on ``lcm.LCM(lcm_url)`` in real time at the controller
+    rate until the excitation is done (or aborted); returns (Recording, timing summary)."""
     period = scenario.controller_period
-    diagram, loggers = MakeHardwareIdentification(scenario, trajectory, duration, DrakeLcm(lcm_url),
-                                                  watchdog=watchdog)
-    simulator = Simulator(diagram)
-    context = simulator.get_context()
-    phase_port = diagram.GetSubsystemByName("excitation").GetOutputPort("phase")
-    commander_context = diagram.GetSubsystemByName("excitation").GetMyContextFromRoot(context)
-    simulator.Initialize()
+    run = HardwareIdentification(trajectory, duration, lcm.LCM(lcm_url), LcmChannels(lcm_url=lcm_url), params)
     budget = WAIT_LIMIT + 60.0 + duration  # waiting, the slow approach and settling, the excitation
-
-    def finished(k, t):
-        phase = phase_port.Eval(commander_context)[0]
-        if phase == Phase.WAITING and t > WAIT_LIMIT:
-            raise IdentificationAborted(f"no healthy hardware on {lcm_url} within {WAIT_LIMIT:g} s: are the drivers "
-                               "(or `heft stand-in`) running on this URL?")
-        return phase in (Phase.DONE, Phase.ABORTED)
-
-    ticks = int(round(budget / period))
     if record is None:
-        times = run_realtime(simulator, period, ticks, finished)
+        times = run_realtime(run.tick, period, budget)
     else:
         with LcmTrafficRecorder(lcm_url, record):
-            times = run_realtime(simulator, period, ticks, finished)
-    logs = {name: logger.FindLog(context).data().T.copy() for name, logger in loggers.items()}
-    return excitation_recording(logs, period, duration), timing_summary(times)
+            times = run_realtime(run.tick, period, budget)
+    return run.recording(period), timing_summary(times)
 
 
 def residual_rms(result, signals, wrench) -> list[float]:
@@ -146,7 +138,7 @@ def residual_rms(result, signals, wrench) -> list[float]:
 def identify_on_hardware(scenario: Scenario, out_dir, lcm_url: str, method: str = "tls",
                          signals: str = "accelerometer", settings: ExcitationSettings | None = None,
                          periods: int = 1, record=None, recording: Recording | None = None,
-                         watchdog: WatchdogParams | None = None) -> dict:
+                         params: HardwareStationParams | None = None) -> dict:
     """Designs the excitation, runs it on the hardware at ``lcm_url`` (or takes ``recording``),
     estimates with every method, writes estimate.yaml (``method``'s) and metrics.json. Returns metrics."""
     settings = settings or ExcitationSettings()
@@ -159,7 +151,7 @@ def identify_on_hardware(scenario: Scenario, out_dir, lcm_url: str, method: str 
     if recording is None:
         print(f"identify: excitation of {duration:g} s on {lcm_url}; the arm first moves slowly to its start",
               flush=True)
-        recording, timing = record_on_hardware(scenario, excitation.trajectory, duration, lcm_url, record, watchdog)
+        recording, timing = record_on_hardware(scenario, excitation.trajectory, duration, lcm_url, record, params)
         print(format_timing(timing), flush=True)
     signal_set, instruments = kinematic_signals(scenario, recording, settings.base_frequency, settings.harmonics,
                                                 signals)
@@ -181,26 +173,3 @@ def identify_on_hardware(scenario: Scenario, out_dir, lcm_url: str, method: str 
         print(f"{m:8s}{r['phi'][0]:11.4f}{1e3 * r['std_phi'][0]:8.2f}   "
               f"[{com[0]:7.2f} {com[1]:7.2f} {com[2]:7.2f}]{max(rms[:3]):16.3f}{max(rms[3:]):9.4f}")
     return metrics
-
-
-def hardware_recording_in_process(scenario: Scenario, stand_in, trajectory, duration: float, lcm):
-    """For tests and the stand-in: ``MakeHardwareIdentification`` beside ``stand_in`` (a
-    stand-in Diagram on the same ``lcm``) in one Simulator, as fast as it runs; the Recording."""
-    period = scenario.controller_period
-    builder = DiagramBuilder()
-    builder.AddNamedSystem("stand_in", stand_in)
-    identification, loggers = MakeHardwareIdentification(scenario, trajectory, duration, lcm)
-    builder.AddNamedSystem("identification", identification)
-    diagram = builder.Build()
-    simulator = Simulator(diagram)
-    simulator.Initialize()
-    context = simulator.get_context()
-    commander = identification.GetSubsystemByName("excitation")
-    phase_port = commander.GetOutputPort("phase")
-    while phase_port.Eval(commander.GetMyContextFromRoot(context))[0] not in (Phase.DONE, Phase.ABORTED):
-        if context.get_time() > WAIT_LIMIT + 60.0 + duration:
-            raise IdentificationAborted("the excitation did not finish")
-        simulator.AdvanceTo(context.get_time() + 0.1)
-    logs = {name: logger.FindLog(context).data().T.copy() for name, logger in loggers.items()}
-    return excitation_recording(logs, period, duration)
-

@@ -1,160 +1,164 @@
-"""The teleoperation controller on the lab's LCM channels, with timing statistics.
+"""The teleoperation controller on the lab's LCM channels, in real time.
 
-``run_hardware_teleop`` closes ``MakeTeleopController`` (clutch engaged) around
-``MakeHardwareStation`` on a ``DrakeLcm(lcm_url)`` and runs it at real-time
-rate 1, one controller period per ``AdvanceTo``, measuring every tick. It
-returns (and the CLI prints) what the run saw: whether fresh data arrived,
-when the watchdog was healthy, each fault and its recovery (with the master
-torque at the recovery tick: it must ramp in from zero, not jump), whether
-every master torque published was finite, the largest slave command step,
-and the timing: achieved rate, deadline misses (ticks
-that completed more than one period after their real-time deadline) and the
-tick cost (wall and CPU time per ``AdvanceTo``).
+``HardwareTeleop.tick`` is one controller tick on the wall clock: the hardware
+station receives (one LCM pump, the newest message of every channel), the
+controller (``MakeRealtimeTeleopController``, Fig. 4 in one computation)
+steps with the measured tick duration, and the station sends in the same tick,
+so a sensor sample reaches the master's command one tick after it arrives.
+
+Start-up and recovery never move the slave: the controller starts only when the
+station is healthy (every channel fresh, so the slave's measured position is
+known) and starts again on every recovery, from the slave's measured pose with
+the clutch disengaged; motion follows the stylus only while the operator holds
+the clutch button, anchored on the slave's measured pose at the press.
+
+``run_hardware_teleop`` runs it for a while (``diagrams.realtime``) and returns
+what the run saw: faults and recoveries, the master command's largest stylus
+force and torque, the largest slave command step, message rates and timing.
 """
 
 from __future__ import annotations
 
 import math
+import time
 
+import lcm
 import numpy as np
-from pydrake.lcm import DrakeLcm
-from pydrake.systems.analysis import Simulator
-from pydrake.systems.framework import DiagramBuilder
 
 from heft.diagrams.lcm_recording import LcmTrafficRecorder
 from heft.diagrams.realtime import format_timing, run_realtime, timing_summary
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.teleop import ConnectControllerToStation, LoadEstimate, MakeTeleopController
+from heft.diagrams.teleop import LoadEstimate, MakeRealtimeTeleopController
 from heft.hardware_interface.channels import LcmChannels
-from heft.hardware_interface.hardware_station import STATUS_FIELDS, HardwareStationParams, MakeHardwareStation
-from heft.hardware_interface.watchdog import WatchdogParams
+from heft.hardware_interface.hardware_station import WATCHED_CHANNELS, HardwareStation, HardwareStationParams
 
-_STATUS = {name: i for i, name in enumerate(STATUS_FIELDS)}
-
-
-def MakeHardwareTeleop(scenario: Scenario, load: LoadEstimate, lcm_url: str, watchdog: WatchdogParams | None = None):
-    """Controller (clutch constant 1) + hardware station on a new ``DrakeLcm(lcm_url)``.
-    Returns the diagram and its hardware station subsystem."""
-    period = scenario.controller_period
-    channels = LcmChannels(lcm_url=lcm_url)
-    builder = DiagramBuilder()
-    station = builder.AddNamedSystem("hardware_station", MakeHardwareStation(
-        channels, DrakeLcm(lcm_url), HardwareStationParams(period=period, watchdog=watchdog or WatchdogParams())))
-    controller = builder.AddNamedSystem("controller", MakeTeleopController(
-        scenario.controller, load, scenario.robot, period, scenario.slave_initial_q))
-    ConnectControllerToStation(builder, controller, station)
-    diagram = builder.Build()
-    diagram.set_name("hardware_teleop")
-    return diagram, station
+NUM_JOINTS = 6
 
 
-def run_hardware_teleop(scenario: Scenario | str, estimate: LoadEstimate, lcm_url: str, duration: float,
-                        record=None, watchdog: WatchdogParams | None = None) -> dict:
-    """Runs the controller against the lab (or a stand-in) on ``lcm_url`` for ``duration`` s
-    at real-time rate 1; returns the run's summary (JSON-serialisable; times in s).
-    ``scenario``: a Scenario, or a bundled name / YAML path (its controller, robot and rate are used).
-    ``record``: a path to record the LCM traffic to (``lcm-logger`` format), or None;
-    ``watchdog``: its timeout and ramp (default ``WatchdogParams()``)."""
-    if not isinstance(scenario, Scenario):
-        from heft.diagrams.simulate import resolve_scenario
-        scenario = resolve_scenario(scenario)
-    period = scenario.controller_period
-    diagram, station = MakeHardwareTeleop(scenario, estimate, lcm_url, watchdog)
-    simulator = Simulator(diagram)
-    context = simulator.get_mutable_context()
-    station_context = station.GetMyContextFromRoot(context)
-    status_port = station.GetOutputPort("hardware.status")
-    gate = station.GetSubsystemByName("command_gate")
-    gate_context = gate.GetMyContextFromRoot(context)
-    torque_port, enable_port = gate.GetOutputPort("torque"), gate.GetOutputPort("enable")
-    position_port, ready_port = gate.GetOutputPort("position"), gate.GetOutputPort("ready")
-    simulator.Initialize()
+class HardwareTeleop:
+    """The controller closed around ``HardwareStation`` on ``bus`` (module docstring).
 
-    ticks = max(1, round(duration / period))
-    seen = {"fresh_ticks": 0, "healthy_ticks": 0, "torque_finite": True, "torque_peak": 0.0, "first_fresh": None,
-            "first_healthy": None, "last_fresh": None, "faults": [], "was_healthy": False, "was_enabled": False,
-            "position": None, "max_slave_step": 0.0}
+    ``tick(now, dt)`` runs one tick at ``now`` (s, monotonic) ``dt`` s after the last;
+    ``summary(elapsed)`` reports the run so far."""
 
-    def on_tick(k, t):
-        status = status_port.Eval(station_context)
-        ages = status[_STATUS["age_master_state"]:]
-        healthy = status[_STATUS["healthy"]] > 0.5
-        if np.all(ages <= max(2 * period, 0.005)):  # every channel fresh within ~one period
-            seen["fresh_ticks"] += 1
-            seen["last_fresh"] = t
-            if seen["first_fresh"] is None:
-                seen["first_fresh"] = t
+    def __init__(self, scenario: Scenario, load: LoadEstimate, bus: lcm.LCM, channels: LcmChannels,
+                 params: HardwareStationParams | None = None):
+        self.station = HardwareStation(bus, channels, params)
+        self.controller = MakeRealtimeTeleopController(scenario.controller, load, scenario.robot)
+        self._zero = np.zeros(NUM_JOINTS)
+        self._was_healthy = False
+        self._last_position = None
+        self.ticks = self.healthy_ticks = 0
+        self.first_healthy = None
+        self.faults = []
+        self.torque_finite = True
+        self.torque_peak = self.stylus_force_peak = self.stylus_torque_peak = 0.0
+        self.max_slave_step = 0.0
+        self.master_commands = self.slave_commands = 0
+
+    def tick(self, now: float, dt: float) -> None:
+        station, controller = self.station, self.controller
+        station.receive(now)
+        healthy = station.healthy
         if healthy:
-            seen["healthy_ticks"] += 1
-            if seen["first_healthy"] is None:
-                seen["first_healthy"] = t
-        elif seen["was_healthy"]:
-            seen["faults"].append({"onset": t, "recovered": None, "torque_at_recovery": None})
-        seen["was_healthy"] = healthy
-        # The gate acts on the watchdog's state one tick later: its enable's rising edge is the recovery.
-        torque = torque_port.Eval(gate_context)
-        enabled = enable_port.Eval(gate_context)[0] > 0.5
-        recovering = enabled and not seen["was_enabled"] and bool(seen["faults"])
-        if recovering and seen["faults"][-1]["recovered"] is None:
-            seen["faults"][-1].update(recovered=t, torque_at_recovery=float(np.abs(torque).max()))
-        seen["was_enabled"] = enabled
-        if not np.all(np.isfinite(torque)):
-            seen["torque_finite"] = False
+            if not self._was_healthy:
+                controller.start(station.slave_position)
+            controller.step(dt, station.master_position, station.master_velocity, station.slave_position,
+                            station.slave_velocity, station.wrench, station.acceleration, station.clutch)
+            station.send(now, controller.torque, controller.position)
         else:
-            seen["torque_peak"] = max(seen["torque_peak"], float(np.abs(torque).max()))
-        # Commands are published once ready; a recovery restarts them at the measured position.
-        position = position_port.Eval(gate_context).copy() if ready_port.Eval(gate_context)[0] > 0.5 else None
-        if position is not None and seen["position"] is not None and not recovering:
-            seen["max_slave_step"] = max(seen["max_slave_step"], float(np.abs(position - seen["position"]).max()))
-        seen["position"] = position
+            station.send(now, self._zero, None)
+        self._observe(now, healthy)
+        self._was_healthy = healthy
+
+    def _observe(self, now: float, healthy: bool) -> None:
+        station = self.station
+        self.ticks += 1
+        self.master_commands += 1
+        if healthy:
+            self.healthy_ticks += 1
+            if self.first_healthy is None:
+                self.first_healthy = now
+            if self.faults and self.faults[-1]["recovered"] is None and not self._was_healthy:
+                self.faults[-1]["recovered"] = now
+        elif self._was_healthy:
+            self.faults.append({"onset": now, "fault_bits": station.fault,
+                                "ages_ms": [round(1e3 * a, 3) for a in station.ages], "recovered": None})
+        torque = station.torque_sent
+        if not math.isfinite(torque.sum()):
+            self.torque_finite = False
+        elif torque.any():
+            self.torque_peak = max(self.torque_peak, float(np.abs(torque).max()))
+            # The wrench on the hand these torques render: τ_M = J_Mᵀ·[f; τ].
+            wrench = np.linalg.solve(self.controller.jacobian.T, torque)
+            self.stylus_force_peak = max(self.stylus_force_peak, float(np.linalg.norm(wrench[:3])))
+            self.stylus_torque_peak = max(self.stylus_torque_peak, float(np.linalg.norm(wrench[3:])))
+        position = station.position_sent
+        if position is not None:
+            self.slave_commands += 1
+            if self._last_position is not None:
+                self.max_slave_step = max(self.max_slave_step, float(np.abs(position - self._last_position).max()))
+            self._last_position = position.copy()
+
+    def summary(self, elapsed: float) -> dict:
+        """The run so far (JSON-serialisable; times in s on the loop's clock, rates per wall second)."""
+        station = self.station
+        return {
+            "ticks": self.ticks,
+            "healthy_ticks": self.healthy_ticks,
+            "first_healthy": self.first_healthy,
+            "faults": self.faults,
+            "final_healthy": station.healthy,
+            "final_fault_bits": station.fault,
+            "final_ages_ms": {name: (round(1e3 * age, 3) if math.isfinite(age) else None)
+                              for name, age in zip(WATCHED_CHANNELS, station.ages)},
+            "master_torque_finite": self.torque_finite,
+            "master_torque_peak": self.torque_peak,
+            "stylus_force_peak": self.stylus_force_peak,
+            "stylus_torque_peak": self.stylus_torque_peak,
+            "max_slave_command_step": self.max_slave_step,
+            "sent_hz": {"master_command": self.master_commands / elapsed, "slave_command": self.slave_commands / elapsed},
+            "received_hz": {name: count / elapsed for name, count in station.received.items()},
+            "ft_dropped": station.ft_dropped,
+        }
+
+
+def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, lcm_url: str, duration: float, rate: float,
+                        record=None, params: HardwareStationParams | None = None) -> dict:
+    """Runs ``HardwareTeleop`` on ``lcm.LCM(lcm_url)`` at ``rate`` Hz for ``duration`` s of wall
+    time; returns its summary with ``timing`` (``timing_summary``) and ``lcm_log``.
+    ``record``: a path to record the LCM traffic to (``lcm-logger`` format), or None."""
+    teleop = HardwareTeleop(scenario, load, lcm.LCM(lcm_url), LcmChannels(lcm_url=lcm_url), params)
+
+    def run():
+        teleop.station.epoch = time.time()
+        return run_realtime(teleop.tick, 1.0 / rate, duration)
 
     if record is None:
-        times = run_realtime(simulator, period, ticks, on_tick)
+        times = run()
     else:
         with LcmTrafficRecorder(lcm_url, record):
-            times = run_realtime(simulator, period, ticks, on_tick)
-    status = status_port.Eval(station_context)
-    return {
-        "duration": ticks * period,
-        "period": period,
-        "ticks": ticks,
-        "fresh_ticks": seen["fresh_ticks"],
-        "first_fresh": seen["first_fresh"],
-        "last_fresh": seen["last_fresh"],
-        "healthy_ticks": seen["healthy_ticks"],
-        "first_healthy": seen["first_healthy"],
-        "faults": seen["faults"],
-        "fault_onset": seen["faults"][-1]["onset"] if seen["faults"] else None,
-        "final_healthy": bool(status[_STATUS["healthy"]] > 0.5),
-        "final_fault": int(status[_STATUS["fault"]]),
-        "final_ages": [float(a) if math.isfinite(a) else None for a in status[_STATUS["age_master_state"]:]],
-        "final_master_enable": bool(enable_port.Eval(gate_context)[0] > 0.5),
-        "master_torque_finite": seen["torque_finite"],
-        "master_torque_peak": seen["torque_peak"],
-        "max_slave_command_step": seen["max_slave_step"],
-        "lcm_log": None if record is None else str(record),
-        "timing": timing_summary(times),
-    }
+            times = run()
+    return {"duration": times.elapsed, "rate_hz": rate, **teleop.summary(times.elapsed),
+            "lcm_log": None if record is None else str(record), "timing": timing_summary(times)}
 
 
 def format_summary(summary: dict) -> str:
     """The summary as a few human lines."""
     faults = summary["faults"]
     fault_lines = "; ".join(
-        f"at {f['onset']:.4f} s, " + ("not recovered" if f["recovered"] is None else
-                                      f"recovered at {f['recovered']:.4f} s with {f['torque_at_recovery']:.2g} N·m")
+        f"at {f['onset']:.4f} s (bits {f['fault_bits']}, ages {f['ages_ms']} ms), "
+        + ("not recovered" if f["recovered"] is None else f"recovered at {f['recovered']:.4f} s")
         for f in faults[:5]) + (f" … ({len(faults)} in all)" if len(faults) > 5 else "")
+    received = ", ".join(f"{name} {hz:.0f}" for name, hz in summary["received_hz"].items())
+    sent = ", ".join(f"{name} {hz:.0f}" for name, hz in summary["sent_hz"].items())
     return "\n".join((
-        f"ran {summary['duration']:g} s, {summary['ticks']} ticks of {1e6 * summary['period']:.0f} µs",
-        f"fresh data on every channel in {summary['fresh_ticks']} ticks (first at {summary['first_fresh']}); "
-        f"watchdog healthy in {summary['healthy_ticks']} ticks (first at {summary['first_healthy']}); "
-        f"faults after healthy: {fault_lines or 'none'}; "
-        f"final: healthy {summary['final_healthy']}, fault bits {summary['final_fault']}, "
-        f"master enable {summary['final_master_enable']}",
-        f"master torque finite: {summary['master_torque_finite']} (peak {summary['master_torque_peak']:.3g} N·m); "
-        f"largest slave command step (recoveries aside) "
-        f"{summary['max_slave_command_step']:.3g} rad",
+        f"ran {summary['duration']:.3g} s at {summary['rate_hz']:g} Hz: {summary['ticks']} ticks, healthy in "
+        f"{summary['healthy_ticks']} (first at {summary['first_healthy']}); faults: {fault_lines or 'none'}; "
+        f"final: healthy {summary['final_healthy']}, fault bits {summary['final_fault_bits']}",
+        f"messages per second: received {received}; sent {sent}; FT samples dropped {summary['ft_dropped']}",
+        f"master command finite: {summary['master_torque_finite']}; peaks: {summary['master_torque_peak']:.3g} N·m "
+        f"joint torque, {summary['stylus_force_peak']:.3g} N / {summary['stylus_torque_peak']:.3g} N·m on the "
+        f"stylus; largest slave command step {summary['max_slave_command_step']:.3g} rad",
         format_timing(summary["timing"]),
     ))
-
-

@@ -9,7 +9,7 @@ to the simulated station and logs what analysis needs.
 import dataclasses
 
 import numpy as np
-from pydrake.multibody.parsing import Parser
+from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Adder, ConstantVectorSource, DiscreteTimeDelay, LogVectorOutput
@@ -19,9 +19,10 @@ from heft.diagrams.scenario import ControllerSpec, Scenario
 from heft.diagrams.sim_station import AddArmWithSensor, MakeSimStation
 from heft.systems.feedback_mapping import FeedbackMapping
 from heft.systems.force_scaling import ForceScalingElimination
-from heft.systems.master_kinematics import MasterKinematics
+from heft.systems.master_kinematics import MasterKinematics, master_plant
 from heft.systems.motion_scaling import MotionScaling
 from heft.systems.passivity_controller import PassivityController
+from heft.systems.realtime_controller import RealtimeTeleopController
 from heft.systems.rx_inverse_kinematics import RxKinematics
 from heft.systems.slave_inverse_kinematics import SlaveInverseKinematics
 from heft.systems.slave_kinematics import SlaveKinematics
@@ -51,11 +52,24 @@ def _slave_model(robot: str) -> MultibodyPlant:
 
 
 def _master_model() -> MultibodyPlant:
-    plant = MultibodyPlant(time_step=0.0)
-    (phantom,) = Parser(plant).AddModels(model_path("phantom_premium_6dof.urdf"))
-    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("phantom_base", phantom))
-    plant.Finalize()
-    return plant
+    """The controller's model of the master: the Phantom Premium 1.5 6DoF."""
+    return master_plant(model_path("phantom_premium_6dof.urdf"))
+
+
+def _slave_ik_model(robot: str) -> tuple[MultibodyPlant, RxKinematics, RigidTransform]:
+    """The controller's slave model: (arm + sensor plant, closed-form IK, X_FS the pose of S in the flange)."""
+    slave = _slave_model(robot)
+    kinematics = RxKinematics.rx90() if robot == "rx90" else RxKinematics.rx60()
+    X_FS = slave.GetFrameByName("S").CalcPose(slave.CreateDefaultContext(), slave.GetFrameByName("flange"))
+    return slave, kinematics, X_FS
+
+
+def MakeRealtimeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str) -> RealtimeTeleopController:
+    """The controller of ``MakeTeleopController`` as one computation per tick, for the hardware's
+    real-time loop (``systems.realtime_controller``): same models, same parameters."""
+    slave, kinematics, X_FS = _slave_ik_model(robot)
+    return RealtimeTeleopController(_master_model(), slave, f"{robot}_base", kinematics, X_FS, load.phi, load.offsets,
+                                    spec.motion, spec.force, spec.feedback, spec.passivity)
 
 
 def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, period: float, slave_initial_q):
@@ -68,17 +82,16 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     """
     builder = DiagramBuilder()
     rate = {"period": period}
-    slave = _slave_model(robot)
+    slave, kinematics, X_FS = _slave_ik_model(robot)
     master_kinematics = builder.AddNamedSystem("master_kinematics", MasterKinematics(_master_model()))
     slave_kinematics = builder.AddNamedSystem(
         "slave_kinematics", SlaveKinematics(slave, base_frame=f"{robot}_base", sensor_frame="S"))
     motion = builder.AddNamedSystem("motion_scaling", MotionScaling(dataclasses.replace(spec.motion, **rate)))
-    kinematics = RxKinematics.rx90() if robot == "rx90" else RxKinematics.rx60()
-    X_FS = slave.GetFrameByName("S").CalcPose(slave.CreateDefaultContext(), slave.GetFrameByName("flange"))
     ik = builder.AddNamedSystem("slave_ik", SlaveInverseKinematics(kinematics, X_FS, slave_initial_q, period))
     force = builder.AddNamedSystem("force_scaling", ForceScalingElimination(dataclasses.replace(spec.force, **rate)))
     feedback = builder.AddNamedSystem("feedback_mapping", FeedbackMapping(spec.feedback))
-    passivity = builder.AddNamedSystem("passivity", PassivityController(dataclasses.replace(spec.passivity, **rate)))
+    passivity = builder.AddNamedSystem("passivity", PassivityController(
+        dataclasses.replace(spec.passivity, **rate), spec.feedback.max_force, spec.feedback.max_torque))
     phi = builder.AddNamedSystem("phi_hat", ConstantVectorSource(np.asarray(load.phi, dtype=float)))
     offsets = builder.AddNamedSystem("offsets_hat", ConstantVectorSource(np.asarray(load.offsets, dtype=float)))
 

@@ -1,32 +1,42 @@
-"""The latest raw message on one LCM channel, for receivers that sample it.
+"""The payloads that arrived on one LCM channel since a receiver last looked.
 
-Drake's ``LcmSubscriberSystem`` with a Python message type decodes every
-arriving message and deep-copies it in abstract state; with the wrist sensor
-at 8 kHz that alone costs more than a 2 kHz controller tick. An ``LcmMailbox``
-only keeps the newest payload and counts arrivals; the handler runs inside
-``HandleSubscriptions`` (pumped by the diagram's ``LcmInterfaceSystem``). A
-receiver decodes at most one payload per tick and keeps the arrival count it
-last took in its own discrete state, so clones of a Context stay independent
-(the mailbox, like ``LcmSubscriberSystem``'s own buffer, belongs to the system).
+A python-lcm handler only appends the raw payload (bounded to the ``keep``
+newest), so no sample is lost to a queue that keeps the oldest and nothing is
+decoded that the receiver does not read. ``LcmBus.pump`` handles everything
+pending without blocking, once per controller tick.
 """
 
-from pydrake.lcm import DrakeLcmInterface
+from __future__ import annotations
+
+import lcm
 
 
 class LcmMailbox:
-    """Subscribes to ``channel`` on ``lcm``; ``count`` messages have arrived, the last
-    one is ``payload`` (bytes; empty before the first)."""
+    """Subscribes to ``channel`` on ``bus``; ``take()`` returns the payloads (bytes, oldest
+    first, at most ``keep``) that arrived since the last ``take()``; ``count`` counts all."""
 
-    def __init__(self, lcm: DrakeLcmInterface, channel: str):
-        self.channel = channel
-        self.count = 0
-        self.payload = b""
-        lcm.Subscribe(channel=channel, handler=self._on_message)
+    def __init__(self, bus: lcm.LCM, channel: str, keep: int = 1):
+        if keep < 1:
+            raise ValueError(f"keep must be >= 1; got {keep}")
+        self.channel, self.count = channel, 0
+        self._keep, self._pending = keep, []
+        bus.subscribe(channel, self._on_message)
 
-    def _on_message(self, payload: bytes):
-        self.payload = payload
+    def _on_message(self, _channel: str, payload: bytes) -> None:
         self.count += 1
+        self._pending.append(payload)
+        if len(self._pending) > self._keep:
+            del self._pending[0]
 
-    def newer_than(self, seen: float) -> bytes | None:
-        """The latest payload if more than ``seen`` messages have arrived, else None."""
-        return self.payload if self.count > seen else None
+    def take(self) -> list[bytes]:
+        """The payloads since the last call, oldest first (empty if none)."""
+        pending, self._pending = self._pending, []
+        return pending
+
+
+def pump(bus: lcm.LCM) -> int:
+    """Handles every message already waiting on ``bus`` without blocking; returns how many."""
+    handled = 0
+    while bus.handle_timeout(0) > 0:
+        handled += 1
+    return handled

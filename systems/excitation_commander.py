@@ -5,18 +5,18 @@ it was left. ``excitation_command`` is the whole schedule as a function of the
 time since the station first became healthy: a quintic move from the latched
 measured position to the trajectory's start (slow enough for every joint's
 speed limit), a settling pause, the excitation, then a hold at its end.
-``ExcitationCommander`` wraps it: it waits for the hardware to be healthy,
-latches the measured position, and reports the phase so a recording can keep
-exactly the excitation's samples. If the station turns unhealthy after it
-started, the run is marked aborted and the command freezes (the hardware
-station's gate then holds the arm where it is).
+``ExcitationCommander`` steps it on the hardware's clock: it waits for the
+hardware to be healthy, latches the measured position, and reports the phase
+and the time into the excitation so a recording can keep exactly the
+excitation's samples. If the station turns unhealthy after it started, the run
+is marked aborted and the command freezes (the hardware station then holds the
+arm where it is).
 """
 
 import enum
 import math
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, LeafSystem
 
 from .excitation import FourierTrajectory
 
@@ -61,57 +61,52 @@ def excitation_command(elapsed: float, q_latched, trajectory: FourierTrajectory,
     return trajectory.position(duration), Phase.DONE
 
 
-class ExcitationCommander(LeafSystem):
-    """Inputs ``position_measured`` (n, rad) and ``healthy`` (1, > 0.5 healthy); outputs
-    ``position_commanded`` (n, rad) and ``phase`` (1, a ``Phase``), both state updated
-    every ``period`` s (offset 0), so there is no direct feedthrough.
+class ExcitationCommander:
+    """The schedule of ``excitation_command`` on the hardware station's clock.
 
-    Until the first healthy tick the command is the measured position. That tick
-    latches it and starts the schedule of ``excitation_command`` with the approach
-    time of ``approach_time`` (``speed_fraction`` of ``velocity_limits``, at least
-    ``minimum_approach`` s).
+    ``step(now, healthy, measured)`` once per tick (``now`` in s, monotonic; ``measured``
+    q_S, n rad) updates ``command`` (n, rad) and ``phase``. Until the first healthy tick
+    the command is the measured position; that tick latches it and starts the schedule
+    with the approach time of ``approach_time`` (``speed_fraction`` of ``velocity_limits``,
+    at least ``minimum_approach`` s). ``elapsed`` is the time since that start (s).
     """
 
-    def __init__(self, trajectory: FourierTrajectory, duration: float, velocity_limits, period: float,
-                 settle: float = 1.0, speed_fraction: float = 0.2, minimum_approach: float = 1.0):
-        super().__init__()
+    def __init__(self, trajectory: FourierTrajectory, duration: float, velocity_limits, settle: float = 1.0,
+                 speed_fraction: float = 0.2, minimum_approach: float = 1.0):
         if not (math.isfinite(duration) and duration > 0):
             raise ValueError(f"duration must be finite and > 0 (s); got {duration}")
         n = len(trajectory.q0)
         if len(velocity_limits) != n:
             raise ValueError(f"velocity_limits needs one entry (rad/s) per joint ({n}); got {len(velocity_limits)}")
-        self._trajectory, self._duration, self._settle = trajectory, duration, settle
+        self.trajectory, self.duration, self.settle = trajectory, duration, settle
         self._limits = np.asarray(velocity_limits, dtype=float)
         self._speed_fraction, self._minimum_approach = speed_fraction, minimum_approach
-        self._measured = self.DeclareVectorInputPort("position_measured", n)
-        self._healthy = self.DeclareVectorInputPort("healthy", 1)
-        self._command = self.DeclareDiscreteState(n)
-        self._phase = self.DeclareDiscreteState(1)
-        # Start time (s), approach duration (s), latched position (n, rad).
-        self._start = self.DeclareDiscreteState(BasicVector(np.concatenate(([math.nan, math.nan], np.zeros(n)))))
-        self.DeclareStateOutputPort("position_commanded", self._command)
-        self.DeclareStateOutputPort("phase", self._phase)
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
+        self.phase = Phase.WAITING
+        self.command = np.zeros(n)
+        self.approach = math.nan
+        self.elapsed = math.nan
+        self._start, self._latched = math.nan, np.zeros(n)
 
-    def _update(self, context, discrete_state):
-        phase = Phase(int(context.get_discrete_state(self._phase).GetAtIndex(0)))
-        if phase in (Phase.DONE, Phase.ABORTED):
+    def step(self, now: float, healthy: bool, measured) -> None:
+        if self.phase in (Phase.DONE, Phase.ABORTED):
             return
-        healthy = self._healthy.Eval(context)[0] > 0.5
-        start = discrete_state.get_mutable_vector(self._start).get_mutable_value()
-        if phase == Phase.WAITING:
-            measured = self._measured.Eval(context)
+        if self.phase == Phase.WAITING:
+            self.command[:] = measured
             if not healthy:
-                discrete_state.get_mutable_vector(self._command).SetFromVector(measured)
                 return
-            start[0] = context.get_time()
-            start[1] = approach_time(measured, self._trajectory.position(0.0), self._limits,
-                                     self._speed_fraction, self._minimum_approach)
-            start[2:] = measured
+            self._start = now
+            self.approach = approach_time(measured, self.trajectory.position(0.0), self._limits,
+                                          self._speed_fraction, self._minimum_approach)
+            self._latched[:] = measured
         elif not healthy:
-            discrete_state.get_mutable_vector(self._phase).SetAtIndex(0, float(Phase.ABORTED))
+            self.phase = Phase.ABORTED
             return
-        command, phase = excitation_command(context.get_time() - start[0], start[2:], self._trajectory, start[1],
-                                            self._settle, self._duration)
-        discrete_state.get_mutable_vector(self._command).SetFromVector(command)
-        discrete_state.get_mutable_vector(self._phase).SetAtIndex(0, float(phase))
+        self.elapsed = now - self._start
+        command, self.phase = excitation_command(self.elapsed, self._latched, self.trajectory, self.approach,
+                                                 self.settle, self.duration)
+        self.command[:] = command
+
+    @property
+    def excitation_time(self) -> float:
+        """Time into the excitation (s): negative before it, past ``duration`` after it."""
+        return self.elapsed - self.approach - self.settle

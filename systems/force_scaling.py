@@ -111,11 +111,49 @@ def slew(current: float, target: float, max_step: float) -> float:
     return current + math.copysign(max_step, target - current)
 
 
+def decay_factor(dt: float, fault_decay_time: float) -> float:
+    """The factor exp(−dt/τ) by which a faulted f′ decays over ``dt`` s (0 for τ = 0)."""
+    return math.exp(-dt / fault_decay_time) if fault_decay_time > 0 else 0.0
+
+
+# Layout of an evaluation: f′, contact, non-contact, fault flag.
+FEEDBACK, CONTACT, NONCONTACT, FAULT = slice(0, 6), slice(6, 12), slice(12, 18), 18
+EVALUATION_SIZE = 19
+
+
+def evaluate(out: np.ndarray, wrench, acceleration, omega, gravity, phi, offsets, scales, memory,
+             decay: float, phi_gripper=None) -> None:
+    """One evaluation of the block into ``out`` (19: f′, c, n, fault), as the
+    ``ForceScalingElimination`` docstring describes: ``scales`` (3) are σ, γ, η in
+    effect, ``memory`` (7) the last f′ in effect and the request-fault flag,
+    ``decay`` the factor applied to that f′ while faulted (``decay_factor``)."""
+    if memory[6] == 0.0 and math.isfinite(
+            np.concatenate((wrench, acceleration, omega, gravity, phi, offsets)).sum()):
+        sigma, gamma, eta = scales
+        out[FEEDBACK], out[CONTACT], out[NONCONTACT] = scale_wrench(
+            wrench, offsets, phi, acceleration, omega, gravity, sigma, gamma, eta, phi_gripper)
+        out[FAULT] = 0.0
+        if math.isfinite(out.sum()):
+            return
+    out[FEEDBACK] = decay * memory[:6]
+    out[CONTACT] = 0.0
+    out[NONCONTACT] = 0.0
+    out[FAULT] = 1.0
+
+
+def next_memory_and_scales(memory: np.ndarray, scales: np.ndarray, feedback, requested, max_step: float) -> None:
+    """The update after an evaluation, in place: ``memory`` ← [f′ in effect; 1 if the
+    ``requested`` (σ, γ, η) is non-finite]; a finite request moves ``scales`` toward its
+    clamped value by at most ``max_step`` each (``slew_rate``·dt)."""
+    memory[:6] = feedback
+    request_ok = math.isfinite(sum(requested))
+    memory[6] = 0.0 if request_ok else 1.0
+    if request_ok:
+        for i, target in enumerate(clamp_scales(*requested)):
+            scales[i] = slew(float(scales[i]), target, max_step)
+
+
 # --- Drake system -----------------------------------------------------------------
-
-# Layout of the cached evaluation: f′, contact, non-contact, fault flag.
-_FEEDBACK, _CONTACT, _NONCONTACT, _FAULT = slice(0, 6), slice(6, 12), slice(12, 18), 18
-
 
 class ForceScalingElimination(LeafSystem):
     """Fig. 2 with the Eq. 14 split, as the module docstring describes.
@@ -157,8 +195,7 @@ class ForceScalingElimination(LeafSystem):
         self._defaults = (params.sigma, params.gamma, params.eta)
         self._phi_gripper = (None if params.phi_gripper is None
                              else np.array(params.phi_gripper, dtype=float))
-        self._decay_per_tick = (math.exp(-params.period / params.fault_decay_time)
-                                if params.fault_decay_time > 0 else 0.0)
+        self._decay_per_tick = decay_factor(params.period, params.fault_decay_time)
 
         self._signals = tuple(self.DeclareVectorInputPort(name, size) for name, size in (
             ("wrench", 6), ("acceleration", 6), ("omega", 3), ("gravity", 3), ("phi", 10),
@@ -174,10 +211,10 @@ class ForceScalingElimination(LeafSystem):
 
         self._evaluation = self.DeclareCacheEntry(
             "evaluation",
-            ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(19)), calc=self._evaluate),
+            ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(EVALUATION_SIZE)), calc=self._evaluate),
             prerequisites_of_calc={port.ticket() for port in self._signals} | {self.xd_ticket()})
-        for name, part in (("wrench_feedback", _FEEDBACK), ("wrench_contact", _CONTACT),
-                           ("wrench_noncontact", _NONCONTACT)):
+        for name, part in (("wrench_feedback", FEEDBACK), ("wrench_contact", CONTACT),
+                           ("wrench_noncontact", NONCONTACT)):
             self.DeclareVectorOutputPort(
                 name, 6, lambda context, output, part=part: output.SetFromVector(
                     self._evaluation.Eval(context)[part]),
@@ -185,35 +222,20 @@ class ForceScalingElimination(LeafSystem):
         self.DeclareStateOutputPort("scales", self._scales)
         self.DeclareVectorOutputPort(
             "fault", 1, lambda context, output: output.SetAtIndex(
-                0, self._evaluation.Eval(context)[_FAULT]),
+                0, self._evaluation.Eval(context)[FAULT]),
             prerequisites_of_calc={self._evaluation.ticket()})
 
     def _evaluate(self, context, value):
-        out = value.get_mutable_value()
-        wrench, acceleration, omega, gravity, phi, offsets = (port.Eval(context)
-                                                              for port in self._signals)
-        memory = context.get_discrete_state(self._memory).get_value()
-        if memory[6] == 0.0 and math.isfinite(
-                np.concatenate((wrench, acceleration, omega, gravity, phi, offsets)).sum()):
-            sigma, gamma, eta = context.get_discrete_state(self._scales).get_value()
-            out[_FEEDBACK], out[_CONTACT], out[_NONCONTACT] = scale_wrench(
-                wrench, offsets, phi, acceleration, omega, gravity, sigma, gamma, eta,
-                self._phi_gripper)
-            out[_FAULT] = 0.0
-            if math.isfinite(out.sum()):
-                return
-        out[_FEEDBACK] = self._decay_per_tick * memory[:6]
-        out[_CONTACT] = 0.0
-        out[_NONCONTACT] = 0.0
-        out[_FAULT] = 1.0
+        wrench, acceleration, omega, gravity, phi, offsets = (port.Eval(context) for port in self._signals)
+        evaluate(value.get_mutable_value(), wrench, acceleration, omega, gravity, phi, offsets,
+                 context.get_discrete_state(self._scales).get_value(),
+                 context.get_discrete_state(self._memory).get_value(), self._decay_per_tick, self._phi_gripper)
 
     def _update(self, context, discrete_state):
         requested = [port.Eval(context)[0] if port.HasValue(context) else default
                      for port, default in zip(self._requests, self._defaults)]
-        request_ok = math.isfinite(sum(requested))
-        discrete_state.set_value(self._memory, np.append(
-            self._evaluation.Eval(context)[_FEEDBACK], 0.0 if request_ok else 1.0))
-        if request_ok:
-            current = context.get_discrete_state(self._scales).get_value().tolist()
-            discrete_state.set_value(self._scales, [
-                slew(c, r, self._max_step) for c, r in zip(current, clamp_scales(*requested))])
+        memory = context.get_discrete_state(self._memory).get_value().copy()
+        scales = context.get_discrete_state(self._scales).get_value().copy()
+        next_memory_and_scales(memory, scales, self._evaluation.Eval(context)[FEEDBACK], requested, self._max_step)
+        discrete_state.set_value(self._memory, memory)
+        discrete_state.set_value(self._scales, scales)

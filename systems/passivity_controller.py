@@ -23,6 +23,11 @@ f − α_t·v, τ − α_r·ω, which adds α·|v|²·T to E. When E would go ne
 α = −E / (T·|v|²), clamped to [0, α_max], so the PC dissipates exactly the
 observed deficit as far as the bound allows (a deficit beyond it is carried
 forward).
+
+The device's limits come last: the applied wrench is clamped to the master's
+force and torque magnitudes (``clamp_norm``, keeping the direction), so the PC's
+damping can never push the command past what the device may render, and the
+observer counts the wrench actually applied.
 """
 
 import dataclasses
@@ -30,6 +35,8 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
+
+from heft.systems.feedback_mapping import clamp_norm
 
 
 @dataclasses.dataclass
@@ -99,6 +106,27 @@ def passivity_step(wrench, twist, energy, period: float, max_damping) -> tuple[
     return applied, np.array((e_t, e_r)), np.array((a_t, a_r)), np.array((d_t, d_r))
 
 
+def master_torque(wrench, velocity, jacobian, energy, period: float, max_damping, max_force: float,
+                  max_torque: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One sample of the block: (τ_M (6, N·m), energy (2, J), α (2), energy dissipated (2, J)).
+
+    ``wrench`` (6) desired [f; τ] on the hand, ``velocity`` q̇_M (6, rad/s), ``jacobian``
+    J_M (6×6, rows [v_E; ω_E]), ``energy`` [E_t, E_r] before, ``period`` the hold T (s),
+    ``max_damping`` [α_t max, α_r max]. The PC's wrench is clamped to ``max_force`` (N)
+    and ``max_torque`` (N·m) and the energy counts the clamped wrench. Any non-finite
+    input gives zero torque, α = 0 and the energy unchanged."""
+    if not math.isfinite(wrench.sum() + velocity.sum() + jacobian.sum()):
+        return np.zeros(6), np.array(energy, dtype=float), np.zeros(2), np.zeros(2)
+    twist = jacobian @ velocity
+    applied, energy, damping, dissipated = passivity_step(wrench, twist, energy, period, max_damping)
+    clamped = np.concatenate((clamp_norm(applied[:3], max_force), clamp_norm(applied[3:], max_torque)))
+    # Power the clamp withheld from the hand, per channel, returned to the observer.
+    withheld = (applied - clamped) * twist
+    energy[0] += withheld[:3].sum() * period
+    energy[1] += withheld[3:].sum() * period
+    return jacobian.T @ clamped, energy, damping, dissipated
+
+
 # --- Drake system -------------------------------------------------------------
 
 class PassivityController(LeafSystem):
@@ -108,7 +136,8 @@ class PassivityController(LeafSystem):
     ``velocity`` (6, q̇_M, rad/s), ``jacobian`` (36, row-major 6×6 J_M with
     [v_E; ω_E] = J_M·q̇_M, translational rows first).
     Outputs (discrete state, held between samples): ``torque`` (6, τ_M =
-    J_Mᵀ·applied wrench, N·m), ``energy_observed`` (2, [E_t, E_r] after the PC, J),
+    J_Mᵀ·applied wrench, N·m, the wrench within ``max_force`` (N) and ``max_torque``
+    (N·m), the device's limits), ``energy_observed`` (2, [E_t, E_r] after the PC, J),
     ``damping`` (2, [α_t (N·s/m), α_r (N·m·s/rad)] applied), ``energy_dissipated``
     (2, cumulative energy the PC removed, J).
 
@@ -124,11 +153,15 @@ class PassivityController(LeafSystem):
     the energies unchanged (the step is not observed).
     """
 
-    def __init__(self, params: PassivityParams | None = None):
+    def __init__(self, params: PassivityParams | None = None, max_force: float = math.inf,
+                 max_torque: float = math.inf):
         super().__init__()
         params = params or PassivityParams()
         params.validate()
+        if not (max_force > 0 and max_torque > 0):
+            raise ValueError(f"max_force and max_torque must be > 0; got {max_force}, {max_torque}")
         self._period = params.period
+        self._limits = (max_force, max_torque)
         self._max_damping = ((params.max_translational_damping, params.max_rotational_damping)
                              if params.enabled else (0.0, 0.0))
         self._wrench = self.DeclareVectorInputPort("wrench", 6)
@@ -145,17 +178,11 @@ class PassivityController(LeafSystem):
         self.DeclareStateOutputPort("energy_dissipated", self._dissipated)
 
     def _update(self, context, discrete_state):
-        wrench = self._wrench.Eval(context)
-        velocity = self._velocity.Eval(context)
-        jacobian = self._jacobian.Eval(context).reshape(6, 6)
-        if not math.isfinite(wrench.sum() + velocity.sum() + jacobian.sum()):
-            discrete_state.set_value(self._torque, np.zeros(6))
-            discrete_state.set_value(self._damping, np.zeros(2))
-            return
-        applied, energy, damping, dissipated = passivity_step(
-            wrench, jacobian @ velocity, context.get_discrete_state(self._energy).get_value(),
-            self._period, self._max_damping)
-        discrete_state.set_value(self._torque, jacobian.T @ applied)
+        torque, energy, damping, dissipated = master_torque(
+            self._wrench.Eval(context), self._velocity.Eval(context), self._jacobian.Eval(context).reshape(6, 6),
+            context.get_discrete_state(self._energy).get_value().copy(), self._period, self._max_damping,
+            *self._limits)
+        discrete_state.set_value(self._torque, torque)
         discrete_state.set_value(self._energy, energy)
         discrete_state.set_value(self._damping, damping)
         discrete_state.set_value(

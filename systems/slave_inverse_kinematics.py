@@ -12,6 +12,28 @@ from heft.systems.rx_inverse_kinematics import RxKinematics
 NUM_JOINTS = 6
 
 
+def flange_target(pose, X_TF: RigidTransform):
+    """(R_RF, p_RF (m)) of the flange for the desired tool pose vector ``pose`` (X_RT*), or
+    None if it is not a pose (non-finite, or a zero quaternion)."""
+    try:
+        X_RF = rigid_transform(pose) @ X_TF
+    except ValueError:
+        return None
+    return X_RF.rotation().matrix(), X_RF.translation()
+
+
+def ik_step(kinematics: RxKinematics, target, q_last: np.ndarray, max_step: np.ndarray):
+    """One tick: (command (6, rad), reachable, slewing) from the last command toward the nearest
+    IK solution for ``target`` (``flange_target``'s (R_RF, p_RF), or None), each joint moving at
+    most ``max_step`` (rad: speed limit × dt). Unreachable or None: the command stays."""
+    result = None if target is None else kinematics.solve_nearest(*target, q_last)
+    if result is None or not result.reachable:
+        return q_last, False, False
+    step = result.q - q_last
+    limited = np.clip(step, -max_step, max_step)
+    return q_last + limited, True, bool((limited != step).any())
+
+
 class SlaveInverseKinematics(LeafSystem):
     """Desired tool pose → joint command, every ``period`` s, never jumping.
 
@@ -60,26 +82,12 @@ class SlaveInverseKinematics(LeafSystem):
         discrete_state.set_value(self._command, np.clip(q_measured, self._kinematics.lower, self._kinematics.upper))
         return EventStatus.Succeeded()
 
-    def _flange_target(self, pose):
-        """(R_RF, p_RF (m)) for the desired tool pose vector, or None if it is not a pose."""
-        try:
-            X_RF = rigid_transform(pose) @ self._X_TF
-        except ValueError:  # non-finite, or a zero quaternion
-            return None
-        return X_RF.rotation().matrix(), X_RF.translation()
-
     def _update(self, context, discrete_state) -> EventStatus:
         q_last = context.get_discrete_state(self._command).get_value()
         rejected = context.get_discrete_state(self._status).get_value()[1]
-        target = self._flange_target(self._pose.Eval(context))
-        result = None if target is None else self._kinematics.solve_nearest(*target, q_last)
-        if result is None or not result.reachable:
-            discrete_state.set_value(self._status, [0.0, rejected + 1])
-            discrete_state.set_value(self._slewing, [0.0])
-            return EventStatus.Succeeded()
-        step = result.q - q_last
-        limited = np.clip(step, -self._max_step, self._max_step)
-        discrete_state.set_value(self._command, q_last + limited)
-        discrete_state.set_value(self._status, [1.0, rejected])
-        discrete_state.set_value(self._slewing, [float((limited != step).any())])
+        command, reachable, slewing = ik_step(self._kinematics, flange_target(self._pose.Eval(context), self._X_TF),
+                                              q_last, self._max_step)
+        discrete_state.set_value(self._command, command)
+        discrete_state.set_value(self._status, [1.0, rejected] if reachable else [0.0, rejected + 1])
+        discrete_state.set_value(self._slewing, [float(slewing)])
         return EventStatus.Succeeded()

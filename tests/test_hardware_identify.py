@@ -51,32 +51,28 @@ def test_schedule_phases_and_excitation():
     np.testing.assert_allclose(q, TRAJECTORY.position(1.2))
 
 
-def _commander_rig():
-    commander = ExcitationCommander(TRAJECTORY, 2.0, LIMITS, PERIOD, settle=0.2, minimum_approach=0.3)
-    simulator = Simulator(commander)
-    context = simulator.get_mutable_context()
-    commander.GetInputPort("position_measured").FixValue(context, Q_START)
-    return commander, simulator, context
-
-
 def test_commander_waits_for_healthy_hardware_then_aborts_on_a_fault():
-    commander, simulator, context = _commander_rig()
-    commander.GetInputPort("healthy").FixValue(context, [0.0])
-    simulator.AdvanceTo(0.5)
-    out = commander.GetOutputPort("position_commanded").Eval(context)
-    np.testing.assert_array_equal(out, Q_START)
-    assert commander.GetOutputPort("phase").Eval(context)[0] == Phase.WAITING
-    commander.GetInputPort("healthy").FixValue(context, [1.0])
-    simulator.AdvanceTo(0.6)
-    assert commander.GetOutputPort("phase").Eval(context)[0] == Phase.APPROACHING
-    frozen_at = commander.GetOutputPort("position_commanded").Eval(context).copy()
-    commander.GetInputPort("healthy").FixValue(context, [0.0])
-    simulator.AdvanceTo(0.7)
-    assert commander.GetOutputPort("phase").Eval(context)[0] == Phase.ABORTED
-    np.testing.assert_array_equal(commander.GetOutputPort("position_commanded").Eval(context), frozen_at)
-    commander.GetInputPort("healthy").FixValue(context, [1.0])
-    simulator.AdvanceTo(0.8)  # an aborted run stays aborted: its recording is unusable
-    assert commander.GetOutputPort("phase").Eval(context)[0] == Phase.ABORTED
+    commander = ExcitationCommander(TRAJECTORY, 2.0, LIMITS, settle=0.2, minimum_approach=0.3)
+    t = 0.0
+
+    def run(duration, healthy):
+        nonlocal t
+        for _ in range(round(duration / PERIOD)):
+            t += PERIOD
+            commander.step(t, healthy, Q_START)
+
+    run(0.5, False)
+    np.testing.assert_array_equal(commander.command, Q_START)
+    assert commander.phase == Phase.WAITING
+    run(0.1, True)
+    assert commander.phase == Phase.APPROACHING
+    assert commander.elapsed == pytest.approx(0.1 - PERIOD)  # time counts from the first healthy tick
+    frozen_at = commander.command.copy()
+    run(0.1, False)
+    assert commander.phase == Phase.ABORTED
+    np.testing.assert_array_equal(commander.command, frozen_at)
+    run(0.1, True)  # an aborted run stays aborted: its recording is unusable
+    assert commander.phase == Phase.ABORTED
 
 
 @pytest.mark.slow

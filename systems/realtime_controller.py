@@ -1,0 +1,167 @@
+"""The controller of Fig. 4 as one computation per tick, for the hardware's real-time loop.
+
+``RealtimeTeleopController`` composes the same block cores as the per-block
+Diagram (``diagrams.teleop.MakeTeleopController``) — master kinematics, slave
+kinematics, motion scaling, slave IK, force scaling/elimination, feedback
+mapping, passivity controller — in one ``step`` per tick, with the measured
+tick duration ``dt`` (s) wherever a block uses its period: slews, speed limits,
+the fault decay, the passivity observer's hold. The arithmetic of each block
+lives in its own module; this one only orders the calls, holds the state a
+Diagram Context would hold, and reuses one plant Context per model.
+
+Timing against the per-block Diagram: there every block is sampled at the same
+tick, so the slave command of tick k is computed from the desired pose of tick
+k − 1. Here motion scaling and IK run in sequence within the tick, so the slave
+command leaves one tick earlier; the master torque is the same tick in both.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
+from pydrake.multibody.plant import MultibodyPlant
+
+from heft.systems.feedback_mapping import FeedbackMappingParams, rendered_wrench
+from heft.systems.force_scaling import (
+    CONTACT,
+    EVALUATION_SIZE,
+    FAULT,
+    FEEDBACK,
+    NONCONTACT,
+    ForceScalingParams,
+    decay_factor,
+    evaluate,
+    next_memory_and_scales,
+)
+from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, pose_and_jacobian
+from heft.systems.motion_scaling import IDENTITY_POSE, MotionScalingParams, motion_scaling_update
+from heft.systems.passivity_controller import PassivityParams, master_torque
+from heft.systems.pose_vectors import pose_vector
+from heft.systems.rx_inverse_kinematics import RxKinematics
+from heft.systems.slave_inverse_kinematics import NUM_JOINTS, flange_target, ik_step
+from heft.systems.slave_kinematics import GRAVITY_R
+
+
+class RealtimeTeleopController:
+    """Fig. 4 in one ``step`` per tick (module docstring).
+
+    ``master`` is the finalized Phantom plant (frames ``phantom_base`` B and ``stylus`` E),
+    ``slave`` a finalized plant of arm + wrist sensor with frames ``base_frame`` (R) and
+    ``S``; ``kinematics`` the arm's closed-form IK, ``X_FS`` the pose of S in the flange
+    (the tool frame T of the motion mapping is S); ``phi`` (10) and ``offsets`` (6) the
+    load model φ̂ and [f_o; τ_o] (N, N·m). The parameters' ``period`` fields are not
+    used: every step brings its own ``dt``.
+
+    After ``step``: ``torque`` τ_M (6, N·m) and ``position`` q̄_S (6, rad), plus what the
+    per-block Diagram logs: ``wrench_feedback``/``wrench_contact``/``wrench_noncontact``
+    (6 each, at S in S), ``master_wrench`` (6, on the hand at E in B), ``pose_RS_desired``
+    (7), ``energy``/``damping`` (2 each, the passivity observer's), ``jacobian`` (6×6 J_M),
+    ``reachable``,
+    ``force_fault``, ``scales`` (3: σ, γ, η in effect).
+    """
+
+    def __init__(self, master: MultibodyPlant, slave: MultibodyPlant, base_frame: str, kinematics: RxKinematics,
+                 X_FS: RigidTransform, phi, offsets, motion: MotionScalingParams, force: ForceScalingParams,
+                 feedback: FeedbackMappingParams, passivity: PassivityParams):
+        for params in (motion, force, feedback, passivity):
+            params.validate()
+        phi, offsets = np.asarray(phi, dtype=float), np.asarray(offsets, dtype=float)
+        if phi.shape != (10,) or offsets.shape != (6,):
+            raise ValueError(f"phi must have 10 entries and offsets 6; got {phi.shape} and {offsets.shape}")
+        self._master, self._master_context = master, master.CreateDefaultContext()
+        self._B, self._E = master.GetFrameByName(BASE_FRAME), master.GetFrameByName(STYLUS_FRAME)
+        self._slave, self._slave_context = slave, slave.CreateDefaultContext()
+        self._R, self._S = slave.GetFrameByName(base_frame), slave.GetFrameByName("S")
+        self._arm = self._R.model_instance()
+        self._g_R = np.array(GRAVITY_R)
+        self._kinematics, self._X_TF = kinematics, X_FS.inverse()
+        self._phi, self._offsets = phi, offsets
+        self._phi_gripper = None if force.phi_gripper is None else np.array(force.phi_gripper, dtype=float)
+        self._motion, self._force, self._feedback = motion, force, feedback
+        self._R_RB_motion = RotationMatrix(RollPitchYaw(motion.R_RB))
+        self._R_BR = RotationMatrix(RollPitchYaw(feedback.R_RB)).inverse().matrix()
+        self._max_damping = ((passivity.max_translational_damping, passivity.max_rotational_damping)
+                             if passivity.enabled else (0.0, 0.0))
+        self._requested = (force.sigma, force.gamma, force.eta)
+        self._evaluation = np.zeros(EVALUATION_SIZE)
+        self.torque = np.zeros(NUM_JOINTS)
+        self.position = None
+        self.started = False
+
+    def start(self, slave_position) -> None:
+        """The state a fresh per-block Diagram has at initialization, with the slave measured
+        at ``slave_position`` (6, rad): the desired pose is the slave's, the command is its
+        position within the joint limits, the clutch disengaged, observers and memories empty."""
+        slave_position = np.asarray(slave_position, dtype=float)
+        if slave_position.shape != (NUM_JOINTS,) or not np.isfinite(slave_position).all():
+            raise ValueError(f"the slave's start position must be {NUM_JOINTS} finite joint angles; "
+                             f"got {slave_position}")
+        self._slave.SetPositions(self._slave_context, self._arm, slave_position)
+        self.pose_RS_desired = pose_vector(self._slave.CalcRelativeTransform(self._slave_context, self._R, self._S))
+        self._motion_memory = np.concatenate(([0.0, self._motion.translation_scale, self._motion.rotation_scale],
+                                              IDENTITY_POSE, IDENTITY_POSE))
+        self.position = np.clip(slave_position, self._kinematics.lower, self._kinematics.upper)
+        self.reachable = True
+        self._force_memory = np.zeros(7)
+        self.scales = np.array(self._requested, dtype=float)
+        self.energy, self.damping = np.zeros(2), np.zeros(2)
+        self.torque = np.zeros(NUM_JOINTS)
+        self.started = True
+
+    def step(self, dt: float, master_position, master_velocity, slave_position, slave_velocity, wrench,
+             acceleration, clutch: bool) -> None:
+        """One tick of ``dt`` s (> 0) on the station's readings: q_M, q̇_M (rad, rad/s), q_S, q̇_S
+        (rad, rad/s), the wrench [f; τ] the sensor exerts on the load and [a; α] of S (at S, in S),
+        the clutch engaged. Updates ``torque``, ``position`` and the logged signals."""
+        if not self.started:
+            raise RuntimeError("RealtimeTeleopController.step before start(): start it from the measured "
+                               "slave position once the station is healthy")
+        X_BE, J_M = pose_and_jacobian(self._master, self._master_context, self._B, self._E, master_position)
+        self.jacobian = J_M
+        slave, scratch = self._slave, self._slave_context
+        slave.SetPositions(scratch, self._arm, slave_position)
+        slave.SetVelocities(scratch, self._arm, slave_velocity)
+        X_RS = slave.CalcRelativeTransform(scratch, self._R, self._S)
+        R_RS = X_RS.rotation().matrix()
+        omega_S = self._S.CalcAngularVelocity(scratch, self._R, self._S)
+        gravity_S = R_RS.T @ self._g_R
+
+        # Motion scaling, then the slave IK on this tick's desired pose.
+        motion = self._motion
+        self._motion_memory, self.pose_RS_desired = motion_scaling_update(
+            self._motion_memory, self.pose_RS_desired, pose_vector(X_BE), clutch, pose_vector(X_RS),
+            motion.translation_scale, motion.rotation_scale, self._R_RB_motion)
+        self.position, self.reachable, _ = ik_step(
+            self._kinematics, flange_target(self.pose_RS_desired, self._X_TF), self.position,
+            self._kinematics.velocity * dt)
+
+        # Force scaling/elimination, feedback mapping, passivity controller.
+        force = self._force
+        evaluation = self._evaluation
+        evaluate(evaluation, wrench, acceleration, omega_S, gravity_S, self._phi, self._offsets, self.scales,
+                 self._force_memory, decay_factor(dt, force.fault_decay_time), self._phi_gripper)
+        next_memory_and_scales(self._force_memory, self.scales, evaluation[FEEDBACK], self._requested,
+                               force.slew_rate * dt)
+        feedback = self._feedback
+        self.master_wrench = rendered_wrench(evaluation[FEEDBACK], self._R_BR @ R_RS, feedback.force_scale,
+                                             feedback.torque_scale, feedback.max_force, feedback.max_torque)
+        self.torque, self.energy, self.damping, _ = master_torque(
+            self.master_wrench, np.asarray(master_velocity, dtype=float), J_M, self.energy, dt, self._max_damping,
+            feedback.max_force, feedback.max_torque)
+
+    @property
+    def wrench_feedback(self) -> np.ndarray:
+        return self._evaluation[FEEDBACK]
+
+    @property
+    def wrench_contact(self) -> np.ndarray:
+        return self._evaluation[CONTACT]
+
+    @property
+    def wrench_noncontact(self) -> np.ndarray:
+        return self._evaluation[NONCONTACT]
+
+    @property
+    def force_fault(self) -> bool:
+        return self._evaluation[FAULT] > 0.5
+

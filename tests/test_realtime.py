@@ -1,0 +1,52 @@
+"""The real-time loop on a fake monotonic clock: ticks on the grid, a late tick skips the grid
+points it overran (never replays them) and reports the measured time since the last tick."""
+
+import pytest
+
+from heft.diagrams.realtime import run_realtime, timing_summary
+
+PERIOD = 0.001
+
+
+class FakeClock:
+    """A monotonic clock that only the test (and the loop's sleeps) advance."""
+
+    def __init__(self):
+        self.t = 100.0
+
+    def __call__(self):
+        return self.t
+
+    def sleep(self, seconds):
+        assert seconds > 0
+        self.t += seconds
+
+
+def test_a_stall_skips_the_overrun_ticks_and_the_next_tick_sees_it():
+    clock, ticks = FakeClock(), []
+
+    def tick(now, dt):
+        ticks.append((now, dt))
+        clock.t += 0.0001  # the tick's own work
+        if len(ticks) == 6:
+            clock.t += 0.0034  # this tick stalls: it ends 3.5 ms after it began
+
+    times = run_realtime(tick, PERIOD, 0.0195, clock=clock, sleep=clock.sleep)
+    starts = [round(now / PERIOD, 6) for now, _ in ticks]
+    assert starts == [0, 1, 2, 3, 4, 5, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19]
+    assert times.skipped == 3
+    assert ticks[0][1] == 0.0
+    assert ticks[6][1] == pytest.approx(0.004) and ticks[7][1] == pytest.approx(PERIOD)
+    summary = timing_summary(times)
+    assert summary["ticks"] == 17 and summary["skipped_ticks"] == 3
+
+
+def test_a_tick_that_asks_to_stop_ends_the_loop():
+    clock = FakeClock()
+    times = run_realtime(lambda now, dt: now >= 0.0045, PERIOD, 1.0, clock=clock, sleep=clock.sleep)
+    assert len(times.wall) == 6 and times.skipped == 0
+
+
+def test_a_period_that_is_not_positive_is_refused():
+    with pytest.raises(ValueError, match="period"):
+        run_realtime(lambda now, dt: True, 0.0, 1.0)
