@@ -24,11 +24,10 @@ import dataclasses
 import math
 
 import numpy as np
-from pydrake.common.eigen_geometry import AngleAxis
-from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
+from pydrake.math import RollPitchYaw, RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
-from heft.systems.pose_vectors import POSE_SIZE, pose_vector, rigid_transform
+from heft.systems.pose_vectors import POSE_SIZE
 
 IDENTITY_POSE = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
 # Layout of the memory state: [engaged, k_t, k_r, pose_BE0 (7), pose_RT0 (7)].
@@ -70,30 +69,60 @@ def valid_scale(k: float) -> bool:
 
 def valid_pose(pose) -> bool:
     """True if ``pose`` is 7 finite numbers with a non-zero quaternion."""
-    pose = np.asarray(pose, dtype=float)
-    return pose.shape == (POSE_SIZE,) and bool(np.isfinite(pose).all()) and np.linalg.norm(pose[3:]) > 1e-9
+    return (len(pose) == POSE_SIZE and math.isfinite(sum(pose))
+            and pose[3] * pose[3] + pose[4] * pose[4] + pose[5] * pose[5] + pose[6] * pose[6] > 1e-18)
 
 
-def scaled_pose(X_BE: RigidTransform, X_BE0: RigidTransform, X_RT0: RigidTransform, R_RB: RotationMatrix,
-                translation_scale: float, rotation_scale: float) -> RigidTransform:
-    """X_RT* of the module docstring: the stylus motion since the anchor X_BE0, scaled
-    and mapped into R, applied to the tool's anchor X_RT0."""
-    delta = (X_BE.rotation() @ X_BE0.rotation().inverse()).ToAngleAxis()
-    scaled = RotationMatrix(AngleAxis(rotation_scale * delta.angle(), R_RB.multiply(delta.axis())))
-    p_RT = X_RT0.translation() + translation_scale * R_RB.multiply(X_BE.translation() - X_BE0.translation())
-    return RigidTransform(scaled @ X_RT0.rotation(), p_RT)
+def _unit(pose) -> np.ndarray:
+    """``pose`` (valid) with its quaternion normalised and w ≥ 0."""
+    w, x, y, z = pose[3], pose[4], pose[5], pose[6]
+    scale = math.copysign(1.0 / math.sqrt(w * w + x * x + y * y + z * z), w)
+    return np.array((pose[0], pose[1], pose[2], w * scale, x * scale, y * scale, z * scale))
+
+
+def _product(a, b):
+    """The Hamilton product a ⊗ b of quaternions (w, x, y, z): the rotation R_a·R_b."""
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return (aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw)
+
+
+def scaled_pose(pose_BE, pose_BE0, pose_RT0, R_RB: np.ndarray, translation_scale: float,
+                rotation_scale: float) -> np.ndarray:
+    """X_RT* of the module docstring as a pose vector (w ≥ 0): the stylus motion since the
+    anchor ``pose_BE0``, scaled and mapped into R (``R_RB``, 3×3), applied to the tool's
+    anchor ``pose_RT0``. Poses are unit pose vectors."""
+    # ΔR = R_BE·R_BE0ᵀ as a quaternion, w ≥ 0 so that its angle θ = 2·atan2(|v|, w) is in [0, π].
+    dw, dx, dy, dz = _product(pose_BE[3:], (pose_BE0[3], -pose_BE0[4], -pose_BE0[5], -pose_BE0[6]))
+    if dw < 0.0:
+        dw, dx, dy, dz = -dw, -dx, -dy, -dz
+    sine = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if sine > 0.0:
+        half = rotation_scale * math.atan2(sine, dw)  # (k_r·θ)/2
+        axis = R_RB @ (dx / sine, dy / sine, dz / sine)
+        factor = math.sin(half)
+        scaled = (math.cos(half), factor * axis[0], factor * axis[1], factor * axis[2])
+    else:
+        scaled = (1.0, 0.0, 0.0, 0.0)
+    pose = np.empty(POSE_SIZE)
+    pose[:3] = pose_RT0[:3] + translation_scale * (R_RB @ (pose_BE[:3] - pose_BE0[:3]))
+    pose[3:] = _product(scaled, pose_RT0[3:])
+    if pose[3] < 0.0:
+        pose[3:] = -pose[3:]
+    return pose
 
 
 def motion_scaling_update(memory, desired, pose_BE, engaged: bool, pose_RT_measured, translation_scale: float,
-                          rotation_scale: float, R_RB: RotationMatrix) -> tuple[np.ndarray, np.ndarray]:
+                          rotation_scale: float, R_RB: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """One tick of the clutch logic: (memory, desired pose) → the new (memory, desired pose).
 
     ``memory`` is [engaged, k_t, k_r, pose_BE0, pose_RT0] (17), ``desired`` the pose of
-    the last tick (7). Disengaged, or an invalid stylus pose or scale: hold ``desired``
-    and drop the engagement (so the next valid engaged tick re-anchors). Rising edge:
-    anchor at ``pose_BE`` and ``pose_RT_measured`` (held if the latter is invalid).
-    Engaged: the scaled pose with the stored scales; if the scales changed, re-anchor
-    at ``pose_BE`` and that pose, and store the new scales.
+    the last tick (7), ``R_RB`` the 3×3 rotation from B to R. Disengaged, or an invalid
+    stylus pose or scale: hold ``desired`` and drop the engagement (so the next valid
+    engaged tick re-anchors). Rising edge: anchor at ``pose_BE`` and ``pose_RT_measured``
+    (held if the latter is invalid). Engaged: the scaled pose with the stored scales; if
+    the scales changed, re-anchor at ``pose_BE`` and that pose, and store the new scales.
     """
     memory = np.array(memory, dtype=float)
     desired = np.array(desired, dtype=float)
@@ -101,17 +130,15 @@ def motion_scaling_update(memory, desired, pose_BE, engaged: bool, pose_RT_measu
     if not usable or (memory[_ENGAGED] < 0.5 and not valid_pose(pose_RT_measured)):
         memory[_ENGAGED] = 0.0
         return memory, desired
-    X_BE = rigid_transform(pose_BE)
+    pose_BE = _unit(pose_BE)
     if memory[_ENGAGED] < 0.5:
-        X_RT = rigid_transform(pose_RT_measured)
+        desired = _unit(pose_RT_measured)
     else:
-        X_RT = scaled_pose(X_BE, rigid_transform(memory[_BE0]), rigid_transform(memory[_RT0]), R_RB,
-                           *memory[_SCALES])
-    desired = pose_vector(X_RT)
-    if memory[_ENGAGED] < 0.5 or tuple(memory[_SCALES]) != (translation_scale, rotation_scale):
+        desired = scaled_pose(pose_BE, memory[_BE0], memory[_RT0], R_RB, memory[1], memory[2])
+    if memory[_ENGAGED] < 0.5 or (memory[1], memory[2]) != (translation_scale, rotation_scale):
         memory[_ENGAGED] = 1.0
         memory[_SCALES] = translation_scale, rotation_scale
-        memory[_BE0] = pose_vector(X_BE)
+        memory[_BE0] = pose_BE
         memory[_RT0] = desired
     return memory, desired
 
@@ -137,7 +164,7 @@ class MotionScaling(LeafSystem):
         params = params or MotionScalingParams()
         params.validate()
         self._params = params
-        self._R_RB = RotationMatrix(RollPitchYaw(params.R_RB))
+        self._R_RB = RotationMatrix(RollPitchYaw(params.R_RB)).matrix()
         self._pose_BE = self.DeclareVectorInputPort("pose_BE", POSE_SIZE)
         self._clutch = self.DeclareVectorInputPort("clutch", 1)
         self._measured = self.DeclareVectorInputPort("pose_RT_measured", POSE_SIZE)
@@ -167,8 +194,7 @@ class MotionScaling(LeafSystem):
         memory = context.get_discrete_state(self._memory).get_value().copy()
         memory[_ENGAGED] = 0.0
         measured = self._measured.Eval(context)
-        desired = (pose_vector(rigid_transform(measured)) if valid_pose(measured)
-                   else context.get_discrete_state(self._desired).get_value())
+        desired = _unit(measured) if valid_pose(measured) else context.get_discrete_state(self._desired).get_value()
         self._tick(context, discrete_state, memory, desired)
 
     def _update(self, context, discrete_state):

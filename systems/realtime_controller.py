@@ -74,11 +74,12 @@ class RealtimeTeleopController:
         self._R, self._S = slave.GetFrameByName(base_frame), slave.GetFrameByName("S")
         self._arm = self._R.model_instance()
         self._g_R = np.array(GRAVITY_R)
-        self._kinematics, self._X_TF = kinematics, X_FS.inverse()
+        X_SF = X_FS.inverse()
+        self._kinematics, self._R_SF, self._p_SF = kinematics, X_SF.rotation().matrix(), X_SF.translation()
         self._phi, self._offsets = phi, offsets
         self._phi_gripper = None if force.phi_gripper is None else np.array(force.phi_gripper, dtype=float)
         self._motion, self._force, self._feedback = motion, force, feedback
-        self._R_RB_motion = RotationMatrix(RollPitchYaw(motion.R_RB))
+        self._R_RB_motion = RotationMatrix(RollPitchYaw(motion.R_RB)).matrix()
         self._R_BR = RotationMatrix(RollPitchYaw(feedback.R_RB)).inverse().matrix()
         self._max_damping = ((passivity.max_translational_damping, passivity.max_rotational_damping)
                              if passivity.enabled else (0.0, 0.0))
@@ -132,7 +133,7 @@ class RealtimeTeleopController:
             self._motion_memory, self.pose_RS_desired, pose_vector(X_BE), clutch, pose_vector(X_RS),
             motion.translation_scale, motion.rotation_scale, self._R_RB_motion)
         self.position, self.reachable, _ = ik_step(
-            self._kinematics, flange_target(self.pose_RS_desired, self._X_TF), self.position,
+            self._kinematics, flange_target(self.pose_RS_desired, self._R_SF, self._p_SF), self.position,
             self._kinematics.velocity * dt)
 
         # Force scaling/elimination, feedback mapping, passivity controller.

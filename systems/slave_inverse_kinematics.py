@@ -6,20 +6,20 @@ import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import EventStatus, LeafSystem
 
-from heft.systems.pose_vectors import POSE_SIZE, rigid_transform
+from heft.systems.pose_vectors import POSE_SIZE, rotation_matrix
 from heft.systems.rx_inverse_kinematics import RxKinematics
 
 NUM_JOINTS = 6
 
 
-def flange_target(pose, X_TF: RigidTransform):
-    """(R_RF, p_RF (m)) of the flange for the desired tool pose vector ``pose`` (X_RT*), or
-    None if it is not a pose (non-finite, or a zero quaternion)."""
-    try:
-        X_RF = rigid_transform(pose) @ X_TF
-    except ValueError:
+def flange_target(pose, R_TF: np.ndarray, p_TF: np.ndarray):
+    """(R_RF, p_RF (m)) of the flange for the desired tool pose vector ``pose`` (X_RT*), the
+    flange F sitting at (R_TF, p_TF) in the tool frame T; None if ``pose`` is not a pose
+    (non-finite, or a zero quaternion)."""
+    R_RT = rotation_matrix(pose)
+    if R_RT is None:
         return None
-    return X_RF.rotation().matrix(), X_RF.translation()
+    return R_RT @ R_TF, pose[:3] + R_RT @ p_TF
 
 
 def ik_step(kinematics: RxKinematics, target, q_last: np.ndarray, max_step: np.ndarray):
@@ -60,7 +60,8 @@ class SlaveInverseKinematics(LeafSystem):
         if not (np.isfinite(period) and period > 0):
             raise ValueError(f"period must be finite and > 0 (s); got {period}")
         self._kinematics = kinematics
-        self._X_TF = X_FT.inverse()
+        X_TF = X_FT.inverse()
+        self._R_TF, self._p_TF = X_TF.rotation().matrix(), X_TF.translation()
         self._max_step = kinematics.velocity * period  # rad per tick
         self._pose = self.DeclareVectorInputPort("pose_desired", POSE_SIZE)
         self._measured = self.DeclareVectorInputPort("position_measured", NUM_JOINTS)
@@ -85,8 +86,8 @@ class SlaveInverseKinematics(LeafSystem):
     def _update(self, context, discrete_state) -> EventStatus:
         q_last = context.get_discrete_state(self._command).get_value()
         rejected = context.get_discrete_state(self._status).get_value()[1]
-        command, reachable, slewing = ik_step(self._kinematics, flange_target(self._pose.Eval(context), self._X_TF),
-                                              q_last, self._max_step)
+        target = flange_target(self._pose.Eval(context), self._R_TF, self._p_TF)
+        command, reachable, slewing = ik_step(self._kinematics, target, q_last, self._max_step)
         discrete_state.set_value(self._command, command)
         discrete_state.set_value(self._status, [1.0, rejected] if reachable else [0.0, rejected + 1])
         discrete_state.set_value(self._slewing, [float(slewing)])

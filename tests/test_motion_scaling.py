@@ -172,7 +172,7 @@ def test_no_direct_feedthrough():
 
 # --- the pure clutch logic -------------------------------------------------------
 
-R_RB_DRAKE = RotationMatrix(RollPitchYaw(RPY_RB))
+R_RB_DRAKE = RotationMatrix(RollPitchYaw(RPY_RB)).matrix()
 
 
 def fresh_memory(k_t=1.0, k_r=1.0):

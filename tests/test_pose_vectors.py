@@ -1,8 +1,9 @@
 import numpy as np
 import pytest
-from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.common.eigen_geometry import Quaternion
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 
-from heft.systems.pose_vectors import pose_vector, rigid_transform
+from heft.systems.pose_vectors import pose_vector, rigid_transform, rotation_matrix
 
 
 def test_round_trip_and_sign():
@@ -19,3 +20,13 @@ def test_round_trip_and_sign():
 def test_bad_pose_is_rejected(bad):
     with pytest.raises(ValueError, match="pose must be 7 finite numbers"):
         rigid_transform(bad)
+
+
+def test_rotation_matrix_is_drakes_for_any_scale_of_the_quaternion():
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        q = rng.normal(size=4) * rng.uniform(0.1, 10.0)
+        expected = RotationMatrix(Quaternion(q / np.linalg.norm(q))).matrix()
+        np.testing.assert_allclose(rotation_matrix(np.concatenate((rng.normal(size=3), q))), expected, atol=1e-14)
+    assert rotation_matrix(np.array([0, 0, 0, 0, 0, 0, 0.0])) is None
+    assert rotation_matrix(np.array([0, 0, np.nan, 1, 0, 0, 0.0])) is None
