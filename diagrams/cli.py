@@ -91,7 +91,7 @@ def _identify(args) -> int:
         from heft.diagrams.hardware_identify import identify_on_hardware
         identify_on_hardware(scenario, args.out, args.lcm_url, method=args.method, signals=args.signals,
                              settings=settings, periods=args.periods, record=args.record,
-                             params=_station_params(args.watchdog_timeout))
+                             params=_station_params(args.watchdog_timeout), priority=args.rt_priority)
         print(f"wrote {args.out}/estimate.yaml, metrics.json{f', {args.record}' if args.record else ''}")
         return 0
     if args.record:
@@ -182,13 +182,19 @@ def _stand_in(args) -> int:
     from heft.hardware_interface.channels import LcmChannels
 
     scenario = resolve_scenario(args.scenario)
-    faults = FaultInjection(drop_rate=args.drop_rate, nan_rate=args.nan_rate,
-                            die_at_s=math.inf if args.die_at is None else args.die_at, seed=args.seed)
+    faults = FaultInjection(drop_rate=args.drop_rate, burst_loss_s=args.burst_loss, added_delay_s=args.added_delay,
+                            nan_rate=args.nan_rate, saturate_at_s=args.saturate_at, die_at_s=args.die_at,
+                            seed=args.seed, reorder_rate=args.reorder_rate)
     channels = LcmChannels(lcm_url=args.lcm_url)
     print(f"stand-in: {args.scenario} on {args.lcm_url} for {args.duration:g} s at real time", flush=True)
-    reached = run_stand_in(scenario, channels, args.lcm_url, args.duration, realtime_rate=1.0, faults=faults)
-    print(f"stand-in: stopped at t = {reached:g} s{' (died, as injected)' if reached < args.duration else ''}",
-          flush=True)
+    summary = run_stand_in(scenario, channels, args.lcm_url, args.duration, faults, args.clutch_at,
+                           args.clutch_release_at)
+    rates = "; ".join(f"{kind} Hz " + ", ".join(f"{name} {hz:.0f}" for name, hz in summary[f"{kind}_hz"].items())
+                      for kind in ("published", "received"))
+    print(f"stand-in: stopped at t = {summary['duration_s']:.3f} s{' (died, as injected)' if summary['died'] else ''}"
+          f"; {rates}; CPU {summary['cpu_s']:.2f} s; max lateness {summary['max_lateness_ms']:.2f} ms", flush=True)
+    if args.out:
+        Path(args.out).write_text(json.dumps(summary, indent=2) + "\n")
     return 0
 
 
@@ -223,7 +229,7 @@ def _teleop(args) -> int:
         load = LoadEstimate(phi=np.zeros(10), offsets=np.zeros(6))
     print(f"teleop: controller on {args.lcm_url} at {rate:g} Hz for {args.duration:g} s of wall time", flush=True)
     summary = run_hardware_teleop(scenario, load, args.lcm_url, args.duration, rate, record=args.record,
-                                  params=_station_params(args.watchdog_timeout))
+                                  params=_station_params(args.watchdog_timeout), priority=args.rt_priority)
     print(format_summary(summary), flush=True)
     if args.out:
         Path(args.out).write_text(json.dumps(summary, indent=2) + "\n")
@@ -277,6 +283,9 @@ def build_parser() -> argparse.ArgumentParser:
     identify.add_argument("--record", help="with --hardware: record the LCM traffic to this file (lcm-logger format)")
     identify.add_argument("--watchdog-timeout", type=float,
                           help="with --hardware: stale-channel timeout (s, default 0.02)")
+    identify.add_argument("--rt-priority", type=int, default=50,
+                          help="with --hardware: SCHED_FIFO priority of the loop, pinned to the last CPU "
+                               "(default 50; 0: normal)")
     identify.set_defaults(run=_identify)
 
     bench = commands.add_parser("bench", help="benchmarks, each printed beside a reference measured in the same run")
@@ -306,14 +315,23 @@ def build_parser() -> argparse.ArgumentParser:
     lcm_bench.add_argument("--lcm-url", default=default_url, help=f"LCM URL (default {default_url})")
     lcm_bench.add_argument("--out", help="write every number as JSON here")
     lcm_bench.set_defaults(run=_bench_lcm)
-    stand_in = commands.add_parser("stand-in", help="the simulated lab behind the drivers' LCM channels, at real time")
+    stand_in = commands.add_parser("stand-in", help="a lightweight lab behind the drivers' LCM channels, at real time")
     stand_in.add_argument("--scenario", default="fig6", help="fig6 | fig7 | fig8 | path to a scenario YAML")
     stand_in.add_argument("--lcm-url", default=default_url, help=f"LCM URL (default {default_url})")
     stand_in.add_argument("--duration", type=float, default=10.0, help="seconds (default 10)")
-    stand_in.add_argument("--drop-rate", type=float, default=0.0, help="probability a message is lost")
+    stand_in.add_argument("--drop-rate", type=float, default=0.0, help="probability a loss starts at a message")
+    stand_in.add_argument("--burst-loss", type=float, default=0.0, help="length of each loss (s; default 0: one)")
+    stand_in.add_argument("--added-delay", type=float, default=0.0, help="FT samples reach the bus this late (s)")
     stand_in.add_argument("--nan-rate", type=float, default=0.0, help="probability an FT sample is NaN")
-    stand_in.add_argument("--die-at", type=float, help="stop publishing and exit at this time (s)")
+    stand_in.add_argument("--saturate-at", type=float, default=math.inf,
+                          help="FT samples flag every wrench axis saturated from this time (s)")
+    stand_in.add_argument("--die-at", type=float, default=math.inf, help="stop publishing and exit at this time (s)")
+    stand_in.add_argument("--reorder-rate", type=float, default=0.0,
+                          help="probability a message is sent after the next one of its channel")
     stand_in.add_argument("--seed", type=int, default=0, help="fault seed (default 0)")
+    stand_in.add_argument("--clutch-at", type=float, default=0.0, help="clutch button pressed from (s, default 0)")
+    stand_in.add_argument("--clutch-release-at", type=float, default=math.inf, help="clutch button released at (s)")
+    stand_in.add_argument("--out", help="also write the summary as JSON here")
     stand_in.set_defaults(run=_stand_in)
 
     teleop = commands.add_parser("teleop", help="the teleoperation controller on the lab's LCM channels")
@@ -326,6 +344,8 @@ def build_parser() -> argparse.ArgumentParser:
     teleop.add_argument("--watchdog-timeout", type=float, help="stale-channel timeout (s, default 0.02)")
     teleop.add_argument("--rate", type=float, help="controller rate (Hz; default: the scenario's, 2000)")
     teleop.add_argument("--record", help="record the LCM traffic to this file (lcm-logger format, for lcm-logplayer)")
+    teleop.add_argument("--rt-priority", type=int, default=50,
+                        help="SCHED_FIFO priority of the control loop, pinned to the last CPU (default 50; 0: normal)")
     teleop.set_defaults(run=_teleop)
     return parser
 

@@ -31,7 +31,7 @@ from heft.diagrams.identify import (
     noise_levels,
 )
 from heft.diagrams.lcm_recording import LcmTrafficRecorder
-from heft.diagrams.realtime import HardwareRunFailed, format_timing, run_realtime, timing_summary
+from heft.diagrams.realtime import HardwareRunFailed, claim_realtime, format_timing, run_realtime, timing_summary
 from heft.diagrams.scenario import Scenario
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import (
@@ -114,11 +114,13 @@ class HardwareIdentification:
 
 
 def record_on_hardware(scenario: Scenario, trajectory, duration: float, lcm_url: str, record=None,
-                       params: HardwareStationParams | None = None):
+                       params: HardwareStationParams | None = None, priority: int = 50):
     """Runs ``HardwareIdentification`` on ``lcm.LCM(lcm_url)`` in real time at the controller
-    rate until the excitation is done (or aborted); returns (Recording, timing summary)."""
+    rate (real-time ``priority``: ``claim_realtime``) until the excitation is done (or
+    aborted); returns (Recording, timing summary)."""
     period = scenario.controller_period
     run = HardwareIdentification(trajectory, duration, lcm.LCM(lcm_url), LcmChannels(lcm_url=lcm_url), params)
+    print(f"identify: {claim_realtime(priority)}", flush=True)
     budget = WAIT_LIMIT + 60.0 + duration  # waiting, the slow approach and settling, the excitation
     if record is None:
         times = run_realtime(run.tick, period, budget)
@@ -138,7 +140,7 @@ def residual_rms(result, signals, wrench) -> list[float]:
 def identify_on_hardware(scenario: Scenario, out_dir, lcm_url: str, method: str = "tls",
                          signals: str = "accelerometer", settings: ExcitationSettings | None = None,
                          periods: int = 1, record=None, recording: Recording | None = None,
-                         params: HardwareStationParams | None = None) -> dict:
+                         params: HardwareStationParams | None = None, priority: int = 50) -> dict:
     """Designs the excitation, runs it on the hardware at ``lcm_url`` (or takes ``recording``),
     estimates with every method, writes estimate.yaml (``method``'s) and metrics.json. Returns metrics."""
     settings = settings or ExcitationSettings()
@@ -151,7 +153,8 @@ def identify_on_hardware(scenario: Scenario, out_dir, lcm_url: str, method: str 
     if recording is None:
         print(f"identify: excitation of {duration:g} s on {lcm_url}; the arm first moves slowly to its start",
               flush=True)
-        recording, timing = record_on_hardware(scenario, excitation.trajectory, duration, lcm_url, record, params)
+        recording, timing = record_on_hardware(scenario, excitation.trajectory, duration, lcm_url, record, params,
+                                               priority)
         print(format_timing(timing), flush=True)
     signal_set, instruments = kinematic_signals(scenario, recording, settings.base_frequency, settings.harmonics,
                                                 signals)

@@ -26,7 +26,7 @@ import lcm
 import numpy as np
 
 from heft.diagrams.lcm_recording import LcmTrafficRecorder
-from heft.diagrams.realtime import format_timing, run_realtime, timing_summary
+from heft.diagrams.realtime import claim_realtime, format_timing, run_realtime, timing_summary
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.teleop import LoadEstimate, MakeRealtimeTeleopController
 from heft.hardware_interface.channels import LcmChannels
@@ -87,12 +87,12 @@ class HardwareTeleop:
         torque = station.torque_sent
         if not math.isfinite(torque.sum()):
             self.torque_finite = False
-        elif torque.any():
+        elif healthy:
             self.torque_peak = max(self.torque_peak, float(np.abs(torque).max()))
-            # The wrench on the hand these torques render: τ_M = J_Mᵀ·[f; τ].
-            wrench = np.linalg.solve(self.controller.jacobian.T, torque)
-            self.stylus_force_peak = max(self.stylus_force_peak, float(np.linalg.norm(wrench[:3])))
-            self.stylus_torque_peak = max(self.stylus_torque_peak, float(np.linalg.norm(wrench[3:])))
+            # The wrench on the hand the sent torques render: the gain times the one applied.
+            f, tau = self.controller.applied_wrench[:3], self.controller.applied_wrench[3:]
+            self.stylus_force_peak = max(self.stylus_force_peak, station.gain * math.hypot(*f))
+            self.stylus_torque_peak = max(self.stylus_torque_peak, station.gain * math.hypot(*tau))
         position = station.position_sent
         if position is not None:
             self.slave_commands += 1
@@ -124,11 +124,14 @@ class HardwareTeleop:
 
 
 def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, lcm_url: str, duration: float, rate: float,
-                        record=None, params: HardwareStationParams | None = None) -> dict:
+                        record=None, params: HardwareStationParams | None = None, priority: int = 50) -> dict:
     """Runs ``HardwareTeleop`` on ``lcm.LCM(lcm_url)`` at ``rate`` Hz for ``duration`` s of wall
-    time; returns its summary with ``timing`` (``timing_summary``) and ``lcm_log``.
+    time, with real-time ``priority`` (``claim_realtime``); returns its summary with ``timing``
+    (``timing_summary``), ``scheduling`` and ``lcm_log``.
     ``record``: a path to record the LCM traffic to (``lcm-logger`` format), or None."""
     teleop = HardwareTeleop(scenario, load, lcm.LCM(lcm_url), LcmChannels(lcm_url=lcm_url), params)
+    scheduling = claim_realtime(priority)
+    print(f"teleop: {scheduling}", flush=True)
 
     def run():
         teleop.station.epoch = time.time()
@@ -139,7 +142,7 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, lcm_url: str, du
     else:
         with LcmTrafficRecorder(lcm_url, record):
             times = run()
-    return {"duration": times.elapsed, "rate_hz": rate, **teleop.summary(times.elapsed),
+    return {"duration": times.elapsed, "rate_hz": rate, **teleop.summary(times.elapsed), "scheduling": scheduling,
             "lcm_log": None if record is None else str(record), "timing": timing_summary(times)}
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import gc
 import math
+import os
 import time
 
 import numpy as np
@@ -39,14 +40,15 @@ class TickTimes:
 
 def run_realtime(tick, period: float, duration: float, clock=time.perf_counter, sleep=time.sleep) -> TickTimes:
     """Runs ``tick(now, dt)`` every ``period`` s of ``clock`` for ``duration`` s, or until it
-    returns True. ``clock`` must be monotonic (s); ``sleep(s)`` waits. The garbage collector's
-    periodic passes are held off during the loop (objects made before it are frozen)."""
+    returns True. ``clock`` must be monotonic (s); ``sleep(s)`` waits. The cyclic garbage
+    collector is off during the loop (reference counting frees what a tick makes; a pass
+    over the heap would stall a tick for milliseconds) and collects once at its end."""
     if not (math.isfinite(period) and period > 0):
         raise ValueError(f"period must be a positive number of seconds; got {period}")
     capacity = int(duration / period) + 2
     wall, cpu, lateness = np.empty(capacity), np.empty(capacity), np.empty(capacity)
     gc.collect()
-    gc.freeze()
+    gc.disable()
     start = clock()
     grid, last, ticks, skipped = 0, 0.0, 0, 0
     try:
@@ -71,8 +73,28 @@ def run_realtime(tick, period: float, duration: float, clock=time.perf_counter, 
             skipped += following - grid - 1
             grid = following
     finally:
-        gc.unfreeze()
+        gc.enable()
+        gc.collect()
     return TickTimes(wall[:ticks], cpu[:ticks], lateness[:ticks], skipped, clock() - start, period)
+
+
+def claim_realtime(priority: int) -> str:
+    """Asks the OS to run this process as a real-time one: ``SCHED_FIFO`` at ``priority``
+    (1–99; 0 leaves the scheduling alone), pinned to the last CPU so that other processes
+    (the drivers, a stand-in) neither preempt it nor move it between caches. Returns what
+    was granted, or why not and how to grant it; never raises for a refusal."""
+    if priority == 0:
+        return "normal scheduling (real-time priority 0)"
+    if not 1 <= priority <= 99:
+        raise ValueError(f"real-time priority must be 1–99 (SCHED_FIFO), or 0 for normal scheduling; got {priority}")
+    cpu = max(os.sched_getaffinity(0))
+    try:
+        os.sched_setaffinity(0, {cpu})
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+    except PermissionError:
+        return (f"normal scheduling: SCHED_FIFO {priority} was refused (run as root, or allow it with "
+                "`ulimit -r` / an rtprio line in /etc/security/limits.conf); ticks may be preempted")
+    return f"SCHED_FIFO priority {priority} on CPU {cpu}"
 
 
 def _percentile_us(values, q) -> float:

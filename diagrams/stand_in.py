@@ -1,47 +1,110 @@
-"""The lab stand-in: the simulated station behind the lab drivers' LCM channels.
+"""The lab stand-in: the Phantom, arm and JR3 drivers on LCM, modelled cheaply
+enough to keep real time on one core.
 
-``MakeStandIn`` wraps ``MakeSimStation`` in what the Phantom, arm and JR3
-drivers do on the bus: it publishes ``heft_haptic_state``, ``lcmt_iiwa_status``
-(6 joints) and ``heft_ft_sample`` (the sensor's own sign: the wrench the load
-exerts on the sensor) at the channel rates, and applies ``heft_haptic_command``
-and ``lcmt_iiwa_command``. ``FaultInjection`` degrades what is published, so
-``MakeHardwareStation`` can be exercised against a misbehaving lab.
-``run_stand_in`` runs it as a process would.
+``StandIn`` publishes ``heft_haptic_state``, ``lcmt_iiwa_status`` (6 joints) and
+``heft_ft_sample`` at the channels' nominal rates (2, 2 and 8 kHz by default) on
+a python-lcm bus and obeys ``heft_haptic_command`` and ``lcmt_iiwa_command``.
+``FaultInjection`` degrades what it publishes, so ``HardwareStation`` can be
+exercised against a misbehaving lab. ``run_stand_in`` runs it in wall-clock
+real time, as a separate process would.
+
+Models (frames as DESIGN §4: W world = R slave base, B master base, S wrist sensor):
+
+* Slave (arm driver): the joints follow the last valid command through the
+  robot controller's critically damped setpoint filter
+  (``critically_damped_step_matrices``, ``Scenario.slave_setpoint_bandwidth``),
+  stepped exactly at the status rate; an ideal servo: the measured position is
+  the filter's (encoder-quantised), the estimated velocity the filter's.
+* Sensor frame S: pose, ω, and the kinematic (gravity-free) acceleration [a; α]
+  of S in S from the filter's state by Drake: A_WS = J·q̈ + J̇·q̇, with q̈ the
+  filter's own acceleration after each step. Gravity in S is R_SW·g_W. This is
+  ``SensorFrameKinematics``' convention in the simulated station.
+* JR3 driver: the wrench is the load's non-contact wrench V(a, α, ω, g)·φ (Eq. 5,
+  ``load_dynamics.regressor``) with φ of the scenario's load as the simulated
+  station computes it, through ``sensor_models``' measurement model (offsets,
+  drift, noise, saturation, quantisation as the scenario's sensor parameters
+  enable them, sampled at the channel rate); the accelerometer likewise. The
+  kinematics are held (zero-order) between the slave's steps: each FT sample
+  uses those of the latest slave step at or before its sample time.
+  Published with the sensor's sign (the wrench the load exerts on the sensor).
+* Master (Phantom driver): the joints move by J_M(q₀)⁻¹ times the operator's
+  reference offset of the stylus (``smooth_sine_offset`` with the scenario's
+  ``OperatorSpec``; translation, then roll-pitch-yaw, in B), so the stylus
+  follows the reference to first order and the published velocity is the exact
+  derivative of the position (published encoder-quantised). The driver
+  applies the last command's torque, clipped to the amplifiers' limits, only if
+  it is enabled, 6 joints and finite, and drops it to zero ``HAPTIC_WATCHDOG_S``
+  after the last valid command. Button bit 0 (the clutch) is held in
+  [``clutch_at``, ``clutch_release_at``).
+
+Left out against ``MakeSimStation``: contact and the environment (no sheet
+spring: the wrench is the load's own only), the arm's link dynamics and servo
+error (an ideal servo: the arm is exactly where its filter says), the operator's
+impedance and the master's dynamics (the applied torque does not move the
+master; the stylus follows the reference only to first order), friction.
+
+Times are the lab's own clock: seconds since it started; ``utime`` is that clock
+in µs at the message's sample time, so a restarted lab stamps from zero again
+(as ``message_order`` expects of a restarted driver).
 """
 
+from __future__ import annotations
+
+import collections
 import dataclasses
 import math
+import select
+import struct
+import time
 
+import lcm
 import numpy as np
 from drake import lcmt_iiwa_command, lcmt_iiwa_status
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import JacobianWrtVariable
+
+from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.sim_station import MakeSimStation
+from heft.diagrams.sim_station import GRAVITY_W, MASTER_ENCODER_COUNTS_PER_REV, AddSlave, _phi_about_S
 from heft.hardware_interface.channels import LcmChannels
-from heft.hardware_interface.lcm_mailbox import LcmMailbox
-from heft.hardware_interface.lcmtypes import (
-    heft_ft_sample,
-    heft_haptic_command,
-    heft_haptic_state,
+from heft.hardware_interface.hardware_station import CLUTCH_BUTTON
+from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
+from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_command, heft_haptic_state
+from heft.systems.load_dynamics import regressor
+from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant, pose_and_jacobian
+from heft.systems.operator_hand import smooth_sine_offset
+from heft.systems.sensor_models import (
+    _ACCELEROMETER_STREAM,
+    _FORCE_TORQUE_STREAM,
+    NUM_AXES,
+    SixAxisSensorParams,
+    drift_offsets,
+    noise_key,
+    quantize,
+    saturate,
+    standard_normals,
 )
-from pydrake.lcm import DrakeLcm, DrakeLcmInterface
-from pydrake.manipulation import IiwaCommandReceiver, IiwaControlMode
-from pydrake.systems.analysis import Simulator
-from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
-from pydrake.systems.lcm import LcmInterfaceSystem, LcmSubscriberSystem
-from pydrake.systems.primitives import DiscreteTimeDelay, Multiplexer
+from heft.systems.setpoint_filter import critically_damped_step_matrices
 
 NUM_JOINTS = 6
 """Joints of the master and of the slave."""
+HAPTIC_WATCHDOG_S = 0.02
+"""The Phantom driver zeroes its torque this long (s) after the last valid command."""
 _MASK64 = (1 << 64) - 1
-_MASTER_STREAM, _SLAVE_STREAM, _FT_STREAM, _NAN_STREAM = range(4)
-"""Random streams of ``_uniform``: losses per channel, then FT NaNs."""
+_MASTER, _SLAVE, _FT = range(3)
+"""Channel indices; channel i loses messages on random stream i and reorders them on 4 + i."""
+_NAN_STREAM, _REORDER_STREAM = 3, 4
+_DUE_SLACK = 1e-9
+"""A message is due when its nominal time is at most this (s) after ``now`` (round-off of k/rate)."""
+_NOISE_BLOCK = 64
+"""Sensor samples whose noise and offsets are drawn at once."""
 
 
 @dataclasses.dataclass
 class FaultInjection:
     """Faults applied to what the stand-in publishes; loadable with ``yaml_load_typed``.
 
-    Random faults are a fixed function of (``seed``, channel, sample time), so a
+    Random faults are a fixed function of (``seed``, channel, sample index), so a
     run is reproducible and independent of how often it is repeated.
     """
 
@@ -58,6 +121,9 @@ class FaultInjection:
     die_at_s: float = math.inf
     """From this time on (s) nothing is published; ``run_stand_in`` returns here."""
     seed: int = 0
+    reorder_rate: float = 0.0
+    """Probability (per message, every channel) that it is held back and sent after the
+    next message of its channel (out-of-order delivery)."""
 
 
 def _uniform(seed: int, stream: int, tick: int) -> float:
@@ -68,211 +134,392 @@ def _uniform(seed: int, stream: int, tick: int) -> float:
     return ((x ^ (x >> 31)) >> 11) * 2.0 ** -53
 
 
-class _DriverPublisher(LeafSystem):
-    """Publishes one driver message on ``channel`` every ``period`` s, with losses.
+class _Outlet:
+    """One driver's channel on the bus with the delivery faults: losses (decided per
+    sample index) and reordering (at sending)."""
 
-    Publishing happens in the periodic discrete update, which also keeps the
-    loss state (time, s, until which messages are lost). Messages whose sample
-    time is not after 0 are not sent (``utime`` 0 means "no sample").
-    Subclasses fill ``_message(context, tick, stamp)``; ``stamp`` is the
-    sample time (s).
+    def __init__(self, bus: lcm.LCM, name: str, channel: int, faults: FaultInjection):
+        self.name, self.count = name, 0
+        self._bus, self._channel, self._faults = bus, channel, faults
+        self._lost_until = -math.inf
+        self._held = None
+
+    def lost(self, tick: int, t: float) -> bool:
+        """Whether sample ``tick`` (sample time ``t``, s) is lost: a loss starts here with
+        probability ``drop_rate`` and lasts ``burst_loss_s``."""
+        faults = self._faults
+        if faults.drop_rate > 0.0 and _uniform(faults.seed, self._channel, tick) < faults.drop_rate:
+            self._lost_until = max(self._lost_until, t + faults.burst_loss_s)
+            return True
+        return t < self._lost_until
+
+    def send(self, tick: int, payload: bytes) -> None:
+        """Publishes ``payload``, then the one held back, if any; or holds this one back."""
+        faults = self._faults
+        if self._held is None and faults.reorder_rate > 0.0 and (
+                _uniform(faults.seed, _REORDER_STREAM + self._channel, tick) < faults.reorder_rate):
+            self._held = payload
+            return
+        self._bus.publish(self.name, payload)
+        self.count += 1
+        if self._held is not None:
+            self._bus.publish(self.name, self._held)
+            self.count += 1
+            self._held = None
+
+
+class _SixAxisSampler:
+    """``sensor_models``' measurement model of one instrument, sampled every ``period`` s:
+    sample j (t = j·period, j ≥ 1) is Q(sat(u + o_j + n_j)) with the offsets o_j and noise n_j
+    of ``_SampledSixAxisSensor`` at sample index j, drawn ``_NOISE_BLOCK`` samples at a time."""
+
+    def __init__(self, params: SixAxisSensorParams, stream: int, period: float):
+        params.validate()
+        on = params.noise
+        self._params, self._period = params, period
+        self._white_rms = np.array(params.noise_rms, dtype=float) if on and params.white_noise else None
+        self._offsets_on, self._drift_on = on and params.offsets, on and params.offsets and params.drift
+        self._walk_rms = np.array(params.offset_random_walk, dtype=float) * math.sqrt(period)
+        self._full_scale = np.array(params.full_scale, dtype=float) if on and params.saturation else None
+        self._step = (np.array(params.full_scale, dtype=float) / params.counts_per_full_scale
+                      if on and params.quantization else None)
+        self._key = noise_key(params.seed, stream)
+        self._walk = np.zeros(NUM_AXES)
+        # Offsets and offsets + noise of samples start, start + 1, ...
+        self._start, self._offsets, self._extra = 1, np.zeros((0, NUM_AXES)), np.zeros((0, NUM_AXES))
+
+    def _draw_block(self, keep_from: int) -> None:
+        """Appends the next ``_NOISE_BLOCK`` samples, forgetting those before ``keep_from``."""
+        first = self._start + len(self._offsets)
+        index = np.arange(first, first + _NOISE_BLOCK)
+        params = self._params
+        normals = (standard_normals(self._key, index, 2 * NUM_AXES)
+                   if self._white_rms is not None or self._drift_on else None)
+        if self._drift_on:
+            walk = self._walk + np.cumsum(self._walk_rms * normals[:, NUM_AXES:], axis=0)
+            self._walk = walk[-1]
+            offsets = drift_offsets(index * self._period, params.initial_offsets, params.drifted_offsets,
+                                    params.drift_time_constant) + walk
+        elif self._offsets_on:
+            offsets = np.tile(np.array(params.initial_offsets, dtype=float), (_NOISE_BLOCK, 1))
+        else:
+            offsets = np.zeros((_NOISE_BLOCK, NUM_AXES))
+        extra = offsets if self._white_rms is None else offsets + self._white_rms * normals[:, :NUM_AXES]
+        drop = max(0, min(keep_from, first) - self._start)
+        self._offsets = np.concatenate((self._offsets[drop:], offsets))
+        self._extra = np.concatenate((self._extra[drop:], extra))
+        self._start += drop
+
+    def sample(self, first: int, count: int, value: np.ndarray):
+        """(measured, offsets o_j, saturated flags (0/1)), each (count, 6), of samples
+        j = first … first + count − 1 of the true ``value`` (6,); ``first`` ≥ 1 never decreases."""
+        while first + count > self._start + len(self._offsets):
+            self._draw_block(first)
+        rows = slice(first - self._start, first - self._start + count)
+        measured = value + self._extra[rows]
+        saturated = np.zeros_like(measured)
+        if self._full_scale is not None:
+            measured, saturated = saturate(measured, self._full_scale)
+        if self._step is not None:
+            measured = quantize(measured, self._step)
+        return measured, self._offsets[rows], saturated
+
+
+class _SensorFrame:
+    """The slave arm with its wrist sensor and load, evaluated by Drake: motion of S and
+    the load's non-contact wrench V·φ from the joint state."""
+
+    def __init__(self, scenario: Scenario):
+        plant = MultibodyPlant(time_step=0.0)
+        parts = AddSlave(plant, scenario)
+        plant.Finalize()
+        self._plant, self._context = plant, plant.CreateDefaultContext()
+        self._W, self._S = plant.world_frame(), parts.S
+        self.phi = _phi_about_S(plant, parts.S, parts.load_bodies)
+        self._origin = np.zeros(3)
+        self._x = np.zeros(2 * NUM_JOINTS)
+        self.wrench = np.zeros(6)
+        """V·φ: [f; τ] the sensor exerts on the load, at S, in S (N, N·m)."""
+        self.acceleration = np.zeros(6)
+        """[a; α] of S in W, expressed in S, without gravity (m/s², rad/s²)."""
+
+    def update(self, q, qd, qdd) -> None:
+        """Evaluates S's motion at joint positions ``q`` (rad), velocities ``qd`` (rad/s) and
+        accelerations ``qdd`` (rad/s²)."""
+        plant, context, W, S = self._plant, self._context, self._W, self._S
+        self._x[:NUM_JOINTS], self._x[NUM_JOINTS:] = q, qd
+        plant.SetPositionsAndVelocities(context, self._x)
+        R_SW = plant.CalcRelativeTransform(context, W, S).rotation().matrix().T
+        J = plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV, S, self._origin, W, W)
+        bias = plant.CalcBiasSpatialAcceleration(context, JacobianWrtVariable.kV, S, self._origin, W, W)
+        A_WS_W = J @ qdd + bias.get_coeffs()  # [α; a]
+        a, alpha = R_SW @ A_WS_W[3:], R_SW @ A_WS_W[:3]
+        omega = R_SW @ (J[:3] @ qd)
+        self.acceleration[:3], self.acceleration[3:] = a, alpha
+        self.wrench[:] = regressor(a, alpha, omega, R_SW @ GRAVITY_W) @ self.phi
+
+
+class _Master:
+    """The Phantom's joints moved by the operator's reference motion through the master's
+    Jacobian at its start pose: q = q₀ + J_M(q₀)⁻¹·[Δp; Δrpy](t), q̇ = its derivative."""
+
+    def __init__(self, scenario: Scenario):
+        plant = master_plant(model_path("phantom_premium_6dof.urdf"))
+        self.effort_limits = np.array([plant.get_joint_actuator(i).effort_limit()
+                                       for i in plant.GetJointActuatorIndices()])
+        self._initial = np.array(scenario.master_initial_q, dtype=float)
+        _, J = pose_and_jacobian(plant, plant.CreateDefaultContext(), plant.GetFrameByName(BASE_FRAME),
+                                 plant.GetFrameByName(STYLUS_FRAME), self._initial)
+        operator = self._operator = scenario.operator
+        # The reference's offset is amplitude × one shape in time, so the joints' is J⁻¹·amplitude × it.
+        self._amplitude = np.linalg.solve(J, np.concatenate((operator.amplitude, operator.rotation_amplitude)))
+        self.position, self.velocity = self._initial.copy(), np.zeros(NUM_JOINTS)
+
+    def update(self, t: float) -> None:
+        """Moves the joints to the operator's reference at time ``t`` (s)."""
+        operator = self._operator
+        offset, self.velocity = smooth_sine_offset(t, operator.start_time, operator.frequency, self._amplitude)
+        self.position = self._initial + offset
+
+
+def _decode(message_type, payload: bytes):
+    """The decoded message, or None if ``payload`` is not one."""
+    try:
+        return message_type.decode(payload)
+    except (ValueError, struct.error):
+        return None
+
+
+class StandIn:
+    """The lab's three drivers on ``bus`` (python ``lcm.LCM``); models in the module docstring.
+
+    Readable: ``slave_position`` (6, rad, the arm's true joints), ``slave_command`` (6, rad,
+    the last valid setpoint; ``slave_initial_q`` before the first), ``master_position``
+    (6, rad, true joints), ``master_torque`` (6, N·m, the torque the haptic driver applies
+    now), ``published`` / ``received`` (channel name → messages), ``phi_true`` (10, the
+    load's φ about S in S, Eq. 6), ``offsets`` (6, N, N·m: the FT offsets in the latest
+    sample, heft's sign), ``next_due`` (s, the nominal time of the next message).
     """
 
-    def __init__(self, stream: int, channel: str, lcm: DrakeLcmInterface, period: float,
-                 faults: FaultInjection, delay: float = 0.0):
-        super().__init__()
-        self._stream, self._channel, self._lcm = stream, channel, lcm
-        self._period, self._faults, self._delay = period, faults, delay
-        self._lost_until = self.DeclareDiscreteState(BasicVector([-math.inf]))
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
+    def __init__(self, scenario: Scenario, bus: lcm.LCM, channels: LcmChannels = LcmChannels(),
+                 faults: FaultInjection | None = None, clutch_at: float = 0.0,
+                 clutch_release_at: float = math.inf):
+        scenario.validate()
+        self._faults = faults = faults or FaultInjection()
+        self._bus = bus
+        self._clutch = (clutch_at, clutch_release_at)
+        self._rates = (channels.master_state.rate, channels.slave_status.rate, channels.ft_sample.rate)
+        self._ticks = [1, 1, 1]
+        self._due = [1.0 / rate for rate in self._rates]
+        self._outlets = [_Outlet(bus, channel.name, i, faults) for i, channel in
+                         enumerate((channels.master_state, channels.slave_status, channels.ft_sample))]
+        self._delayed = collections.deque()  # (release time (s), sample index, payload) of FT samples
+        self._haptic_commands = LcmMailbox(bus, channels.master_command.name, keep=64)
+        self._slave_commands = LcmMailbox(bus, channels.slave_command.name, keep=64)
 
-    def _update(self, context, discrete_state):
-        t = context.get_time()
-        stamp = t - self._delay
-        faults = self._faults
-        if stamp <= 0.0 or t >= faults.die_at_s:
+        # Slave: the setpoint filter on the (2, 6) state [q; q̇], and S's motion.
+        slave_period = 1.0 / channels.slave_status.rate
+        self._A, B = critically_damped_step_matrices(scenario.slave_setpoint_bandwidth, slave_period)
+        self._B = B[:, None]
+        self._w = 2 * math.pi * scenario.slave_setpoint_bandwidth  # rad/s, the filter's ω
+        self._slave = np.zeros((2, NUM_JOINTS))
+        self._slave[0] = scenario.slave_initial_q
+        self.slave_command = np.array(scenario.slave_initial_q, dtype=float)
+        self._slave_step = 2 * math.pi / scenario.encoder_counts_per_rev  # rad per encoder count
+        self._sensor_frame = _SensorFrame(scenario)
+        self._sensor_frame.update(self._slave[0], self._slave[1], np.zeros(NUM_JOINTS))
+        self.phi_true = self._sensor_frame.phi
+
+        ft_period = 1.0 / channels.ft_sample.rate
+        self._ft = _SixAxisSampler(scenario.ft_sensor, _FORCE_TORQUE_STREAM, ft_period)
+        self._accelerometer = _SixAxisSampler(scenario.accelerometer, _ACCELEROMETER_STREAM, ft_period)
+        self.offsets = np.zeros(6)
+        self._bits = 1 << np.arange(2 * NUM_AXES)
+        # FT samples [first, end) on the held kinematics: wrench (sensor sign), acceleration, flags; offsets.
+        self._ft_rows, self._ft_offsets = (0, 0, [], [], []), np.zeros((0, NUM_AXES))
+
+        self._master = _Master(scenario)
+        self._master_step = 2 * math.pi / MASTER_ENCODER_COUNTS_PER_REV
+        self._torque_commanded = np.zeros(NUM_JOINTS)
+        self._torque_until = -math.inf  # the driver's watchdog: no torque from this time on (s)
+        self.master_torque = np.zeros(NUM_JOINTS)
+
+        self._messages = (heft_haptic_state(), lcmt_iiwa_status(), heft_ft_sample())
+        for msg in self._messages[:2]:
+            msg.num_joints = NUM_JOINTS
+        zeros = [0.0] * NUM_JOINTS
+        status = self._messages[_SLAVE]
+        status.joint_torque_measured = status.joint_torque_commanded = status.joint_torque_external = zeros
+
+    @property
+    def slave_position(self) -> np.ndarray:
+        return self._slave[0]
+
+    @property
+    def master_position(self) -> np.ndarray:
+        return self._master.position
+
+    @property
+    def published(self) -> dict[str, int]:
+        return {outlet.name: outlet.count for outlet in self._outlets}
+
+    @property
+    def received(self) -> dict[str, int]:
+        return {box.channel: box.count for box in (self._haptic_commands, self._slave_commands)}
+
+    @property
+    def next_due(self) -> float:
+        due = min(self._due)
+        return min(due, self._delayed[0][0]) if self._delayed else due
+
+    def step(self, now: float) -> bool:
+        """Advances the lab to ``now`` (s since it started; never decreasing): takes the
+        pending commands, then steps the models and publishes every message whose nominal
+        time is ≤ ``now``, oldest first (catching up when called late). Returns False once
+        the lab has died (``faults.die_at_s``)."""
+        die_at = self._faults.die_at_s
+        self._take_commands(now)
+        due, handlers = self._due, (self._master_tick, self._slave_tick, self._ft_tick)
+        end = now + _DUE_SLACK
+        while True:
+            # Ties go to the slave first (its step sets the kinematics the FT sample reads).
+            t = min(due)
+            if t > end or t >= die_at:
+                break
+            channel = _SLAVE if due[_SLAVE] == t else due.index(t)
+            tick = self._ticks[channel]
+            handlers[channel](tick, t)
+            self._ticks[channel] = tick + 1
+            due[channel] = (tick + 1) / self._rates[channel]
+        delayed, outlet = self._delayed, self._outlets[_FT]
+        while delayed and delayed[0][0] <= end and delayed[0][0] < die_at:
+            _, tick, payload = delayed.popleft()
+            outlet.send(tick, payload)
+        self.master_torque = self._applied_torque(now)
+        return end < die_at
+
+    def _take_commands(self, now: float) -> None:
+        """Applies the commands that arrived by ``now`` (s)."""
+        pump(self._bus)
+        for payload in self._slave_commands.take():
+            msg = _decode(lcmt_iiwa_command, payload)
+            if (msg is not None and msg.num_joints == NUM_JOINTS
+                    and math.isfinite(sum(msg.joint_position))):
+                self.slave_command[:] = msg.joint_position
+        for payload in self._haptic_commands.take():
+            msg = _decode(heft_haptic_command, payload)
+            if (msg is not None and msg.enable and msg.num_joints == NUM_JOINTS
+                    and math.isfinite(sum(msg.torque))):
+                limits = self._master.effort_limits
+                self._torque_commanded = np.clip(msg.torque, -limits, limits)
+                self._torque_until = now + HAPTIC_WATCHDOG_S
+            else:
+                self._torque_until = -math.inf
+
+    def _applied_torque(self, t: float) -> np.ndarray:
+        """The torque (N·m) the haptic driver applies at ``t`` (s)."""
+        return self._torque_commanded if t < self._torque_until else np.zeros(NUM_JOINTS)
+
+    def _slave_tick(self, tick: int, t: float) -> None:
+        x, u, w = self._slave, self.slave_command, self._w
+        x[:] = self._A @ x + self._B * u
+        q, qd = x
+        self._sensor_frame.update(q, qd, w * w * (u - q) - 2 * w * qd)  # q̈ of the filter's ODE
+        outlet = self._outlets[_SLAVE]
+        if outlet.lost(tick, t):
             return
-        tick = round(t / self._period)
-        lost_until = discrete_state.get_mutable_vector(self._lost_until)
-        if faults.drop_rate > 0.0 and _uniform(faults.seed, self._stream, tick) < faults.drop_rate:
-            lost_until.SetAtIndex(0, max(lost_until.GetAtIndex(0), t + faults.burst_loss_s))
+        msg = self._messages[_SLAVE]
+        msg.utime = round(t * 1e6)
+        msg.joint_position_measured = quantize(q, self._slave_step).tolist()
+        msg.joint_velocity_estimated = qd.tolist()
+        msg.joint_position_commanded = msg.joint_position_ipo = u.tolist()
+        outlet.send(tick, msg.encode())
+
+    def _master_tick(self, tick: int, t: float) -> None:
+        master = self._master
+        master.update(t)
+        outlet = self._outlets[_MASTER]
+        if outlet.lost(tick, t):
             return
-        if t < lost_until.GetAtIndex(0):
+        msg = self._messages[_MASTER]
+        msg.utime = round(t * 1e6)
+        msg.position = quantize(master.position, self._master_step).tolist()
+        msg.velocity = master.velocity.tolist()
+        msg.torque_applied = self._applied_torque(t).tolist()
+        msg.buttons = CLUTCH_BUTTON if self._clutch[0] <= t < self._clutch[1] else 0
+        outlet.send(tick, msg.encode())
+
+    def _sample_sensor(self, first: int) -> None:
+        """Samples the wrist sensor from sample ``first`` until the next slave step, all on
+        the kinematics held since the last one; keeps what the FT messages need."""
+        last = max(first, math.ceil(self._due[_SLAVE] * self._rates[_FT] - 1e-6) - 1)
+        frame, count = self._sensor_frame, last - first + 1
+        wrench, self._ft_offsets, wrench_saturated = self._ft.sample(first, count, frame.wrench)
+        acceleration, _, acceleration_saturated = self._accelerometer.sample(first, count, frame.acceleration)
+        saturated = wrench_saturated @ self._bits[:NUM_AXES] + acceleration_saturated @ self._bits[NUM_AXES:]
+        self._ft_rows = (first, last + 1, (-wrench).tolist(), acceleration.tolist(), saturated.astype(int).tolist())
+
+    def _ft_tick(self, tick: int, t: float) -> None:
+        if not self._ft_rows[0] <= tick < self._ft_rows[1]:
+            self._sample_sensor(tick)
+        first, _, wrenches, accelerations, saturations = self._ft_rows
+        row = tick - first
+        self.offsets = self._ft_offsets[row]
+        faults, outlet = self._faults, self._outlets[_FT]
+        if outlet.lost(tick, t):
             return
-        self._lcm.Publish(self._channel, self._message(context, tick, stamp).encode(), t)
-
-
-class HapticStatePublisher(_DriverPublisher):
-    """The Phantom driver: ``position`` (rad), ``velocity`` (rad/s) and ``torque_applied``
-    (N·m) → ``heft_haptic_state``."""
-
-    def __init__(self, channel: str, lcm: DrakeLcmInterface, period: float, faults: FaultInjection):
-        super().__init__(_MASTER_STREAM, channel, lcm, period, faults)
-        self._position = self.DeclareVectorInputPort("position", NUM_JOINTS)
-        self._velocity = self.DeclareVectorInputPort("velocity", NUM_JOINTS)
-        self._torque = self.DeclareVectorInputPort("torque_applied", NUM_JOINTS)
-
-    def _message(self, context, tick, stamp):
-        msg = heft_haptic_state()
-        msg.utime = round(stamp * 1e6)
-        msg.num_joints = NUM_JOINTS
-        msg.position = self._position.Eval(context).tolist()
-        msg.velocity = self._velocity.Eval(context).tolist()
-        msg.torque_applied = self._torque.Eval(context).tolist()
-        return msg
-
-
-class IiwaStatusPublisher(_DriverPublisher):
-    """The arm driver: ``position_measured`` (rad), ``velocity_estimated`` (rad/s) and
-    ``position_commanded`` (rad) → ``lcmt_iiwa_status`` (torques reported as 0)."""
-
-    def __init__(self, channel: str, lcm: DrakeLcmInterface, period: float, faults: FaultInjection):
-        super().__init__(_SLAVE_STREAM, channel, lcm, period, faults)
-        self._measured = self.DeclareVectorInputPort("position_measured", NUM_JOINTS)
-        self._velocity = self.DeclareVectorInputPort("velocity_estimated", NUM_JOINTS)
-        self._commanded = self.DeclareVectorInputPort("position_commanded", NUM_JOINTS)
-        self._zeros = [0.0] * NUM_JOINTS
-
-    def _message(self, context, tick, stamp):
-        msg = lcmt_iiwa_status()
-        msg.utime = round(stamp * 1e6)
-        msg.num_joints = NUM_JOINTS
-        msg.joint_position_measured = self._measured.Eval(context).tolist()
-        msg.joint_velocity_estimated = self._velocity.Eval(context).tolist()
-        msg.joint_position_commanded = msg.joint_position_ipo = self._commanded.Eval(context).tolist()
-        msg.joint_torque_measured = msg.joint_torque_commanded = msg.joint_torque_external = self._zeros
-        return msg
-
-
-class FtSamplePublisher(_DriverPublisher):
-    """The JR3 driver: ``sample`` = [wrench (DESIGN §4 sign: on the load, N, N·m);
-    acceleration (m/s², rad/s²); 12 saturation flags (0/1, wrench then acceleration
-    axes)] → ``heft_ft_sample`` with the sensor's sign (negated wrench), bit mask
-    and a counter that counts lost samples too. ``delay`` (s): the input is that
-    old, so ``utime`` is ``delay`` before the publishing time."""
-
-    def __init__(self, channel: str, lcm: DrakeLcmInterface, period: float, faults: FaultInjection,
-                 delay: float):
-        super().__init__(_FT_STREAM, channel, lcm, period, faults, delay)
-        self._sample = self.DeclareVectorInputPort("sample", 24)
-        self._bits = 1 << np.arange(12)
-
-    def _message(self, context, tick, stamp):
-        sample = self._sample.Eval(context)
-        faults = self._faults
-        msg = heft_ft_sample()
-        msg.utime = round(stamp * 1e6)
+        msg = self._messages[_FT]
+        msg.utime = round(t * 1e6)
         msg.sample_counter = tick
         if faults.nan_rate > 0.0 and _uniform(faults.seed, _NAN_STREAM, tick) < faults.nan_rate:
             msg.wrench = [math.nan] * 6
         else:
-            msg.wrench = (-sample[:6]).tolist()
-        msg.acceleration = sample[6:12].tolist()
-        saturated = int(self._bits @ (sample[12:] > 0.5))
-        if stamp >= faults.saturate_at_s:
-            saturated |= 0x3F
-        msg.saturated = saturated
-        return msg
-
-
-class HapticCommandReceiver(LeafSystem):
-    """The Phantom driver's side of ``heft_haptic_command``: samples the latest in
-    ``mailbox`` every ``period`` s and holds the torque (N·m) it applies; zero before
-    the first command, while not ``enable``, or when the message is malformed or
-    non-finite (the driver rejects it)."""
-
-    def __init__(self, mailbox: LcmMailbox, period: float):
-        super().__init__()
-        self._mailbox = mailbox
-        self._torque = self.DeclareDiscreteState(NUM_JOINTS)
-        self._taken = self.DeclareDiscreteState(1)  # mailbox arrivals taken
-        self.DeclareStateOutputPort("torque", self._torque)
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
-
-    def _update(self, context, discrete_state):
-        taken = discrete_state.get_mutable_vector(self._taken)
-        payload = self._mailbox.newer_than(taken.GetAtIndex(0))
-        if payload is None:
-            return
-        taken.SetAtIndex(0, self._mailbox.count)
-        msg = heft_haptic_command.decode(payload)
-        torque = np.asarray(msg.torque, dtype=float)
-        ok = msg.enable and msg.num_joints == NUM_JOINTS and bool(np.all(np.isfinite(torque)))
-        discrete_state.get_mutable_vector(self._torque).SetFromVector(torque if ok else np.zeros(NUM_JOINTS))
-
-
-def MakeStandIn(scenario: Scenario, channels: LcmChannels, lcm: DrakeLcmInterface,
-                faults: FaultInjection | None = None):
-    """The stand-in Diagram on ``lcm``: ``MakeSimStation(scenario)`` driven and read over LCM.
-
-    Contains its own ``LcmInterfaceSystem``, so a Simulator pumps ``lcm``. No
-    inputs; outputs are the sim station's, prefixed ``sim.`` (e.g.
-    ``sim.truth.wrench_sensor``). The slave holds its measured position until
-    the first ``lcmt_iiwa_command``; the master gets zero torque until the first
-    enabled ``heft_haptic_command``. Subscribers never block ``Initialize()``.
-    """
-    faults = faults or FaultInjection()
-    builder = DiagramBuilder()
-    bus = builder.AddNamedSystem("lcm", LcmInterfaceSystem(lcm))
-    station = builder.AddNamedSystem("sim_station", MakeSimStation(scenario))
-    for i in range(station.num_output_ports()):
-        port = station.get_output_port(i)
-        builder.ExportOutput(port, f"sim.{port.get_name()}")
-
-    master_command = builder.AddNamedSystem("master_command_receiver", HapticCommandReceiver(
-        LcmMailbox(lcm, channels.master_command.name), 1.0 / channels.master_command.rate))
-    builder.Connect(master_command.get_output_port(), station.GetInputPort("master.torque_commanded"))
-
-    slave_sub = builder.AddNamedSystem("slave_command_subscriber", LcmSubscriberSystem.Make(
-        channel=channels.slave_command.name, lcm_type=lcmt_iiwa_command, lcm=bus, use_cpp_serializer=True,
-        wait_for_message_on_initialization_timeout=0.0))
-    slave_command = builder.AddNamedSystem("slave_command_receiver", IiwaCommandReceiver(
-        num_joints=NUM_JOINTS, control_mode=IiwaControlMode.kPositionOnly))
-    builder.Connect(slave_sub.get_output_port(), slave_command.GetInputPort("lcmt_iiwa_command"))
-    builder.Connect(station.GetOutputPort("slave.position_measured"), slave_command.GetInputPort("position_measured"))
-    builder.Connect(slave_command.GetOutputPort("position"), station.GetInputPort("slave.position_commanded"))
-
-    master_pub = builder.AddNamedSystem("master_state_publisher", HapticStatePublisher(
-        channels.master_state.name, lcm, 1.0 / channels.master_state.rate, faults))
-    builder.Connect(station.GetOutputPort("master.position_measured"), master_pub.GetInputPort("position"))
-    builder.Connect(station.GetOutputPort("master.velocity_estimated"), master_pub.GetInputPort("velocity"))
-    builder.Connect(master_command.get_output_port(), master_pub.GetInputPort("torque_applied"))
-
-    slave_pub = builder.AddNamedSystem("slave_status_publisher", IiwaStatusPublisher(
-        channels.slave_status.name, lcm, 1.0 / channels.slave_status.rate, faults))
-    builder.Connect(station.GetOutputPort("slave.position_measured"), slave_pub.GetInputPort("position_measured"))
-    builder.Connect(station.GetOutputPort("slave.velocity_estimated"), slave_pub.GetInputPort("velocity_estimated"))
-    builder.Connect(slave_command.GetOutputPort("position"), slave_pub.GetInputPort("position_commanded"))
-
-    ft_period = 1.0 / channels.ft_sample.rate
-    steps = round(faults.added_delay_s / ft_period)
-    sample = builder.AddNamedSystem("ft_sample", Multiplexer([6, 6, 6, 6]))
-    for i, name in enumerate(("ft.wrench_measured", "ft.acceleration_measured", "truth.ft_saturated",
-                              "truth.accelerometer_saturated")):
-        builder.Connect(station.GetOutputPort(name), sample.get_input_port(i))
-    ft_pub = builder.AddNamedSystem("ft_sample_publisher", FtSamplePublisher(
-        channels.ft_sample.name, lcm, ft_period, faults, steps * ft_period))
-    if steps:
-        delay = builder.AddNamedSystem("ft_delay", DiscreteTimeDelay(ft_period, steps, 24))
-        builder.Connect(sample.get_output_port(), delay.get_input_port())
-        builder.Connect(delay.get_output_port(), ft_pub.get_input_port())
-    else:
-        builder.Connect(sample.get_output_port(), ft_pub.get_input_port())
-
-    diagram = builder.Build()
-    diagram.set_name("stand_in")
-    return diagram
+            msg.wrench = wrenches[row]  # the sensor's sign: the load on the sensor
+        msg.acceleration = accelerations[row]
+        msg.saturated = (saturations[row] | 0x3F) if t >= faults.saturate_at_s else saturations[row]
+        if faults.added_delay_s > 0.0:
+            self._delayed.append((t + faults.added_delay_s, tick, msg.encode()))
+        else:
+            outlet.send(tick, msg.encode())
 
 
 def run_stand_in(scenario: Scenario, channels: LcmChannels, lcm_url: str, duration: float,
-                 realtime_rate: float = 1.0, faults: FaultInjection | None = None) -> float:
-    """Runs ``MakeStandIn`` on a new ``DrakeLcm(lcm_url)`` for ``duration`` s at
-    ``realtime_rate`` (0: as fast as possible); returns early at ``faults.die_at_s``.
-    Returns the simulated time reached (s)."""
-    faults = faults or FaultInjection()
-    simulator = Simulator(MakeStandIn(scenario, channels, DrakeLcm(lcm_url), faults))
-    simulator.set_target_realtime_rate(realtime_rate)
-    simulator.Initialize()
-    end = min(duration, faults.die_at_s)
-    simulator.AdvanceTo(end)
-    return end
+                 faults: FaultInjection | None = None, clutch_at: float = 0.0, clutch_release_at: float = math.inf,
+                 clock=time.perf_counter, sleep=time.sleep) -> dict:
+    """Runs ``StandIn`` on ``lcm.LCM(lcm_url)`` in real time on ``clock`` (s) for ``duration`` s
+    or until it dies, waiting between due messages: with the default ``sleep`` the wait is a
+    ``select`` on the bus that also ends when a command arrives; another ``sleep(seconds)``
+    (e.g. with a fake ``clock``) is called instead.
+
+    Returns {"duration_s": wall time run (s), "died", "published" / "received" (channel name →
+    messages), "published_hz" / "received_hz" (channel name → messages per wall second),
+    "max_lateness_ms": the latest a message was published after its nominal time, "cpu_s":
+    this process's CPU time over the run}.
+    """
+    bus = lcm.LCM(lcm_url)
+    lab = StandIn(scenario, bus, channels, faults, clutch_at, clutch_release_at)
+    if sleep is time.sleep:
+        fd = bus.fileno()
+
+        def wait(seconds):
+            select.select([fd], [], [], seconds)
+    else:
+        wait = sleep
+    lateness, alive = 0.0, True
+    cpu_start, start = time.process_time(), clock()
+    now = 0.0
+    while True:
+        lateness = max(lateness, now - lab.next_due)
+        alive = lab.step(now)
+        if not alive or now >= duration - _DUE_SLACK:
+            break
+        pause = min(lab.next_due, duration) - (clock() - start)
+        if pause > _DUE_SLACK:
+            wait(pause)
+        now = clock() - start
+    elapsed = max(now, 1e-9)
+    published, received = lab.published, lab.received
+    return {"duration_s": now, "died": not alive, "published": published, "received": received,
+            "published_hz": {name: count / elapsed for name, count in published.items()},
+            "received_hz": {name: count / elapsed for name, count in received.items()},
+            "max_lateness_ms": 1e3 * lateness, "cpu_s": time.process_time() - cpu_start}

@@ -107,8 +107,9 @@ def passivity_step(wrench, twist, energy, period: float, max_damping) -> tuple[
 
 
 def master_torque(wrench, velocity, jacobian, energy, period: float, max_damping, max_force: float,
-                  max_torque: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """One sample of the block: (τ_M (6, N·m), energy (2, J), α (2), energy dissipated (2, J)).
+                  max_torque: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One sample of the block: (τ_M (6, N·m), the wrench applied on the hand (6, [f; τ] at E
+    in B, N and N·m), energy (2, J), α (2), energy dissipated (2, J)).
 
     ``wrench`` (6) desired [f; τ] on the hand, ``velocity`` q̇_M (6, rad/s), ``jacobian``
     J_M (6×6, rows [v_E; ω_E]), ``energy`` [E_t, E_r] before, ``period`` the hold T (s),
@@ -116,7 +117,7 @@ def master_torque(wrench, velocity, jacobian, energy, period: float, max_damping
     and ``max_torque`` (N·m) and the energy counts the clamped wrench. Any non-finite
     input gives zero torque, α = 0 and the energy unchanged."""
     if not math.isfinite(wrench.sum() + velocity.sum() + jacobian.sum()):
-        return np.zeros(6), np.array(energy, dtype=float), np.zeros(2), np.zeros(2)
+        return np.zeros(6), np.zeros(6), np.array(energy, dtype=float), np.zeros(2), np.zeros(2)
     twist = jacobian @ velocity
     applied, energy, damping, dissipated = passivity_step(wrench, twist, energy, period, max_damping)
     clamped = np.concatenate((clamp_norm(applied[:3], max_force), clamp_norm(applied[3:], max_torque)))
@@ -124,7 +125,7 @@ def master_torque(wrench, velocity, jacobian, energy, period: float, max_damping
     withheld = (applied - clamped) * twist
     energy[0] += withheld[:3].sum() * period
     energy[1] += withheld[3:].sum() * period
-    return jacobian.T @ clamped, energy, damping, dissipated
+    return jacobian.T @ clamped, clamped, energy, damping, dissipated
 
 
 # --- Drake system -------------------------------------------------------------
@@ -178,7 +179,7 @@ class PassivityController(LeafSystem):
         self.DeclareStateOutputPort("energy_dissipated", self._dissipated)
 
     def _update(self, context, discrete_state):
-        torque, energy, damping, dissipated = master_torque(
+        torque, _, energy, damping, dissipated = master_torque(
             self._wrench.Eval(context), self._velocity.Eval(context), self._jacobian.Eval(context).reshape(6, 6),
             context.get_discrete_state(self._energy).get_value().copy(), self._period, self._max_damping,
             *self._limits)

@@ -54,9 +54,9 @@ class RealtimeTeleopController:
 
     After ``step``: ``torque`` τ_M (6, N·m) and ``position`` q̄_S (6, rad), plus what the
     per-block Diagram logs: ``wrench_feedback``/``wrench_contact``/``wrench_noncontact``
-    (6 each, at S in S), ``master_wrench`` (6, on the hand at E in B), ``pose_RS_desired``
-    (7), ``energy``/``damping`` (2 each, the passivity observer's), ``jacobian`` (6×6 J_M),
-    ``reachable``,
+    (6 each, at S in S), ``master_wrench`` (6, on the hand at E in B, as mapped) and
+    ``applied_wrench`` (6, as applied after the passivity controller and the device limits), ``pose_RS_desired``
+    (7), ``energy``/``damping`` (2 each, the passivity observer's), ``reachable``,
     ``force_fault``, ``scales`` (3: σ, γ, η in effect).
     """
 
@@ -118,7 +118,6 @@ class RealtimeTeleopController:
             raise RuntimeError("RealtimeTeleopController.step before start(): start it from the measured "
                                "slave position once the station is healthy")
         X_BE, J_M = pose_and_jacobian(self._master, self._master_context, self._B, self._E, master_position)
-        self.jacobian = J_M
         slave, scratch = self._slave, self._slave_context
         slave.SetPositions(scratch, self._arm, slave_position)
         slave.SetVelocities(scratch, self._arm, slave_velocity)
@@ -146,7 +145,7 @@ class RealtimeTeleopController:
         feedback = self._feedback
         self.master_wrench = rendered_wrench(evaluation[FEEDBACK], self._R_BR @ R_RS, feedback.force_scale,
                                              feedback.torque_scale, feedback.max_force, feedback.max_torque)
-        self.torque, self.energy, self.damping, _ = master_torque(
+        self.torque, self.applied_wrench, self.energy, self.damping, _ = master_torque(
             self.master_wrench, np.asarray(master_velocity, dtype=float), J_M, self.energy, dt, self._max_damping,
             feedback.max_force, feedback.max_torque)
 

@@ -62,13 +62,20 @@ def test_bad_sample_held_and_flagged(flag, bad):
     assert not getattr(reader, flag) and reader.t_good == 0.3
 
 
+def test_a_bad_newest_sample_passes_on_the_good_one_before_it_and_says_why():
+    reader = FtSampleReader()
+    reader.take([sample(1, 1000, wrench=2 * RAW), sample(2, 1125, wrench=[np.nan] * 6)], now=0.1)
+    np.testing.assert_array_equal(reader.wrench, -2 * RAW)
+    assert reader.non_finite and reader.t_good == 0.1
+
+
 def test_duplicate_and_out_of_order_dropped():
     reader = FtSampleReader()
-    reader.take([sample(5, 5000),
-                 sample(5, 5000, wrench=7 * RAW),   # duplicate of the held sample
+    reader.take([sample(5, 5000)], now=0.1)
+    for late in (sample(5, 5000, wrench=7 * RAW),   # duplicate of the held sample
                  sample(4, 6000, wrench=7 * RAW),   # counter went back
-                 sample(6, 4000, wrench=7 * RAW)],  # utime went back
-                now=0.1)
+                 sample(6, 4000, wrench=7 * RAW)):  # utime went back
+        reader.take([late], now=0.1)
     np.testing.assert_array_equal(reader.wrench, -RAW)
     assert reader.dropped == 2
     reader.take([sample(7, 7000, wrench=3 * RAW)], now=0.2)

@@ -1,12 +1,13 @@
 """Identification on hardware: the commander's schedule, and the whole run against
 the stand-in over LCM (memq://) with the estimate checked against the station's truth."""
 
+import lcm
 import numpy as np
 import pytest
-from heft.diagrams.hardware_identify import hardware_recording_in_process, identify_on_hardware
+from heft.diagrams.hardware_identify import HardwareIdentification, IdentificationAborted, identify_on_hardware
 from heft.diagrams.identify import design_excitation
 from heft.diagrams.simulate import resolve_scenario
-from heft.diagrams.stand_in import MakeStandIn
+from heft.diagrams.stand_in import FaultInjection, StandIn
 from heft.hardware_interface.channels import LcmChannels
 from heft.systems.excitation import ExcitationSettings, FourierTrajectory
 from heft.systems.excitation_commander import (
@@ -16,8 +17,6 @@ from heft.systems.excitation_commander import (
     approach_time,
     excitation_command,
 )
-from pydrake.lcm import DrakeLcm
-from pydrake.systems.analysis import Simulator
 
 PERIOD = 0.001
 LIMITS = np.array([2.0, 2.0, 3.0, 4.0, 4.0, 5.0])
@@ -75,22 +74,44 @@ def test_commander_waits_for_healthy_hardware_then_aborts_on_a_fault():
     assert commander.phase == Phase.ABORTED
 
 
+def run_in_process(scenario, trajectory, duration, faults=None):
+    """``HardwareIdentification`` against the stand-in on one memq:// bus, both stepped on one
+    clock at the controller rate; returns (stand-in, identification run)."""
+    bus = lcm.LCM("memq://")
+    stand_in = StandIn(scenario, bus, LcmChannels(), faults or FaultInjection())
+    run = HardwareIdentification(trajectory, duration, bus, LcmChannels())
+    period, now = scenario.controller_period, 0.0
+    done = False
+    while not done:
+        now += period
+        stand_in.step(now)
+        done = run.tick(now, period)
+    return stand_in, run
+
+
 @pytest.mark.slow
 def test_identification_against_the_stand_in_recovers_the_load(tmp_path):
-    """The full path over LCM: stand-in (sim station with noise, offsets, accelerometer)
-    ↔ hardware station ↔ commander; estimates against the station's own truth."""
+    """The full path over LCM: stand-in (noise, offsets, accelerometer) ↔ hardware station ↔
+    commander; estimates against the stand-in's own truth."""
     scenario = resolve_scenario("fig6")
     settings = ExcitationSettings(base_frequency=0.5, harmonics=3, samples=40, constraint_samples=100,
                                   max_iterations=40)
     excitation = design_excitation(scenario, settings)
-    lcm = DrakeLcm("memq://")
-    stand_in = MakeStandIn(scenario, LcmChannels(), lcm)
-    recording = hardware_recording_in_process(scenario, stand_in, excitation.trajectory, 2.0, lcm)
-    metrics = identify_on_hardware(scenario, tmp_path, "memq://", settings=settings, recording=recording)
-    truth = stand_in.GetOutputPort("sim.truth.phi").Eval(stand_in.CreateDefaultContext())
+    stand_in, run = run_in_process(scenario, excitation.trajectory, 2.0)
+    metrics = identify_on_hardware(scenario, tmp_path, "memq://", settings=settings,
+                                   recording=run.recording(scenario.controller_period))
+    truth = stand_in.phi_true
     tls = metrics["estimates"]["tls"]
     assert tls["phi"][0] == pytest.approx(truth[0], rel=0.01)
     np.testing.assert_allclose(np.asarray(tls["phi"][1:4]) / tls["phi"][0], truth[1:4] / truth[0], atol=2e-3)
     assert (tmp_path / "estimate.yaml").exists()
     # The model explains the measurement down to about the sensor's noise.
     assert max(metrics["residual_rms"]["tls"][:3]) < 5 * max(scenario.ft_sensor.noise_rms[:3])
+
+
+def test_a_lab_that_dies_during_the_excitation_aborts_with_the_reason():
+    scenario = resolve_scenario("fig6")
+    stand_in, run = run_in_process(scenario, TRAJECTORY, 2.0, FaultInjection(die_at_s=1.0))
+    assert run.commander.phase == Phase.ABORTED
+    with pytest.raises(IdentificationAborted, match="faulted at t = 1.0[0-9]* s.*ft_sample"):
+        run.recording(scenario.controller_period)

@@ -3,11 +3,12 @@
 Both run inside a network namespace this test creates (only its own `lo`, with
 the multicast route on it) on ``udpm://239.255.76.67:7667?ttl=0``, so no packet
 can leave the machine (DESIGN §5). Needs root and `ip`; skipped otherwise.
-Timing asserts are generous: on a loaded 2-core machine both processes run
-slower than real time.
+No assertion here depends on how fast the machine is: the rates and delays are
+printed, and measured by `heft bench lcm`.
 """
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -17,6 +18,7 @@ import lcm
 import pytest
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import HardwareStationParams
+from heft.hardware_interface.lcmtypes import heft_haptic_command
 
 pytestmark = pytest.mark.slow
 
@@ -82,19 +84,23 @@ def _run(netns, folder, teleop_duration, stand_in_args, teleop_args=(), restart=
             process.stop()
 
 
+def _events(log):
+    """(channel, receipt time (s, wall), payload) of every event in an LCM log, in order."""
+    return [(event.channel, event.timestamp * 1e-6, event.data) for event in lcm.EventLog(str(log), "r")]
+
+
 def test_controller_runs_against_the_stand_in(netns, tmp_path):
     log = tmp_path / "traffic.lcmlog"
-    summary, teleop, _ = _run(netns, tmp_path, 3.0, ["--duration", "1000"], ["--record", str(log)])
+    summary, teleop, _ = _run(netns, tmp_path, 3.0, ["--duration", "1000", "--clutch-at", "1.0"],
+                              ["--record", str(log)])
     print(teleop.text())
-    assert summary["fresh_ticks"] > 0, "no fresh data on every channel"
     assert summary["first_healthy"] is not None, "the watchdog never became healthy"
-    assert summary["healthy_ticks"] > 0.2 * summary["ticks"], teleop.text()
+    assert summary["healthy_ticks"] > 0.5 * summary["ticks"], teleop.text()
     assert summary["master_torque_finite"]
-    assert summary["timing"]["achieved_rate_hz"] > 50  # generous: a loaded 2-core machine
     # The recorded traffic is an LCM log with every channel of both sides.
     counts = {}
-    for event in lcm.EventLog(str(log), "r"):
-        counts[event.channel] = counts.get(event.channel, 0) + 1
+    for channel, _, _ in _events(log):
+        counts[channel] = counts.get(channel, 0) + 1
     channels = LcmChannels()
     for channel in (channels.master_state, channels.master_command, channels.slave_status, channels.slave_command,
                     channels.ft_sample):
@@ -102,30 +108,41 @@ def test_controller_runs_against_the_stand_in(netns, tmp_path):
 
 
 def test_controller_goes_safe_when_the_stand_in_dies(netns, tmp_path):
-    summary, teleop, (stand_in,) = _run(netns, tmp_path, 4.0, ["--duration", "1000", "--die-at", "1.0"])
+    """Under 5 % drops and 5 % NaN samples the lab dies mid-run: every master command is finite,
+    and forces go off after the lab's last message (its delay is printed; the watchdog's timing
+    is checked on an explicit clock in test_hardware_teleop)."""
+    log = tmp_path / "traffic.lcmlog"
+    summary, teleop, (stand_in,) = _run(
+        netns, tmp_path, 4.0, ["--duration", "1000", "--die-at", "2.0", "--drop-rate", "0.05", "--nan-rate", "0.05"],
+        ["--record", str(log)])
     print(teleop.text())
     assert stand_in.wait(timeout=10) == 0 and "died" in stand_in.text(), stand_in.text()
     assert summary["first_healthy"] is not None, "the watchdog never became healthy"
-    assert summary["fault_onset"] is not None, "no fault after the stand-in died"
-    assert not summary["final_healthy"] and summary["final_fault"] != 0
-    assert not summary["final_master_enable"], "master torque still enabled"
-    # Watchdog timeout 20 ms of controller time; allow far more.
-    assert summary["fault_onset"] - summary["last_fresh"] < 0.5
+    assert summary["faults"] and summary["faults"][-1]["recovered"] is None
+    assert not summary["final_healthy"] and summary["final_fault_bits"] != 0
     assert summary["master_torque_finite"]
+    channels = LcmChannels()
+    lab = {channels.master_state.name, channels.slave_status.name, channels.ft_sample.name}
+    events = _events(log)
+    last_lab = max(t for channel, t, _ in events if channel in lab)
+    commands = [(t, heft_haptic_command.decode(data)) for channel, t, data in events
+                if channel == channels.master_command.name]
+    assert all(math.isfinite(sum(msg.torque)) for _, msg in commands)
+    off = next(t for t, msg in commands if t > last_lab and not msg.enable and not any(msg.torque))
+    print(f"forces off {1e3 * (off - last_lab):.1f} ms after the lab's last message")
+    assert all(not msg.enable and not any(msg.torque) for t, msg in commands if t >= off)
 
 
 def test_restarted_stand_in_recovers_without_a_jump(netns, tmp_path):
-    """The stand-in dies and a new one starts from scratch (clocks and counters from
-    zero): the controller recovers, master torque ramps back in and slave commands
-    never step faster than the joint speed limits allow."""
-    summary, teleop, _ = _run(netns, tmp_path, 10.0, ["--duration", "1000", "--die-at", "1.0"], restart=True)
+    """The stand-in dies and a new one starts from scratch (clocks and counters from zero): the
+    controller recovers, master torque ramps back in from zero and slave commands never step
+    faster than the joint speed limits allow."""
+    summary, teleop, _ = _run(netns, tmp_path, 8.0, ["--duration", "1000", "--die-at", "1.0"], restart=True)
     print(teleop.text())
-    # The outage: from the death until the new stand-in (which takes seconds to build) publishes.
     outages = [f for f in summary["faults"] if f["recovered"] is not None and f["recovered"] - f["onset"] > 0.1]
     assert outages, f"no recovered outage: {summary['faults']}"
-    params = HardwareStationParams(period=summary["period"])
-    ramp_step = params.period / params.watchdog.ramp_time
-    # Torque fades in from zero: at the recovery tick at most one ramp step of the device's torque.
-    assert outages[0]["torque_at_recovery"] <= ramp_step * summary["master_torque_peak"] + 1e-12
-    assert summary["final_healthy"] and summary["final_master_enable"], teleop.text()
-    assert summary["max_slave_command_step"] <= max(params.slave_velocity_limits) * params.period + 1e-9
+    assert summary["final_healthy"], teleop.text()
+    params = HardwareStationParams()
+    # A tick moves the command by at most the speed limit × its measured duration, which the
+    # watchdog caps at its timeout (a longer gap is a stall: the command then holds).
+    assert summary["max_slave_command_step"] <= max(params.slave_velocity_limits) * params.watchdog.timeout

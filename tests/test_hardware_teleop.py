@@ -1,0 +1,150 @@
+"""The controller on the hardware station against the stand-in lab, in one process over
+memq://, both stepped on one explicit clock: start-up never moves the slave, motion
+follows the operator only with the clutch held and only by the scaled stylus motion,
+the master command stays within the device's limits under faults, and forces go off
+within the watchdog timeout once the lab dies or the controller stalls."""
+
+import lcm
+import numpy as np
+import pytest
+from pydrake.multibody.plant import MultibodyPlant
+
+from heft.diagrams.models import model_path
+from heft.diagrams.scenario import Scenario
+from heft.diagrams.sim_station import AddArmWithSensor
+from heft.diagrams.simulate import resolve_scenario, true_load
+from heft.diagrams.stand_in import FaultInjection, StandIn
+from heft.diagrams.hardware_teleop import HardwareTeleop
+from heft.hardware_interface.channels import LcmChannels
+from heft.hardware_interface.hardware_station import HardwareStationParams
+from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant, stylus_jacobian
+
+PERIOD = 0.0005
+TIMEOUT = HardwareStationParams().watchdog.timeout
+MAX_FORCE, MAX_TORQUE = 8.5, 0.188  # the Phantom Premium 1.5 6DoF's continuous limits (feedback defaults)
+
+
+class Lab:
+    """Stand-in and controller on one memq:// bus, ticking together every ``PERIOD`` s."""
+
+    def __init__(self, scenario: Scenario, faults=None, clutch_at=np.inf, load=None):
+        bus = lcm.LCM("memq://")
+        self.stand_in = StandIn(scenario, bus, LcmChannels(), faults or FaultInjection(), clutch_at=clutch_at)
+        self.teleop = HardwareTeleop(scenario, load or true_load(scenario)[0], bus, LcmChannels())
+        self.now = 0.0
+        self.commands, self.torques, self.master_q, self.gains = [], [], [], []
+
+    def run(self, duration, controller=True):
+        for _ in range(round(duration / PERIOD)):
+            self.now += PERIOD
+            self.stand_in.step(self.now)  # a dead lab publishes nothing
+            if controller:
+                self.teleop.tick(self.now, PERIOD)
+                station = self.teleop.station
+                self.torques.append(station.torque_sent.copy())
+                self.commands.append(None if station.position_sent is None else station.position_sent.copy())
+                self.master_q.append(station.master_position.copy())
+                self.gains.append(station.gain)
+
+
+def sensor_position(q) -> np.ndarray:
+    """p_RS (m) of the slave's sensor frame at joint angles q, from Drake's own plant."""
+    plant = MultibodyPlant(0.0)
+    AddArmWithSensor(plant, "rx90")
+    plant.Finalize()
+    context = plant.CreateDefaultContext()
+    plant.SetPositions(context, q)
+    return plant.CalcRelativeTransform(context, plant.GetFrameByName("rx90_base"), plant.GetFrameByName("S")).translation()
+
+
+def stylus_position(q) -> np.ndarray:
+    plant = master_plant(model_path("phantom_premium_6dof.urdf"))
+    context = plant.CreateDefaultContext()
+    plant.SetPositions(context, q)
+    return plant.CalcRelativeTransform(context, plant.GetFrameByName(BASE_FRAME),
+                                       plant.GetFrameByName(STYLUS_FRAME)).translation()
+
+
+def test_start_up_never_moves_the_slave():
+    """The operator moves the stylus but never presses the clutch: the slave is commanded
+    exactly where it is measured, from the first command on."""
+    lab = Lab(resolve_scenario("fig6"))
+    lab.run(1.0)
+    commands = np.array([c for c in lab.commands if c is not None])
+    assert len(commands) > 1500 and lab.teleop.first_healthy is not None
+    measured = lab.teleop.station.slave_position  # the encoders' reading, quantised
+    np.testing.assert_allclose(commands, np.repeat(measured[None], len(commands), axis=0), atol=1e-12)
+    q_start = np.array(resolve_scenario("fig6").slave_initial_q)
+    np.testing.assert_allclose(lab.stand_in.slave_position, q_start, atol=1e-5)
+    assert np.ptp(np.array(lab.master_q), axis=0).max() > 0.01, "the operator should have moved the stylus"
+
+
+def test_with_the_clutch_held_the_slave_moves_by_the_scaled_stylus_motion():
+    scenario = resolve_scenario("fig6")
+    lab = Lab(scenario, clutch_at=0.2)
+    lab.run(1.2)
+    k_t = scenario.controller.motion.translation_scale
+    engaged = round(0.2 / PERIOD)
+    q_S = [c for c in lab.commands[engaged:] if c is not None]
+    stylus = np.array([stylus_position(q) for q in lab.master_q[engaged::50]])
+    sensor = np.array([sensor_position(q) for q in q_S[::50]])
+    n = min(len(stylus), len(sensor))
+    stylus_motion = np.linalg.norm(stylus[:n] - stylus[0], axis=1)
+    sensor_motion = np.linalg.norm(sensor[:n] - sensor[0], axis=1)
+    assert stylus_motion.max() > 0.005, "the operator should have moved the stylus"
+    # The slave follows (speed limits and one tick of lag aside) and never goes further.
+    assert sensor_motion.max() <= k_t * stylus_motion.max() + 1e-3
+    assert sensor_motion.max() >= 0.8 * k_t * stylus_motion.max()
+
+
+def test_master_command_within_device_limits_under_faults():
+    """σ = 1 and force scale 1: the tool's 31 N weight asks for more than the Phantom may render;
+    with 5 % drops and 5 % NaN samples no command is non-finite or beyond its limits."""
+    scenario = resolve_scenario("fig6")
+    scenario.controller.force.sigma = 1.0
+    scenario.controller.feedback.force_scale = 1.0
+    scenario.controller.feedback.torque_scale = 1.0
+    lab = Lab(scenario, FaultInjection(drop_rate=0.05, nan_rate=0.05, seed=3), clutch_at=0.1)
+    lab.run(1.0)
+    assert np.all(np.isfinite(lab.torques)) and lab.teleop.torque_finite
+    # The wrench on the hand each sent torque renders, τ_M = J_Mᵀ·[f; τ], with Drake's Jacobian.
+    plant = master_plant(model_path("phantom_premium_6dof.urdf"))
+    context = plant.CreateDefaultContext()
+    forces, torques = [], []
+    for q, tau in zip(lab.master_q[::10], lab.torques[::10]):
+        plant.SetPositions(context, q)
+        wrench = np.linalg.solve(stylus_jacobian(plant, context, plant.GetFrameByName(BASE_FRAME),
+                                                 plant.GetFrameByName(STYLUS_FRAME)).T, tau)
+        forces.append(np.linalg.norm(wrench[:3]))
+        torques.append(np.linalg.norm(wrench[3:]))
+    assert max(forces) == pytest.approx(MAX_FORCE, rel=1e-6), "the clamp should be reached"
+    assert max(torques) <= MAX_TORQUE * (1 + 1e-9)
+    assert lab.teleop.stylus_force_peak == pytest.approx(max(forces), rel=1e-6)
+
+
+def test_forces_off_within_the_timeout_once_the_lab_dies():
+    lab = Lab(resolve_scenario("fig6"), FaultInjection(die_at_s=0.5))
+    lab.run(0.6)  # the stand-in stops publishing at 0.5 s; the controller ticks on
+    died = round(0.5 / PERIOD)
+    torques = np.array(lab.torques)
+    assert np.abs(torques[died - 10:died]).max() > 0, "forces should be on before the lab dies"
+    off = died + np.flatnonzero(~np.abs(torques[died:]).any(axis=1))[0]
+    assert (off - died) * PERIOD <= TIMEOUT + 2 * PERIOD
+    assert not np.any(torques[off:])
+    assert lab.teleop.faults and lab.teleop.faults[-1]["recovered"] is None
+
+
+def test_a_stalled_controller_cuts_forces_and_ramps_back():
+    """The controller misses 40 ms of ticks while the lab keeps publishing: its next tick
+    sends no force, then forces ramp back in from zero."""
+    lab = Lab(resolve_scenario("fig6"))
+    lab.run(0.5)
+    lab.run(0.04, controller=False)
+    before = len(lab.torques)
+    lab.run(0.1)
+    torques = np.abs(np.array(lab.torques[before:])).max(axis=1)
+    assert torques[0] == 0.0 and lab.teleop.faults[-1]["fault_bits"] & 0b1000
+    assert lab.teleop.faults[-1]["recovered"] is not None
+    ramp = HardwareStationParams().watchdog.ramp_time
+    gains = np.array(lab.gains[before:])
+    np.testing.assert_allclose(gains, np.minimum(1.0, np.arange(len(gains)) * PERIOD / ramp), atol=1e-9)
