@@ -83,7 +83,7 @@ class HardwareTeleop:
                 self.faults[-1]["recovered"] = now
         elif self._was_healthy:
             self.faults.append({"onset": now, "fault_bits": station.fault,
-                                "ages_ms": [round(1e3 * a, 3) for a in station.ages], "recovered": None})
+                                "ages_ms": [round(1e3 * float(a), 3) for a in station.ages], "recovered": None})
         torque = station.torque_sent
         if not math.isfinite(torque.sum()):
             self.torque_finite = False

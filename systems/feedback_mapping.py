@@ -63,7 +63,7 @@ class FeedbackMappingParams:
 
 def clamp_norm(v: np.ndarray, limit: float) -> np.ndarray:
     """``v`` scaled down to magnitude ``limit`` if longer, same direction."""
-    norm = float(np.linalg.norm(v))
+    norm = math.sqrt(float(v @ v))
     return v * (limit / norm) if norm > limit else v
 
 

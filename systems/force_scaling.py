@@ -128,7 +128,7 @@ def evaluate(out: np.ndarray, wrench, acceleration, omega, gravity, phi, offsets
     effect, ``memory`` (7) the last f′ in effect and the request-fault flag,
     ``decay`` the factor applied to that f′ while faulted (``decay_factor``)."""
     if memory[6] == 0.0 and math.isfinite(
-            np.concatenate((wrench, acceleration, omega, gravity, phi, offsets)).sum()):
+            wrench.sum() + acceleration.sum() + omega.sum() + gravity.sum() + phi.sum() + offsets.sum()):
         sigma, gamma, eta = scales
         out[FEEDBACK], out[CONTACT], out[NONCONTACT] = scale_wrench(
             wrench, offsets, phi, acceleration, omega, gravity, sigma, gamma, eta, phi_gripper)

@@ -108,29 +108,22 @@ def test_controller_runs_against_the_stand_in(netns, tmp_path):
 
 
 def test_controller_goes_safe_when_the_stand_in_dies(netns, tmp_path):
-    """Under 5 % drops and 5 % NaN samples the lab dies mid-run: every master command is finite,
-    and forces go off after the lab's last message (its delay is printed; the watchdog's timing
-    is checked on an explicit clock in test_hardware_teleop)."""
-    log = tmp_path / "traffic.lcmlog"
+    """Under 5 % drops and 5 % NaN samples the lab dies mid-run: every master command is finite
+    and within the device's limits, and the forces go off when a channel's last message gets
+    older than the watchdog's timeout (the age at that tick is printed; the watchdog's timing is
+    checked on an explicit clock in test_hardware_teleop)."""
     summary, teleop, (stand_in,) = _run(
-        netns, tmp_path, 4.0, ["--duration", "1000", "--die-at", "2.0", "--drop-rate", "0.05", "--nan-rate", "0.05"],
-        ["--record", str(log)])
+        netns, tmp_path, 6.0, ["--duration", "1000", "--die-at", "2.0", "--drop-rate", "0.05", "--nan-rate", "0.05",
+                               "--clutch-at", "0.5"])
     print(teleop.text())
     assert stand_in.wait(timeout=10) == 0 and "died" in stand_in.text(), stand_in.text()
     assert summary["first_healthy"] is not None, "the watchdog never became healthy"
-    assert summary["faults"] and summary["faults"][-1]["recovered"] is None
-    assert not summary["final_healthy"] and summary["final_fault_bits"] != 0
+    assert summary["faults"] and summary["faults"][-1]["recovered"] is None, summary["faults"]
+    assert summary["final_fault_bits"] == 0b111, "every channel of the dead lab should be stale"
+    print(f"forces off {max(summary['faults'][-1]['ages_ms']):.1f} ms after the lab's last message")
+    assert not summary["final_healthy"]
     assert summary["master_torque_finite"]
-    channels = LcmChannels()
-    lab = {channels.master_state.name, channels.slave_status.name, channels.ft_sample.name}
-    events = _events(log)
-    last_lab = max(t for channel, t, _ in events if channel in lab)
-    commands = [(t, heft_haptic_command.decode(data)) for channel, t, data in events
-                if channel == channels.master_command.name]
-    assert all(math.isfinite(sum(msg.torque)) for _, msg in commands)
-    off = next(t for t, msg in commands if t > last_lab and not msg.enable and not any(msg.torque))
-    print(f"forces off {1e3 * (off - last_lab):.1f} ms after the lab's last message")
-    assert all(not msg.enable and not any(msg.torque) for t, msg in commands if t >= off)
+    assert summary["stylus_force_peak"] <= 8.5 + 1e-9 and summary["stylus_torque_peak"] <= 0.188 + 1e-9
 
 
 def test_restarted_stand_in_recovers_without_a_jump(netns, tmp_path):
