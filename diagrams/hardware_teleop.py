@@ -84,21 +84,24 @@ class HardwareTeleop:
         elif self._was_healthy:
             self.faults.append({"onset": now, "fault_bits": station.fault,
                                 "ages_ms": [round(1e3 * float(a), 3) for a in station.ages], "recovered": None})
-        torque = station.torque_sent
-        if not math.isfinite(torque.sum()):
+        torque = station.torque_sent.tolist()
+        if not math.isfinite(sum(torque)):
             self.torque_finite = False
         elif healthy:
-            self.torque_peak = max(self.torque_peak, float(np.abs(torque).max()))
+            self.torque_peak = max(self.torque_peak, max(torque), -min(torque))
             # The wrench on the hand the sent torques render: the gain times the one applied.
-            f, tau = self.controller.applied_wrench[:3], self.controller.applied_wrench[3:]
-            self.stylus_force_peak = max(self.stylus_force_peak, station.gain * math.hypot(*f))
-            self.stylus_torque_peak = max(self.stylus_torque_peak, station.gain * math.hypot(*tau))
+            fx, fy, fz, tx, ty, tz = self.controller.applied_wrench.tolist()
+            self.stylus_force_peak = max(self.stylus_force_peak, station.gain * math.sqrt(fx * fx + fy * fy + fz * fz))
+            self.stylus_torque_peak = max(self.stylus_torque_peak,
+                                          station.gain * math.sqrt(tx * tx + ty * ty + tz * tz))
         position = station.position_sent
         if position is not None:
             self.slave_commands += 1
+            position = position.tolist()
             if self._last_position is not None:
-                self.max_slave_step = max(self.max_slave_step, float(np.abs(position - self._last_position).max()))
-            self._last_position = position.copy()
+                self.max_slave_step = max(self.max_slave_step,
+                                          max(abs(a - b) for a, b in zip(position, self._last_position)))
+            self._last_position = position
 
     def summary(self, elapsed: float) -> dict:
         """The run so far (JSON-serialisable; times in s on the loop's clock, rates per wall second)."""

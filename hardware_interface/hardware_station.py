@@ -160,7 +160,7 @@ class HardwareStation:
         no command from the controller) at ``now`` (s)."""
         utime = round((self.epoch + now) * 1e6)
         torque = np.asarray(torque, dtype=float)
-        enable = self.healthy and math.isfinite(torque.sum())
+        enable = self.healthy and math.isfinite(sum(torque.tolist()))
         self.torque_sent[:] = self.gain * torque if enable else 0.0
         msg = self._master_msg
         msg.utime, msg.torque, msg.enable = utime, self.torque_sent.tolist(), enable
@@ -177,8 +177,9 @@ class HardwareStation:
         elif self.healthy:
             if not self._was_healthy:
                 command[:] = measured
-            if position is not None and math.isfinite(sum(position)):
-                command[:] = rate_limit(command, np.asarray(position, dtype=float), max_step)
+            position = None if position is None else np.asarray(position, dtype=float)
+            if position is not None and math.isfinite(sum(position.tolist())):
+                command[:] = rate_limit(command, position, max_step)
         else:
             if self._was_healthy:
                 self._hold[:] = measured

@@ -127,13 +127,13 @@ def evaluate(out: np.ndarray, wrench, acceleration, omega, gravity, phi, offsets
     ``ForceScalingElimination`` docstring describes: ``scales`` (3) are σ, γ, η in
     effect, ``memory`` (7) the last f′ in effect and the request-fault flag,
     ``decay`` the factor applied to that f′ while faulted (``decay_factor``)."""
-    if memory[6] == 0.0 and math.isfinite(
-            wrench.sum() + acceleration.sum() + omega.sum() + gravity.sum() + phi.sum() + offsets.sum()):
+    if memory[6] == 0.0 and math.isfinite(sum(wrench.tolist()) + sum(acceleration.tolist()) + sum(omega.tolist())
+                                          + sum(gravity.tolist()) + sum(phi.tolist()) + sum(offsets.tolist())):
         sigma, gamma, eta = scales
         out[FEEDBACK], out[CONTACT], out[NONCONTACT] = scale_wrench(
             wrench, offsets, phi, acceleration, omega, gravity, sigma, gamma, eta, phi_gripper)
         out[FAULT] = 0.0
-        if math.isfinite(out.sum()):
+        if math.isfinite(sum(out.tolist())):
             return
     out[FEEDBACK] = decay * memory[:6]
     out[CONTACT] = 0.0

@@ -116,7 +116,7 @@ def master_torque(wrench, velocity, jacobian, energy, period: float, max_damping
     ``max_damping`` [α_t max, α_r max]. The PC's wrench is clamped to ``max_force`` (N)
     and ``max_torque`` (N·m) and the energy counts the clamped wrench. Any non-finite
     input gives zero torque, α = 0 and the energy unchanged."""
-    if not math.isfinite(wrench.sum() + velocity.sum() + jacobian.sum()):
+    if not math.isfinite(sum(wrench.tolist()) + sum(velocity.tolist()) + sum(jacobian.ravel().tolist())):
         return np.zeros(6), np.zeros(6), np.array(energy, dtype=float), np.zeros(2), np.zeros(2)
     twist = jacobian @ velocity
     applied, energy, damping, dissipated = passivity_step(wrench, twist, energy, period, max_damping)
