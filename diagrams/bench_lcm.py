@@ -139,6 +139,22 @@ def _namespace():
     return ["ip", "netns", "exec", name], lambda: subprocess.run(["ip", "netns", "del", name], capture_output=True)
 
 
+def _finish(processes: dict) -> None:
+    """Waits for each {label: (Popen, timeout s)} in turn; kills what is left; raises with
+    every process's output if one failed."""
+    outputs = {}
+    try:
+        for label, (process, timeout) in processes.items():
+            outputs[label], _ = process.communicate(timeout=timeout)
+    finally:
+        for process, _ in processes.values():
+            if process.poll() is None:
+                process.kill()
+    if any(process.returncode != 0 for process, _ in processes.values()):
+        raise RuntimeError("bench processes failed:\n" + "\n".join(f"--- {label}\n{output}"
+                                                                  for label, output in outputs.items()))
+
+
 def bench_rate(rate_hz: float, duration: float, lcm_url: str, scenario: str, folder: Path, prefix) -> dict:
     """One controller rate: both processes, then the latency statistics and the controller's timing."""
     from heft.diagrams.simulate import resolve_scenario
@@ -155,15 +171,7 @@ def bench_rate(rate_hz: float, duration: float, lcm_url: str, scenario: str, fol
         [*python, "-m", "heft.diagrams.bench_lcm", "--probe", lcm_url, str(20 * (duration + SETTLE)), str(probe_path),
          json.dumps(loaded.master_initial_q), json.dumps(loaded.slave_initial_q)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
-    try:
-        teleop_output, _ = teleop.communicate(timeout=20 * (duration + SETTLE) + 120)
-        probe_output, _ = probe.communicate(timeout=30)
-    finally:
-        for process in (probe, teleop):
-            if process.poll() is None:
-                process.kill()
-    if probe.returncode != 0 or teleop.returncode != 0:
-        raise RuntimeError(f"bench processes failed:\n--- probe\n{probe_output}\n--- teleop\n{teleop_output}")
+    _finish({"teleop": (teleop, 20 * (duration + SETTLE) + 120), "probe": (probe, 30)})
     measured = json.loads(probe_path.read_text())
     latencies = step_latencies(measured["steps"], measured["receipts"], measured["torques"])
     timing = json.loads(summary_path.read_text())["timing"]
@@ -193,15 +201,7 @@ def bench_stand_in(rate_hz: float, duration: float, lcm_url: str, scenario: str,
         [*cli, "teleop", "--hardware", "--lcm-url", lcm_url, "--scenario", scenario, "--rate", str(rate_hz),
          "--duration", str(duration), "--out", str(teleop_path)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
-    try:
-        teleop_output, _ = teleop.communicate(timeout=duration + 120)
-        stand_in_output, _ = stand_in.communicate(timeout=duration + 120)
-    finally:
-        for process in (teleop, stand_in):
-            if process.poll() is None:
-                process.kill()
-    if stand_in.returncode != 0 or teleop.returncode != 0:
-        raise RuntimeError(f"bench processes failed:\n--- stand-in\n{stand_in_output}\n--- teleop\n{teleop_output}")
+    _finish({"teleop": (teleop, duration + 120), "stand-in": (stand_in, duration + 120)})
     controller, lab = json.loads(teleop_path.read_text()), json.loads(stand_in_path.read_text())
     # The controller ran inside the stand-in's run: its commands per second of its own run.
     lab["received_hz_while_controlled"] = {name: count / controller["duration"]

@@ -29,3 +29,23 @@ def netns():
         yield name
     finally:
         _ip("netns", "del", name, check=False)
+
+
+class FakeClock:
+    """A monotonic clock (s) that only the test, and the sleeps of the code under test, advance."""
+
+    def __init__(self):
+        self.t = 100.0
+
+    def __call__(self) -> float:
+        return self.t
+
+    def sleep(self, seconds: float) -> None:
+        assert seconds >= 0
+        self.t += seconds
+
+
+@pytest.fixture
+def fake_clock():
+    return FakeClock()
+

@@ -8,22 +8,8 @@ from heft.diagrams.realtime import run_realtime, timing_summary
 PERIOD = 0.001
 
 
-class FakeClock:
-    """A monotonic clock that only the test (and the loop's sleeps) advance."""
-
-    def __init__(self):
-        self.t = 100.0
-
-    def __call__(self):
-        return self.t
-
-    def sleep(self, seconds):
-        assert seconds > 0
-        self.t += seconds
-
-
-def test_a_stall_skips_the_overrun_ticks_and_the_next_tick_sees_it():
-    clock, ticks = FakeClock(), []
+def test_a_stall_skips_the_overrun_ticks_and_the_next_tick_sees_it(fake_clock):
+    clock, ticks = fake_clock, []
 
     def tick(now, dt):
         ticks.append((now, dt))
@@ -41,8 +27,8 @@ def test_a_stall_skips_the_overrun_ticks_and_the_next_tick_sees_it():
     assert summary["ticks"] == 17 and summary["skipped_ticks"] == 3
 
 
-def test_a_tick_that_asks_to_stop_ends_the_loop():
-    clock = FakeClock()
+def test_a_tick_that_asks_to_stop_ends_the_loop(fake_clock):
+    clock = fake_clock
     times = run_realtime(lambda now, dt: now >= 0.0045, PERIOD, 1.0, clock=clock, sleep=clock.sleep)
     assert len(times.wall) == 6 and times.skipped == 0
 

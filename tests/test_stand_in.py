@@ -403,19 +403,8 @@ def test_added_delay_holds_ft_samples_back():
 
 # --- running it --------------------------------------------------------------------------------
 
-class FakeClock:
-    def __init__(self):
-        self.t = 100.0
-
-    def __call__(self):
-        return self.t
-
-    def sleep(self, seconds):
-        self.t += seconds
-
-
-def test_run_stand_in_on_a_fake_clock():
-    clock = FakeClock()
+def test_run_stand_in_on_a_fake_clock(fake_clock):
+    clock = fake_clock
     summary = run_stand_in(quiet_scenario(), CHANNELS, "memq://", 0.05, clock=clock, sleep=clock.sleep)
     assert not summary["died"] and summary["duration_s"] == pytest.approx(0.05)
     assert summary["published"] == dict(zip(NAMES, (100, 100, 400)))
@@ -423,7 +412,9 @@ def test_run_stand_in_on_a_fake_clock():
         assert summary["published_hz"][name] == pytest.approx(rate)
     assert summary["max_lateness_ms"] == pytest.approx(0.0, abs=1e-6)
 
-    clock = FakeClock()
+
+def test_run_stand_in_returns_when_the_lab_dies(fake_clock):
+    clock = fake_clock
     summary = run_stand_in(quiet_scenario(), CHANNELS, "memq://", 0.05, FaultInjection(die_at_s=0.02),
                            clock=clock, sleep=clock.sleep)
     assert summary["died"] and summary["published"] == dict(zip(NAMES, (39, 39, 159)))
