@@ -116,7 +116,7 @@ def AddSheetSpring(plant: MultibodyPlant, spec) -> PrismaticJoint:
     return joint
 
 
-def _phi_about_S(plant: MultibodyPlant, S, bodies) -> np.ndarray:
+def phi_about_S(plant: MultibodyPlant, S, bodies) -> np.ndarray:
     """φ (Eq. 6) of ``bodies`` about S's origin in S, from the plant's own composite inertia."""
     context = plant.CreateDefaultContext()
     M = plant.CalcSpatialInertia(context, S, [b.index() for b in bodies])
@@ -200,8 +200,8 @@ def _add_wrist_sensor(builder: DiagramBuilder, scenario: Scenario, plant: Multib
     builder.ExportOutput(ft.GetOutputPort("wrench_measured"), "ft.wrench_measured")
     builder.ExportOutput(accelerometer.GetOutputPort("acceleration_measured"), "ft.acceleration_measured")
 
-    phi = _phi_about_S(plant, parts.S, parts.load_bodies)
-    phi_gripper = _phi_about_S(plant, parts.S, parts.gripper_bodies) if parts.gripper_bodies else np.zeros(10)
+    phi = phi_about_S(plant, parts.S, parts.load_bodies)
+    phi_gripper = phi_about_S(plant, parts.S, parts.gripper_bodies) if parts.gripper_bodies else np.zeros(10)
     noncontact = builder.AddSystem(TrueNonContactWrench(phi))
     for name in ("acceleration", "omega", "gravity"):
         builder.Connect(kinematics.GetOutputPort(name), noncontact.GetInputPort(name))

@@ -65,7 +65,7 @@ from pydrake.multibody.tree import JacobianWrtVariable
 
 from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.sim_station import GRAVITY_W, MASTER_ENCODER_COUNTS_PER_REV, AddSlave, _phi_about_S
+from heft.diagrams.sim_station import GRAVITY_W, MASTER_ENCODER_COUNTS_PER_REV, AddSlave, phi_about_S
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import CLUTCH_BUTTON
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
@@ -74,8 +74,8 @@ from heft.systems.load_dynamics import regressor
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant, pose_and_jacobian
 from heft.systems.operator_hand import smooth_sine_offset
 from heft.systems.sensor_models import (
-    _ACCELEROMETER_STREAM,
-    _FORCE_TORQUE_STREAM,
+    ACCELEROMETER_STREAM,
+    FORCE_TORQUE_STREAM,
     NUM_AXES,
     SixAxisSensorParams,
     drift_offsets,
@@ -235,7 +235,7 @@ class _SensorFrame:
         plant.Finalize()
         self._plant, self._context = plant, plant.CreateDefaultContext()
         self._W, self._S = plant.world_frame(), parts.S
-        self.phi = _phi_about_S(plant, parts.S, parts.load_bodies)
+        self.phi = phi_about_S(plant, parts.S, parts.load_bodies)
         self._origin = np.zeros(3)
         self._x = np.zeros(2 * NUM_JOINTS)
         self.wrench = np.zeros(6)
@@ -331,8 +331,8 @@ class StandIn:
         self.phi_true = self._sensor_frame.phi
 
         ft_period = 1.0 / channels.ft_sample.rate
-        self._ft = _SixAxisSampler(scenario.ft_sensor, _FORCE_TORQUE_STREAM, ft_period)
-        self._accelerometer = _SixAxisSampler(scenario.accelerometer, _ACCELEROMETER_STREAM, ft_period)
+        self._ft = _SixAxisSampler(scenario.ft_sensor, FORCE_TORQUE_STREAM, ft_period)
+        self._accelerometer = _SixAxisSampler(scenario.accelerometer, ACCELEROMETER_STREAM, ft_period)
         self.offsets = np.zeros(6)
         self._bits = 1 << np.arange(2 * NUM_AXES)
         # FT samples [first, end) on the held kinematics: wrench (sensor sign), acceleration, flags; offsets.

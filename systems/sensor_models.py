@@ -40,8 +40,9 @@ from pydrake.systems.framework import LeafSystem
 
 NUM_AXES = 6
 
-_FORCE_TORQUE_STREAM = 0
-_ACCELEROMETER_STREAM = 1
+FORCE_TORQUE_STREAM = 0
+"""Noise streams (``noise_key``) of the force-torque sensor and of the accelerometer."""
+ACCELEROMETER_STREAM = 1
 # Samples of noise drawn at once (each sample's draws depend on its index only).
 _NOISE_BLOCK = 256
 
@@ -343,7 +344,7 @@ class ForceTorqueSensorModel(_SampledSixAxisSensor):
     """
 
     def __init__(self, params: ForceTorqueSensorParams | None = None):
-        super().__init__(params or ForceTorqueSensorParams(), _FORCE_TORQUE_STREAM,
+        super().__init__(params or ForceTorqueSensorParams(), FORCE_TORQUE_STREAM,
                          "wrench_true", "wrench_measured")
 
 
@@ -364,5 +365,5 @@ class AccelerometerModel(_SampledSixAxisSensor):
     """
 
     def __init__(self, params: AccelerometerParams | None = None):
-        super().__init__(params or AccelerometerParams(), _ACCELEROMETER_STREAM,
+        super().__init__(params or AccelerometerParams(), ACCELEROMETER_STREAM,
                          "acceleration_true", "acceleration_measured")
