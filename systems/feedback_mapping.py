@@ -62,7 +62,7 @@ class FeedbackMappingParams:
 
 
 def clamp_norm(v: np.ndarray, limit: float) -> np.ndarray:
-    """``v`` scaled down to magnitude ``limit`` if longer, same direction."""
+    """``v`` scaled down to magnitude ``limit`` if longer, same direction (``v`` itself if not)."""
     norm = math.sqrt(float(v @ v))
     return v * (limit / norm) if norm > limit else v
 

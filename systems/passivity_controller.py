@@ -120,11 +120,14 @@ def master_torque(wrench, velocity, jacobian, energy, period: float, max_damping
         return np.zeros(6), np.zeros(6), np.array(energy, dtype=float), np.zeros(2), np.zeros(2)
     twist = jacobian @ velocity
     applied, energy, damping, dissipated = passivity_step(wrench, twist, energy, period, max_damping)
-    clamped = np.concatenate((clamp_norm(applied[:3], max_force), clamp_norm(applied[3:], max_torque)))
-    # Power the clamp withheld from the hand, per channel, returned to the observer.
-    withheld = (applied - clamped) * twist
-    energy[0] += withheld[:3].sum() * period
-    energy[1] += withheld[3:].sum() * period
+    force, torque = applied[:3], applied[3:]
+    force_clamped, torque_clamped = clamp_norm(force, max_force), clamp_norm(torque, max_torque)
+    if force_clamped is force and torque_clamped is torque:
+        return jacobian.T @ applied, applied, energy, damping, dissipated
+    # The power the clamp withheld from the hand, per channel, goes back to the observer.
+    energy[0] += float((force - force_clamped) @ twist[:3]) * period
+    energy[1] += float((torque - torque_clamped) @ twist[3:]) * period
+    clamped = np.concatenate((force_clamped, torque_clamped))
     return jacobian.T @ clamped, clamped, energy, damping, dissipated
 
 

@@ -236,7 +236,8 @@ class RxKinematics:
         Near the wrist singularity q4 is held back toward q_current[3] (module notes).
         Not reachable: q = q_current and the reason."""
         q_current = np.asarray(q_current, dtype=float)
-        if not (np.isfinite(R_RF).all() and np.isfinite(p_RF).all()):
+        R_RF, p_RF = np.asarray(R_RF, dtype=float), np.asarray(p_RF, dtype=float)
+        if not math.isfinite(sum(R_RF.ravel().tolist()) + sum(p_RF.tolist())):
             return IkResult(q_current.copy(), False, "non-finite pose", 0.0)
         candidates, on_axis = self._candidates(R_RF, p_RF, q_current, self.wrist_band)
         if candidates is None:
