@@ -2,10 +2,10 @@
 
 ``run_realtime`` calls ``tick(now, dt)`` on the grid t0 + k·period of a monotonic
 clock (s): ``now`` is the clock's reading at the tick (s since the loop began),
-``dt`` the measured time since the previous tick. A tick that starts late still
-runs once; the grid points it overran are skipped, never replayed, so after a
-stall the loop resumes at the next grid point with one tick whose ``dt`` says how
-long the stall was. ``timing_summary`` turns the measurements into what a lab
+``dt`` the measured time since the previous tick. A tick that overruns its period
+delays the next one by up to half a period (``LATE_TOLERANCE``); grid points it
+overran by more are skipped, never replayed, so after a stall the loop resumes at
+the next grid point with one tick whose ``dt`` says how long the stall was. ``timing_summary`` turns the measurements into what a lab
 needs at exit: achieved rate, skipped ticks, lateness and the tick cost p50/p99.
 """
 
@@ -18,6 +18,10 @@ import os
 import time
 
 import numpy as np
+
+
+LATE_TOLERANCE = 0.5
+"""A tick may start up to this many periods after its grid point; later than that it is skipped."""
 
 
 class HardwareRunFailed(RuntimeError):
@@ -68,8 +72,9 @@ def run_realtime(tick, period: float, duration: float, clock=time.perf_counter, 
             last = now
             if stop:
                 break
-            # The next grid point after this tick's end: those it overran are skipped.
-            following = max(grid + 1, math.floor(done / period) + 1)
+            # The next grid point that this tick's end leaves at most LATE_TOLERANCE periods late:
+            # the ones before it are skipped.
+            following = max(grid + 1, math.ceil(done / period - LATE_TOLERANCE))
             skipped += following - grid - 1
             grid = following
     finally:

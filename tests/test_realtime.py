@@ -15,7 +15,7 @@ def test_a_stall_skips_the_overrun_ticks_and_the_next_tick_sees_it(fake_clock):
         ticks.append((now, dt))
         clock.t += 0.0001  # the tick's own work
         if len(ticks) == 6:
-            clock.t += 0.0034  # this tick stalls: it ends 3.5 ms after it began
+            clock.t += 0.0036  # this tick stalls: it ends 3.7 ms after it began
 
     times = run_realtime(tick, PERIOD, 0.0195, clock=clock, sleep=clock.sleep)
     starts = [round(now / PERIOD, 6) for now, _ in ticks]
@@ -25,6 +25,18 @@ def test_a_stall_skips_the_overrun_ticks_and_the_next_tick_sees_it(fake_clock):
     assert ticks[6][1] == pytest.approx(0.004) and ticks[7][1] == pytest.approx(PERIOD)
     summary = timing_summary(times)
     assert summary["ticks"] == 17 and summary["skipped_ticks"] == 3
+
+
+def test_a_small_overrun_delays_the_next_tick_instead_of_skipping_it(fake_clock):
+    clock, starts = fake_clock, []
+
+    def tick(now, dt):
+        starts.append(now)
+        clock.t += 0.0012 if len(starts) == 3 else 0.0001  # the third tick overruns by 0.2 periods
+
+    times = run_realtime(tick, PERIOD, 0.0055, clock=clock, sleep=clock.sleep)
+    assert times.skipped == 0
+    assert [round(t / PERIOD, 6) for t in starts] == [0, 1, 2, 3.2, 4, 5]
 
 
 def test_a_tick_that_asks_to_stop_ends_the_loop(fake_clock):
