@@ -101,7 +101,8 @@ def run_probe(lcm_url: str, duration: float, out: Path, master_q, slave_q) -> No
             bus.publish(channel.name, msg.encode())
         wait = max(0.0, min(d - (time.perf_counter() - start) for d in due))
         if select.select([bus.fileno()], [], [], wait)[0]:
-            bus.handle()
+            while bus.handle_timeout(0) > 0:  # every command waiting, so that none is stamped late
+                pass
     out.write_text(json.dumps({"steps": steps, "receipts": receipts, "torques": torques}))
 
 
