@@ -120,7 +120,8 @@ class HardwareTeleop:
             "stylus_force_peak": self.stylus_force_peak,
             "stylus_torque_peak": self.stylus_torque_peak,
             "max_slave_command_step": self.max_slave_step,
-            "sent_hz": {"master_command": self.master_commands / elapsed, "slave_command": self.slave_commands / elapsed},
+            "sent_hz": {"master_command": self.master_commands / elapsed,
+                        "slave_command": self.slave_commands / elapsed},
             "received_hz": {name: count / elapsed for name, count in station.received.items()},
             "ft_dropped": station.ft_dropped,
         }

@@ -5,8 +5,10 @@ clock (s): ``now`` is the clock's reading at the tick (s since the loop began),
 ``dt`` the measured time since the previous tick. A tick that overruns its period
 delays the next one by up to half a period (``LATE_TOLERANCE``); grid points it
 overran by more are skipped, never replayed, so after a stall the loop resumes at
-the next grid point with one tick whose ``dt`` says how long the stall was. ``timing_summary`` turns the measurements into what a lab
-needs at exit: achieved rate, skipped ticks, lateness and the tick cost p50/p99.
+the next grid point with one tick whose ``dt`` says how long the stall was.
+``timing_summary`` turns the measurements into what a lab needs at exit: achieved
+rate, skipped ticks, lateness and the tick cost p50/p99. ``claim_realtime`` asks
+the OS for real-time scheduling of the loop's process.
 """
 
 from __future__ import annotations

@@ -54,10 +54,11 @@ class RealtimeTeleopController:
 
     After ``step``: ``torque`` τ_M (6, N·m) and ``position`` q̄_S (6, rad), plus what the
     per-block Diagram logs: ``wrench_feedback``/``wrench_contact``/``wrench_noncontact``
-    (6 each, at S in S), ``master_wrench`` (6, on the hand at E in B, as mapped) and
-    ``applied_wrench`` (6, as applied after the passivity controller and the device limits), ``pose_RS_desired``
-    (7), ``energy``/``damping`` (2 each, the passivity observer's), ``reachable``,
-    ``force_fault``, ``scales`` (3: σ, γ, η in effect).
+    (6 each, at S in S), ``master_wrench`` (6, on the hand at E in B, as mapped),
+    ``applied_wrench`` (6, as applied after the passivity controller and the device
+    limits), ``pose_RS_desired`` (7), ``energy``/``damping`` (2 each, the passivity
+    observer's), ``reachable``, ``force_fault``, ``scales`` (3: σ, γ, η in effect). The
+    requested σ, γ, η are ``force``'s: no run-time request reaches this build.
     """
 
     def __init__(self, master: MultibodyPlant, slave: MultibodyPlant, base_frame: str, kinematics: RxKinematics,
@@ -106,12 +107,12 @@ class RealtimeTeleopController:
         self._force_memory = np.zeros(7)
         self.scales = np.array(self._requested, dtype=float)
         self.energy, self.damping = np.zeros(2), np.zeros(2)
-        self.torque = np.zeros(NUM_JOINTS)
+        self.torque, self.master_wrench, self.applied_wrench = np.zeros(NUM_JOINTS), np.zeros(6), np.zeros(6)
         self.started = True
 
     def step(self, dt: float, master_position, master_velocity, slave_position, slave_velocity, wrench,
              acceleration, clutch: bool) -> None:
-        """One tick of ``dt`` s (> 0) on the station's readings: q_M, q̇_M (rad, rad/s), q_S, q̇_S
+        """One tick of ``dt`` s (≥ 0) on the station's readings: q_M, q̇_M (rad, rad/s), q_S, q̇_S
         (rad, rad/s), the wrench [f; τ] the sensor exerts on the load and [a; α] of S (at S, in S),
         the clutch engaged. Updates ``torque``, ``position`` and the logged signals."""
         if not self.started:

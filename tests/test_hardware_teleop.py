@@ -54,7 +54,8 @@ def sensor_position(q) -> np.ndarray:
     plant.Finalize()
     context = plant.CreateDefaultContext()
     plant.SetPositions(context, q)
-    return plant.CalcRelativeTransform(context, plant.GetFrameByName("rx90_base"), plant.GetFrameByName("S")).translation()
+    X_RS = plant.CalcRelativeTransform(context, plant.GetFrameByName("rx90_base"), plant.GetFrameByName("S"))
+    return X_RS.translation()
 
 
 def stylus_position(q) -> np.ndarray:

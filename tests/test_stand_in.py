@@ -52,9 +52,9 @@ class Lab:
 
     def run(self, until: float, dt: float = 0.001) -> bool:
         """Steps to ``until`` (s) every ``dt`` s and collects what was published; the last step's result."""
-        now, alive = self.stand_in.next_due, True
+        now = self.stand_in.next_due
         while now < until + 1e-12:
-            alive = self.step(now)
+            self.step(now)
             now += dt
         return self.step(until)
 
