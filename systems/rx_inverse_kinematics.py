@@ -195,16 +195,20 @@ class RxKinematics:
             wrist.append((q4_held, q5, q6))
         return wrist
 
+    def _arm_branches(self, R_RF, p_RF, q_reference):
+        """(the arm's four (q1, q2, q3) or None if out of reach, whether the wrist centre is on
+        the J1 axis, the columns of G = R_RF·Rx(π/2)) for the flange at (R_RF, p_RF)."""
+        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = np.asarray(R_RF, dtype=float).tolist()
+        x, y, z = np.asarray(p_RF, dtype=float).tolist()
+        arm, on_axis = self._arm_candidates((x - self.d6 * r02, y - self.d6 * r12, z - self.d6 * r22), q_reference)
+        return arm, on_axis, ((r00, r10, r20), (r02, r12, r22), (-r01, -r11, -r21))
+
     def _candidates(self, R_RF, p_RF, q_reference, band):
         """All 8 solutions [(q1, …, q6)] (rad, not wrapped), ignoring limits, or None for a
         position out of reach; and whether the wrist centre is on the J1 axis."""
-        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = np.asarray(R_RF, dtype=float).tolist()
-        x, y, z = np.asarray(p_RF, dtype=float).tolist()
-        p_C = (x - self.d6 * r02, y - self.d6 * r12, z - self.d6 * r22)
-        arm, on_axis = self._arm_candidates(p_C, q_reference)
+        arm, on_axis, G_columns = self._arm_branches(R_RF, p_RF, q_reference)
         if arm is None:
             return None, False
-        G_columns = ((r00, r10, r20), (r02, r12, r22), (-r01, -r11, -r21))
         candidates = []
         for q1, q2, q3 in arm:
             candidates.extend((q1, q2, q3) + q456
@@ -239,18 +243,30 @@ class RxKinematics:
         R_RF, p_RF = np.asarray(R_RF, dtype=float), np.asarray(p_RF, dtype=float)
         if not math.isfinite(sum(R_RF.ravel().tolist()) + sum(p_RF.tolist())):
             return IkResult(q_current.copy(), False, "non-finite pose", 0.0)
-        candidates, on_axis = self._candidates(R_RF, p_RF, q_current, self.wrist_band)
-        if candidates is None:
+        arm, on_axis, G_columns = self._arm_branches(R_RF, p_RF, q_current)
+        if arm is None:
             return IkResult(q_current.copy(), False, "out of reach", 0.0)
         reference = q_current.tolist()
-        best, best_distance = None, math.inf
-        for candidate in candidates:
-            q = self._feasible_equivalent(candidate, reference)
+        # Branch and bound: joints 1–3 alone already cost their share of the distance, so the arm
+        # branches are tried nearest first and a branch that cannot beat the best so far is skipped.
+        branches = []
+        for q123 in arm:
+            q = self._feasible_equivalent(q123, reference)
             if q is not None:
-                distance = sum((a - r) ** 2 for a, r in zip(q, reference))
-                if distance < best_distance:
-                    best, best_distance = q, distance
+                branches.append((sum((a - r) ** 2 for a, r in zip(q, reference)), q123))
+        branches.sort(key=lambda branch: branch[0])
+        best, best_distance = None, math.inf
+        for partial, (q1, q2, q3) in branches:
+            if partial >= best_distance:
+                break
+            for q456 in self._wrist_candidates(G_columns, q1, q2 + q3, reference[3], self.wrist_band):
+                q = self._feasible_equivalent((q1, q2, q3) + q456, reference)
+                if q is not None:
+                    distance = sum((a - r) ** 2 for a, r in zip(q, reference))
+                    if distance < best_distance:
+                        best, best_distance = q, distance
         if best is None:
+            candidates, _ = self._candidates(R_RF, p_RF, q_current, self.wrist_band)
             return IkResult(q_current.copy(), False, self._limit_reason(candidates, reference), 0.0)
         notes = ["shoulder singularity"] if on_axis else []
         if abs(math.sin(best[4])) < self.wrist_band:
@@ -258,8 +274,9 @@ class RxKinematics:
         return IkResult(np.array(best), True, ", ".join(notes), self.manipulability(best))
 
     def _feasible_equivalent(self, candidate, reference):
-        """The candidate with each angle wrapped to [−π, π), joints 4 and 6 moved to their
-        2π-equivalent nearest ``reference`` within limits; None if a joint is out of its limits."""
+        """The candidate (its first ``len(candidate)`` joints) with each angle wrapped to [−π, π),
+        joints 4 and 6 moved to their 2π-equivalent nearest ``reference`` within limits; None if
+        a joint is out of its limits."""
         q = []
         for j, angle in enumerate(candidate):
             angle = (angle + math.pi) % _TWO_PI - math.pi
