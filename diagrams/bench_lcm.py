@@ -5,8 +5,9 @@ Two processes exchange the lab's messages over UDP multicast: ``heft teleop
 playing the three drivers at their nominal rates (master and slave state at
 2 kHz, wrist sensor at 8 kHz) with fixed joint positions. Every
 ``STEP_PERIOD`` s the probe steps the sensor's force by ``STEP_FORCE`` and
-stamps the wall-clock time of the first stepped sample's publish; it also
-stamps the receipt of every master torque command. The latency of a step is
+stamps the wall-clock time of the first stepped sample's publish; the kernel
+stamps the arrival of every master torque command on the probe's socket (so the
+probe's own scheduling does not delay it). The latency of a step is
 the time from that publish to the receipt of the first command that has moved
 half-way to its new level: LCM both ways, the receiver's sampling, the
 controller's ticks and the watchdog-gated sender. The controller reports the
@@ -22,6 +23,8 @@ import json
 import os
 import select
 import shutil
+import socket
+import struct
 import subprocess
 import sys
 import tempfile
@@ -51,13 +54,8 @@ def run_probe(lcm_url: str, duration: float, out: Path, master_q, slave_q) -> No
 
     channels = LcmChannels(lcm_url=lcm_url)
     bus = lcm.LCM(lcm_url)
+    commands = _TimestampedReceiver(lcm_url, channels.master_command.name)
     receipts, torques = [], []
-
-    def on_command(_, data):
-        receipts.append(time.perf_counter())
-        torques.append(heft_haptic_command.decode(data).torque)
-
-    bus.subscribe(channels.master_command.name, on_command)
     master = heft_haptic_state()
     master.num_joints, master.position, master.velocity = 6, list(master_q), [0.0] * 6
     master.torque_applied = [0.0] * 6
@@ -71,11 +69,11 @@ def run_probe(lcm_url: str, duration: float, out: Path, master_q, slave_q) -> No
     streams = [(channels.master_state, master), (channels.slave_status, slave), (channels.ft_sample, ft)]
     periods = [1.0 / channel.rate for channel, _ in streams]
     due = [0.0] * len(streams)
-    start = time.perf_counter()
+    start = time.time()
     first_command, steps, stepped = None, [], False
     counter = 0
     while True:
-        now = time.perf_counter()
+        now = time.time()
         if first_command is None and receipts:
             first_command = receipts[0]
         if first_command is None and now - start > 30.0:
@@ -99,11 +97,55 @@ def run_probe(lcm_url: str, duration: float, out: Path, master_q, slave_q) -> No
             else:
                 msg.utime = utime
             bus.publish(channel.name, msg.encode())
-        wait = max(0.0, min(d - (time.perf_counter() - start) for d in due))
-        if select.select([bus.fileno()], [], [], wait)[0]:
-            while bus.handle_timeout(0) > 0:  # every command waiting, so that none is stamped late
-                pass
+        wait = max(0.0, min(d - (time.time() - start) for d in due))
+        if select.select([commands.fileno()], [], [], wait)[0]:
+            for arrival, payload in commands.take():
+                receipts.append(arrival)
+                torques.append(heft_haptic_command.decode(payload).torque)
     out.write_text(json.dumps({"steps": steps, "receipts": receipts, "torques": torques}))
+
+
+class _TimestampedReceiver:
+    """The messages of one LCM channel on a udpm:// URL, each with the time (s, CLOCK_REALTIME)
+    the kernel received it, so that the probe's own scheduling does not delay the stamp.
+    Reads LCM's single-datagram packets: magic "LC02", sequence number, channel, NUL, payload."""
+
+    _MAGIC = 0x4C433032
+    _SO_TIMESTAMPNS = getattr(socket, "SO_TIMESTAMPNS", 35)  # Linux
+
+    def __init__(self, lcm_url: str, channel: str):
+        address = lcm_url.removeprefix("udpm://").split("?")[0]
+        group, port = address.rsplit(":", 1)
+        self._channel = channel.encode()
+        self._socket = socket.socket(socket.AF_INET, socket.SOCK_DGRAM, socket.IPPROTO_UDP)
+        self._socket.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        self._socket.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEPORT, 1)
+        self._socket.bind(("", int(port)))
+        self._socket.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP,
+                                struct.pack("4s4s", socket.inet_aton(group), socket.inet_aton("0.0.0.0")))
+        self._socket.setsockopt(socket.SOL_SOCKET, self._SO_TIMESTAMPNS, 1)
+        self._socket.setblocking(False)
+
+    def fileno(self) -> int:
+        return self._socket.fileno()
+
+    def take(self) -> list[tuple[float, bytes]]:
+        """(arrival time, payload) of every message of the channel waiting on the socket."""
+        messages = []
+        while True:
+            try:
+                data, ancillary, _, _ = self._socket.recvmsg(65536, socket.CMSG_SPACE(16))
+            except BlockingIOError:
+                return messages
+            if len(data) < 9 or struct.unpack_from(">I", data)[0] != self._MAGIC:
+                continue
+            end = data.index(b"\0", 8)
+            if data[8:end] != self._channel:
+                continue
+            for level, kind, value in ancillary:
+                if level == socket.SOL_SOCKET and kind == self._SO_TIMESTAMPNS:
+                    seconds, nanoseconds = struct.unpack("qq", value[:16])
+                    messages.append((seconds + 1e-9 * nanoseconds, data[end + 1:]))
 
 
 def step_latencies(steps, receipts, torques) -> np.ndarray:
