@@ -51,3 +51,29 @@ def test_recorder_writes_a_log_lcm_reads_back(netns, tmp_path):
                 if event.channel == "HEFT_TEST"]
     assert payloads == list(range(200))  # every message, in order
     assert subprocess.run(["pgrep", "-f", str(path)], capture_output=True).returncode == 1, "logger left running"
+
+
+PROBE_RECEIVER_CHECK = """
+import time, lcm
+from heft.diagrams.bench_lcm import _TimestampedReceiver
+url = "udpm://239.255.76.67:7667?ttl=0"
+receiver = _TimestampedReceiver(url, "HEFT_MASTER_COMMAND")
+bus = lcm.LCM(url)
+before = time.time()
+bus.publish("HEFT_OTHER", b"not this one")
+bus.publish("HEFT_MASTER_COMMAND", b"payload")
+after = time.time()
+time.sleep(0.05)
+messages = receiver.take()
+assert [payload for _, payload in messages] == [b"payload"], messages
+assert before <= messages[0][0] <= after, (before, messages[0][0], after)
+print("ok")
+"""
+
+
+@pytest.mark.slow
+def test_probe_receiver_gets_the_channel_with_the_kernels_arrival_time(netns):
+    """The bench probe's command receiver, on real UDP multicast in a private namespace."""
+    result = subprocess.run(["ip", "netns", "exec", netns, sys.executable, "-c", PROBE_RECEIVER_CHECK],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0 and "ok" in result.stdout, result.stderr
