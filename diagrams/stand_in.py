@@ -77,12 +77,9 @@ from heft.systems.sensor_models import (
     ACCELEROMETER_STREAM,
     FORCE_TORQUE_STREAM,
     NUM_AXES,
+    SixAxisMeasurement,
     SixAxisSensorParams,
-    drift_offsets,
-    noise_key,
     quantize,
-    saturate,
-    standard_normals,
 )
 from heft.systems.setpoint_filter import critically_damped_step_matrices
 
@@ -169,45 +166,25 @@ class _Outlet:
 
 
 class _SixAxisSampler:
-    """``sensor_models``' measurement model of one instrument, sampled every ``period`` s:
-    sample j (t = j·period, j ≥ 1) is Q(sat(u + o_j + n_j)) with the offsets o_j and noise n_j
-    of ``_SampledSixAxisSensor`` at sample index j, drawn ``_NOISE_BLOCK`` samples at a time."""
+    """``sensor_models.SixAxisMeasurement`` of one instrument sampled every ``period`` s:
+    sample j (t = j·period, j ≥ 1) with the draws of sample index j, as the simulated
+    sensor's; offsets and noise are drawn ``_NOISE_BLOCK`` samples at a time."""
 
     def __init__(self, params: SixAxisSensorParams, stream: int, period: float):
-        params.validate()
-        on = params.noise
-        self._params, self._period = params, period
-        self._white_rms = np.array(params.noise_rms, dtype=float) if on and params.white_noise else None
-        self._offsets_on, self._drift_on = on and params.offsets, on and params.offsets and params.drift
-        self._walk_rms = np.array(params.offset_random_walk, dtype=float) * math.sqrt(period)
-        self._full_scale = np.array(params.full_scale, dtype=float) if on and params.saturation else None
-        self._step = (np.array(params.full_scale, dtype=float) / params.counts_per_full_scale
-                      if on and params.quantization else None)
-        self._key = noise_key(params.seed, stream)
+        self._model, self._period = SixAxisMeasurement(params, stream, period), period
         self._walk = np.zeros(NUM_AXES)
         # Offsets and offsets + noise of samples start, start + 1, ...
-        self._start, self._offsets, self._extra = 1, np.zeros((0, NUM_AXES)), np.zeros((0, NUM_AXES))
+        self._start, self._offsets, self._disturbance = 1, np.zeros((0, NUM_AXES)), np.zeros((0, NUM_AXES))
 
     def _draw_block(self, keep_from: int) -> None:
         """Appends the next ``_NOISE_BLOCK`` samples, forgetting those before ``keep_from``."""
         first = self._start + len(self._offsets)
         index = np.arange(first, first + _NOISE_BLOCK)
-        params = self._params
-        normals = (standard_normals(self._key, index, 2 * NUM_AXES)
-                   if self._white_rms is not None or self._drift_on else None)
-        if self._drift_on:
-            walk = self._walk + np.cumsum(self._walk_rms * normals[:, NUM_AXES:], axis=0)
-            self._walk = walk[-1]
-            offsets = drift_offsets(index * self._period, params.initial_offsets, params.drifted_offsets,
-                                    params.drift_time_constant) + walk
-        elif self._offsets_on:
-            offsets = np.tile(np.array(params.initial_offsets, dtype=float), (_NOISE_BLOCK, 1))
-        else:
-            offsets = np.zeros((_NOISE_BLOCK, NUM_AXES))
-        extra = offsets if self._white_rms is None else offsets + self._white_rms * normals[:, :NUM_AXES]
+        offsets, disturbance, self._walk = self._model.disturbance(index * self._period, self._model.normals(index),
+                                                                   self._walk)
         drop = max(0, min(keep_from, first) - self._start)
         self._offsets = np.concatenate((self._offsets[drop:], offsets))
-        self._extra = np.concatenate((self._extra[drop:], extra))
+        self._disturbance = np.concatenate((self._disturbance[drop:], disturbance))
         self._start += drop
 
     def sample(self, first: int, count: int, value: np.ndarray):
@@ -216,12 +193,7 @@ class _SixAxisSampler:
         while first + count > self._start + len(self._offsets):
             self._draw_block(first)
         rows = slice(first - self._start, first - self._start + count)
-        measured = value + self._extra[rows]
-        saturated = np.zeros_like(measured)
-        if self._full_scale is not None:
-            measured, saturated = saturate(measured, self._full_scale)
-        if self._step is not None:
-            measured = quantize(measured, self._step)
+        measured, saturated = self._model.measure(value + self._disturbance[rows])
         return measured, self._offsets[rows], saturated
 
 

@@ -224,6 +224,62 @@ def standard_normals(key: np.uint64, sample_index, size: int) -> np.ndarray:
     return np.concatenate((radius * np.cos(angle), radius * np.sin(angle)), axis=-1)
 
 
+class SixAxisMeasurement:
+    """The measurement model of the module docstring for one instrument, sampled every
+    ``period`` s: the settings ``params`` implies and the arithmetic on them, shared by
+    the sensor models here and by the stand-in lab."""
+
+    def __init__(self, params: SixAxisSensorParams, stream: int, period: float):
+        params.validate()
+        effects = params.noise
+        self.white_noise_rms = (np.array(params.noise_rms, dtype=float)
+                                if effects and params.white_noise else None)
+        self.offsets_on = effects and params.offsets
+        self.drift_on = self.offsets_on and params.drift
+        self.initial_offsets = np.array(params.initial_offsets, dtype=float)
+        self.drifted_offsets = np.array(params.drifted_offsets, dtype=float)
+        self.drift_time_constant = params.drift_time_constant
+        self.walk_step_rms = np.array(params.offset_random_walk, dtype=float) * math.sqrt(period)
+        self.full_scale = np.array(params.full_scale, dtype=float) if effects and params.saturation else None
+        self.step = (np.array(params.full_scale, dtype=float) / params.counts_per_full_scale
+                     if effects and params.quantization else None)
+        self.draws_noise = self.white_noise_rms is not None or self.drift_on
+        self.key = noise_key(params.seed, stream)
+
+    def normals(self, sample_index) -> np.ndarray | None:
+        """The 12 standard normal draws of each sample (white noise, then walk steps), or
+        None if the model draws none; ``sample_index`` as ``standard_normals``."""
+        return standard_normals(self.key, sample_index, 2 * NUM_AXES) if self.draws_noise else None
+
+    def disturbance(self, t, normals, walk, advance_walk: bool = True):
+        """(offsets o_k, o_k + n_k, the walk w after the last sample) for the samples at
+        times ``t`` (N,) (s) with their draws ``normals`` (N, 12) or None; ``walk`` (6) is
+        w before the first, advanced at each sample unless ``advance_walk`` is False."""
+        count = len(t)
+        if self.drift_on:
+            walks = walk + np.cumsum(self.walk_step_rms * normals[:, NUM_AXES:], axis=0) if advance_walk \
+                else np.tile(walk, (count, 1))
+            offsets = drift_offsets(t, self.initial_offsets, self.drifted_offsets, self.drift_time_constant) + walks
+            walk = walks[-1]
+        elif self.offsets_on:
+            offsets = np.tile(self.initial_offsets, (count, 1))
+        else:
+            offsets = np.zeros((count, NUM_AXES))
+        if self.white_noise_rms is None:
+            return offsets, offsets, walk
+        return offsets, offsets + self.white_noise_rms * normals[:, :NUM_AXES], walk
+
+    def measure(self, value) -> tuple[np.ndarray, np.ndarray]:
+        """(Q(sat(value)), the saturation flags (0/1)) of disturbed values (…, 6)."""
+        value = np.asarray(value, dtype=float)
+        saturated = np.zeros(value.shape)
+        if self.full_scale is not None:
+            value, saturated = saturate(value, self.full_scale)
+        if self.step is not None:
+            value = quantize(value, self.step)
+        return value, saturated
+
+
 # --- Drake systems ------------------------------------------------------------
 
 class _SampledSixAxisSensor(LeafSystem):
@@ -240,23 +296,7 @@ class _SampledSixAxisSensor(LeafSystem):
     def __init__(self, params: SixAxisSensorParams, stream: int, input_name: str,
                  output_name: str):
         super().__init__()
-        params.validate()
-        effects = params.noise
-        self._white_noise_rms = (np.array(params.noise_rms, dtype=float)
-                                 if effects and params.white_noise else None)
-        self._offsets_on = effects and params.offsets
-        self._drift_on = self._offsets_on and params.drift
-        self._initial_offsets = np.array(params.initial_offsets, dtype=float)
-        self._drifted_offsets = np.array(params.drifted_offsets, dtype=float)
-        self._drift_time_constant = params.drift_time_constant
-        self._walk_step_rms = (np.array(params.offset_random_walk, dtype=float)
-                               * math.sqrt(params.sample_period))
-        self._full_scale = (np.array(params.full_scale, dtype=float)
-                            if effects and params.saturation else None)
-        self._step = (np.array(params.full_scale, dtype=float) / params.counts_per_full_scale
-                      if effects and params.quantization else None)
-        self._draws_noise = self._white_noise_rms is not None or self._drift_on
-        self._key = noise_key(params.seed, stream)
+        self._model = SixAxisMeasurement(params, stream, params.sample_period)
         # (first sample index, draws): a memo of the pure function standard_normals,
         # not generator state, so Contexts and their clones stay independent.
         self._noise_block = (0, np.empty((0, 2 * NUM_AXES)))
@@ -286,44 +326,28 @@ class _SampledSixAxisSensor(LeafSystem):
             return
         self._take_sample(context, discrete_state, advance_walk=True)
 
-    def _normals(self, index: int) -> np.ndarray:
-        """The 12 standard normal draws of sample ``index``: white noise, then walk steps."""
+    def _normals(self, index: int) -> np.ndarray | None:
+        """The draws of sample ``index`` (1, 12), from a memo of ``_NOISE_BLOCK`` samples."""
+        if not self._model.draws_noise:
+            return None
         start, block = self._noise_block
         if not start <= index < start + len(block):
             start = index
-            block = standard_normals(self._key, np.arange(index, index + _NOISE_BLOCK),
-                                     2 * NUM_AXES)
+            block = self._model.normals(np.arange(index, index + _NOISE_BLOCK))
             self._noise_block = (start, block)
-        return block[index - start]
+        return block[index - start:index - start + 1]
 
     def _take_sample(self, context, discrete_state, advance_walk: bool):
         walk_and_index = context.get_discrete_state(self._walk_and_index).get_value()
-        walk = walk_and_index[:NUM_AXES]
         index = int(walk_and_index[NUM_AXES])
-        normals = self._normals(index) if self._draws_noise else None
-        if self._drift_on:
-            if advance_walk:
-                walk = walk + self._walk_step_rms * normals[NUM_AXES:]
-            offsets = drift_offsets(context.get_time(), self._initial_offsets,
-                                    self._drifted_offsets, self._drift_time_constant) + walk
-        elif self._offsets_on:
-            offsets = self._initial_offsets
-        else:
-            offsets = np.zeros(NUM_AXES)
-        value = self._input.Eval(context)
-        if self._offsets_on:
-            value = value + offsets
-        if self._white_noise_rms is not None:
-            value = value + self._white_noise_rms * normals[:NUM_AXES]
-        saturated = np.zeros(NUM_AXES)
-        if self._full_scale is not None:
-            value, saturated = saturate(value, self._full_scale)
-        if self._step is not None:
-            value = quantize(value, self._step)
+        t = context.get_time()
+        offsets, disturbance, walk = self._model.disturbance(
+            np.array([t]), self._normals(index), walk_and_index[:NUM_AXES], advance_walk)
+        value, saturated = self._model.measure(self._input.Eval(context) + disturbance[0])
         discrete_state.set_value(self._measured, value)
-        discrete_state.set_value(self._offsets, offsets)
+        discrete_state.set_value(self._offsets, offsets[0])
         discrete_state.set_value(self._saturated, saturated)
-        discrete_state.set_value(self._walk_and_index, np.append(walk, [index + 1, context.get_time()]))
+        discrete_state.set_value(self._walk_and_index, np.append(walk, [index + 1, t]))
 
 
 class ForceTorqueSensorModel(_SampledSixAxisSensor):
