@@ -118,9 +118,24 @@ class FaultInjection:
     die_at_s: float = math.inf
     """From this time on (s) nothing is published; ``run_stand_in`` returns here."""
     seed: int = 0
+    """Seed of every random fault."""
     reorder_rate: float = 0.0
     """Probability (per message, every channel) that it is held back and sent after the
     next message of its channel (out-of-order delivery)."""
+
+    def validate(self) -> None:
+        """Raises ValueError naming the first field out of range."""
+        for name in ("drop_rate", "nan_rate", "reorder_rate"):
+            value = getattr(self, name)
+            if not 0.0 <= value <= 1.0:
+                raise ValueError(f"fault {name} is a probability in [0, 1]; got {value}")
+        for name in ("burst_loss_s", "added_delay_s"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"fault {name} must be a finite number of seconds >= 0; got {value}")
+        for name in ("saturate_at_s", "die_at_s"):
+            if math.isnan(getattr(self, name)):
+                raise ValueError(f"fault {name} must be a time (s) or inf; got NaN")
 
 
 def _uniform(seed: int, stream: int, tick: int) -> float:
@@ -278,6 +293,7 @@ class StandIn:
                  clutch_release_at: float = math.inf):
         scenario.validate()
         self._faults = faults = faults or FaultInjection()
+        faults.validate()
         self._bus = bus
         self._clutch = (clutch_at, clutch_release_at)
         self._rates = (channels.master_state.rate, channels.slave_status.rate, channels.ft_sample.rate)

@@ -427,3 +427,12 @@ def test_cli_writes_the_summary(tmp_path, capsys):
     summary = json.loads(out.read_text())
     assert summary["died"] and set(summary["published_hz"]) == set(NAMES)
     assert "died" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(("field", "value"), [("drop_rate", -0.1), ("nan_rate", 1.5), ("reorder_rate", math.nan),
+                                              ("burst_loss_s", -1.0), ("added_delay_s", math.inf),
+                                              ("die_at_s", math.nan)])
+def test_faults_out_of_range_are_refused_by_name(field, value):
+    with pytest.raises(ValueError, match=field):
+        StandIn(quiet_scenario(), lcm.LCM("memq://"), CHANNELS, FaultInjection(**{field: value}))
+
