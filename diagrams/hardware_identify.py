@@ -54,19 +54,20 @@ WAIT_LIMIT = 10.0
 
 
 class HardwareIdentification:
-    """The excitation ``trajectory`` (``duration`` s) on the lab at ``bus`` (module docstring).
+    """The excitation ``trajectory`` (``duration`` s) on the lab at ``bus`` (module docstring),
+    ticked at most once per ``period`` s (the real-time loop's grid).
 
     ``tick(now, dt)`` returns True once the commander is done or aborted; it raises
     ``IdentificationAborted`` if the hardware is not healthy within ``WAIT_LIMIT`` s."""
 
-    def __init__(self, trajectory, duration: float, bus: lcm.LCM, channels: LcmChannels,
-                 params: HardwareStationParams | None = None, capacity: int = 200_000):
+    def __init__(self, trajectory, duration: float, period: float, bus: lcm.LCM, channels: LcmChannels,
+                 params: HardwareStationParams | None = None):
         params = params or HardwareStationParams()
         self.station = HardwareStation(bus, channels, params)
         self.commander = ExcitationCommander(trajectory, duration, params.slave_velocity_limits)
         self._zero = np.zeros(NUM_JOINTS)
         # Per excitation tick: time into the excitation (s), wrench (6), acceleration (6), q_S (6).
-        self._rows = np.empty((capacity, 19))
+        self._rows = np.empty((int(duration / period) + 2, 19))
         self._count = 0
         self.abort_reason = None
 
@@ -76,8 +77,8 @@ class HardwareIdentification:
         commander.step(now, station.healthy, station.slave_position)
         station.send(now, self._zero, commander.command)
         phase = commander.phase
-        if phase == Phase.EXCITING and self._count < len(self._rows):
-            row = self._rows[self._count]
+        if phase == Phase.EXCITING:
+            row = self._rows[self._count]  # one row per grid point at most: the buffer holds them all
             row[0] = commander.excitation_time
             row[1:7], row[7:13], row[13:] = station.wrench, station.acceleration, station.slave_position
             self._count += 1
@@ -113,7 +114,8 @@ def record_on_hardware(scenario: Scenario, trajectory, duration: float, lcm_url:
     rate (real-time ``priority``: ``claim_realtime``) until the excitation is done (or
     aborted); returns (Recording, timing summary)."""
     period = scenario.controller_period
-    run = HardwareIdentification(trajectory, duration, lcm.LCM(lcm_url), LcmChannels(lcm_url=lcm_url), params)
+    run = HardwareIdentification(trajectory, duration, period, lcm.LCM(lcm_url), LcmChannels(lcm_url=lcm_url),
+                                 params)
     print(f"identify: {claim_realtime(priority)}", flush=True)
     budget = WAIT_LIMIT + 60.0 + duration  # waiting, the slow approach and settling, the excitation
     if record is None:

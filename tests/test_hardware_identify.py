@@ -79,8 +79,8 @@ def run_in_process(scenario, trajectory, duration, faults=None):
     clock at the controller rate; returns (stand-in, identification run)."""
     bus = lcm.LCM("memq://")
     stand_in = StandIn(scenario, bus, LcmChannels(), faults or FaultInjection())
-    run = HardwareIdentification(trajectory, duration, bus, LcmChannels())
     period, now = scenario.controller_period, 0.0
+    run = HardwareIdentification(trajectory, duration, period, bus, LcmChannels())
     done = False
     while not done:
         now += period
