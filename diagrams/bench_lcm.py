@@ -65,7 +65,7 @@ def run_probe(lcm_url: str, duration: float, out: Path, master_q, slave_q) -> No
                   "joint_torque_measured", "joint_torque_commanded", "joint_torque_external"):
         setattr(slave, field, [0.0] * 6)
     ft = heft_ft_sample()
-    ft.acceleration = [0.0, 0.0, -9.81, 0.0, 0.0, 0.0]
+    ft.acceleration = [0.0, 0.0, -9.81, 0.0, 0.0, 0.0]  # at rest: one g up, S's z points down at the start pose
     streams = [(channels.master_state, master), (channels.slave_status, slave), (channels.ft_sample, ft)]
     periods = [1.0 / channel.rate for channel, _ in streams]
     due = [0.0] * len(streams)

@@ -44,7 +44,9 @@ class HardwareTeleop:
     def __init__(self, scenario: Scenario, load: LoadEstimate, bus: lcm.LCM, channels: LcmChannels,
                  params: HardwareStationParams | None = None):
         self.station = HardwareStation(bus, channels, params)
-        self.controller = MakeRealtimeTeleopController(scenario.controller, load, scenario.robot)
+        self.controller = MakeRealtimeTeleopController(
+            scenario.controller, load, scenario.robot,
+            accelerometer_includes_gravity=scenario.accelerometer.includes_gravity)
         self._zero = np.zeros(NUM_JOINTS)
         self._was_healthy = False
         self._last_position = None

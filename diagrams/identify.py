@@ -24,6 +24,7 @@ from heft.diagrams.progress import ProgressBar
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.sim_station import AddSlave, MakeSimStation
 from heft.diagrams.teleop import LoadEstimate
+from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.estimators import (
     METHODS, NoiseLevels, RecursiveInstrumentalVariables, RecursiveLeastSquares, RecursiveTotalLeastSquares,
     batch_estimate, feed)
@@ -48,7 +49,7 @@ class Recording:
     """One excitation, sample-aligned at the controller rate (S samples, whole periods)."""
     t: np.ndarray                  # (S,) s
     wrench: np.ndarray             # (S, 6) measured [f; τ] on the load at S, in S
-    accel_measured: np.ndarray     # (S, 6) accelerometer [a; α]
+    accel_measured: np.ndarray     # (S, 6) the accelerometer's reading (accelerometer_reading)
     q: np.ndarray                  # (S, 6) encoder angles (rad)
     phi_true: np.ndarray | None = None      # (10,); truth exists only in simulation
     offsets_true: np.ndarray | None = None  # (S, 6) the offsets in the measurement
@@ -110,7 +111,8 @@ def record_excitation(scenario: Scenario, trajectory, duration: float) -> Record
 def kinematic_signals(scenario: Scenario, recording: Recording, base_frequency: float, harmonics: int,
                       source: str):
     """(a, α, ω, g) in S per sample for the estimators, and the encoder-derived set
-    (the instruments of RIV). ``source``: "accelerometer" or "encoders" for a and α."""
+    (the instruments of RIV). ``source``: "accelerometer" (its reading converted with the
+    encoders' g, ``accelerometer_reading``) or "encoders" for a and α."""
     period = recording.t[1] - recording.t[0]
     q, qd, qdd = differentiate_periodic(recording.q, period, base_frequency, harmonics)
     _, motion, _ = _slave_motion(scenario)
@@ -119,7 +121,10 @@ def kinematic_signals(scenario: Scenario, recording: Recording, base_frequency: 
         return encoders, encoders
     if source != "accelerometer":
         raise ValueError(f"signals must be 'accelerometer' or 'encoders'; got {source!r}")
-    measured = (recording.accel_measured[:, :3], recording.accel_measured[:, 3:], encoders[2], encoders[3])
+    gravity = encoders[3]
+    acceleration = motion_from_reading(np.empty_like(recording.accel_measured), recording.accel_measured, gravity,
+                                       scenario.accelerometer.includes_gravity)
+    measured = (acceleration[:, :3], acceleration[:, 3:], encoders[2], gravity)
     return measured, encoders
 
 

@@ -183,7 +183,8 @@ def _add_wrist_sensor(builder: DiagramBuilder, scenario: Scenario, plant: Multib
     p_BS = parts.S.GetFixedPoseInBodyFrame().translation()
     reaction = builder.AddSystem(ReactionWrench(parts.sensor_weld.index()))
     builder.Connect(plant.get_reaction_forces_output_port(), reaction.get_input_port())
-    kinematics = builder.AddSystem(SensorFrameKinematics(parts.sensor_body.index(), p_BS, GRAVITY_W))
+    kinematics = builder.AddSystem(SensorFrameKinematics(parts.sensor_body.index(), p_BS, GRAVITY_W,
+                                                         scenario.accelerometer.includes_gravity))
     builder.Connect(plant.get_body_poses_output_port(), kinematics.GetInputPort("body_poses"))
     builder.Connect(plant.get_body_spatial_velocities_output_port(), kinematics.GetInputPort("body_spatial_velocities"))
     builder.Connect(plant.get_body_spatial_accelerations_output_port(),
@@ -196,7 +197,7 @@ def _add_wrist_sensor(builder: DiagramBuilder, scenario: Scenario, plant: Multib
     ft = builder.AddSystem(ForceTorqueSensorModel(scenario.ft_sensor))
     builder.Connect(reaction.get_output_port(), ft.GetInputPort("wrench_true"))
     accelerometer = builder.AddSystem(AccelerometerModel(scenario.accelerometer))
-    builder.Connect(kinematics.GetOutputPort("acceleration"), accelerometer.GetInputPort("acceleration_true"))
+    builder.Connect(kinematics.GetOutputPort("accelerometer_reading"), accelerometer.GetInputPort("acceleration_true"))
     builder.ExportOutput(ft.GetOutputPort("wrench_measured"), "ft.wrench_measured")
     builder.ExportOutput(accelerometer.GetOutputPort("acceleration_measured"), "ft.acceleration_measured")
 
@@ -268,7 +269,8 @@ def MakeSimStation(scenario: Scenario, meshcat=None):
     Outputs: ``master.position_measured``, ``master.velocity_estimated``,
     ``slave.position_measured``, ``slave.velocity_estimated`` (6 each, rad, rad/s),
     ``ft.wrench_measured`` ([f; τ] on the load at S in S), ``ft.acceleration_measured``
-    ([a; α] of S in S), and ``truth.*`` (see ``_add_wrist_sensor``).
+    (the accelerometer's reading, ``accelerometer_reading``: [a − g; α] of S in S), and
+    ``truth.*`` (see ``_add_wrist_sensor``; ``truth.acceleration`` is the kinematic [a; α]).
     """
     scenario.validate()
     builder = DiagramBuilder()

@@ -15,10 +15,12 @@ Models (frames as DESIGN §4: W world = R slave base, B master base, S wrist sen
   (``critically_damped_step_matrices``, ``Scenario.slave_setpoint_bandwidth``),
   stepped exactly at the status rate; an ideal servo: the measured position is
   the filter's (encoder-quantised), the estimated velocity the filter's.
-* Sensor frame S: pose, ω, and the kinematic (gravity-free) acceleration [a; α]
-  of S in S from the filter's state by Drake: A_WS = J·q̈ + J̇·q̇, with q̈ the
-  filter's own acceleration after each step. Gravity in S is R_SW·g_W. This is
-  ``SensorFrameKinematics``' convention in the simulated station.
+* Sensor frame S: pose, ω, and the kinematic acceleration [a; α] of S in S from
+  the filter's state by Drake: A_WS = J·q̈ + J̇·q̇, with q̈ the filter's own
+  acceleration after each step. Gravity in S is R_SW·g_W. The accelerometer
+  reports what a real one does (``accelerometer_reading``: specific force a − g
+  unless the scenario's ``accelerometer.includes_gravity`` is False), as in the
+  simulated station.
 * JR3 driver: the wrench is the load's non-contact wrench V(a, α, ω, g)·φ (Eq. 5,
   ``load_dynamics.regressor``) with φ of the scenario's load as the simulated
   station computes it, through ``sensor_models``' measurement model (offsets,
@@ -70,6 +72,7 @@ from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import CLUTCH_BUTTON
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
 from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_command, heft_haptic_state
+from heft.systems.accelerometer_reading import reading_from_motion
 from heft.systems.load_dynamics import regressor
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant, pose_and_jacobian
 from heft.systems.operator_hand import smooth_sine_offset
@@ -222,13 +225,16 @@ class _SensorFrame:
         plant.Finalize()
         self._plant, self._context = plant, plant.CreateDefaultContext()
         self._W, self._S = plant.world_frame(), parts.S
+        self._includes_gravity = scenario.accelerometer.includes_gravity
         self.phi = phi_about_S(plant, parts.S, parts.load_bodies)
         self._origin = np.zeros(3)
         self._x = np.zeros(2 * NUM_JOINTS)
         self.wrench = np.zeros(6)
         """V·φ: [f; τ] the sensor exerts on the load, at S, in S (N, N·m)."""
         self.acceleration = np.zeros(6)
-        """[a; α] of S in W, expressed in S, without gravity (m/s², rad/s²)."""
+        """[a; α] of S in W, expressed in S (m/s², rad/s²)."""
+        self.reading = np.zeros(6)
+        """What the accelerometer reports (``accelerometer_reading``), in S."""
 
     def update(self, q, qd, qdd) -> None:
         """Evaluates S's motion at joint positions ``q`` (rad), velocities ``qd`` (rad/s) and
@@ -243,7 +249,9 @@ class _SensorFrame:
         a, alpha = R_SW @ A_WS_W[3:], R_SW @ A_WS_W[:3]
         omega = R_SW @ (J[:3] @ qd)
         self.acceleration[:3], self.acceleration[3:] = a, alpha
-        self.wrench[:] = regressor(a, alpha, omega, R_SW @ GRAVITY_W) @ self.phi
+        gravity = R_SW @ GRAVITY_W
+        self.reading[:] = reading_from_motion(self.acceleration, gravity, self._includes_gravity)
+        self.wrench[:] = regressor(a, alpha, omega, gravity) @ self.phi
 
 
 class _Master:
@@ -443,7 +451,7 @@ class StandIn:
         last = max(first, math.ceil(self._due[_SLAVE] * self._rates[_FT] - 1e-6) - 1)
         frame, count = self._sensor_frame, last - first + 1
         wrench, self._ft_offsets, wrench_saturated = self._ft.sample(first, count, frame.wrench)
-        acceleration, _, acceleration_saturated = self._accelerometer.sample(first, count, frame.acceleration)
+        acceleration, _, acceleration_saturated = self._accelerometer.sample(first, count, frame.reading)
         saturated = wrench_saturated @ self._bits[:NUM_AXES] + acceleration_saturated @ self._bits[NUM_AXES:]
         self._ft_rows = (first, last + 1, (-wrench).tolist(), acceleration.tolist(), saturated.astype(int).tolist())
 

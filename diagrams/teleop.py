@@ -64,16 +64,21 @@ def _slave_ik_model(robot: str) -> tuple[MultibodyPlant, RxKinematics, RigidTran
     return slave, kinematics, X_FS
 
 
-def MakeRealtimeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str) -> RealtimeTeleopController:
+def MakeRealtimeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, *,
+                                 accelerometer_includes_gravity: bool) -> RealtimeTeleopController:
     """The controller of ``MakeTeleopController`` as one computation per tick, for the hardware's
     real-time loop (``systems.realtime_controller``): same models, same parameters."""
     slave, kinematics, X_FS = _slave_ik_model(robot)
     return RealtimeTeleopController(_master_model(), slave, f"{robot}_base", kinematics, X_FS, load.phi, load.offsets,
-                                    spec.motion, spec.force, spec.feedback, spec.passivity)
+                                    spec.motion, spec.force, spec.feedback, spec.passivity,
+                                    accelerometer_includes_gravity)
 
 
-def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, period: float, slave_initial_q):
+def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, period: float, slave_initial_q, *,
+                         accelerometer_includes_gravity: bool):
     """The hardware-agnostic controller Diagram of Fig. 4 (DESIGN §3), ticking every ``period`` s.
+    ``accelerometer_includes_gravity``: the convention of ``ft.acceleration_measured``
+    (``accelerometer_reading``; the scenario's ``accelerometer.includes_gravity``).
 
     Inputs: the station outputs ``STATION_OUTPUTS_READ``; ``clutch`` (1, > 0.5 engaged);
     optional ``sigma``, ``gamma``, ``eta`` (1 each; unconnected → ``spec.force``'s values).
@@ -88,7 +93,8 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
         "slave_kinematics", SlaveKinematics(slave, base_frame=f"{robot}_base", sensor_frame="S"))
     motion = builder.AddNamedSystem("motion_scaling", MotionScaling(dataclasses.replace(spec.motion, **rate)))
     ik = builder.AddNamedSystem("slave_ik", SlaveInverseKinematics(kinematics, X_FS, slave_initial_q, period))
-    force = builder.AddNamedSystem("force_scaling", ForceScalingElimination(dataclasses.replace(spec.force, **rate)))
+    force = builder.AddNamedSystem("force_scaling", ForceScalingElimination(
+        dataclasses.replace(spec.force, **rate), accelerometer_includes_gravity))
     feedback = builder.AddNamedSystem("feedback_mapping", FeedbackMapping(spec.feedback))
     passivity = builder.AddNamedSystem("passivity", PassivityController(
         dataclasses.replace(spec.passivity, **rate), spec.feedback.max_force, spec.feedback.max_torque))
@@ -203,7 +209,8 @@ def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, sigma: float | 
     builder = DiagramBuilder()
     station = builder.AddNamedSystem("station", MakeSimStation(scenario, meshcat))
     controller = builder.AddNamedSystem("controller", MakeTeleopController(
-        spec, load, scenario.robot, scenario.controller_period, scenario.slave_initial_q))
+        spec, load, scenario.robot, scenario.controller_period, scenario.slave_initial_q,
+        accelerometer_includes_gravity=scenario.accelerometer.includes_gravity))
     period = scenario.controller_period
     ConnectControllerToStation(builder, controller, station, round(spec.delay / period), period,
                                {"master.position_measured": scenario.master_initial_q,

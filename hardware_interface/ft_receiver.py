@@ -33,7 +33,8 @@ class FtSampleReader:
         self.wrench = np.zeros(6)
         """[f; τ] the sensor exerts on the load, at S, in S (N, N·m)."""
         self.acceleration = np.zeros(6)
-        """[a; α] of S, in S (m/s², rad/s²), as the sensor's accelerometer reports it."""
+        """The accelerometer's reading as the driver reports it, in S (m/s², rad/s²): specific
+        force a − g and α (``accelerometer_reading`` converts it where g_S is known)."""
         self.t_good = -math.inf
         self.non_finite = self.saturated = self.error = False
         self.dropped = 0

@@ -86,8 +86,8 @@ class HardwareStation:
     Readings after ``receive`` (arrays updated in place): ``master_position``,
     ``master_velocity`` (rad, rad/s), ``clutch`` (the clutch button held),
     ``slave_position``, ``slave_velocity`` (rad, rad/s), ``wrench`` ([f; τ] the sensor
-    exerts on the load, at S, in S; N, N·m), ``acceleration`` ([a; α] of S in S, as the
-    sensor reports it); ``ages`` (s, per ``WATCHED_CHANNELS``), ``healthy``, ``gain``,
+    exerts on the load, at S, in S; N, N·m), ``acceleration`` (the accelerometer's
+    reading as the sensor reports it: ``accelerometer_reading``); ``ages`` (s, per ``WATCHED_CHANNELS``), ``healthy``, ``gain``,
     ``fault`` (bitmask), ``slave_known`` (a slave status has arrived).
     """
 

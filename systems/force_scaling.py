@@ -2,7 +2,9 @@
 
 All vectors are expressed in the sensor frame S (DESIGN §4): wrenches [f; τ]
 (N, N·m) that the sensor exerts on the load, torque about S's origin;
-accelerations [a; α] (m/s², rad/s²) of S; ω (rad/s) of S; g (m/s²) in S.
+accelerations [a; α] (m/s², rad/s²) of S; ω (rad/s) of S; g (m/s²) in S. The
+block's ``acceleration`` input is the accelerometer's reading, converted by
+``accelerometer_reading`` (specific force a − g unless the driver removes gravity).
 
 With the load's estimated parameters φ̂ (Eq. 6) and the sensor offsets o, the
 measurement f splits into the non-contact wrench n = V·φ̂ (Eq. 12) and the
@@ -24,6 +26,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
 
+from .accelerometer_reading import motion_from_reading
 from .load_dynamics import regressor
 
 
@@ -121,15 +124,17 @@ FEEDBACK, CONTACT, NONCONTACT, FAULT = slice(0, 6), slice(6, 12), slice(12, 18),
 EVALUATION_SIZE = 19
 
 
-def evaluate(out: np.ndarray, wrench, acceleration, omega, gravity, phi, offsets, scales, memory,
-             decay: float, phi_gripper=None) -> None:
+def evaluate(out: np.ndarray, wrench, reading, omega, gravity, phi, offsets, scales, memory,
+             decay: float, phi_gripper=None, includes_gravity: bool = True) -> None:
     """One evaluation of the block into ``out`` (19: f′, c, n, fault), as the
-    ``ForceScalingElimination`` docstring describes: ``scales`` (3) are σ, γ, η in
-    effect, ``memory`` (7) the last f′ in effect and the request-fault flag,
-    ``decay`` the factor applied to that f′ while faulted (``decay_factor``)."""
-    if memory[6] == 0.0 and math.isfinite(sum(wrench.tolist()) + sum(acceleration.tolist()) + sum(omega.tolist())
+    ``ForceScalingElimination`` docstring describes: ``reading`` (6) is the accelerometer's
+    (``accelerometer_reading``, ``includes_gravity`` its convention), ``scales`` (3) are σ, γ,
+    η in effect, ``memory`` (7) the last f′ in effect and the request-fault flag, ``decay`` the
+    factor applied to that f′ while faulted (``decay_factor``)."""
+    if memory[6] == 0.0 and math.isfinite(sum(wrench.tolist()) + sum(reading.tolist()) + sum(omega.tolist())
                                           + sum(gravity.tolist()) + sum(phi.tolist()) + sum(offsets.tolist())):
         sigma, gamma, eta = scales
+        acceleration = motion_from_reading(np.empty(6), reading, gravity, includes_gravity)
         out[FEEDBACK], out[CONTACT], out[NONCONTACT] = scale_wrench(
             wrench, offsets, phi, acceleration, omega, gravity, sigma, gamma, eta, phi_gripper)
         out[FAULT] = 0.0
@@ -158,8 +163,9 @@ def next_memory_and_scales(memory: np.ndarray, scales: np.ndarray, feedback, req
 class ForceScalingElimination(LeafSystem):
     """Fig. 2 with the Eq. 14 split, as the module docstring describes.
 
-    Inputs: ``wrench`` (6, the measured [f; τ] on the load), ``acceleration`` (6,
-    [a; α] of S), ``omega`` (3), ``gravity`` (3), ``phi`` (10, φ̂ of the whole load),
+    Inputs: ``wrench`` (6, the measured [f; τ] on the load), ``acceleration`` (6, the
+    accelerometer's reading: [a − g; α] of S, or [a; α] for ``accelerometer_includes_gravity``
+    False), ``omega`` (3), ``gravity`` (3), ``phi`` (10, φ̂ of the whole load),
     ``offsets`` (6), ``sigma``, ``gamma``, ``eta`` (1 each, requested; when
     unconnected the parameter value is requested).
     Outputs: ``wrench_feedback`` f′ (6), ``wrench_contact`` (6, Eq. 13),
@@ -187,10 +193,11 @@ class ForceScalingElimination(LeafSystem):
     live value.
     """
 
-    def __init__(self, params: ForceScalingParams | None = None):
+    def __init__(self, params: ForceScalingParams | None = None, accelerometer_includes_gravity: bool = True):
         super().__init__()
         params = params or ForceScalingParams()
         params.validate()
+        self._includes_gravity = accelerometer_includes_gravity
         self._max_step = params.slew_rate * params.period
         self._defaults = (params.sigma, params.gamma, params.eta)
         self._phi_gripper = (None if params.phi_gripper is None
@@ -229,7 +236,8 @@ class ForceScalingElimination(LeafSystem):
         wrench, acceleration, omega, gravity, phi, offsets = (port.Eval(context) for port in self._signals)
         evaluate(value.get_mutable_value(), wrench, acceleration, omega, gravity, phi, offsets,
                  context.get_discrete_state(self._scales).get_value(),
-                 context.get_discrete_state(self._memory).get_value(), self._decay_per_tick, self._phi_gripper)
+                 context.get_discrete_state(self._memory).get_value(), self._decay_per_tick, self._phi_gripper,
+                 self._includes_gravity)
 
     def _update(self, context, discrete_state):
         requested = [port.Eval(context)[0] if port.HasValue(context) else default

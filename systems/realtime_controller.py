@@ -63,7 +63,7 @@ class RealtimeTeleopController:
 
     def __init__(self, master: MultibodyPlant, slave: MultibodyPlant, base_frame: str, kinematics: RxKinematics,
                  X_FS: RigidTransform, phi, offsets, motion: MotionScalingParams, force: ForceScalingParams,
-                 feedback: FeedbackMappingParams, passivity: PassivityParams):
+                 feedback: FeedbackMappingParams, passivity: PassivityParams, accelerometer_includes_gravity: bool):
         for params in (motion, force, feedback, passivity):
             params.validate()
         phi, offsets = np.asarray(phi, dtype=float), np.asarray(offsets, dtype=float)
@@ -85,6 +85,7 @@ class RealtimeTeleopController:
         self._max_damping = ((passivity.max_translational_damping, passivity.max_rotational_damping)
                              if passivity.enabled else (0.0, 0.0))
         self._requested = (force.sigma, force.gamma, force.eta)
+        self._includes_gravity = accelerometer_includes_gravity
         self._evaluation = np.zeros(EVALUATION_SIZE)
         self.torque = np.zeros(NUM_JOINTS)
         self.position = None
@@ -113,8 +114,8 @@ class RealtimeTeleopController:
     def step(self, dt: float, master_position, master_velocity, slave_position, slave_velocity, wrench,
              acceleration, clutch: bool) -> None:
         """One tick of ``dt`` s (≥ 0) on the station's readings: q_M, q̇_M (rad, rad/s), q_S, q̇_S
-        (rad, rad/s), the wrench [f; τ] the sensor exerts on the load and [a; α] of S (at S, in S),
-        the clutch engaged. Updates ``torque``, ``position`` and the logged signals."""
+        (rad, rad/s), the wrench [f; τ] the sensor exerts on the load and the accelerometer's reading
+        (``accelerometer_reading``; at S, in S), the clutch engaged. Updates ``torque``, ``position`` and the logged signals."""
         if not self.started:
             raise RuntimeError("RealtimeTeleopController.step before start(): start it from the measured "
                                "slave position once the station is healthy")
@@ -140,7 +141,8 @@ class RealtimeTeleopController:
         force = self._force
         evaluation = self._evaluation
         evaluate(evaluation, wrench, acceleration, omega_S, gravity_S, self._phi, self._offsets, self.scales,
-                 self._force_memory, decay_factor(dt, force.fault_decay_time), self._phi_gripper)
+                 self._force_memory, decay_factor(dt, force.fault_decay_time), self._phi_gripper,
+                 self._includes_gravity)
         next_memory_and_scales(self._force_memory, self.scales, evaluation[FEEDBACK], self._requested,
                                force.slew_rate * dt)
         feedback = self._feedback

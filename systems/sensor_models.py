@@ -28,8 +28,9 @@ alternative, but in pydrake 1.51 its seed can only be drawn from
 set per sensor.
 
 Port conventions (DESIGN §4): the wrench is [f; τ] that the sensor exerts on
-the load, at S, expressed in S; the acceleration is [a; α] of S, expressed in
-S. The sign flip of real sensors belongs to the hardware interface.
+the load, at S, expressed in S; the accelerometer's input is its ideal reading
+(``accelerometer_reading``: [a − g; α] of S, expressed in S). The sign flip of
+real sensors belongs to the hardware interface.
 """
 
 import dataclasses
@@ -147,8 +148,14 @@ class ForceTorqueSensorParams(SixAxisSensorParams):
 
 @dataclasses.dataclass
 class AccelerometerParams(SixAxisSensorParams):
-    """The accelerometer channels [ax, ay, az, αx, αy, αz] in m/s² and rad/s².
-    The model adds no gravity: whether a includes it is the caller's convention."""
+    """The accelerometer channels [ax, ay, az, αx, αy, αz] in m/s² and rad/s². The model
+    measures what its input carries; the station feeds it the reading of
+    ``accelerometer_reading`` for ``includes_gravity``."""
+
+    includes_gravity: bool = True
+    """True: the linear channels report specific force a − g, as every accelerometer
+    (the JR3's included) measures. False: the lab's driver already removes gravity and
+    reports the kinematic a. The consumers (controller, identification) read this too."""
 
     noise_rms: list[float] = dataclasses.field(
         default_factory=lambda: [0.05, 0.05, 0.05, 0.5, 0.5, 0.5])
@@ -373,8 +380,8 @@ class ForceTorqueSensorModel(_SampledSixAxisSensor):
 
 
 class AccelerometerModel(_SampledSixAxisSensor):
-    """The JR3's accelerometer: samples the true acceleration [a; α] of S (in S;
-    m/s², rad/s²) every T and holds the measurement. ``offsets_true`` is the bias
+    """The JR3's accelerometer: samples the ideal reading of S's motion (in S; m/s², rad/s²;
+    ``accelerometer_reading``) every T and holds the measurement. ``offsets_true`` is the bias
     inside the held measurement, ``saturated`` its per-axis flags (0/1).
 
     .. pydrake_system::

@@ -16,6 +16,7 @@ from pydrake.multibody.math import SpatialAcceleration, SpatialForce, SpatialVel
 from pydrake.multibody.plant import ContactResults
 from pydrake.systems.framework import LeafSystem
 
+from heft.systems.accelerometer_reading import reading_from_motion
 from heft.systems.drake_conventions import wrench_from_spatial_force
 from heft.systems.load_dynamics import regressor
 
@@ -39,11 +40,14 @@ class SensorFrameKinematics(LeafSystem):
 
     Inputs: the plant's ``body_poses``, ``body_spatial_velocities``,
     ``body_spatial_accelerations``. Outputs: ``acceleration`` [a; α] of S in S
-    (m/s², rad/s²), ``omega`` ω_WS in S (rad/s), ``gravity`` g in S (m/s²).
+    (m/s², rad/s²), ``omega`` ω_WS in S (rad/s), ``gravity`` g in S (m/s²), and
+    ``accelerometer_reading``, what an ideal accelerometer at S reports
+    (``accelerometer_reading`` with ``accelerometer_includes_gravity``).
     """
 
-    def __init__(self, body_index, p_BS, gravity_W):
+    def __init__(self, body_index, p_BS, gravity_W, accelerometer_includes_gravity: bool = True):
         super().__init__()
+        self._includes_gravity = accelerometer_includes_gravity
         self._body = int(body_index)
         self._p_BS = np.asarray(p_BS, dtype=float)
         self._g_W = np.asarray(gravity_W, dtype=float)
@@ -53,9 +57,14 @@ class SensorFrameKinematics(LeafSystem):
         self.DeclareVectorOutputPort("acceleration", 6, self._calc_acceleration)
         self.DeclareVectorOutputPort("omega", 3, self._calc_omega)
         self.DeclareVectorOutputPort("gravity", 3, self._calc_gravity)
+        self.DeclareVectorOutputPort("accelerometer_reading", 6, self._calc_reading)
 
     def _R_SW(self, context):
         return self._poses.Eval(context)[self._body].rotation().inverse()
+
+    def _calc_reading(self, context, output):
+        output.SetFromVector(reading_from_motion(self.GetOutputPort("acceleration").Eval(context),
+                                                 self.GetOutputPort("gravity").Eval(context), self._includes_gravity))
 
     def _calc_acceleration(self, context, output):
         R_WB = self._poses.Eval(context)[self._body].rotation()

@@ -158,7 +158,7 @@ def run(scene):
     wrench[list(NAN_TICKS), 2] = np.nan
     ticks = np.arange(NUM_TICKS)
     sources = dict(
-        wrench=wrench, acceleration=np.hstack((scene["a"], scene["alpha"])),
+        wrench=wrench, acceleration=np.hstack((scene["a"] - scene["g"], scene["alpha"])),  # what a sensor reads
         omega=scene["omega"], gravity=scene["g"],
         phi=np.tile(scene["load"].to_phi(), (NUM_TICKS, 1)),
         offsets=np.tile(scene["offsets"], (NUM_TICKS, 1)),

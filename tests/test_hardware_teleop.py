@@ -32,7 +32,7 @@ class Lab:
         self.stand_in = StandIn(scenario, bus, LcmChannels(), faults or FaultInjection(), clutch_at=clutch_at)
         self.teleop = HardwareTeleop(scenario, load or true_load(scenario)[0], bus, LcmChannels())
         self.now = 0.0
-        self.commands, self.torques, self.master_q, self.gains = [], [], [], []
+        self.commands, self.torques, self.master_q, self.gains, self.stylus_wrenches = [], [], [], [], []
 
     def run(self, duration, controller=True):
         for _ in range(round(duration / PERIOD)):
@@ -45,17 +45,24 @@ class Lab:
                 self.commands.append(None if station.position_sent is None else station.position_sent.copy())
                 self.master_q.append(station.master_position.copy())
                 self.gains.append(station.gain)
+                controller = self.teleop.controller
+                self.stylus_wrenches.append(station.gain * controller.applied_wrench if controller.started
+                                            else np.zeros(6))
 
 
-def sensor_position(q) -> np.ndarray:
-    """p_RS (m) of the slave's sensor frame at joint angles q, from Drake's own plant."""
+def sensor_pose(q):
+    """X_RS of the slave's sensor frame at joint angles q, from Drake's own plant."""
     plant = MultibodyPlant(0.0)
     AddArmWithSensor(plant, "rx90")
     plant.Finalize()
     context = plant.CreateDefaultContext()
     plant.SetPositions(context, q)
-    X_RS = plant.CalcRelativeTransform(context, plant.GetFrameByName("rx90_base"), plant.GetFrameByName("S"))
-    return X_RS.translation()
+    return plant.CalcRelativeTransform(context, plant.GetFrameByName("rx90_base"), plant.GetFrameByName("S"))
+
+
+def sensor_position(q) -> np.ndarray:
+    """p_RS (m) of the slave's sensor frame at joint angles q."""
+    return sensor_pose(q).translation()
 
 
 def stylus_position(q) -> np.ndarray:
@@ -78,6 +85,28 @@ def test_start_up_never_moves_the_slave():
     q_start = np.array(resolve_scenario("fig6").slave_initial_q)
     np.testing.assert_allclose(lab.stand_in.slave_position, q_start, atol=1e-5)
     assert np.ptp(np.array(lab.master_q), axis=0).max() > 0.01, "the operator should have moved the stylus"
+
+
+@pytest.mark.parametrize("sigma", [0.0, 0.2])
+def test_a_tool_hanging_still_is_weighed_once(sigma):
+    """Hanging still, the stand-in's accelerometer reports what a real one does (9.81 m/s²
+    pointing up in the world, R = W here), and the controller counts gravity once: the
+    stylus feels σ times the tool's weight scaled by k_f, pointing down; nothing at σ = 0
+    (counted twice, σ = 0 would render the full weight upwards)."""
+    scenario = resolve_scenario("fig6")
+    scenario.operator.amplitude = [0.0, 0.0, 0.0]
+    scenario.ft_sensor.white_noise = scenario.accelerometer.white_noise = False
+    scenario.controller.force.sigma = sigma
+    load = true_load(scenario)[0]
+    lab = Lab(scenario, load=load)
+    lab.run(0.5)
+    reading = lab.teleop.station.acceleration
+    R_RS = sensor_pose(lab.stand_in.slave_position).rotation().matrix()
+    np.testing.assert_allclose(R_RS @ reading[:3], [0.0, 0.0, 9.81], atol=0.2)  # biases ≤ 0.15 m/s²
+    settled = np.array(lab.stylus_wrenches[-200:]).mean(axis=0)
+    expected = -sigma * load.phi[0] * 9.81 * scenario.controller.feedback.force_scale
+    assert abs(expected) < MAX_FORCE  # not clamped: the test sees the law
+    np.testing.assert_allclose(settled[:3], [0.0, 0.0, expected], atol=0.05)
 
 
 def test_with_the_clutch_held_the_slave_moves_by_the_scaled_stylus_motion():

@@ -52,7 +52,8 @@ def both_runs():
     period = PERIOD
     sequence = input_sequence(scenario, period)
 
-    diagram = MakeTeleopController(scenario.controller, load, scenario.robot, period, scenario.slave_initial_q)
+    diagram = MakeTeleopController(scenario.controller, load, scenario.robot, period, scenario.slave_initial_q,
+                                   accelerometer_includes_gravity=True)
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()
     blocks = []
@@ -67,7 +68,7 @@ def both_runs():
             "log.master_wrench", "log.pose_RS_desired", "log.passivity_energy", "log.passivity_damping",
             "log.scales")})
 
-    fused = MakeRealtimeTeleopController(scenario.controller, load, scenario.robot)
+    fused = MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, accelerometer_includes_gravity=True)
     fused.start(sequence[0]["slave.position_measured"])
     steps = []
     for inputs in sequence:
@@ -120,7 +121,7 @@ def test_the_sequence_exercises_contact_clutch_and_fault(both_runs):
 def test_step_before_start_is_refused():
     scenario = Scenario()
     load, _ = true_load(scenario)
-    fused = MakeRealtimeTeleopController(scenario.controller, load, scenario.robot)
+    fused = MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, accelerometer_includes_gravity=True)
     with pytest.raises(RuntimeError, match="start"):
         fused.step(5e-4, *([np.zeros(6)] * 6), True)
     with pytest.raises(ValueError, match="finite"):

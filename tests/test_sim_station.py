@@ -105,11 +105,23 @@ def test_free_space_sensor_reads_the_load_dynamics(free_space):
         peak_dynamic = max(peak_dynamic, np.abs(reaction[:3] + 3.13 * g).max())
         run.advance()
         worst_sensor = max(worst_sensor, np.abs(run.out("ft.wrench_measured") - reaction).max(),
-                           np.abs(run.out("ft.acceleration_measured") - accel).max())
+                           np.abs(run.out("ft.acceleration_measured") - np.concatenate((accel[:3] - g, accel[3:]))).max())
         np.testing.assert_array_equal(run.out("truth.wrench_contact"), np.zeros(6))
     assert peak_dynamic > 5.0  # the motion was dynamic: inertial force beyond the weight
     assert worst_physics < 1e-6
     assert worst_sensor < 1e-9
+
+
+def test_hanging_still_the_accelerometer_reads_one_g_upwards():
+    """A real accelerometer reports specific force a − g: at rest, 9.81 m/s² pointing up."""
+    run = Run(ideal(Scenario()))
+    for _ in range(3):
+        run.step()
+    plant = run.station.GetSubsystemByName("slave_plant")
+    R_WS = plant.GetFrameByName("S").CalcPoseInWorld(plant.GetMyContextFromRoot(run.context)).rotation().matrix()
+    reading = run.out("ft.acceleration_measured")
+    np.testing.assert_allclose(R_WS @ reading[:3], [0.0, 0.0, 9.81], atol=1e-3)
+    np.testing.assert_allclose(reading[3:], 0.0, atol=1e-3)
 
 
 def test_slave_servo_tracks_its_command(free_space):

@@ -28,6 +28,7 @@ CHANNELS = LcmChannels()
 NAMES = (CHANNELS.master_state.name, CHANNELS.slave_status.name, CHANNELS.ft_sample.name)
 TYPES = dict(zip(NAMES, (heft_haptic_state, lcmt_iiwa_status, heft_ft_sample)))
 DELTA = np.array([0.1, -0.1, 0.1, 0.2, -0.2, 0.3])
+G_W = np.array([0.0, 0.0, -9.81])  # m/s², gravity in the world (R = W)
 """A slave command step away from the start pose (rad)."""
 
 
@@ -108,7 +109,8 @@ class SlavePlant:
 
 def test_still_tool_weighs_on_the_sensor_as_drake_says():
     """Still arm: the FT round trip (sensor sign flipped back, offsets removed) is the 3.13 kg
-    tool held against gravity, f = −m·g in S and τ = p_SC × f, from Drake's own model."""
+    tool held against gravity, f = −m·g in S and τ = p_SC × f, from Drake's own model; the
+    accelerometer reads 9.81 m/s² upwards."""
     scenario = quiet_scenario()
     scenario.ft_sensor.noise = True  # offsets only
     scenario.ft_sensor.white_noise = scenario.ft_sensor.drift = scenario.ft_sensor.quantization = False
@@ -133,7 +135,9 @@ def test_still_tool_weighs_on_the_sensor_as_drake_says():
     last = heft_ft_sample.decode(samples[-1])
     np.testing.assert_allclose(slave.R_WS() @ (np.array(last.wrench[:3]) + lab.stand_in.offsets[:3]),
                                [0.0, 0.0, -mass * 9.81], atol=1e-9)
-    np.testing.assert_array_equal(last.acceleration, np.zeros(6))
+    # The accelerometer reports specific force: one g, pointing up in the world.
+    np.testing.assert_allclose(slave.R_WS() @ np.array(last.acceleration[:3]), [0.0, 0.0, 9.81], atol=1e-9)
+    np.testing.assert_array_equal(last.acceleration[3:], np.zeros(3))
     np.testing.assert_allclose(lab.stand_in.phi_true[:4], np.concatenate(([mass], mass * p_SC)), atol=1e-12)
 
 
@@ -148,8 +152,8 @@ def moving():
 
 
 def test_sensor_acceleration_is_the_derivative_of_the_velocity_of_S(moving):
-    """[a; α] in the FT sample is d/dt of S's spatial velocity (Drake, from the published joint
-    state), expressed in S, without gravity; checked by central differences."""
+    """The FT sample's accelerometer reading is d/dt of S's spatial velocity (Drake, from the
+    published joint state) minus gravity, expressed in S; checked by central differences."""
     statuses = moving.messages(CHANNELS.slave_status.name)
     ft = {m.utime: m for m in moving.messages(CHANNELS.ft_sample.name)}
     slave, period = SlavePlant(moving.scenario), 1.0 / CHANNELS.slave_status.rate
@@ -164,7 +168,7 @@ def test_sensor_acceleration_is_the_derivative_of_the_velocity_of_S(moving):
             continue
         R_WS, _, _ = velocity(now)
         (_, w0, v0), (_, w1, v1) = velocity(before), velocity(after)
-        expected = np.concatenate((R_WS.T @ (v1 - v0), R_WS.T @ (w1 - w0))) / (2 * period)
+        expected = np.concatenate((R_WS.T @ ((v1 - v0) / (2 * period) - G_W), R_WS.T @ (w1 - w0) / (2 * period)))
         measured = np.array(ft[now.utime].acceleration)
         errors.append(np.abs(measured - expected).max())
         peak = max(peak, np.abs(measured).max())
@@ -187,8 +191,8 @@ def test_moving_wrench_is_v_phi_on_the_held_kinematics(moving):
         slave.set_state(status.joint_position_measured, status.joint_velocity_estimated)
         R_SW = slave.R_WS().T
         omega = R_SW @ slave.velocity_of_S()[0]
-        a = np.array(sample.acceleration)
-        expected = noncontact_wrench(moving.stand_in.phi_true, a[:3], a[3:], omega, R_SW @ [0.0, 0.0, -9.81])
+        reading, g = np.array(sample.acceleration), R_SW @ G_W
+        expected = noncontact_wrench(moving.stand_in.phi_true, reading[:3] + g, reading[3:], omega, g)
         # Positions on the wire are encoder-quantised (2π/2²⁰ rad): ω and g agree to that.
         np.testing.assert_allclose(-np.array(sample.wrench), expected, atol=2e-3)
         checked += 1

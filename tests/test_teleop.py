@@ -30,7 +30,8 @@ def quiet_scenario() -> Scenario:
 def test_controller_ports_are_the_station_ports_and_it_adds_no_feedthrough():
     scenario = quiet_scenario()
     controller = MakeTeleopController(scenario.controller, true_load(scenario), "rx90",
-                                      scenario.controller_period, scenario.slave_initial_q)
+                                      scenario.controller_period, scenario.slave_initial_q,
+                                      accelerometer_includes_gravity=True)
     inputs = {controller.get_input_port(i).get_name() for i in range(controller.num_input_ports())}
     outputs = {controller.get_output_port(i).get_name() for i in range(controller.num_output_ports())}
     assert set(STATION_OUTPUTS_READ) <= inputs and set(STATION_INPUTS_DRIVEN) <= outputs
@@ -40,11 +41,13 @@ def test_controller_ports_are_the_station_ports_and_it_adds_no_feedthrough():
                                                        controller.GetOutputPort(name_out).get_index())
 
 
-@pytest.mark.parametrize("sigma", [1.0, 0.5, 0.0])
-def test_operator_feels_sigma_times_the_weight_at_rest(sigma):
+@pytest.mark.parametrize("sigma, includes_gravity", [(1.0, True), (0.5, True), (0.0, True), (0.0, False)])
+def test_operator_feels_sigma_times_the_weight_at_rest(sigma, includes_gravity):
     """Holding still, the master renders the load's weight scaled by σ and by the force
-    scale k_f: f_z = −σ·m·g·k_f (down), the apparent mass of Sec. V in statics."""
+    scale k_f: f_z = −σ·m·g·k_f (down), the apparent mass of Sec. V in statics; gravity is
+    counted once whether the accelerometer reports specific force or the driver removes it."""
     scenario = quiet_scenario()
+    scenario.accelerometer.includes_gravity = includes_gravity
     scenario.operator.stiffness, scenario.operator.damping = 2000.0, 40.0  # a firm grip settles fast
     scenario.duration = 0.5
     run = run_teleop(scenario, true_load(scenario), sigma)

@@ -45,7 +45,12 @@ class heft_ft_sample(object):
 
         self.acceleration = [ 0.0 for dim0 in range(6) ]
         """
-        [a; alpha] of S, expressed in S: m/s^2, rad/s^2.
+        What the built-in accelerometer measures, expressed in S: the specific
+        force a - g of S's origin (m/s^2; hanging still it reads 9.81 m/s^2
+        pointing up, NOT zero), then S's angular acceleration alpha (rad/s^2).
+        A driver that already subtracts gravity must be declared as such in the
+        scenario (accelerometer.includes_gravity: false); see
+        heft.systems.accelerometer_reading.
         LCM Type: double[6]
         """
 
