@@ -34,6 +34,9 @@ def _group_alive(group: int) -> bool:
     return True
 
 
+LOGGER_NICENESS = 10
+"""The logger's nice value (lower CPU priority than the controller and the drivers)."""
+
 SYNC_CHANNEL = "HEFT_RECORDER_SYNC"
 """Messages on this channel, published at the start until the log holds one, prove the logger listens."""
 
@@ -55,6 +58,9 @@ class LcmTrafficRecorder:
                                           "--flush-interval=50", str(self.path)],
                                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                                          start_new_session=True)  # its own group: the pip entry point forks
+        # Recording yields the CPU to the loop and the drivers: on a 2-core machine a logger at equal
+        # priority made the drivers miss the watchdog's 20 ms.
+        os.setpriority(os.PRIO_PGRP, self._process.pid, LOGGER_NICENESS)
         import lcm
 
         bus = lcm.LCM(self.lcm_url)
