@@ -236,6 +236,34 @@ def _teleop(args) -> int:
     return 0
 
 
+def _load(args) -> int:
+    from heft.diagrams.simulate import read_load_estimate
+    from heft.hardware_interface.channels import LcmChannels
+    from heft.hardware_interface.load_commands import send_load_command
+
+    chosen = [name for name, given in (("rezero", args.rezero), ("tracking", args.tracking),
+                                       ("estimate", args.estimate)) if given]
+    if len(chosen) != 1:
+        raise ValueError("give exactly one of --rezero, --tracking on|off, --estimate FILE")
+    channels = LcmChannels(lcm_url=args.lcm_url)
+    try:
+        if args.estimate:
+            load = read_load_estimate(args.estimate)
+            answers = send_load_command(args.lcm_url, channels, "new_estimate", load.phi, load.offsets, args.timeout)
+        else:
+            action = "rezero" if args.rezero else f"tracking_{args.tracking}"
+            answers = send_load_command(args.lcm_url, channels, action, timeout=args.timeout)
+    except TimeoutError as error:
+        print(f"heft load: {error}", file=sys.stderr)
+        return 5
+    for answer in answers:
+        print(f"heft load: {answer.message}")
+    final = answers[-1]
+    print("heft load: offsets in use [" + ", ".join(f"{x:.4g}" for x in final.offsets)
+          + f"] (N, N·m); m = {final.phi[0]:.4g} kg; tracking {'on' if final.tracking else 'off'}")
+    return 0 if final.accepted else 4
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="heft",
@@ -347,6 +375,16 @@ def build_parser() -> argparse.ArgumentParser:
     teleop.add_argument("--rt-priority", type=int, default=50,
                         help="SCHED_FIFO priority of the control loop, pinned to the last CPU (default 50; 0: normal)")
     teleop.set_defaults(run=_teleop)
+
+    load = commands.add_parser("load", help="re-zero the sensor, switch offset tracking or change the tool "
+                                            "of a running `heft teleop --hardware`")
+    load.add_argument("--rezero", action="store_true",
+                      help="measure the offsets now (hold the slave still, out of contact)")
+    load.add_argument("--tracking", choices=("on", "off"), help="slow offset tracking at rest")
+    load.add_argument("--estimate", help="a new tool's estimate.yaml from `heft identify`")
+    load.add_argument("--lcm-url", default=default_url, help=f"LCM URL (default {default_url})")
+    load.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for the answers (default 5)")
+    load.set_defaults(run=_load)
     return parser
 
 

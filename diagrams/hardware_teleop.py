@@ -10,7 +10,9 @@ Start-up and recovery never move the slave: the controller starts only when the
 station is healthy (every channel fresh, so the slave's measured position is
 known) and starts again on every recovery, from the slave's measured pose with
 the clutch disengaged; motion follows the stylus only while the operator holds
-the clutch button, anchored on the slave's measured pose at the press.
+the clutch button, anchored on the slave's measured pose at the press. Load
+commands (``heft load``: re-zero, offset tracking, a new tool's estimate) are
+served after each tick's send (``hardware_interface.load_commands``).
 
 ``run_hardware_teleop`` runs it for a while (``diagrams.realtime``) and returns
 what the run saw: faults and recoveries, the master command's largest stylus
@@ -31,6 +33,7 @@ from heft.diagrams.scenario import Scenario
 from heft.diagrams.teleop import LoadEstimate, MakeRealtimeTeleopController
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import WATCHED_CHANNELS, HardwareStation, HardwareStationParams
+from heft.hardware_interface.load_commands import LoadCommandServer
 
 NUM_JOINTS = 6
 
@@ -47,6 +50,7 @@ class HardwareTeleop:
         self.controller = MakeRealtimeTeleopController(
             scenario.controller, load, scenario.robot,
             accelerometer_includes_gravity=scenario.accelerometer.includes_gravity)
+        self.load_commands = LoadCommandServer(bus, channels, self.controller)
         self._zero = np.zeros(NUM_JOINTS)
         self._was_healthy = False
         self._last_position = None
@@ -70,6 +74,7 @@ class HardwareTeleop:
             station.send(now, controller.torque, controller.position)
         else:
             station.send(now, self._zero, None)
+        self.load_commands.serve(round((station.epoch + now) * 1e6), healthy)
         self._observe(now, healthy)
         self._was_healthy = healthy
 
@@ -126,6 +131,8 @@ class HardwareTeleop:
                         "slave_command": self.slave_commands / elapsed},
             "received_hz": {name: count / elapsed for name, count in station.received.items()},
             "ft_dropped": station.ft_dropped,
+            "load_events": [message for _, message in self.load_commands.events],
+            "offsets_final": self.controller.offsets.tolist(),
         }
 
 
@@ -169,5 +176,6 @@ def format_summary(summary: dict) -> str:
         f"master command finite: {summary['master_torque_finite']}; peaks: {summary['master_torque_peak']:.3g} N·m "
         f"joint torque, {summary['stylus_force_peak']:.3g} N / {summary['stylus_torque_peak']:.3g} N·m on the "
         f"stylus; largest slave command step {summary['max_slave_command_step']:.3g} rad",
+        f"load commands: {'; '.join(summary['load_events']) or 'none'}",
         format_timing(summary["timing"]),
     ))

@@ -17,6 +17,7 @@ from pydrake.common.yaml import yaml_load_typed
 from heft.systems.feedback_mapping import FeedbackMappingParams
 from heft.systems.force_scaling import ForceScalingParams
 from heft.systems.motion_scaling import MotionScalingParams
+from heft.systems.offset_tracking import OffsetTrackingParams
 from heft.systems.passivity_controller import PassivityParams
 from heft.systems.sensor_models import AccelerometerParams, ForceTorqueSensorParams
 
@@ -84,6 +85,7 @@ class ControllerSpec:
     force: ForceScalingParams = dataclasses.field(default_factory=ForceScalingParams)
     feedback: FeedbackMappingParams = dataclasses.field(default_factory=FeedbackMappingParams)
     passivity: PassivityParams = dataclasses.field(default_factory=PassivityParams)
+    offsets: OffsetTrackingParams = dataclasses.field(default_factory=OffsetTrackingParams)
     # One-way communication delay (s) between controller and station, in each direction;
     # a whole number of controller periods.
     delay: float = 0.0

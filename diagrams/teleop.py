@@ -21,6 +21,7 @@ from heft.systems.feedback_mapping import FeedbackMapping
 from heft.systems.force_scaling import ForceScalingElimination
 from heft.systems.master_kinematics import MasterKinematics, master_plant
 from heft.systems.motion_scaling import MotionScaling
+from heft.systems.offset_tracking import OffsetTracker
 from heft.systems.passivity_controller import PassivityController
 from heft.systems.realtime_controller import RealtimeTeleopController
 from heft.systems.rx_inverse_kinematics import RxKinematics
@@ -33,7 +34,8 @@ STATION_INPUTS_DRIVEN = ("master.torque_commanded", "slave.position_commanded")
 # Controller outputs logged for analysis (name → size).
 CONTROLLER_LOG = {"log.wrench_feedback": 6, "log.wrench_contact": 6, "log.wrench_noncontact": 6,
                   "log.master_wrench": 6, "log.pose_RS_desired": 7, "log.passivity_energy": 2,
-                  "log.passivity_damping": 2, "log.ik_status": 2, "log.force_fault": 1, "log.scales": 3}
+                  "log.passivity_damping": 2, "log.ik_status": 2, "log.force_fault": 1, "log.scales": 3,
+                  "log.offsets": 6, "log.rezero_status": 1}
 
 
 @dataclasses.dataclass
@@ -70,7 +72,7 @@ def MakeRealtimeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot
     real-time loop (``systems.realtime_controller``): same models, same parameters."""
     slave, kinematics, X_FS = _slave_ik_model(robot)
     return RealtimeTeleopController(_master_model(), slave, f"{robot}_base", kinematics, X_FS, load.phi, load.offsets,
-                                    spec.motion, spec.force, spec.feedback, spec.passivity,
+                                    spec.motion, spec.force, spec.feedback, spec.passivity, spec.offsets,
                                     accelerometer_includes_gravity)
 
 
@@ -81,7 +83,8 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     (``accelerometer_reading``; the scenario's ``accelerometer.includes_gravity``).
 
     Inputs: the station outputs ``STATION_OUTPUTS_READ``; ``clutch`` (1, > 0.5 engaged);
-    optional ``sigma``, ``gamma``, ``eta`` (1 each; unconnected → ``spec.force``'s values).
+    optional ``sigma``, ``gamma``, ``eta`` (1 each; unconnected → ``spec.force``'s values) and
+    ``rezero`` (1, a request counter: ``OffsetTracker``).
     Outputs: ``master.torque_commanded`` (6, N·m), ``slave.position_commanded`` (6, rad),
     and the ``CONTROLLER_LOG`` signals. The slave's tool frame T of the motion mapping is S.
     """
@@ -99,7 +102,7 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     passivity = builder.AddNamedSystem("passivity", PassivityController(
         dataclasses.replace(spec.passivity, **rate), spec.feedback.max_force, spec.feedback.max_torque))
     phi = builder.AddNamedSystem("phi_hat", ConstantVectorSource(np.asarray(load.phi, dtype=float)))
-    offsets = builder.AddNamedSystem("offsets_hat", ConstantVectorSource(np.asarray(load.offsets, dtype=float)))
+    offsets = builder.AddNamedSystem("offsets_hat", OffsetTracker(load.offsets, spec.offsets, period))
 
     def export_input(name, *ports):
         builder.ExportInput(ports[0], name)
@@ -110,12 +113,14 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     export_input("master.velocity_estimated", passivity.GetInputPort("velocity"))
     export_input("slave.position_measured", slave_kinematics.GetInputPort("position"),
                  ik.GetInputPort("position_measured"))
-    export_input("slave.velocity_estimated", slave_kinematics.GetInputPort("velocity"))
+    export_input("slave.velocity_estimated", slave_kinematics.GetInputPort("velocity"),
+                 offsets.GetInputPort("slave_velocity"))
     export_input("ft.wrench_measured", force.GetInputPort("wrench"))
     export_input("ft.acceleration_measured", force.GetInputPort("acceleration"))
     export_input("clutch", motion.GetInputPort("clutch"))
     for name in ("sigma", "gamma", "eta"):
         export_input(name, force.GetInputPort(name))
+    export_input("rezero", offsets.GetInputPort("rezero"))
 
     connect = builder.Connect
     connect(master_kinematics.GetOutputPort("pose_BE"), motion.GetInputPort("pose_BE"))
@@ -124,7 +129,9 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     connect(slave_kinematics.GetOutputPort("omega_S"), force.GetInputPort("omega"))
     connect(slave_kinematics.GetOutputPort("gravity_S"), force.GetInputPort("gravity"))
     connect(phi.get_output_port(), force.GetInputPort("phi"))
-    connect(offsets.get_output_port(), force.GetInputPort("offsets"))
+    connect(offsets.GetOutputPort("offsets"), force.GetInputPort("offsets"))
+    connect(force.GetOutputPort("wrench_contact"), offsets.GetInputPort("wrench_contact"))
+    connect(force.GetOutputPort("fault"), offsets.GetInputPort("fault"))
     connect(force.GetOutputPort("wrench_feedback"), feedback.GetInputPort("wrench_S"))
     connect(slave_kinematics.GetOutputPort("pose_RS"), feedback.GetInputPort("pose_RS"))
     connect(master_kinematics.GetOutputPort("jacobian"), feedback.GetInputPort("jacobian"))
@@ -142,7 +149,9 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
                        ("log.passivity_damping", passivity.GetOutputPort("damping")),
                        ("log.ik_status", ik.GetOutputPort("status")),
                        ("log.force_fault", force.GetOutputPort("fault")),
-                       ("log.scales", force.GetOutputPort("scales"))):
+                       ("log.scales", force.GetOutputPort("scales")),
+                       ("log.offsets", offsets.GetOutputPort("offsets")),
+                       ("log.rezero_status", offsets.GetOutputPort("rezero_status"))):
         builder.ExportOutput(port, name)
     diagram = builder.Build()
     diagram.set_name("teleop_controller")

@@ -14,7 +14,7 @@ import dataclasses
 
 @dataclasses.dataclass
 class LcmChannel:
-    """One channel: its name and the rate its publisher nominally runs at (Hz)."""
+    """One channel: its name and the rate its publisher nominally runs at (Hz; 0: sent on request)."""
 
     name: str
     rate: float
@@ -43,3 +43,9 @@ class LcmChannels:
     ft_sample: LcmChannel = dataclasses.field(
         default_factory=lambda: LcmChannel("HEFT_FT_SAMPLE", 8000.0))
     """heft_ft_sample from the JR3 driver (the paper samples up to 8 kHz)."""
+    load_command: LcmChannel = dataclasses.field(
+        default_factory=lambda: LcmChannel("HEFT_LOAD_COMMAND", 0.0))
+    """heft_load_command from the operator (``heft load``); sent on request (rate 0)."""
+    load_status: LcmChannel = dataclasses.field(
+        default_factory=lambda: LcmChannel("HEFT_LOAD_STATUS", 0.0))
+    """heft_load_status from the controller, answering each command and each re-zero's end."""

@@ -35,6 +35,7 @@ from heft.systems.force_scaling import (
 )
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, pose_and_jacobian
 from heft.systems.motion_scaling import IDENTITY_POSE, MotionScalingParams, motion_scaling_update
+from heft.systems.offset_tracking import OFFSETS, STATUS, TRACKING, OffsetTrackingParams, initial_state, offsets_update
 from heft.systems.passivity_controller import PassivityParams, master_torque
 from heft.systems.pose_vectors import pose_vector
 from heft.systems.rx_inverse_kinematics import RxKinematics
@@ -63,8 +64,9 @@ class RealtimeTeleopController:
 
     def __init__(self, master: MultibodyPlant, slave: MultibodyPlant, base_frame: str, kinematics: RxKinematics,
                  X_FS: RigidTransform, phi, offsets, motion: MotionScalingParams, force: ForceScalingParams,
-                 feedback: FeedbackMappingParams, passivity: PassivityParams, accelerometer_includes_gravity: bool):
-        for params in (motion, force, feedback, passivity):
+                 feedback: FeedbackMappingParams, passivity: PassivityParams, offsets_tracking: OffsetTrackingParams,
+                 accelerometer_includes_gravity: bool):
+        for params in (motion, force, feedback, passivity, offsets_tracking):
             params.validate()
         phi, offsets = np.asarray(phi, dtype=float), np.asarray(offsets, dtype=float)
         if phi.shape != (10,) or offsets.shape != (6,):
@@ -77,7 +79,11 @@ class RealtimeTeleopController:
         self._g_R = np.array(GRAVITY_R)
         X_SF = X_FS.inverse()
         self._kinematics, self._R_SF, self._p_SF = kinematics, X_SF.rotation().matrix(), X_SF.translation()
-        self._phi, self._offsets = phi, offsets
+        self._phi = phi.copy()
+        self._offset_params = offsets_tracking
+        self._offset_state = initial_state(offsets, offsets_tracking)
+        self._offsets = self._offset_state[OFFSETS]  # a view: updated in place by offsets_update
+        self._rezero_requests = 0
         self._phi_gripper = None if force.phi_gripper is None else np.array(force.phi_gripper, dtype=float)
         self._motion, self._force, self._feedback = motion, force, feedback
         self._R_RB_motion = RotationMatrix(RollPitchYaw(motion.R_RB)).matrix()
@@ -145,6 +151,8 @@ class RealtimeTeleopController:
                  self._includes_gravity)
         next_memory_and_scales(self._force_memory, self.scales, evaluation[FEEDBACK], self._requested,
                                force.slew_rate * dt)
+        offsets_update(self._offset_state, evaluation[CONTACT], evaluation[FAULT] > 0.5, slave_velocity, dt,
+                       self._offset_params, self._rezero_requests)
         feedback = self._feedback
         self.master_wrench = rendered_wrench(evaluation[FEEDBACK], self._R_BR @ R_RS, feedback.force_scale,
                                              feedback.torque_scale, feedback.max_force, feedback.max_torque)
@@ -167,4 +175,41 @@ class RealtimeTeleopController:
     @property
     def force_fault(self) -> bool:
         return self._evaluation[FAULT] > 0.5
+
+    # --- the load model at run time (offset_tracking) ----------------------------------
+
+    @property
+    def phi(self) -> np.ndarray:
+        """φ̂ in use (10; Eq. 6)."""
+        return self._phi
+
+    @property
+    def offsets(self) -> np.ndarray:
+        """The offsets in use (6; N, N·m), tracked and re-zeroed as ``offset_tracking`` describes."""
+        return self._offsets
+
+    @property
+    def rezero_status(self) -> int:
+        """The re-zero status code (``offset_tracking.STATUS_TEXT``)."""
+        return int(self._offset_state[STATUS])
+
+    @property
+    def tracking(self) -> bool:
+        return bool(self._offset_state[TRACKING] > 0.5)
+
+    def request_rezero(self) -> None:
+        """Starts a re-zero at the next step (refused there if the slave moves or touches)."""
+        self._rezero_requests += 1
+
+    def set_tracking(self, on: bool) -> None:
+        self._offset_state[TRACKING] = 1.0 if on else 0.0
+
+    def set_load(self, phi, offsets) -> None:
+        """A new tool: φ̂ (10) and offsets (6) from the next step on (checked as at the start).
+        Raises ValueError, changing nothing, unless both are finite with those sizes."""
+        phi, offsets = np.asarray(phi, dtype=float), np.asarray(offsets, dtype=float)
+        if phi.shape != (10,) or offsets.shape != (6,) or not (np.isfinite(phi).all() and np.isfinite(offsets).all()):
+            raise ValueError(f"a load needs 10 finite φ entries and 6 finite offsets; got {phi} and {offsets}")
+        self._phi[:] = phi
+        self._offsets[:] = offsets
 

@@ -17,6 +17,9 @@ from heft.diagrams.stand_in import FaultInjection, StandIn
 from heft.diagrams.hardware_teleop import HardwareTeleop
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import HardwareStationParams
+from heft.hardware_interface.lcmtypes import heft_load_command, heft_load_status
+from heft.diagrams.teleop import LoadEstimate
+from heft.systems.offset_tracking import DONE, REFUSED_MOVING
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant, stylus_jacobian
 
 PERIOD = 0.0005
@@ -28,7 +31,7 @@ class Lab:
     """Stand-in and controller on one memq:// bus, ticking together every ``PERIOD`` s."""
 
     def __init__(self, scenario: Scenario, faults=None, clutch_at=np.inf, load=None):
-        bus = lcm.LCM("memq://")
+        bus = self.bus = lcm.LCM("memq://")
         self.stand_in = StandIn(scenario, bus, LcmChannels(), faults or FaultInjection(), clutch_at=clutch_at)
         self.teleop = HardwareTeleop(scenario, load or true_load(scenario)[0], bus, LcmChannels())
         self.now = 0.0
@@ -107,6 +110,72 @@ def test_a_tool_hanging_still_is_weighed_once(sigma):
     expected = -sigma * load.phi[0] * 9.81 * scenario.controller.feedback.force_scale
     assert abs(expected) < MAX_FORCE  # not clamped: the test sees the law
     np.testing.assert_allclose(settled[:3], [0.0, 0.0, expected], atol=0.05)
+
+
+def still_lab(load_of, clutch_at=np.inf, amplitude=0.0):
+    """fig6 with σ = 0, no white noise nor accelerometer bias, the operator's hand at rest (or
+    moving by ``amplitude`` m), the controller given ``load_of(true load)`` and no offset
+    tracking; answers on the load status channel are kept."""
+    scenario = resolve_scenario("fig6")
+    scenario.operator.amplitude = [0.0, 0.0, amplitude]
+    scenario.ft_sensor.white_noise = scenario.accelerometer.white_noise = False
+    scenario.accelerometer.offsets = False  # its bias would weigh m·b on the force (0.4 N): not this test's subject
+    scenario.controller.force.sigma = 0.0
+    scenario.controller.offsets.tracking = False
+    true = true_load(scenario)[0]
+    lab = Lab(scenario, load=load_of(true), clutch_at=clutch_at)
+    lab.answers = []
+    lab.bus.subscribe(LcmChannels().load_status.name,
+                      lambda _, payload: lab.answers.append(heft_load_status.decode(payload)))
+    return lab, true, scenario
+
+
+def send(lab, action, phi=(0.0,) * 10, offsets=(0.0,) * 6):
+    command = heft_load_command()
+    command.utime, command.action, command.phi, command.offsets = round(lab.now * 1e6) + 1, action, phi, offsets
+    lab.bus.publish(LcmChannels().load_command.name, command.encode())
+
+
+def stylus_force(lab) -> float:
+    return float(np.linalg.norm(np.array(lab.stylus_wrenches[-100:]).mean(axis=0)[:3]))
+
+
+def test_a_new_tool_estimate_takes_effect_without_a_restart():
+    """The controller starts with φ̂ = 0, so σ = 0 still renders the whole weight; a new estimate
+    sent over LCM makes it vanish within the tick, and the answer says so."""
+    lab, true, scenario = still_lab(lambda true: LoadEstimate(phi=np.zeros(10), offsets=true.offsets))
+    lab.run(0.3)
+    weight = true.phi[0] * 9.81 * scenario.controller.feedback.force_scale
+    assert stylus_force(lab) == pytest.approx(weight, rel=0.01)
+    send(lab, heft_load_command.NEW_ESTIMATE, true.phi.tolist(), true.offsets.tolist())
+    lab.run(0.1)
+    assert stylus_force(lab) < 0.01 * weight
+    assert [a.accepted for a in lab.answers] == [True] and "new estimate in use" in lab.answers[0].message
+    np.testing.assert_allclose(lab.answers[0].phi, true.phi)
+    assert lab.teleop.station.healthy and len(lab.teleop.faults) == 0
+
+
+def test_rezero_over_lcm_measures_the_offsets_and_refuses_while_moving():
+    """Offsets 3 N off on f_z: the operator feels 3 N·k_f at rest; a re-zero sent over LCM measures
+    them (to the sensor's own offsets) and the force goes; asked while the slave moves, it is refused."""
+    wrong = np.array([0.0, 0.0, 3.0, 0.0, 0.0, 0.0])
+    lab, true, scenario = still_lab(lambda true: LoadEstimate(phi=true.phi, offsets=true.offsets + wrong))
+    lab.run(0.3)
+    assert stylus_force(lab) == pytest.approx(3.0 * scenario.controller.feedback.force_scale, rel=0.02)
+    send(lab, heft_load_command.REZERO)
+    lab.run(0.7)
+    assert [a.accepted for a in lab.answers] == [True, True]
+    assert lab.answers[-1].rezero_status == DONE
+    # To the sensor's resolution (one JR3 count is 12 mN, 0.7 mN·m) and its offsets' wander.
+    np.testing.assert_allclose(lab.answers[-1].offsets, lab.stand_in.offsets, atol=0.02)
+    assert stylus_force(lab) < 0.03 * 3.0 * scenario.controller.feedback.force_scale
+
+    moving, _, _ = still_lab(lambda true: true, clutch_at=0.0, amplitude=0.05)
+    moving.run(0.4)
+    send(moving, heft_load_command.REZERO)
+    moving.run(0.3)
+    assert [a.accepted for a in moving.answers] == [True, False]
+    assert moving.answers[-1].rezero_status == REFUSED_MOVING and "hold it still" in moving.answers[-1].message
 
 
 def test_with_the_clutch_held_the_slave_moves_by_the_scaled_stylus_motion():

@@ -1,7 +1,7 @@
 """The one-computation-per-tick controller against the per-block Diagram it stands for.
 
 Both get the same input sequence — the stylus moving, the clutch released and
-re-engaged, a contact, a NaN sensor sample — tick by tick; the master torque and
+re-engaged, a contact, a NaN sensor sample, the slave at rest and a re-zero — tick by tick; the master torque and
 every logged signal agree at the same tick, the slave command one tick earlier
 (systems.realtime_controller explains why)."""
 
@@ -11,34 +11,40 @@ from pydrake.systems.analysis import Simulator
 
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.simulate import true_load
-from heft.systems.force_scaling import ForceScalingParams, decay_factor
+from heft.systems.offset_tracking import COLLECTING, DONE
 from heft.diagrams.teleop import MakeRealtimeTeleopController, MakeTeleopController
 
-TICKS = 400
+TICKS = 440
 FAULT_TICK = 300
+REST_TICK = 320    # the slave stands still from here on, out of contact
+REZERO_TICK = 330  # a re-zero is requested here; its window is 40 ticks
+FEEDTHROUGH = ("log.wrench_feedback", "log.wrench_contact", "log.master_wrench")
 PERIOD = Scenario().controller_period
 
 
 def input_sequence(scenario: Scenario, period: float) -> list[dict]:
     """Station readings for ``TICKS`` ticks: smooth master and slave motion, the load's weight
-    with a contact from tick 150, the clutch released over ticks 200–259, NaN at tick 300."""
+    with a contact over ticks 150–319, the clutch released over ticks 200–259, NaN at tick 300,
+    the slave at rest from ``REST_TICK``, a re-zero requested at ``REZERO_TICK``."""
     rng = np.random.default_rng(7)
     q_M0, q_S0 = np.array(scenario.master_initial_q), np.array(scenario.slave_initial_q)
     w_M, w_S = rng.uniform(-1, 1, 6), rng.uniform(-0.5, 0.5, 6)
     sequence = []
     for k in range(TICKS):
         t = k * period
-        wrench = np.array([0.3, -0.2, 30.7, 0.05, -0.1, 0.02]) + (k >= 150) * np.array([0, 0, 5.0, 0.2, 0, 0])
+        wrench = np.array([0.3, -0.2, 30.7, 0.05, -0.1, 0.02]) + (150 <= k < REST_TICK) * np.array([0, 0, 5.0, 0.2, 0, 0])
         if k == FAULT_TICK:
             wrench = np.full(6, np.nan)
+        slave_t = min(t, REST_TICK * period)
         sequence.append({
             "master.position_measured": q_M0 + 0.2 * np.sin(w_M * t * 10),
             "master.velocity_estimated": 2.0 * w_M * np.cos(w_M * t * 10),
-            "slave.position_measured": q_S0 + 0.05 * np.sin(w_S * t * 10),
-            "slave.velocity_estimated": 0.5 * w_S * np.cos(w_S * t * 10),
+            "slave.position_measured": q_S0 + 0.05 * np.sin(w_S * slave_t * 10),
+            "slave.velocity_estimated": 0.5 * w_S * np.cos(w_S * t * 10) * (k < REST_TICK),
             "ft.wrench_measured": wrench,
             "ft.acceleration_measured": np.array([0.1, 0.0, 0.3, 0.5, -0.2, 0.1]) * np.sin(5 * t),
-            "clutch": np.array([0.0 if 200 <= k < 260 else 1.0]),
+            "clutch": np.array([0.0 if 200 <= k < 260 or k >= REST_TICK else 1.0]),
+            "rezero": np.array([float(k >= REZERO_TICK)]),
         })
     return sequence
 
@@ -48,6 +54,10 @@ def both_runs():
     scenario = Scenario()
     scenario.controller.motion.translation_scale = 2.0
     scenario.controller.force.sigma = 0.5
+    offsets = scenario.controller.offsets
+    offsets.rezero_window = 40 * PERIOD
+    # The sequence's wrench is not a load at rest; wide gates let the re-zero and tracking run.
+    offsets.rezero_force = offsets.rezero_torque = offsets.track_force = offsets.track_torque = 1e3
     load, _ = true_load(scenario)
     period = PERIOD
     sequence = input_sequence(scenario, period)
@@ -62,16 +72,20 @@ def both_runs():
             diagram.GetInputPort(name).FixValue(context, value)
         if k == 0:
             simulator.Initialize()
+        # What tick k computes from its inputs and the state it starts with (feedthrough outputs) …
+        used = {name: diagram.GetOutputPort(name).Eval(context).copy() for name in FEEDTHROUGH}
         simulator.AdvanceTo((k + 1) * period)  # runs the update of tick k on these inputs
-        blocks.append({name: diagram.GetOutputPort(name).Eval(context).copy() for name in (
-            "master.torque_commanded", "slave.position_commanded", "log.wrench_feedback", "log.wrench_contact",
-            "log.master_wrench", "log.pose_RS_desired", "log.passivity_energy", "log.passivity_damping",
-            "log.scales")})
+        # … and the state its update leaves.
+        blocks.append(used | {name: diagram.GetOutputPort(name).Eval(context).copy() for name in (
+            "master.torque_commanded", "slave.position_commanded", "log.pose_RS_desired", "log.passivity_energy",
+            "log.passivity_damping", "log.scales", "log.offsets", "log.rezero_status")})
 
     fused = MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, accelerometer_includes_gravity=True)
     fused.start(sequence[0]["slave.position_measured"])
     steps = []
-    for inputs in sequence:
+    for k, inputs in enumerate(sequence):
+        if k == REZERO_TICK:
+            fused.request_rezero()
         fused.step(period, *(inputs[name] for name in (
             "master.position_measured", "master.velocity_estimated", "slave.position_measured",
             "slave.velocity_estimated", "ft.wrench_measured", "ft.acceleration_measured")),
@@ -80,23 +94,20 @@ def both_runs():
                       "log.wrench_feedback": fused.wrench_feedback.copy(), "log.wrench_contact":
                       fused.wrench_contact.copy(), "log.master_wrench": fused.master_wrench.copy(),
                       "log.pose_RS_desired": fused.pose_RS_desired.copy(), "log.passivity_energy": fused.energy.copy(),
-                      "log.passivity_damping": fused.damping.copy(), "log.scales": fused.scales.copy()})
+                      "log.passivity_damping": fused.damping.copy(), "log.scales": fused.scales.copy(),
+                      "log.offsets": fused.offsets.copy(), "log.rezero_status": [fused.rezero_status]})
     return blocks, steps
 
 
 @pytest.mark.parametrize("name", ["master.torque_commanded", "log.wrench_feedback", "log.wrench_contact",
                                   "log.master_wrench", "log.pose_RS_desired", "log.passivity_energy",
-                                  "log.passivity_damping", "log.scales"])
+                                  "log.passivity_damping", "log.scales", "log.offsets", "log.rezero_status"])
 def test_same_tick_signals_equal_the_per_block_diagram(both_runs, name):
     blocks, steps = both_runs
     expected = np.array([b[name] for b in blocks])
     actual = np.array([s[name] for s in steps])
     if name == "log.pose_RS_desired":  # a quaternion and its negative are the same rotation
         actual[:, 3:] *= np.sign(np.sum(actual[:, 3:] * expected[:, 3:], axis=1, keepdims=True))
-    if name in ("log.wrench_feedback", "log.master_wrench"):
-        # Read after the update, the Diagram's f′ of a faulted tick is evaluated with the memory
-        # that update stored, one more decay than the f′ the tick used (and the torque shows).
-        actual[FAULT_TICK] *= decay_factor(PERIOD, ForceScalingParams().fault_decay_time)
     np.testing.assert_allclose(actual, expected, rtol=1e-9, atol=1e-9)
 
 
@@ -116,6 +127,11 @@ def test_the_sequence_exercises_contact_clutch_and_fault(both_runs):
     assert np.all(contact[FAULT_TICK] == 0.0)
     desired = np.array([s["log.pose_RS_desired"] for s in steps])
     np.testing.assert_array_equal(desired[200:260], np.repeat(desired[199:200], 60, axis=0))
+    status = np.array([s["log.rezero_status"][0] for s in steps])
+    assert status[REZERO_TICK] == COLLECTING and status[-1] == DONE
+    offsets = np.array([s["log.offsets"] for s in steps])
+    assert np.abs(offsets[-1] - offsets[REZERO_TICK]).max() > 0.1, "the re-zero should move the offsets"
+    assert np.abs(offsets[-1] - offsets[-30]).max() > 0, "tracking should run at rest after the re-zero"
 
 
 def test_step_before_start_is_refused():

@@ -132,3 +132,38 @@ def test_restarted_stand_in_recovers_without_a_jump(netns, tmp_path):
     # A tick moves the command by at most the speed limit × its measured duration, which the
     # watchdog caps at its timeout (a longer gap is a stall: the command then holds).
     assert summary["max_slave_command_step"] <= max(params.slave_velocity_limits) * params.watchdog.timeout
+
+
+def test_tool_change_and_rezero_reach_the_running_controller(netns, tmp_path):
+    """A third process, `heft load`, gives the running controller a new tool's estimate and then
+    re-zeroes the offsets (the clutch never pressed, so the slave is still), each answered over
+    LCM; the controller never restarts."""
+    from heft.diagrams.simulate import resolve_scenario, true_load
+
+    true = true_load(resolve_scenario("fig6"))[0]
+    estimate = tmp_path / "estimate.yaml"
+    estimate.write_text(f"phi: {true.phi.tolist()}\noffsets: {true.offsets.tolist()}\n")
+    out = tmp_path / "teleop.json"
+    teleop = _Process(netns, tmp_path, "teleop", "teleop", "--hardware", "--lcm-url", LCM_URL, "--duration", "8",
+                      "--out", str(out))
+    processes = [teleop]
+    try:
+        teleop.wait_for("teleop: controller on")
+        processes.append(_Process(netns, tmp_path, "stand_in", "stand-in", "--scenario", "fig6", "--lcm-url", LCM_URL,
+                                  "--duration", "1000", "--clutch-at", "1000"))  # the slave stays still
+        time.sleep(3.0)  # start-up of both and a healthy station
+        change = _Process(netns, tmp_path, "load_estimate", "load", "--lcm-url", LCM_URL, "--estimate", str(estimate))
+        processes.append(change)
+        assert change.wait(timeout=30) == 0, change.text()
+        assert "new estimate in use: m = 3.13 kg" in change.text(), change.text()
+        rezero = _Process(netns, tmp_path, "load_rezero", "load", "--lcm-url", LCM_URL, "--rezero")
+        processes.append(rezero)
+        assert rezero.wait(timeout=30) == 0, rezero.text()
+        assert "re-zeroed" in rezero.text(), rezero.text()
+        print(change.text(), rezero.text())
+        assert teleop.wait() == 0, teleop.text()
+        summary = json.loads(out.read_text())
+        assert summary["load_events"][0].startswith("new estimate in use") and "re-zeroed" in summary["load_events"][-1]
+    finally:
+        for process in processes:
+            process.stop()

@@ -7,3 +7,5 @@ lcm-gen 1.5.3
 from .heft_ft_sample import heft_ft_sample as heft_ft_sample
 from .heft_haptic_command import heft_haptic_command as heft_haptic_command
 from .heft_haptic_state import heft_haptic_state as heft_haptic_state
+from .heft_load_command import heft_load_command as heft_load_command
+from .heft_load_status import heft_load_status as heft_load_status

@@ -1,0 +1,122 @@
+"""The running controller's load model over LCM: re-zero, offset tracking, tool change.
+
+``LoadCommandServer`` (in the controller's process) takes ``heft_load_command``
+messages once per tick and answers each with a ``heft_load_status``; it also
+publishes one when a re-zero finishes or is refused. ``send_load_command`` (in
+``heft load``) sends one command and waits for the answers.
+"""
+
+from __future__ import annotations
+
+import select
+import time
+
+import lcm
+import numpy as np
+
+from heft.systems.offset_tracking import COLLECTING, DONE, IDLE, STATUS_TEXT
+
+from .channels import LcmChannels
+from .lcm_mailbox import LcmMailbox
+from .lcmtypes import heft_load_command, heft_load_status
+
+ACTIONS = {"rezero": heft_load_command.REZERO, "tracking_on": heft_load_command.TRACKING_ON,
+           "tracking_off": heft_load_command.TRACKING_OFF, "new_estimate": heft_load_command.NEW_ESTIMATE}
+"""The actions by name (``heft load``'s)."""
+
+
+class LoadCommandServer:
+    """Serves load commands to ``controller`` (a ``RealtimeTeleopController``) on ``bus``.
+
+    ``serve(now_utime, healthy)`` once per tick: carries out every command that arrived and
+    answers it; a re-zero is refused while the station is not healthy (the controller is
+    not stepping). ``events`` lists what happened (utime, message) for the run's summary."""
+
+    def __init__(self, bus: lcm.LCM, channels: LcmChannels, controller):
+        self._bus, self._channel, self._controller = bus, channels.load_status.name, controller
+        self._mail = LcmMailbox(bus, channels.load_command.name, keep=16)
+        self._status = controller.rezero_status
+        self._rezero_command = 0
+        self.events: list[tuple[int, str]] = []
+
+    def serve(self, now_utime: int, healthy: bool) -> None:
+        for payload in self._mail.take():
+            try:
+                command = heft_load_command.decode(payload)
+            except ValueError:
+                self._answer(now_utime, 0, False, "a message on the load command channel is not a heft_load_command")
+                continue
+            accepted, message = self._apply(command, healthy)
+            self._answer(now_utime, command.utime, accepted, message)
+        status = self._controller.rezero_status
+        if status != self._status:
+            self._status = status
+            if status not in (IDLE, COLLECTING):
+                self._answer(now_utime, self._rezero_command, status == DONE, STATUS_TEXT[status])
+
+    def _apply(self, command, healthy: bool) -> tuple[bool, str]:
+        controller = self._controller
+        if command.action == heft_load_command.REZERO:
+            if not healthy:
+                return False, "re-zero refused: the station is not healthy (forces off); ask again once it is"
+            controller.request_rezero()
+            self._rezero_command = command.utime
+            return True, STATUS_TEXT[COLLECTING]
+        if command.action in (heft_load_command.TRACKING_ON, heft_load_command.TRACKING_OFF):
+            on = command.action == heft_load_command.TRACKING_ON
+            controller.set_tracking(on)
+            return True, f"offset tracking {'on' if on else 'off'}"
+        if command.action == heft_load_command.NEW_ESTIMATE:
+            try:
+                controller.set_load(command.phi, command.offsets)
+            except ValueError as error:
+                return False, f"new estimate refused: {error}"
+            return True, f"new estimate in use: m = {controller.phi[0]:.4g} kg"
+        return False, (f"unknown load action {command.action}; "
+                       f"send one of {', '.join(f'{v} ({k})' for k, v in ACTIONS.items())}")
+
+    def _answer(self, now_utime: int, command_utime: int, accepted: bool, message: str) -> None:
+        controller = self._controller
+        status = heft_load_status()
+        status.utime, status.command_utime, status.accepted, status.message = (
+            now_utime, command_utime, accepted, message)
+        status.rezero_status, status.tracking = controller.rezero_status, controller.tracking
+        status.phi, status.offsets = controller.phi.tolist(), controller.offsets.tolist()
+        self._bus.publish(self._channel, status.encode())
+        self.events.append((now_utime, message))
+
+
+def send_load_command(lcm_url: str, channels: LcmChannels, action: str, phi=None, offsets=None,
+                      timeout: float = 2.0) -> list[heft_load_status]:
+    """Sends one ``action`` (a key of ``ACTIONS``; "new_estimate" with ``phi`` (10) and
+    ``offsets`` (6)) and returns the controller's answers: the first, and for a started
+    re-zero also its outcome. Raises TimeoutError if they do not come within ``timeout`` s."""
+    if action not in ACTIONS:
+        raise ValueError(f"unknown action {action!r}; one of {', '.join(ACTIONS)}")
+    bus = lcm.LCM(lcm_url)
+    command = heft_load_command()
+    command.utime, command.action = round(time.time() * 1e6), ACTIONS[action]
+    if action == "new_estimate":
+        command.phi = np.asarray(phi, dtype=float).tolist()
+        command.offsets = np.asarray(offsets, dtype=float).tolist()
+    answers = []
+
+    def on_status(_channel, payload):
+        status = heft_load_status.decode(payload)
+        if status.command_utime == command.utime:
+            answers.append(status)
+
+    bus.subscribe(channels.load_status.name, on_status)
+    bus.publish(channels.load_command.name, command.encode())
+    expected = 2 if action == "rezero" else 1  # a started re-zero is answered again when it ends
+    deadline = time.monotonic() + timeout
+    while True:
+        if answers and (len(answers) >= expected or not answers[-1].accepted):
+            return answers
+        remaining = deadline - time.monotonic()
+        if remaining <= 0:
+            raise TimeoutError(f"no answer from the controller on {channels.load_status.name} within {timeout} s: "
+                               f"is `heft teleop --hardware` running on {lcm_url}?" if not answers else
+                               f"the re-zero did not finish within {timeout} s")
+        if select.select([bus.fileno()], [], [], remaining)[0]:
+            bus.handle()
