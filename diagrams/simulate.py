@@ -98,7 +98,7 @@ def run_teleop(scenario: Scenario, load: LoadEstimate, sigma: float, label: str 
     data["master_force"] = data.pop("master_wrench")
     data["phi_true"] = np.asarray(phi_true).copy()
     data["phi_hat"] = np.asarray(load.phi, dtype=float)
-    data["offsets_hat"] = np.asarray(load.offsets, dtype=float)
+    data["offsets_hat"] = data.pop("offsets")  # (N, 6): the estimate at start, then tracked
     data["sigma"] = np.array(sigma)
     data["realtime_factor"] = np.array(scenario.duration / wall)
     return data
