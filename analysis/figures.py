@@ -1,11 +1,8 @@
 """Figures in the layout of the paper's Figs. 6–8."""
 
-import matplotlib
+from heft.analysis.plotting import plt
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-from heft.analysis.experiment_metrics import plotted_axis  # noqa: E402
+from heft.analysis.experiment_metrics import plotted_axis
 
 AXIS_NAMES = ("f_x", "f_y", "f_z", "τ_x", "τ_y", "τ_z")
 

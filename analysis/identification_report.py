@@ -1,12 +1,9 @@
 """How good an inertial-parameter estimate is, against a known truth."""
 
-import matplotlib
+from heft.analysis.plotting import plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from heft.systems.load_dynamics import inertia_matrix  # noqa: E402
+from heft.systems.load_dynamics import inertia_matrix
 
 
 def estimate_errors(phi, offsets, phi_true, offsets_true) -> dict:

@@ -44,10 +44,7 @@ import dataclasses
 import math
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
+from heft.analysis.plotting import plt
 import numpy as np
 from heft.analysis.stability import llewellyn_absolutely_stable
 from heft.systems.setpoint_filter import critically_damped_step_matrices

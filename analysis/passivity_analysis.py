@@ -12,11 +12,8 @@ it ≥ 0 at all times.
 The log carries no twist: pass one, e.g. ``stylus_twist(jacobians, log["master_v"])``.
 """
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from heft.analysis.plotting import plt
+import numpy as np
 
 CHANNELS = ("translational", "rotational")
 

@@ -12,10 +12,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
+from heft.analysis.plotting import plt
 
 VERDICT_COLOURS = {"decaying": "tab:green", "sustained": "tab:orange", "growing": "tab:red"}
 LOG_SCALED = ("stiffness", "force_scale", "damping")

@@ -23,21 +23,18 @@ import dataclasses
 import json
 from pathlib import Path
 
-import matplotlib
+from heft.analysis.plotting import plt
+import numpy as np
+from pydrake.math import RollPitchYaw, RotationMatrix
+from pydrake.multibody.plant import MultibodyPlant
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from pydrake.math import RollPitchYaw, RotationMatrix  # noqa: E402
-from pydrake.multibody.plant import MultibodyPlant  # noqa: E402
-
-from heft.analysis.apparent_mass import estimate_apparent_mass, fit_apparent_mass, hand_mass  # noqa: E402
-from heft.diagrams.models import model_path  # noqa: E402
-from heft.diagrams.scenario import Scenario  # noqa: E402
-from heft.diagrams.sim_station import AddArmWithSensor  # noqa: E402
-from heft.diagrams.simulate import run_teleop, true_load  # noqa: E402
-from heft.diagrams.teleop import LoadEstimate  # noqa: E402
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant  # noqa: E402
+from heft.analysis.apparent_mass import estimate_apparent_mass, fit_apparent_mass, hand_mass
+from heft.diagrams.models import model_path
+from heft.diagrams.scenario import Scenario
+from heft.diagrams.sim_station import AddArmWithSensor
+from heft.diagrams.simulate import run_teleop, true_load
+from heft.diagrams.teleop import LoadEstimate
+from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant
 
 SETTLE_TIME = 0.25
 """Time (s) after the operator starts moving that the fits leave out (the start transient)."""

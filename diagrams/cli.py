@@ -12,8 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
+from heft.hardware_interface.channels import LcmChannels
 
-DEFAULT_LCM_URL = "udpm://239.255.76.67:7667?ttl=0"
+
+DEFAULT_LCM_URL = LcmChannels.lcm_url
 """Multicast that cannot leave the machine (ttl=0); the lab's drivers use the same."""
 
 

@@ -34,8 +34,8 @@ from heft.diagrams.teleop import LoadEstimate, MakeRealtimeTeleopController
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import WATCHED_CHANNELS, HardwareStation, HardwareStationParams
 from heft.hardware_interface.load_commands import LoadCommandServer
+from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
-NUM_JOINTS = 6
 
 
 class HardwareTeleop:

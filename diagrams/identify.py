@@ -28,7 +28,7 @@ from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.estimators import (
     METHODS, NoiseLevels, RecursiveInstrumentalVariables, RecursiveLeastSquares, RecursiveTotalLeastSquares,
     batch_estimate, feed)
-from heft.systems.load_dynamics import InertialParameters
+from heft.systems.load_dynamics import GRAVITY_W, InertialParameters
 from heft.systems.excitation import ExcitationSettings, JointLimits, SensorFrameMotion, optimize_excitation
 from heft.systems.periodic_differentiation import differentiate_periodic
 
@@ -60,7 +60,7 @@ def _slave_motion(scenario: Scenario):
     """(plant, SensorFrameMotion of S, arm instance) for the scenario's slave."""
     plant = MultibodyPlant(time_step=0.0)
     parts = AddSlave(plant, scenario)
-    plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -9.81])
+    plant.mutable_gravity_field().set_gravity_vector(GRAVITY_W)
     plant.Finalize()
     return plant, SensorFrameMotion(plant, plant.CreateDefaultContext(), parts.S, parts.arm), parts.arm
 

@@ -13,7 +13,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Adder, ConstantVectorSource, MatrixGain, Sine
 
 from heft.systems.drake_conventions import wrench_from_spatial_force
-from heft.systems.load_dynamics import InertialParameters
+from heft.systems.load_dynamics import GRAVITY_W, InertialParameters
 
 # A JR3-sized aluminium puck (85 mm × 35 mm); only there so the sensor body has mass.
 _SENSOR_INERTIA = SpatialInertia.SolidCylinderWithMass(0.55, 0.0425, 0.035, [0.0, 0.0, 1.0])
@@ -33,7 +33,7 @@ class LoadOnSensorPlant:
     v = [ω_WS_W; v_WS_W] (Drake's QuaternionFloatingJoint).
     """
 
-    def __init__(self, load: InertialParameters, gravity_W=(0.0, 0.0, -9.81)):
+    def __init__(self, load: InertialParameters, gravity_W=GRAVITY_W):
         load.require_physical("load")
         self.load = load
         plant = MultibodyPlant(time_step=0.0)
@@ -78,7 +78,7 @@ class LoadOnSensorPlant:
 
 
 def simulate_random_motion(load: InertialParameters, rng: np.random.Generator, duration: float = 2.0,
-                           sample_period: float = 1e-3, gravity_W=(0.0, 0.0, -9.81)):
+                           sample_period: float = 1e-3, gravity_W=GRAVITY_W):
     """Simulates the free sensor+load driven by random sinusoidal generalized forces
     (gravity's force cancelled, viscous damping on v) and samples, every ``sample_period`` s,
     the weld's reaction wrench (N, 6) and a, α, ω, g of S in S (N, 3 each), with v̇

@@ -13,8 +13,8 @@ import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, MultibodyPlant, MultibodyPlantConfig
-from pydrake.multibody.tree import (FixedOffsetFrame, JointActuatorIndex, PdControllerGains, PrismaticJoint, PrismaticSpring,
-                                   RotationalInertia, SpatialInertia)
+from pydrake.multibody.tree import (FixedOffsetFrame, JointActuatorIndex, PdControllerGains, PrismaticJoint,
+                                   PrismaticSpring, RotationalInertia, SpatialInertia)
 from pydrake.geometry import AddContactMaterial, Box, MeshcatVisualizer, ProximityProperties
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, Saturation
@@ -23,14 +23,13 @@ from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
 from heft.systems.encoders import EncoderQuantizer
 from heft.systems.gravity_compensation import GravityCompensation
-from heft.systems.load_dynamics import InertialParameters, inertia_matrix
+from heft.systems.load_dynamics import GRAVITY_W, InertialParameters, inertia_matrix
 from heft.systems.operator_hand import OperatorHand
 from heft.systems.setpoint_filter import SetpointFilter
 from heft.systems.sensor_models import AccelerometerModel, ForceTorqueSensorModel
 from heft.systems.station_truth import (ContactWrenchAtSensor, ReactionWrench, SensorFrameKinematics,
                                        TrueNonContactWrench)
 
-GRAVITY_W = np.array([0.0, 0.0, -9.81])
 # Point-contact stiffness of the ball tip on the plate (N/m): steel on steel is far stiffer than the
 # sheet spring, which then sets the felt stiffness; stiffer would only shrink the stable time step.
 CONTACT_STIFFNESS = 2e5

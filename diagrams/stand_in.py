@@ -67,13 +67,13 @@ from pydrake.multibody.tree import JacobianWrtVariable
 
 from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.sim_station import GRAVITY_W, MASTER_ENCODER_COUNTS_PER_REV, AddSlave, phi_about_S
+from heft.diagrams.sim_station import MASTER_ENCODER_COUNTS_PER_REV, AddSlave, phi_about_S
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import CLUTCH_BUTTON
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
 from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_command, heft_haptic_state
 from heft.systems.accelerometer_reading import reading_from_motion
-from heft.systems.load_dynamics import regressor
+from heft.systems.load_dynamics import GRAVITY_W, regressor
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant, pose_and_jacobian
 from heft.systems.operator_hand import smooth_sine_offset
 from heft.systems.sensor_models import (
@@ -85,8 +85,8 @@ from heft.systems.sensor_models import (
     quantize,
 )
 from heft.systems.setpoint_filter import critically_damped_step_matrices
+from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
-NUM_JOINTS = 6
 """Joints of the master and of the slave."""
 HAPTIC_WATCHDOG_S = 0.02
 """The Phantom driver zeroes its torque this long (s) after the last valid command."""

@@ -26,6 +26,8 @@ import lcm
 import numpy as np
 from drake import lcmt_iiwa_command, lcmt_iiwa_status
 
+from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
+
 from .channels import LcmChannels
 from .ft_receiver import FtSampleReader
 from .lcm_mailbox import LcmMailbox, pump
@@ -33,7 +35,6 @@ from .lcmtypes import heft_haptic_command, heft_haptic_state
 from .message_order import stamp_accepted
 from .watchdog import WatchdogParams, watchdog_step
 
-NUM_JOINTS = 6
 """Joints of the master (Phantom Premium 1.5 6DoF) and of the slave (RX90/RX60)."""
 WATCHED_CHANNELS = ("master_state", "slave_status", "ft_sample")
 """Channels the watchdog watches; channel i is bit i of the fault bitmask, bit 3 a stalled controller."""
@@ -87,7 +88,8 @@ class HardwareStation:
     ``master_velocity`` (rad, rad/s), ``clutch`` (the clutch button held),
     ``slave_position``, ``slave_velocity`` (rad, rad/s), ``wrench`` ([f; τ] the sensor
     exerts on the load, at S, in S; N, N·m), ``acceleration`` (the accelerometer's
-    reading as the sensor reports it: ``accelerometer_reading``); ``ages`` (s, per ``WATCHED_CHANNELS``), ``healthy``, ``gain``,
+    reading as the sensor reports it: ``accelerometer_reading``); ``ages`` (s, per
+    ``WATCHED_CHANNELS``), ``healthy``, ``gain``,
     ``fault`` (bitmask), ``slave_known`` (a slave status has arrived).
     """
 

@@ -21,6 +21,9 @@ import math
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+GRAVITY_W = (0.0, 0.0, -9.81)
+"""Gravity in the world frame W (m/s²). The slave's base R stands level, so it is also g in R."""
+
 PHI_NAMES = ("m", "m*cx", "m*cy", "m*cz", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz")
 OFFSET_NAMES = ("fx_o", "fy_o", "fz_o", "tx_o", "ty_o", "tz_o")
 

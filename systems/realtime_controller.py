@@ -39,8 +39,9 @@ from heft.systems.offset_tracking import OFFSETS, STATUS, TRACKING, OffsetTracki
 from heft.systems.passivity_controller import PassivityParams, master_torque
 from heft.systems.pose_vectors import pose_vector
 from heft.systems.rx_inverse_kinematics import RxKinematics
-from heft.systems.slave_inverse_kinematics import NUM_JOINTS, flange_target, ik_step
-from heft.systems.slave_kinematics import GRAVITY_R
+from heft.systems.slave_inverse_kinematics import flange_target, ik_step
+from heft.systems.load_dynamics import GRAVITY_W
+from heft.systems.slave_kinematics import NUM_JOINTS
 
 
 class RealtimeTeleopController:
@@ -76,7 +77,7 @@ class RealtimeTeleopController:
         self._slave, self._slave_context = slave, slave.CreateDefaultContext()
         self._R, self._S = slave.GetFrameByName(base_frame), slave.GetFrameByName("S")
         self._arm = self._R.model_instance()
-        self._g_R = np.array(GRAVITY_R)
+        self._g_R = np.array(GRAVITY_W)  # R = W
         X_SF = X_FS.inverse()
         self._kinematics, self._R_SF, self._p_SF = kinematics, X_SF.rotation().matrix(), X_SF.translation()
         self._phi = phi.copy()
@@ -121,7 +122,8 @@ class RealtimeTeleopController:
              acceleration, clutch: bool) -> None:
         """One tick of ``dt`` s (≥ 0) on the station's readings: q_M, q̇_M (rad, rad/s), q_S, q̇_S
         (rad, rad/s), the wrench [f; τ] the sensor exerts on the load and the accelerometer's reading
-        (``accelerometer_reading``; at S, in S), the clutch engaged. Updates ``torque``, ``position`` and the logged signals."""
+        (``accelerometer_reading``; at S, in S), the clutch engaged. Updates ``torque``, ``position``
+        and the logged signals."""
         if not self.started:
             raise RuntimeError("RealtimeTeleopController.step before start(): start it from the measured "
                                "slave position once the station is healthy")

@@ -8,8 +8,8 @@ from pydrake.systems.framework import EventStatus, LeafSystem
 
 from heft.systems.pose_vectors import POSE_SIZE, rotation_matrix
 from heft.systems.rx_inverse_kinematics import RxKinematics
+from heft.systems.slave_kinematics import NUM_JOINTS
 
-NUM_JOINTS = 6
 
 
 def flange_target(pose, R_TF: np.ndarray, p_TF: np.ndarray):

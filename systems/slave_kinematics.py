@@ -8,11 +8,11 @@ import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import Context, LeafSystem
 
+from heft.systems.load_dynamics import GRAVITY_W
 from heft.systems.pose_vectors import POSE_SIZE, pose_vector
 from heft.systems.scratch_context import declare_plant_scratch
 
 NUM_JOINTS = 6
-GRAVITY_R = (0.0, 0.0, -9.81)  # m/s², with the base R level (W = R)
 
 
 class SlaveKinematics(LeafSystem):
@@ -30,7 +30,7 @@ class SlaveKinematics(LeafSystem):
     """
 
     def __init__(self, model: MultibodyPlant | Callable[[], MultibodyPlant], base_frame: str = "rx90_base",
-                 sensor_frame: str = "S", gravity_R=GRAVITY_R):
+                 sensor_frame: str = "S", gravity_R=GRAVITY_W):
         super().__init__()
         plant = model if isinstance(model, MultibodyPlant) else model()
         if not plant.is_finalized():

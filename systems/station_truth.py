@@ -53,7 +53,8 @@ class SensorFrameKinematics(LeafSystem):
         self._g_W = np.asarray(gravity_W, dtype=float)
         self._poses = self.DeclareAbstractInputPort("body_poses", Value[List[RigidTransform]]())
         self._velocities = self.DeclareAbstractInputPort("body_spatial_velocities", Value[List[SpatialVelocity]]())
-        self._accelerations = self.DeclareAbstractInputPort("body_spatial_accelerations", Value[List[SpatialAcceleration]]())
+        self._accelerations = self.DeclareAbstractInputPort("body_spatial_accelerations",
+                                                            Value[List[SpatialAcceleration]]())
         self.DeclareVectorOutputPort("acceleration", 6, self._calc_acceleration)
         self.DeclareVectorOutputPort("omega", 3, self._calc_omega)
         self.DeclareVectorOutputPort("gravity", 3, self._calc_gravity)

@@ -59,8 +59,8 @@ def test_tracking_moves_at_most_its_rate_and_pauses_in_motion_and_contact():
     light = np.array([1.5, 0.0, 0.0, 0.0, 0.0, 0.15])  # a light contact held still: within the gates
     for _ in range(10_000):
         offsets_update(state, light - state[OFFSETS], False, STILL, dt, params, 0)
-    np.testing.assert_allclose(state[OFFSETS], [params.max_force_rate * 10.0, 0, 0, 0, 0, params.max_torque_rate * 10.0],
-                               rtol=1e-9)
+    expected = [params.max_force_rate * 10.0, 0, 0, 0, 0, params.max_torque_rate * 10.0]
+    np.testing.assert_allclose(state[OFFSETS], expected, rtol=1e-9)
     before = state.copy()
     for contact, velocity in ((light, MOVING), (np.array([2.5, 0, 0, 0, 0, 0]), STILL),
                               (np.array([0, 0, 0, 0.25, 0, 0]), STILL)):

@@ -32,7 +32,8 @@ def input_sequence(scenario: Scenario, period: float) -> list[dict]:
     sequence = []
     for k in range(TICKS):
         t = k * period
-        wrench = np.array([0.3, -0.2, 30.7, 0.05, -0.1, 0.02]) + (150 <= k < REST_TICK) * np.array([0, 0, 5.0, 0.2, 0, 0])
+        contact = np.array([0, 0, 5.0, 0.2, 0, 0]) if 150 <= k < REST_TICK else np.zeros(6)
+        wrench = np.array([0.3, -0.2, 30.7, 0.05, -0.1, 0.02]) + contact
         if k == FAULT_TICK:
             wrench = np.full(6, np.nan)
         slave_t = min(t, REST_TICK * period)

@@ -105,7 +105,7 @@ def test_free_space_sensor_reads_the_load_dynamics(free_space):
         peak_dynamic = max(peak_dynamic, np.abs(reaction[:3] + 3.13 * g).max())
         run.advance()
         worst_sensor = max(worst_sensor, np.abs(run.out("ft.wrench_measured") - reaction).max(),
-                           np.abs(run.out("ft.acceleration_measured") - np.concatenate((accel[:3] - g, accel[3:]))).max())
+                           np.abs(run.out("ft.acceleration_measured") - np.hstack((accel[:3] - g, accel[3:]))).max())
         np.testing.assert_array_equal(run.out("truth.wrench_contact"), np.zeros(6))
     assert peak_dynamic > 5.0  # the motion was dynamic: inertial force beyond the weight
     assert worst_physics < 1e-6
