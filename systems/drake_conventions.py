@@ -5,7 +5,7 @@ heft orders wrenches [f; τ] and accelerations [a; α].
 """
 
 import numpy as np
-from pydrake.multibody.math import SpatialAcceleration, SpatialForce
+from pydrake.multibody.math import SpatialForce
 
 
 def wrench_from_spatial_force(F: SpatialForce) -> np.ndarray:
@@ -17,8 +17,3 @@ def spatial_force_from_wrench(wrench) -> SpatialForce:
     """A Drake SpatialForce from [f; τ], same frame and point."""
     wrench = np.asarray(wrench, dtype=float)
     return SpatialForce(tau=wrench[3:], f=wrench[:3])
-
-
-def accel_from_spatial_acceleration(A: SpatialAcceleration) -> np.ndarray:
-    """[a; α] (6,) from a Drake SpatialAcceleration, same frame and point."""
-    return np.concatenate((A.translational(), A.rotational()))

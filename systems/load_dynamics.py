@@ -140,13 +140,6 @@ def noncontact_wrench(phi, a, alpha, omega, g) -> np.ndarray:
     return regressor(a, alpha, omega, g) @ phi
 
 
-def contact_wrench(wrench, offsets, phi, a, alpha, omega, g) -> np.ndarray:
-    """Eq. 13: measured wrench minus offsets minus the non-contact wrench, (6,) or (N, 6)."""
-    wrench = _finite_array("wrench", wrench, (6,))
-    offsets = _finite_array("offsets", offsets, (6,))
-    return wrench - offsets - noncontact_wrench(phi, a, alpha, omega, g)
-
-
 def inertia_matrix(entries) -> np.ndarray:
     """The symmetric 3×3 matrix of Eq. 3 from [Ixx, Ixy, Ixz, Iyy, Iyz, Izz]."""
     entries = np.asarray(entries, dtype=float)
@@ -274,12 +267,3 @@ class InertialParameters:
         if problems:
             raise ValueError(f"{what} are not physical: " + "; ".join(problems))
         return self
-
-
-def modified_phi(phi_gripper, phi_object, eta: float) -> np.ndarray:
-    """Eq. 14: phi_mod = phi_gr + (1 − η)·phi_obj; with σ = 0 the operator then
-    feels the fraction η of the object's non-contact wrench and none of the gripper's."""
-    if not 0.0 <= eta <= 1.0:
-        raise ValueError(f"eta must lie in [0, 1]; got {eta}")
-    return _finite_array("phi_gripper", phi_gripper, (10,)) + (1.0 - eta) * _finite_array(
-        "phi_object", phi_object, (10,))

@@ -13,7 +13,7 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from heft.systems.force_scaling import (
     ForceScalingElimination, ForceScalingParams, clamp_scales, scale_wrench, slew)
-from heft.systems.load_dynamics import InertialParameters, modified_phi, regressor
+from heft.systems.load_dynamics import InertialParameters, regressor
 
 PERIOD = 0.0005
 SLEW_RATE = 20.0
@@ -107,7 +107,7 @@ def test_gripper_split_with_sigma_0_gamma_1_is_eq_14(scene):
         for k, wrench, acc, omega, g in samples(scene):
             feedback, _, _ = scale_wrench(wrench, scene["offsets"], phi, acc, omega, g,
                                           sigma=0.0, gamma=1.0, eta=eta, phi_gripper=phi_gr)
-            phi_mod = modified_phi(phi_gr, phi - phi_gr, eta)
+            phi_mod = phi_gr + (1.0 - eta) * (phi - phi_gr)  # Eq. 14: φ_mod = φ_gr + (1 − η)·φ_obj
             np.testing.assert_allclose(
                 feedback, wrench - scene["offsets"] - scene["V"][k] @ phi_mod, atol=1e-10)
 

@@ -7,9 +7,9 @@ from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 
 from heft.diagrams.load_on_sensor import LoadOnSensorPlant, simulate_random_motion
 from heft.systems.drake_conventions import spatial_force_from_wrench, wrench_from_spatial_force
+from heft.systems.force_scaling import scale_wrench
 from heft.systems.load_dynamics import (
-    InertialParameters, contact_wrench, inertia_entries, inertia_matrix, modified_phi,
-    noncontact_wrench, regressor, regressor_with_offsets)
+    InertialParameters, inertia_entries, inertia_matrix, noncontact_wrench, regressor, regressor_with_offsets)
 
 
 def random_rotation(rng):
@@ -65,7 +65,8 @@ def test_contact_wrench_recovers_an_external_force_applied_in_drake():
         plant.get_reaction_forces_output_port().Eval(context)[int(reference.weld.index())])
     a, alpha, omega, g = reference.motion_in_S(q, v, vdot)
     offsets = rng.normal(size=6)
-    recovered = contact_wrench(sensor_wrench + offsets, offsets, load.to_phi(), a, alpha, omega, g)
+    _, recovered, _ = scale_wrench(sensor_wrench + offsets, offsets, load.to_phi(), np.concatenate((a, alpha)), omega,
+                                   g, sigma=0.0, gamma=1.0, eta=1.0)  # Eq. 13's contact wrench
     R_SW = plant.EvalBodyPoseInWorld(context, reference.sensor).rotation().inverse()
     F_env_S_at_S = F_env_W.Rotate(R_SW).Shift(-p_tip_S)
     np.testing.assert_allclose(recovered, -wrench_from_spatial_force(F_env_S_at_S), atol=1e-9)
@@ -173,16 +174,6 @@ def test_sum_and_difference_of_bodies():
     np.testing.assert_allclose(((gripper + obj) - gripper).to_phi(), obj.to_phi(), atol=1e-12)
 
 
-def test_modified_phi_of_eq_14():
-    rng = np.random.default_rng(7)
-    gripper, obj = InertialParameters.random(rng).to_phi(), InertialParameters.random(rng).to_phi()
-    np.testing.assert_allclose(modified_phi(gripper, obj, 1.0), gripper)
-    np.testing.assert_allclose(modified_phi(gripper, obj, 0.0), gripper + obj)
-    np.testing.assert_allclose(modified_phi(gripper, obj, 0.25), gripper + 0.75 * obj)
-    with pytest.raises(ValueError, match="eta"):
-        modified_phi(gripper, obj, 1.5)
-
-
 def test_extended_regressor_adds_offsets_first():
     rng = np.random.default_rng(8)
     a, alpha, omega, g = (rng.normal(size=(4, 3)) for _ in range(4))
@@ -242,8 +233,8 @@ def test_wrong_shapes_are_rejected_with_the_argument_name():
         regressor(np.zeros((4, 3)), np.zeros((5, 3)), z, z)
     with pytest.raises(ValueError, match="^phi must have shape"):
         noncontact_wrench(np.zeros(9), z, z, z, z)
-    with pytest.raises(ValueError, match="^wrench contains NaN"):
-        contact_wrench([np.nan] * 6, np.zeros(6), np.zeros(10), z, z, z, z)
+    with pytest.raises(ValueError, match="^a contains NaN"):
+        noncontact_wrench(np.zeros(10), [np.nan] * 3, z, z, z)
     with pytest.raises(ValueError, match="mass"):
         InertialParameters.from_phi(np.zeros(10))
     with pytest.raises(ValueError, match="symmetric"):
