@@ -21,14 +21,12 @@ import json
 from pathlib import Path
 
 import numpy as np
-from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 
 from heft.analysis.passivity_analysis import (CHANNELS, passivity_controller_summary, passivity_figure,
                                               port_energy, port_power, sample_periods)
-from heft.diagrams.models import model_path
-from heft.diagrams.sim_station import AddArmWithSensor
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant, pose_and_jacobian
+from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
+from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, pose_and_jacobian
 
 REQUIRED_KEYS = ("t", "master_q", "master_v", "master_force", "passivity_energy", "passivity_damping")
 ENVIRONMENT_KEYS = ("slave_q", "wrench_contact_true")
@@ -51,7 +49,7 @@ def read_log(path) -> dict:
 
 def stylus_twists(master_q, master_v) -> np.ndarray:
     """[v_E; ω_E] (N, 6; m/s, rad/s, in B) = J_M(q)·q̇ of the master at each logged sample."""
-    plant = master_plant(model_path("phantom_premium_6dof.urdf"))
+    plant = MakeMasterPlant()
     context = plant.CreateDefaultContext()
     B, E = plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME)
     return np.array([pose_and_jacobian(plant, context, B, E, q)[1] @ v
@@ -62,9 +60,7 @@ def stylus_twists(master_q, master_v) -> np.ndarray:
 def sensor_twists(robot: str, t, slave_q) -> np.ndarray:
     """[v_S; ω_S] (N, 6; m/s, rad/s, in S) of the sensor frame, from the slave's joint angles
     (N, 6; rad) differentiated by central differences (one-sided at the ends)."""
-    plant = MultibodyPlant(time_step=0.0)
-    _, _, S = AddArmWithSensor(plant, robot)
-    plant.Finalize()
+    plant, S = MakeArmPlant(robot)
     context = plant.CreateDefaultContext()
     R = plant.GetFrameByName(f"{robot}_base")
     slave_q = np.asarray(slave_q, dtype=float)

@@ -26,15 +26,13 @@ from pathlib import Path
 from heft.analysis.plotting import plt
 import numpy as np
 from pydrake.math import RollPitchYaw, RotationMatrix
-from pydrake.multibody.plant import MultibodyPlant
 
 from heft.analysis.apparent_mass import estimate_apparent_mass, fit_apparent_mass, hand_mass
-from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.sim_station import AddArmWithSensor
+from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
 from heft.diagrams.simulate import run_teleop, true_load
 from heft.diagrams.teleop import LoadEstimate
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant
+from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 
 SETTLE_TIME = 0.25
 """Time (s) after the operator starts moving that the fits leave out (the start transient)."""
@@ -42,7 +40,7 @@ SETTLE_TIME = 0.25
 
 def stylus_positions(master_q) -> np.ndarray:
     """p_BE (N, 3; m): the stylus origin in the master base at the joint angles (N, 6; rad)."""
-    plant = master_plant(model_path("phantom_premium_6dof.urdf"))
+    plant = MakeMasterPlant()
     context = plant.CreateDefaultContext()
     B, E = plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME)
     positions = []
@@ -54,9 +52,7 @@ def stylus_positions(master_q) -> np.ndarray:
 
 def sensor_rotations(robot: str, slave_q) -> np.ndarray:
     """R_RS (N, 3, 3): the sensor frame's orientation in the slave base at the joint angles (N, 6; rad)."""
-    plant = MultibodyPlant(time_step=0.0)
-    _, _, S = AddArmWithSensor(plant, robot)
-    plant.Finalize()
+    plant, S = MakeArmPlant(robot)
     context = plant.CreateDefaultContext()
     R = plant.GetFrameByName(f"{robot}_base")
     rotations = []

@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 import yaml
-from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, TrajectorySource
@@ -22,13 +21,14 @@ from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, Tr
 from heft.analysis.identification_report import convergence_figure, estimate_errors
 from heft.diagrams.progress import ProgressBar
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.sim_station import AddSlave, MakeSimStation
+from heft.diagrams.plants import MakeSlavePlant
+from heft.diagrams.sim_station import MakeSimStation
 from heft.diagrams.teleop import LoadEstimate
 from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.estimators import (
     METHODS, NoiseLevels, RecursiveInstrumentalVariables, RecursiveLeastSquares, RecursiveTotalLeastSquares,
     batch_estimate, feed)
-from heft.systems.load_dynamics import GRAVITY_W, InertialParameters
+from heft.systems.load_dynamics import InertialParameters
 from heft.systems.excitation import ExcitationSettings, JointLimits, SensorFrameMotion, optimize_excitation
 from heft.systems.periodic_differentiation import differentiate_periodic
 
@@ -58,10 +58,7 @@ class Recording:
 
 def _slave_motion(scenario: Scenario):
     """(plant, SensorFrameMotion of S, arm instance) for the scenario's slave."""
-    plant = MultibodyPlant(time_step=0.0)
-    parts = AddSlave(plant, scenario)
-    plant.mutable_gravity_field().set_gravity_vector(GRAVITY_W)
-    plant.Finalize()
+    plant, parts = MakeSlavePlant(scenario)
     return plant, SensorFrameMotion(plant, plant.CreateDefaultContext(), parts.S, parts.arm), parts.arm
 
 

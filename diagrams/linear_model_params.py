@@ -36,9 +36,9 @@ import dataclasses
 import numpy as np
 from heft.analysis.linear_teleoperator import LinearTeleoperatorParams
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.sim_station import AddSlave, MakeSimStation
+from heft.diagrams.plants import MakeSlavePlant
+from heft.diagrams.sim_station import MakeSimStation
 from pydrake.math import RollPitchYaw, RotationMatrix
-from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable, JointActuatorIndex
 
 SLAVE_AXIS_W = np.array([0.0, 0.0, 1.0])
@@ -95,9 +95,7 @@ def operating_point(scenario: Scenario) -> OperatingPoint:
     free_mass = 1.0 / float(J[3:][2] @ np.linalg.solve(M, J[3:][2]))
 
     # The load below S, as the station models it (a fresh plant with the same AddSlave).
-    load_plant = MultibodyPlant(time_step=0.0)
-    parts = AddSlave(load_plant, scenario)
-    load_plant.Finalize()
+    load_plant, parts = MakeSlavePlant(scenario)
     load_mass = load_plant.CalcTotalMass(load_plant.CreateDefaultContext(),
                                          list({b.model_instance() for b in parts.load_bodies}))
     return OperatingPoint(master_mass, master_damping, float(dq @ M @ dq), float(dq @ (kp * dq)),

@@ -21,7 +21,8 @@ from pathlib import Path
 import numpy as np
 from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.sim_station import AddSheetSpring, AddSlave
+from heft.diagrams.plants import AddSlave
+from heft.diagrams.sim_station import AddSheetSpring
 from heft.diagrams.simulate import resolve_scenario
 from pydrake.geometry import (
     Cylinder,

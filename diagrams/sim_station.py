@@ -7,23 +7,23 @@ station ports of DESIGN §3, plus ``truth.*`` outputs for analysis.
 
 from __future__ import annotations
 
-import dataclasses
 
 import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, MultibodyPlant, MultibodyPlantConfig
 from pydrake.multibody.tree import (FixedOffsetFrame, JointActuatorIndex, PdControllerGains, PrismaticJoint,
-                                   PrismaticSpring, RotationalInertia, SpatialInertia)
+                                   PrismaticSpring, SpatialInertia)
 from pydrake.geometry import AddContactMaterial, Box, MeshcatVisualizer, ProximityProperties
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, Saturation
 
 from heft.diagrams.models import model_path
+from heft.diagrams.plants import MASTER_URDF, AddSlave, SlaveParts, phi_about_S
 from heft.diagrams.scenario import Scenario
 from heft.systems.encoders import EncoderQuantizer
 from heft.systems.gravity_compensation import GravityCompensation
-from heft.systems.load_dynamics import GRAVITY_W, InertialParameters, inertia_matrix
+from heft.systems.load_dynamics import GRAVITY_W
 from heft.systems.operator_hand import OperatorHand
 from heft.systems.setpoint_filter import SetpointFilter
 from heft.systems.sensor_models import AccelerometerModel, ForceTorqueSensorModel
@@ -39,59 +39,6 @@ CONTACT_DISSIPATION = 1.0
 MASTER_ENCODER_COUNTS_PER_REV = 4.2e4
 # Ball tip sliding on the steel sheet: steel on steel, lightly oiled (≈ 0.1–0.2; dry ≈ 0.5).
 PLATE_FRICTION = 0.2
-
-
-@dataclasses.dataclass
-class SlaveParts:
-    """Handles into a plant holding the slave arm, its wrist sensor and load."""
-    arm: object                 # ModelInstanceIndex of the arm
-    sensor_body: object         # the JR3 body; its frame is on the flange
-    S: object                   # the sensor frame S
-    load_bodies: list           # bodies below S (tool, or gripper and object, or custom)
-    sensor_weld: object         # the weld joint S → load; its reaction is the FT measurement
-    gripper_bodies: list        # the gripper part of a gripper_object load (else empty)
-
-
-def _custom_load_inertia(spec) -> SpatialInertia:
-    load = InertialParameters(spec.mass, spec.com, inertia_matrix(spec.inertia_com)).require_physical("load")
-    I = load.inertia_com
-    return SpatialInertia.MakeFromCentralInertia(
-        load.mass, load.com, RotationalInertia(I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]))
-
-
-def AddArmWithSensor(plant: MultibodyPlant, robot: str):
-    """Adds the arm ``robot`` ("rx90" or "rx60", base welded at W = R) and the JR3 on its
-    flange; returns (arm model instance, sensor body, sensor frame S)."""
-    parser = Parser(plant)
-    parser.SetAutoRenaming(True)
-    (arm,) = parser.AddModels(model_path(f"{robot}.urdf"))
-    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(f"{robot}_base", arm))
-    (sensor_instance,) = parser.AddModels(model_path("jr3_sensor.urdf"))
-    sensor_body = plant.GetBodyByName("jr3_sensor", sensor_instance)
-    plant.WeldFrames(plant.GetFrameByName("flange", arm), sensor_body.body_frame())
-    return arm, sensor_body, plant.GetFrameByName("S", sensor_instance)
-
-
-def AddSlave(plant: MultibodyPlant, scenario: Scenario) -> SlaveParts:
-    """Adds the arm with its JR3 (``AddArmWithSensor``) and the scenario's load welded at S."""
-    arm, sensor_body, S = AddArmWithSensor(plant, scenario.robot)
-    parser = Parser(plant)
-    parser.SetAutoRenaming(True)
-    kind = scenario.load.kind
-    gripper_bodies = []
-    if kind == "tool":
-        (instance,) = parser.AddModels(model_path("tool.urdf"))
-        load_bodies = [plant.GetBodyByName("tool", instance)]
-    elif kind == "gripper_object":
-        (instance,) = parser.AddModels(model_path("gripper_object.urdf"))
-        gripper, obj = plant.GetBodyByName("gripper", instance), plant.GetBodyByName("object", instance)
-        plant.WeldFrames(gripper.body_frame(), obj.body_frame())
-        load_bodies, gripper_bodies = [gripper, obj], [gripper]
-    else:
-        instance = plant.AddModelInstance("custom_load")
-        load_bodies = [plant.AddRigidBody("load", instance, _custom_load_inertia(scenario.load))]
-    weld = plant.WeldFrames(S, load_bodies[0].body_frame())
-    return SlaveParts(arm, sensor_body, S, load_bodies, weld, gripper_bodies)
 
 
 def AddSheetSpring(plant: MultibodyPlant, spec) -> PrismaticJoint:
@@ -113,15 +60,6 @@ def AddSheetSpring(plant: MultibodyPlant, spec) -> PrismaticJoint:
     plant.RegisterCollisionGeometry(plate, RigidTransform(), Box(*size), "plate", properties)
     plant.RegisterVisualGeometry(plate, RigidTransform(), Box(*size), "plate", [0.6, 0.6, 0.65, 1.0])
     return joint
-
-
-def phi_about_S(plant: MultibodyPlant, S, bodies) -> np.ndarray:
-    """φ (Eq. 6) of ``bodies`` about S's origin in S, from the plant's own composite inertia."""
-    context = plant.CreateDefaultContext()
-    M = plant.CalcSpatialInertia(context, S, [b.index() for b in bodies])
-    I = M.CalcRotationalInertia().CopyToFullMatrix3()
-    return np.concatenate(([M.get_mass()], M.get_mass() * M.get_com(),
-                           [I[0, 0], I[0, 1], I[0, 2], I[1, 1], I[1, 2], I[2, 2]]))
 
 
 def _add_slave(builder: DiagramBuilder, scenario: Scenario):
@@ -225,7 +163,7 @@ def _add_master(builder: DiagramBuilder, scenario: Scenario):
     counterbalanced) with the operator's hand mass on the stylus and its impedance."""
     master = builder.AddSystem(MultibodyPlant(time_step=scenario.plant_time_step))
     master.set_name("master_plant")
-    (phantom,) = Parser(master).AddModels(model_path("phantom_premium_6dof.urdf"))
+    (phantom,) = Parser(master).AddModels(model_path(MASTER_URDF))
     master.WeldFrames(master.world_frame(), master.GetFrameByName("phantom_base", phantom))
     stylus = master.GetBodyByName("stylus", phantom)
     hand = master.AddRigidBody("operator_hand", phantom,

@@ -20,7 +20,8 @@ from heft.analysis.figures import paper_figure
 from heft.diagrams.progress import ProgressBar
 from heft.diagrams.scenario import Scenario, load_scenario
 from heft.diagrams.sim_station import MakeSimStation
-from heft.diagrams.teleop import LoadEstimate, MakeTeleopSimulation
+from heft.diagrams.teleop import LoadEstimate
+from heft.diagrams.teleop_simulation import MakeTeleopSimulation
 
 SCENARIO_DIR = Path(__file__).resolve().parent / "scenarios"
 # Plant-truth logs, re-timed to the sensor sample they belong to (see run_teleop).

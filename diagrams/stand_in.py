@@ -62,19 +62,18 @@ import time
 import lcm
 import numpy as np
 from drake import lcmt_iiwa_command, lcmt_iiwa_status
-from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 
-from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.sim_station import MASTER_ENCODER_COUNTS_PER_REV, AddSlave, phi_about_S
+from heft.diagrams.plants import MakeMasterPlant, MakeSlavePlant, phi_about_S
+from heft.diagrams.sim_station import MASTER_ENCODER_COUNTS_PER_REV
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import CLUTCH_BUTTON
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
 from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_command, heft_haptic_state
 from heft.systems.accelerometer_reading import reading_from_motion
 from heft.systems.load_dynamics import GRAVITY_W, regressor
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant, pose_and_jacobian
+from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, pose_and_jacobian
 from heft.systems.operator_hand import smooth_sine_offset
 from heft.systems.sensor_models import (
     ACCELEROMETER_STREAM,
@@ -220,9 +219,7 @@ class _SensorFrame:
     the load's non-contact wrench V·φ from the joint state."""
 
     def __init__(self, scenario: Scenario):
-        plant = MultibodyPlant(time_step=0.0)
-        parts = AddSlave(plant, scenario)
-        plant.Finalize()
+        plant, parts = MakeSlavePlant(scenario)
         self._plant, self._context = plant, plant.CreateDefaultContext()
         self._W, self._S = plant.world_frame(), parts.S
         self._includes_gravity = scenario.accelerometer.includes_gravity
@@ -259,7 +256,7 @@ class _Master:
     Jacobian at its start pose: q = q₀ + J_M(q₀)⁻¹·[Δp; Δrpy](t), q̇ = its derivative."""
 
     def __init__(self, scenario: Scenario):
-        plant = master_plant(model_path("phantom_premium_6dof.urdf"))
+        plant = MakeMasterPlant()
         self.effort_limits = np.array([plant.get_joint_actuator(i).effort_limit()
                                        for i in plant.GetJointActuatorIndices()])
         self._initial = np.array(scenario.master_initial_q, dtype=float)

@@ -11,7 +11,7 @@ from pydrake.multibody.tree import PrismaticJoint, SpatialInertia
 from pydrake.systems.primitives import TrajectorySource
 
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.sim_station import AddSlave
+from heft.diagrams.plants import AddSlave
 from heft.systems.excitation import (
     ExcitationSettings, FourierTrajectory, JointLimits, SensorFrameMotion, excitation_regressor,
     optimize_excitation, regressor_metrics, rest_basis)

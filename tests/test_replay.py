@@ -17,7 +17,8 @@ from heft.diagrams.replay import (
     run,
     write_replay,
 )
-from heft.diagrams.sim_station import AddSlave, MakeSimStation
+from heft.diagrams.plants import AddSlave
+from heft.diagrams.sim_station import MakeSimStation
 from heft.diagrams.simulate import resolve_scenario, run_teleop, with_overrides
 from heft.diagrams.teleop import LoadEstimate
 from pydrake.geometry import Meshcat, MeshcatParams

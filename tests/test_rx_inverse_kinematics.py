@@ -17,7 +17,7 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.sim_station import AddSlave
+from heft.diagrams.plants import AddSlave
 from heft.systems.pose_vectors import pose_vector, rigid_transform
 from heft.systems.rx_inverse_kinematics import RxKinematics
 from heft.systems.slave_inverse_kinematics import SlaveInverseKinematics

@@ -8,7 +8,8 @@ from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.analysis import Simulator
 
 from heft.diagrams.scenario import Scenario, load_scenario
-from heft.diagrams.sim_station import AddSlave, MakeSimStation
+from heft.diagrams.plants import AddSlave
+from heft.diagrams.sim_station import MakeSimStation
 from heft.systems.load_dynamics import InertialParameters, regressor
 
 STATION_PORTS = {

@@ -8,7 +8,7 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable, SpatialInertia
 
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.sim_station import AddSlave
+from heft.diagrams.plants import AddSlave
 from heft.systems.pose_vectors import rigid_transform
 from heft.systems.rx_inverse_kinematics import RxKinematics
 from heft.systems.slave_kinematics import SlaveKinematics

@@ -13,7 +13,7 @@ from drake import lcmt_iiwa_command, lcmt_iiwa_status
 from heft.diagrams.cli import main
 from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.sim_station import AddSlave
+from heft.diagrams.plants import AddSlave
 from heft.diagrams.stand_in import HAPTIC_WATCHDOG_S, FaultInjection, StandIn, _uniform, run_stand_in
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.ft_receiver import FtSampleReader

@@ -1,0 +1,106 @@
+"""The plants of heft's robots, built in one place: the slave arm with its JR3 and load,
+and the master. The simulated station, the controller, identification, the stand-in,
+replay and the analyses all take their models from here.
+
+Sources of every number: the URDFs under ``diagrams/models`` (their own comments).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import RotationalInertia, SpatialInertia
+
+from heft.diagrams.models import model_path
+from heft.diagrams.scenario import Scenario
+from heft.systems.load_dynamics import GRAVITY_W, InertialParameters, inertia_entries, inertia_matrix
+from heft.systems.master_kinematics import master_plant
+
+MASTER_URDF = "phantom_premium_6dof.urdf"
+
+
+@dataclasses.dataclass
+class SlaveParts:
+    """Handles into a plant holding the slave arm, its wrist sensor and load."""
+    arm: object                 # ModelInstanceIndex of the arm
+    sensor_body: object         # the JR3 body; its frame is on the flange
+    S: object                   # the sensor frame S
+    load_bodies: list           # bodies below S (tool, or gripper and object, or custom)
+    sensor_weld: object         # the weld joint S → load; its reaction is the FT measurement
+    gripper_bodies: list        # the gripper part of a gripper_object load (else empty)
+
+
+def _custom_load_inertia(spec) -> SpatialInertia:
+    load = InertialParameters(spec.mass, spec.com, inertia_matrix(spec.inertia_com)).require_physical("load")
+    I = load.inertia_com
+    return SpatialInertia.MakeFromCentralInertia(
+        load.mass, load.com, RotationalInertia(I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]))
+
+
+def AddArmWithSensor(plant: MultibodyPlant, robot: str):
+    """Adds the arm ``robot`` ("rx90" or "rx60", base welded at W = R) and the JR3 on its
+    flange; returns (arm model instance, sensor body, sensor frame S)."""
+    parser = Parser(plant)
+    parser.SetAutoRenaming(True)
+    (arm,) = parser.AddModels(model_path(f"{robot}.urdf"))
+    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(f"{robot}_base", arm))
+    (sensor_instance,) = parser.AddModels(model_path("jr3_sensor.urdf"))
+    sensor_body = plant.GetBodyByName("jr3_sensor", sensor_instance)
+    plant.WeldFrames(plant.GetFrameByName("flange", arm), sensor_body.body_frame())
+    return arm, sensor_body, plant.GetFrameByName("S", sensor_instance)
+
+
+def AddSlave(plant: MultibodyPlant, scenario: Scenario) -> SlaveParts:
+    """Adds the arm with its JR3 (``AddArmWithSensor``) and the scenario's load welded at S."""
+    arm, sensor_body, S = AddArmWithSensor(plant, scenario.robot)
+    parser = Parser(plant)
+    parser.SetAutoRenaming(True)
+    kind = scenario.load.kind
+    gripper_bodies = []
+    if kind == "tool":
+        (instance,) = parser.AddModels(model_path("tool.urdf"))
+        load_bodies = [plant.GetBodyByName("tool", instance)]
+    elif kind == "gripper_object":
+        (instance,) = parser.AddModels(model_path("gripper_object.urdf"))
+        gripper, obj = plant.GetBodyByName("gripper", instance), plant.GetBodyByName("object", instance)
+        plant.WeldFrames(gripper.body_frame(), obj.body_frame())
+        load_bodies, gripper_bodies = [gripper, obj], [gripper]
+    else:
+        instance = plant.AddModelInstance("custom_load")
+        load_bodies = [plant.AddRigidBody("load", instance, _custom_load_inertia(scenario.load))]
+    weld = plant.WeldFrames(S, load_bodies[0].body_frame())
+    return SlaveParts(arm, sensor_body, S, load_bodies, weld, gripper_bodies)
+
+
+def phi_about_S(plant: MultibodyPlant, S, bodies) -> np.ndarray:
+    """φ (Eq. 6) of ``bodies`` about S's origin in S, from the plant's own composite inertia."""
+    context = plant.CreateDefaultContext()
+    M = plant.CalcSpatialInertia(context, S, [b.index() for b in bodies])
+    return np.concatenate(([M.get_mass()], M.get_mass() * M.get_com(),
+                           inertia_entries(M.CalcRotationalInertia().CopyToFullMatrix3())))
+
+
+def MakeMasterPlant() -> MultibodyPlant:
+    """The master, the Phantom Premium 1.5 6DoF, as a finalized continuous plant (``master_plant``)."""
+    return master_plant(model_path(MASTER_URDF))
+
+
+def MakeArmPlant(robot: str) -> tuple[MultibodyPlant, object]:
+    """(finalized continuous plant of the arm ``robot`` with its JR3, its sensor frame S): the
+    kinematic model a controller or an analysis needs (no load)."""
+    plant = MultibodyPlant(time_step=0.0)
+    _, _, S = AddArmWithSensor(plant, robot)
+    plant.Finalize()
+    return plant, S
+
+
+def MakeSlavePlant(scenario: Scenario) -> tuple[MultibodyPlant, SlaveParts]:
+    """(finalized continuous plant of the scenario's arm, JR3 and load under gravity, its parts)."""
+    plant = MultibodyPlant(time_step=0.0)
+    parts = AddSlave(plant, scenario)
+    plant.mutable_gravity_field().set_gravity_vector(GRAVITY_W)
+    plant.Finalize()
+    return plant, parts
