@@ -31,7 +31,7 @@ from heft.analysis.apparent_mass import estimate_apparent_mass, fit_apparent_mas
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
 from heft.diagrams.simulate import run_teleop, true_load
-from heft.diagrams.teleop import LoadEstimate
+from heft.diagrams.load_estimate import LoadEstimate
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 
 SETTLE_TIME = 0.25

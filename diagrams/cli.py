@@ -57,7 +57,8 @@ def _bench_regressor(args) -> int:
 
 
 def _simulate(args) -> int:
-    from heft.diagrams.simulate import read_load_estimate, resolve_scenario, simulate, with_overrides
+    from heft.diagrams.load_estimate import read_load_estimate
+    from heft.diagrams.simulate import resolve_scenario, simulate, with_overrides
 
     scenario = with_overrides(resolve_scenario(args.scenario), gamma=args.gamma, eta=args.eta,
                               noise=None if args.noise is None else args.noise == "on", duration=args.duration)
@@ -214,8 +215,8 @@ def _station_params(timeout):
 
 def _teleop(args) -> int:
     from heft.diagrams.hardware_teleop import format_summary, run_hardware_teleop
-    from heft.diagrams.simulate import read_load_estimate, resolve_scenario
-    from heft.diagrams.teleop import LoadEstimate
+    from heft.diagrams.load_estimate import LoadEstimate, read_load_estimate
+    from heft.diagrams.simulate import resolve_scenario
 
     if not args.hardware:
         raise ValueError("only --hardware is supported here; use `heft simulate` for the simulated station")
@@ -239,7 +240,7 @@ def _teleop(args) -> int:
 
 
 def _load(args) -> int:
-    from heft.diagrams.simulate import read_load_estimate
+    from heft.diagrams.load_estimate import read_load_estimate
     from heft.hardware_interface.channels import LcmChannels
     from heft.hardware_interface.load_commands import send_load_command
 

@@ -20,22 +20,21 @@ from pathlib import Path
 
 import lcm
 import numpy as np
-import yaml
 
 from heft.diagrams.identify import (
     Recording,
     design_excitation,
     estimate_all,
-    estimate_record,
     kinematic_signals,
     noise_levels,
 )
 from heft.diagrams.lcm_recording import LcmTrafficRecorder
+from heft.diagrams.load_estimate import estimate_record, write_load_estimate
 from heft.diagrams.realtime import HardwareRunFailed, claim_realtime, format_timing, run_realtime, timing_summary
 from heft.diagrams.scenario import Scenario
+from heft.systems.slave_kinematics import NUM_JOINTS
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import (
-    NUM_JOINTS,
     WATCHED_CHANNELS,
     HardwareStation,
     HardwareStationParams,
@@ -163,7 +162,7 @@ def identify_on_hardware(scenario: Scenario, out_dir, lcm_url: str, method: str 
                "residual_rms": {m: residual_rms(r, signal_set, recording.wrench) for m, r in results.items()},
                "mass_spread_kg": float(np.ptp(masses)), "timing": timing, "lcm_log": None if record is None
                else str(record), "wall_time_s": time.perf_counter() - started}
-    (out / "estimate.yaml").write_text(yaml.safe_dump(records[method], sort_keys=False))
+    write_load_estimate(out / "estimate.yaml", records[method])
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     print(f"{'method':8s}{'mass (kg)':>11s}{'σ (g)':>8s}{'COM (mm)':>26s}{'residual f (N)':>16s}{'τ (N·m)':>9s}")
     for m, r in records.items():

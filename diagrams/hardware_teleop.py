@@ -30,7 +30,8 @@ import numpy as np
 from heft.diagrams.lcm_recording import LcmTrafficRecorder
 from heft.diagrams.realtime import claim_realtime, format_timing, run_realtime, timing_summary
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.teleop import LoadEstimate, MakeRealtimeTeleopController
+from heft.diagrams.load_estimate import LoadEstimate
+from heft.diagrams.teleop import MakeRealtimeTeleopController
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import WATCHED_CHANNELS, HardwareStation, HardwareStationParams
 from heft.hardware_interface.load_commands import LoadCommandServer

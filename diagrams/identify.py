@@ -13,7 +13,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-import yaml
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, TrajectorySource
@@ -23,12 +22,11 @@ from heft.diagrams.progress import ProgressBar
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import MakeSlavePlant
 from heft.diagrams.sim_station import MakeSimStation
-from heft.diagrams.teleop import LoadEstimate
+from heft.diagrams.load_estimate import LoadEstimate, estimate_record, read_load_estimate, write_load_estimate
 from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.estimators import (
     METHODS, NoiseLevels, RecursiveInstrumentalVariables, RecursiveLeastSquares, RecursiveTotalLeastSquares,
     batch_estimate, feed)
-from heft.systems.load_dynamics import InertialParameters
 from heft.systems.excitation import ExcitationSettings, JointLimits, SensorFrameMotion, optimize_excitation
 from heft.systems.periodic_differentiation import differentiate_periodic
 
@@ -158,23 +156,6 @@ def estimate_all(wrench, signals, instruments, noise: NoiseLevels):
     return results, histories
 
 
-def estimate_record(result, method: str, signals: str, samples: int) -> dict:
-    """The estimate.yaml content for one method's result."""
-    phi, offsets = np.asarray(result.phi, dtype=float), np.asarray(result.offsets, dtype=float)
-    std = np.sqrt(np.clip(np.diag(np.asarray(result.covariance, dtype=float)), 0, None))
-    record = {"method": method, "signals": signals, "samples": int(samples),
-              "phi": phi.tolist(), "offsets": offsets.tolist(),
-              "std_offsets": std[:6].tolist(), "std_phi": std[6:].tolist(),
-              "identifiable": [bool(x) for x in np.asarray(result.identifiable)]}
-    if phi[0] > 0:
-        body = InertialParameters.from_phi(phi)
-        record.update(mass=float(body.mass), com=body.com.tolist(),
-                      inertia_com=[float(body.inertia_com[i, j]) for i, j in
-                                   ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))],
-                      physical_violations=body.violations())
-    return record
-
-
 def identify(scenario: Scenario, out_dir, method: str = "tls", signals: str = "accelerometer",
              settings: ExcitationSettings | None = None, periods: int = 1) -> dict:
     """Designs and runs the excitation, estimates with every method and writes
@@ -201,7 +182,7 @@ def identify(scenario: Scenario, out_dir, method: str = "tls", signals: str = "a
                "phi_true": recording.phi_true.tolist(), "offsets_true_mean": offsets_true.tolist(),
                "errors": errors, "wall_time_s": time.perf_counter() - started}
     record = estimate_record(results[method], method, signals, len(recording.t))
-    (out / "estimate.yaml").write_text(yaml.safe_dump(record, sort_keys=False))
+    write_load_estimate(out / "estimate.yaml", record)
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     convergence_figure(histories, recording.t[1] - recording.t[0], recording.phi_true, offsets_true,
                        out / "convergence.png")
@@ -215,5 +196,4 @@ def identify(scenario: Scenario, out_dir, method: str = "tls", signals: str = "a
 def identify_in_simulation(scenario: Scenario, out_dir, settings: ExcitationSettings | None = None) -> LoadEstimate:
     """Identifies the scenario's load (default method) and returns the estimate."""
     identify(scenario, out_dir, settings=settings)
-    record = yaml.safe_load((Path(out_dir) / "estimate.yaml").read_text())
-    return LoadEstimate(phi=np.asarray(record["phi"]), offsets=np.asarray(record["offsets"]))
+    return read_load_estimate(Path(out_dir) / "estimate.yaml")

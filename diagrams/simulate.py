@@ -12,7 +12,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-import yaml
 from pydrake.systems.analysis import Simulator
 
 from heft.analysis.experiment_metrics import experiment_metrics
@@ -20,7 +19,7 @@ from heft.analysis.figures import paper_figure
 from heft.diagrams.progress import ProgressBar
 from heft.diagrams.scenario import Scenario, load_scenario
 from heft.diagrams.sim_station import MakeSimStation
-from heft.diagrams.teleop import LoadEstimate
+from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation
 
 SCENARIO_DIR = Path(__file__).resolve().parent / "scenarios"
@@ -38,20 +37,6 @@ def resolve_scenario(name_or_path: str) -> Scenario:
             bundled = sorted(p.stem for p in SCENARIO_DIR.glob("*.yaml"))
             raise ValueError(f"no bundled scenario {name_or_path!r}; bundled: {', '.join(bundled)}")
     return load_scenario(path)
-
-
-def read_load_estimate(path) -> LoadEstimate:
-    """φ̂ and offsets from an estimate.yaml written by ``heft identify``."""
-    path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text())
-        phi, offsets = np.asarray(data["phi"], dtype=float), np.asarray(data["offsets"], dtype=float)
-    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError) as error:
-        raise ValueError(f"cannot read a load estimate from {path}: {error}; "
-                         "write one with `heft identify --scenario FILE --out DIR`") from None
-    if phi.shape != (10,) or offsets.shape != (6,) or not (np.isfinite(phi).all() and np.isfinite(offsets).all()):
-        raise ValueError(f"{path}: 'phi' needs 10 and 'offsets' 6 finite numbers")
-    return LoadEstimate(phi=phi, offsets=offsets)
 
 
 def true_load(scenario: Scenario) -> tuple[LoadEstimate, np.ndarray]:

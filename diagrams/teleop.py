@@ -15,6 +15,7 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
+from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
 from heft.diagrams.scenario import ControllerSpec
 from heft.systems.feedback_mapping import FeedbackMapping
@@ -36,13 +37,6 @@ CONTROLLER_LOG = {"log.wrench_feedback": 6, "log.wrench_contact": 6, "log.wrench
                   "log.master_wrench": 6, "log.pose_RS_desired": 7, "log.passivity_energy": 2,
                   "log.passivity_damping": 2, "log.ik_status": 2, "log.force_fault": 1, "log.scales": 3,
                   "log.offsets": 6, "log.rezero_status": 1}
-
-
-@dataclasses.dataclass
-class LoadEstimate:
-    """The load model the controller uses: φ̂ (Eq. 6) and offsets [f_o; τ_o] (N, N·m)."""
-    phi: np.ndarray
-    offsets: np.ndarray
 
 
 def _slave_ik_model(robot: str) -> tuple[MultibodyPlant, RxKinematics, RigidTransform]:

@@ -9,8 +9,8 @@ from pydrake.systems.primitives import Adder, ConstantVectorSource, DiscreteTime
 
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.sim_station import MakeSimStation
-from heft.diagrams.teleop import (CONTROLLER_LOG, STATION_INPUTS_DRIVEN, STATION_OUTPUTS_READ, LoadEstimate,
-                                  MakeTeleopController)
+from heft.diagrams.load_estimate import LoadEstimate
+from heft.diagrams.teleop import CONTROLLER_LOG, STATION_INPUTS_DRIVEN, STATION_OUTPUTS_READ, MakeTeleopController
 
 
 # Station outputs logged by the simulation (name → log key).

@@ -18,7 +18,7 @@ from heft.diagrams.hardware_teleop import HardwareTeleop
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import HardwareStationParams
 from heft.hardware_interface.lcmtypes import heft_load_command, heft_load_status
-from heft.diagrams.teleop import LoadEstimate
+from heft.diagrams.load_estimate import LoadEstimate
 from heft.systems.offset_tracking import DONE, REFUSED_MOVING
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant, stylus_jacobian
 

@@ -8,7 +8,7 @@ import yaml
 
 from heft.diagrams.identify import ALL_METHODS, identify
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.simulate import read_load_estimate
+from heft.diagrams.load_estimate import read_load_estimate
 from heft.systems.excitation import ExcitationSettings
 
 

@@ -20,7 +20,7 @@ from heft.diagrams.replay import (
 from heft.diagrams.plants import AddSlave
 from heft.diagrams.sim_station import MakeSimStation
 from heft.diagrams.simulate import resolve_scenario, run_teleop, with_overrides
-from heft.diagrams.teleop import LoadEstimate
+from heft.diagrams.load_estimate import LoadEstimate
 from pydrake.geometry import Meshcat, MeshcatParams
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant

@@ -15,7 +15,7 @@ from heft.analysis.stability_map import draw_stability_map, stability_limits
 from heft.diagrams.analyze_stability import add_arguments, axis_values, run
 from heft.diagrams.simulate import resolve_scenario
 from heft.diagrams.stability_sweep import grid, point_scenario, simulate_point
-from heft.diagrams.teleop import LoadEstimate
+from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop_simulation import AddDelay, MakeTeleopSimulation
 
 PERIOD = 0.0005

@@ -1,0 +1,53 @@
+"""The load estimate the controller uses, and its file: ``estimate.yaml``, written by
+``heft identify`` (simulated or on hardware) and read by ``heft simulate``, ``heft teleop``
+and ``heft load``, through the one writer and the one validating reader here."""
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from heft.systems.load_dynamics import InertialParameters, inertia_entries
+
+
+@dataclasses.dataclass
+class LoadEstimate:
+    """The load model the controller uses: φ̂ (Eq. 6) and offsets [f_o; τ_o] (N, N·m)."""
+    phi: np.ndarray
+    offsets: np.ndarray
+
+
+def estimate_record(result, method: str, signals: str, samples: int) -> dict:
+    """The estimate.yaml content for one method's result."""
+    phi, offsets = np.asarray(result.phi, dtype=float), np.asarray(result.offsets, dtype=float)
+    std = np.sqrt(np.clip(np.diag(np.asarray(result.covariance, dtype=float)), 0, None))
+    record = {"method": method, "signals": signals, "samples": int(samples),
+              "phi": phi.tolist(), "offsets": offsets.tolist(),
+              "std_offsets": std[:6].tolist(), "std_phi": std[6:].tolist(),
+              "identifiable": [bool(x) for x in np.asarray(result.identifiable)]}
+    if phi[0] > 0:
+        body = InertialParameters.from_phi(phi)
+        record.update(mass=float(body.mass), com=body.com.tolist(),
+                      inertia_com=inertia_entries(body.inertia_com).tolist(),
+                      physical_violations=body.violations())
+    return record
+
+
+def write_load_estimate(path, record: dict) -> None:
+    """Writes an ``estimate_record`` to ``path`` (YAML)."""
+    Path(path).write_text(yaml.safe_dump(record, sort_keys=False))
+
+
+def read_load_estimate(path) -> LoadEstimate:
+    """φ̂ and offsets from an estimate.yaml written by ``heft identify``."""
+    path = Path(path)
+    try:
+        data = yaml.safe_load(path.read_text())
+        phi, offsets = np.asarray(data["phi"], dtype=float), np.asarray(data["offsets"], dtype=float)
+    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError) as error:
+        raise ValueError(f"cannot read a load estimate from {path}: {error}; "
+                         "write one with `heft identify --scenario FILE --out DIR`") from None
+    if phi.shape != (10,) or offsets.shape != (6,) or not (np.isfinite(phi).all() and np.isfinite(offsets).all()):
+        raise ValueError(f"{path}: 'phi' needs 10 and 'offsets' 6 finite numbers")
+    return LoadEstimate(phi=phi, offsets=offsets)
