@@ -267,6 +267,13 @@ def _load(args) -> int:
     return 0 if final.accepted else 4
 
 
+def _picture(args) -> int:
+    from heft.diagrams.diagram_picture import write_picture
+
+    print(f"wrote {write_picture(args.out, args.what, args.scenario, args.depth)}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="heft",
@@ -388,6 +395,15 @@ def build_parser() -> argparse.ArgumentParser:
     load.add_argument("--lcm-url", default=default_url, help=f"LCM URL (default {default_url})")
     load.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for the answers (default 5)")
     load.set_defaults(run=_load)
+
+    picture = commands.add_parser("picture", help="draw the controller Diagram (or the whole simulation) "
+                                                  "as Drake sees it (Graphviz)")
+    picture.add_argument("--what", default="controller", choices=("controller", "simulation"),
+                         help="the controller alone (default) or closed around the simulated station")
+    picture.add_argument("--out", default="teleop_controller.svg", help="an .svg, .png or .dot file")
+    picture.add_argument("--scenario", default="fig6", help="fig6 | fig7 | fig8 | path to a scenario YAML")
+    picture.add_argument("--depth", type=int, default=1, help="levels of subsystems drawn (default 1)")
+    picture.set_defaults(run=_picture)
     return parser
 
 

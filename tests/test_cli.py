@@ -75,3 +75,16 @@ def test_simulate_writes_the_log_metrics_and_figure(tmp_path):
 def test_simulate_rejects_an_unknown_scenario():
     result = run_heft("simulate", "fig9")
     assert result.returncode != 0 and "bundled: fig6, fig7, fig8" in result.stderr
+
+
+def test_picture_draws_every_block_of_the_controller(tmp_path, capsys):
+    """The DOT text (no Graphviz needed) names each block of Fig. 4 and the station's ports."""
+    out = tmp_path / "controller.dot"
+    assert main(["picture", "--out", str(out)]) == 0
+    text = out.read_text()
+    for block in ("master_kinematics", "slave_kinematics", "motion_scaling", "slave_ik", "force_scaling",
+                  "feedback_mapping", "passivity", "offsets_hat", "ft.acceleration_measured",
+                  "master.torque_commanded"):
+        assert block in text, block
+    assert main(["picture", "--out", str(tmp_path / "controller.pdf")]) == 2
+    assert ".svg, .png or .dot" in capsys.readouterr().err

@@ -1,0 +1,53 @@
+"""A picture of heft's Diagram as Drake draws it: ``GetGraphvizString`` rendered by Graphviz.
+
+The README's architecture picture is ``docs/teleop_controller.svg``, made by
+``heft picture --out docs/teleop_controller.svg``: the controller Diagram of Fig. 4, every
+block a LeafSystem. ``--what simulation`` draws it closed around the simulated station.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from pathlib import Path
+
+from heft.diagrams.simulate import resolve_scenario, true_load
+from heft.diagrams.teleop import MakeTeleopController
+from heft.diagrams.teleop_simulation import MakeTeleopSimulation
+
+WHAT = ("controller", "simulation")
+
+
+def teleop_graphviz(what: str = "controller", scenario_name: str = "fig6", depth: int = 1) -> str:
+    """The DOT text of the controller Diagram, or of the ``simulation`` (controller closed around
+    the simulated station), with ``depth`` levels of subsystems drawn."""
+    if what not in WHAT:
+        raise ValueError(f"draw one of {', '.join(WHAT)}; got {what!r}")
+    scenario = resolve_scenario(scenario_name)
+    load = true_load(scenario)[0]
+    if what == "controller":
+        diagram = MakeTeleopController(scenario.controller, load, scenario.robot, scenario.controller_period,
+                                       scenario.slave_initial_q,
+                                       accelerometer_includes_gravity=scenario.accelerometer.includes_gravity)
+    else:
+        diagram, _ = MakeTeleopSimulation(scenario, load)
+    return diagram.GetGraphvizString(max_depth=depth)
+
+
+def write_picture(out, what: str = "controller", scenario_name: str = "fig6", depth: int = 1) -> Path:
+    """Writes the picture to ``out``: SVG or PNG by its suffix (needs Graphviz's ``dot``), or the
+    DOT text for a ``.dot`` path. Returns the path written."""
+    out = Path(out)
+    if out.suffix not in (".svg", ".png", ".dot"):
+        raise ValueError(f"{out}: the picture is written as .svg, .png or .dot")
+    text = teleop_graphviz(what, scenario_name, depth)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if out.suffix == ".dot":
+        out.write_text(text)
+        return out
+    dot = shutil.which("dot")
+    if dot is None:
+        raise ValueError("Graphviz's `dot` is not installed (apt-get install graphviz); "
+                         f"write {out.with_suffix('.dot')} instead and render it elsewhere")
+    subprocess.run([dot, f"-T{out.suffix[1:]}", "-o", str(out)], input=text.encode(), check=True)
+    return out
