@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from heft.diagrams.apparent_mass import apparent_mass_study, write_study
-from heft.diagrams.simulate import resolve_scenario, with_overrides
+from heft.diagrams.scenario import NOISE_OFF, overrides_text, resolve_scenario
 
 
 def parse_numbers(text: str, option: str) -> list[float]:
@@ -47,8 +47,8 @@ def run(args) -> int:
     etas = parse_numbers(args.etas, "--etas") if args.etas.strip() else []
     if any(eta > 1 for eta in etas):
         raise ValueError(f"--etas values must lie in [0, 1]; got {args.etas}")
-    scenario = with_overrides(resolve_scenario(args.scenario), noise=None if args.noise else False,
-                              duration=args.duration)
+    scenario = resolve_scenario(args.scenario, overrides_text(
+        {**({} if args.noise else NOISE_OFF), "duration": args.duration}))
     study = apparent_mass_study(scenario, sigmas, etas, amplitude_scale=args.amplitude_scale,
                                 progress=lambda label: print(f"  running {label}", file=sys.stderr, flush=True))
     png, document = write_study(study, Path(args.out))

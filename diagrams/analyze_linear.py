@@ -9,7 +9,7 @@ from pathlib import Path
 
 from heft.analysis.linear_teleoperator import analyze, write_figures
 from heft.diagrams.linear_model_params import linear_model_params
-from heft.diagrams.simulate import resolve_scenario
+from heft.diagrams.scenario import resolve_scenario
 
 
 def add_arguments(parser) -> None:

@@ -15,7 +15,7 @@ import numpy as np
 
 from heft.analysis.stability_map import draw_stability_map, stability_limits
 from heft.diagrams.progress import ProgressBar
-from heft.diagrams.simulate import resolve_scenario
+from heft.diagrams.scenario import resolve_scenario
 from heft.diagrams.stability_sweep import AXES, point_scenario, sweep
 
 

@@ -200,7 +200,7 @@ def _finish(processes: dict) -> None:
 
 def bench_rate(rate_hz: float, duration: float, lcm_url: str, scenario: str, folder: Path, prefix) -> dict:
     """One controller rate: both processes, then the latency statistics and the controller's timing."""
-    from heft.diagrams.simulate import resolve_scenario
+    from heft.diagrams.scenario import resolve_scenario
 
     loaded = resolve_scenario(scenario)
     summary_path, probe_path = folder / f"teleop_{rate_hz:g}.json", folder / f"probe_{rate_hz:g}.json"

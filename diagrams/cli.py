@@ -56,12 +56,25 @@ def _bench_regressor(args) -> int:
     return 0
 
 
+def _scenario(args, options: str = ""):
+    """The scenario of ``--scenario`` with the command's own ``options`` (YAML text) and then
+    ``--set`` laid over it (``scenario.layered``: the one override path)."""
+    from heft.diagrams.scenario import layered, resolve_scenario
+
+    scenario = resolve_scenario(args.scenario, options)
+    return layered(scenario, args.set) if args.set else scenario
+
+
 def _simulate(args) -> int:
     from heft.diagrams.load_estimate import read_load_estimate
-    from heft.diagrams.simulate import resolve_scenario, simulate, with_overrides
+    from heft.diagrams.scenario import NOISE_OFF, overrides_text
+    from heft.diagrams.simulate import simulate
 
-    scenario = with_overrides(resolve_scenario(args.scenario), gamma=args.gamma, eta=args.eta,
-                              noise=None if args.noise is None else args.noise == "on", duration=args.duration)
+    noise = {} if args.noise is None else {name: args.noise == "on" for name in NOISE_OFF}
+    options = overrides_text({"controller.force.gamma": args.gamma, "controller.force.eta": args.eta, **noise,
+                              "duration": args.duration,
+                              "controller.sigmas": None if args.sigma is None else [args.sigma]})
+    scenario = _scenario(args, options)
     out = Path(args.out or f"out/{Path(args.scenario).stem}")
     estimate = args.estimate or scenario.controller.load_estimate
     if estimate:
@@ -71,7 +84,7 @@ def _simulate(args) -> int:
         from heft.diagrams.identify import identify_in_simulation
         print("no load estimate given: identifying the load in simulation first (Sec. IV)")
         load = identify_in_simulation(scenario, out / "identify")
-    sigmas = [args.sigma] if args.sigma is not None else scenario.controller.sigmas
+    sigmas = scenario.controller.sigmas
     meshcat = None
     if args.meshcat:
         from pydrake.geometry import Meshcat
@@ -85,10 +98,9 @@ def _simulate(args) -> int:
 
 def _identify(args) -> int:
     from heft.diagrams.identify import identify
-    from heft.diagrams.simulate import resolve_scenario
     from heft.systems.excitation import ExcitationSettings
 
-    scenario = resolve_scenario(args.scenario)
+    scenario = _scenario(args)
     settings = ExcitationSettings.quick() if args.quick else ExcitationSettings()
     if args.hardware:
         from heft.diagrams.hardware_identify import identify_on_hardware
@@ -107,7 +119,8 @@ def _identify(args) -> int:
 def _demo(args) -> int:
     """Identify the paper's tool, then replay Fig. 6 with σ = 1, 0.5, 0."""
     from heft.diagrams.identify import identify_in_simulation
-    from heft.diagrams.simulate import resolve_scenario, simulate
+    from heft.diagrams.scenario import resolve_scenario
+    from heft.diagrams.simulate import simulate
     from heft.systems.excitation import ExcitationSettings
 
     out = Path(args.out)
@@ -180,11 +193,10 @@ def _bench_lcm(args) -> int:
 
 
 def _stand_in(args) -> int:
-    from heft.diagrams.simulate import resolve_scenario
     from heft.diagrams.stand_in import FaultInjection, run_stand_in
     from heft.hardware_interface.channels import LcmChannels
 
-    scenario = resolve_scenario(args.scenario)
+    scenario = _scenario(args)
     faults = FaultInjection(drop_rate=args.drop_rate, burst_loss_s=args.burst_loss, added_delay_s=args.added_delay,
                             nan_rate=args.nan_rate, saturate_at_s=args.saturate_at, die_at_s=args.die_at,
                             seed=args.seed, reorder_rate=args.reorder_rate)
@@ -216,11 +228,10 @@ def _station_params(timeout):
 def _teleop(args) -> int:
     from heft.diagrams.hardware_teleop import format_summary, run_hardware_teleop
     from heft.diagrams.load_estimate import LoadEstimate, read_load_estimate
-    from heft.diagrams.simulate import resolve_scenario
 
     if not args.hardware:
         raise ValueError("only --hardware is supported here; use `heft simulate` for the simulated station")
-    scenario = resolve_scenario(args.scenario)
+    scenario = _scenario(args)
     rate = 1.0 / scenario.controller_period if args.rate is None else args.rate
     if not (math.isfinite(rate) and rate > 0):
         raise ValueError(f"--rate must be a positive number of Hz; got {rate}")
@@ -274,6 +285,11 @@ def _picture(args) -> int:
     return 0
 
 
+def _add_set(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--set", metavar="YAML", help="scenario fields laid over it, nested as in a scenario file, "
+                                                      "e.g. '{controller: {force: {gamma: 0.5}}}' (applied last)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="heft",
@@ -294,6 +310,7 @@ def build_parser() -> argparse.ArgumentParser:
     simulate = commands.add_parser("simulate", help="replay one of the paper's experiments (fig6, fig7, fig8) "
                                                     "or a scenario file in the simulated station")
     simulate.add_argument("scenario", help="fig6 | fig7 | fig8 | path to a scenario YAML")
+    _add_set(simulate)
     simulate.add_argument("--sigma", type=float, help="σ: non-contact scale (default: the scenario's set)")
     simulate.add_argument("--gamma", type=float, help="γ: contact scale")
     simulate.add_argument("--eta", type=float, help="η: share of the gripped object's non-contact wrench kept")
@@ -307,6 +324,7 @@ def build_parser() -> argparse.ArgumentParser:
     identify = commands.add_parser("identify", help="identify the load's inertial parameters and the sensor "
                                                     "offsets from an excitation motion (Sec. IV)")
     identify.add_argument("--scenario", required=True, help="fig6 | fig7 | fig8 | path to a scenario YAML")
+    _add_set(identify)
     identify.add_argument("--out", required=True, help="output folder")
     identify.add_argument("--method", default="tls", choices=("ols", "wls", "tls", "rls", "riv", "rtls"),
                           help="the estimate written to estimate.yaml (all are reported; default tls)")
@@ -355,6 +373,7 @@ def build_parser() -> argparse.ArgumentParser:
     lcm_bench.set_defaults(run=_bench_lcm)
     stand_in = commands.add_parser("stand-in", help="a lightweight lab behind the drivers' LCM channels, at real time")
     stand_in.add_argument("--scenario", default="fig6", help="fig6 | fig7 | fig8 | path to a scenario YAML")
+    _add_set(stand_in)
     stand_in.add_argument("--lcm-url", default=default_url, help=f"LCM URL (default {default_url})")
     stand_in.add_argument("--duration", type=float, default=10.0, help="seconds (default 10)")
     stand_in.add_argument("--drop-rate", type=float, default=0.0, help="probability a loss starts at a message")
@@ -375,6 +394,7 @@ def build_parser() -> argparse.ArgumentParser:
     teleop = commands.add_parser("teleop", help="the teleoperation controller on the lab's LCM channels")
     teleop.add_argument("--hardware", action="store_true", help="run against the lab's LCM channels (required)")
     teleop.add_argument("--scenario", default="fig6", help="controller settings from this scenario (default fig6)")
+    _add_set(teleop)
     teleop.add_argument("--lcm-url", default=default_url, help=f"LCM URL (default {default_url})")
     teleop.add_argument("--estimate", help="estimate.yaml from `heft identify` (default: φ̂ = 0)")
     teleop.add_argument("--duration", type=float, default=10.0, help="seconds (default 10)")

@@ -11,7 +11,8 @@ import shutil
 import subprocess
 from pathlib import Path
 
-from heft.diagrams.simulate import resolve_scenario, true_load
+from heft.diagrams.scenario import resolve_scenario
+from heft.diagrams.simulate import true_load
 from heft.diagrams.teleop import MakeTeleopController
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation
 

@@ -23,7 +23,7 @@ from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import AddSlave
 from heft.diagrams.sim_station import AddSheetSpring
-from heft.diagrams.simulate import resolve_scenario
+from heft.diagrams.scenario import resolve_scenario
 from pydrake.geometry import (
     Cylinder,
     Meshcat,

@@ -1,7 +1,11 @@
 """Scenarios: everything a simulated run needs, as dataclasses loaded from YAML.
 
-Load with :func:`load_scenario`; a malformed file gets a ValueError naming the
-field. Units are SI; frames as DESIGN §4 (W world, R slave base, B master base).
+Load with :func:`resolve_scenario` (a bundled name or a file, optionally with
+YAML text layered over it); change one with :func:`layered` (YAML text) or
+:func:`overrides_text` (dotted field names → that text): the one override path
+of the CLI, the sweeps and the tests. A malformed file or override gets a
+ValueError naming the field. Units are SI; frames as DESIGN §4 (W world, R slave
+base, B master base).
 """
 
 
@@ -185,6 +189,55 @@ def _check_fields(data, schema, path=""):
             raise ValueError(f"field '{name}' must be true or false, got {value!r}")
         elif hint is str and not isinstance(value, str):
             raise ValueError(f"field '{name}' must be a string, got {value!r}")
+
+
+SCENARIO_DIR = Path(__file__).resolve().parent / "scenarios"
+"""The bundled scenarios (fig6, fig7, fig8, …)."""
+
+
+def resolve_scenario(name_or_path: str, overrides: str = "") -> Scenario:
+    """A bundled scenario by name or a YAML file by path, with the YAML text ``overrides``
+    (``layered``) laid over it."""
+    path = Path(name_or_path)
+    if not path.suffix:
+        path = SCENARIO_DIR / f"{name_or_path}.yaml"
+        if not path.is_file():
+            bundled = sorted(p.stem for p in SCENARIO_DIR.glob("*.yaml"))
+            raise ValueError(f"no bundled scenario {name_or_path!r}; bundled: {', '.join(bundled)}")
+    scenario = load_scenario(path)
+    return layered(scenario, overrides) if overrides.strip() else scenario
+
+
+def layered(scenario: Scenario, text: str) -> Scenario:
+    """A copy of ``scenario`` with the YAML ``text`` laid over it: any subset of a scenario
+    file's fields, nested as there (``"{controller: {force: {gamma: 0.5}}, duration: 3}"``);
+    the fields it leaves out keep ``scenario``'s values. Validated; errors name the field."""
+    try:
+        _check_fields(yaml.safe_load(text) or {}, Scenario)
+        return yaml_load_typed(schema=Scenario, data=text, defaults=scenario).validate()
+    except yaml.YAMLError as error:
+        raise ValueError(f"scenario override {text!r} is not valid YAML: {error}") from None
+    except ValueError as error:
+        raise ValueError(f"scenario override {text!r}: {error}") from None
+
+
+NOISE_OFF = {"ft_sensor.noise": False, "accelerometer.noise": False}
+"""For ``overrides_text``: both sensor models ideal (sampled and held only)."""
+
+
+def overrides_text(values: dict) -> str:
+    """The YAML text for ``layered`` that sets each dotted field name of ``values`` (e.g.
+    ``{"controller.force.gamma": 0.5}``) to its value; a value of None is left out."""
+    tree: dict = {}
+    for path, value in values.items():
+        if value is None:
+            continue
+        *parents, leaf = path.split(".")
+        node = tree
+        for name in parents:
+            node = node.setdefault(name, {})
+        node[leaf] = value.item() if hasattr(value, "item") else value
+    return yaml.safe_dump(tree, default_flow_style=True).strip() if tree else ""
 
 
 def load_scenario(path) -> Scenario:

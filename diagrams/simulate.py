@@ -4,7 +4,6 @@ One closed-loop run per σ; each writes a log, and the set gives metrics.json an
 the paper-style figure (analysis/figures.py).
 """
 
-import dataclasses
 import io
 import json
 import sys
@@ -17,26 +16,14 @@ from pydrake.systems.analysis import Simulator
 from heft.analysis.experiment_metrics import experiment_metrics
 from heft.analysis.figures import paper_figure
 from heft.diagrams.progress import ProgressBar
-from heft.diagrams.scenario import Scenario, load_scenario
+from heft.diagrams.scenario import Scenario
 from heft.diagrams.sim_station import MakeSimStation
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation
 
-SCENARIO_DIR = Path(__file__).resolve().parent / "scenarios"
 # Plant-truth logs, re-timed to the sensor sample they belong to (see run_teleop).
 SAMPLE_ALIGNED_TRUTH = ("wrench_contact_true", "wrench_noncontact_true", "accel_true", "omega_true", "gravity_S",
                         "slave_q")
-
-
-def resolve_scenario(name_or_path: str) -> Scenario:
-    """A bundled scenario by name (fig6, fig7, fig8, …) or a YAML file by path."""
-    path = Path(name_or_path)
-    if not path.suffix:
-        path = SCENARIO_DIR / f"{name_or_path}.yaml"
-        if not path.is_file():
-            bundled = sorted(p.stem for p in SCENARIO_DIR.glob("*.yaml"))
-            raise ValueError(f"no bundled scenario {name_or_path!r}; bundled: {', '.join(bundled)}")
-    return load_scenario(path)
 
 
 def true_load(scenario: Scenario) -> tuple[LoadEstimate, np.ndarray]:
@@ -105,20 +92,3 @@ def simulate(scenario: Scenario, load: LoadEstimate, out_dir, sigmas, name: str,
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     paper_figure(runs, scenario.experiment, out / "figure.png", title=name)
     return metrics
-
-
-def with_overrides(scenario: Scenario, gamma=None, eta=None, noise=None, duration=None) -> Scenario:
-    """A copy of ``scenario`` with the command line's overrides applied."""
-    scenario = dataclasses.replace(scenario)
-    force = scenario.controller.force
-    if gamma is not None:
-        force = dataclasses.replace(force, gamma=gamma)
-    if eta is not None:
-        force = dataclasses.replace(force, eta=eta)
-    scenario.controller = dataclasses.replace(scenario.controller, force=force)
-    if noise is not None:
-        scenario.ft_sensor = dataclasses.replace(scenario.ft_sensor, noise=noise)
-        scenario.accelerometer = dataclasses.replace(scenario.accelerometer, noise=noise)
-    if duration is not None:
-        scenario.duration = duration
-    return scenario.validate()

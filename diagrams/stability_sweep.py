@@ -11,7 +11,6 @@ how much of the last third the tool spent out of contact while pushed.
 
 from __future__ import annotations
 
-import copy
 import functools
 import itertools
 
@@ -19,18 +18,8 @@ import numpy as np
 
 from heft.analysis.parallel import run_points
 from heft.analysis.stability import oscillation_growth
-from heft.diagrams.scenario import Scenario
+from heft.diagrams.scenario import Scenario, layered, overrides_text
 from heft.diagrams.simulate import run_teleop, true_load
-
-
-def _set(path: str):
-    """A setter of the dotted scenario field ``path``."""
-    *parents, leaf = path.split(".")
-
-    def setter(scenario: Scenario, value: float):
-        target = functools.reduce(getattr, parents, scenario)
-        setattr(target, leaf, type(getattr(target, leaf))(value))
-    return setter
 
 
 # Swept parameter → (scenario field it sets, units).
@@ -63,12 +52,15 @@ def grid(axes: dict[str, list[float]]) -> list[dict]:
 
 
 def point_scenario(base: Scenario, point: dict) -> Scenario:
-    """A validated copy of ``base`` with the point's parameters set."""
-    scenario = copy.deepcopy(base)
+    """A validated copy of ``base`` with the point's parameters set (``scenario.layered``); a
+    value for a switch (``passivity``) counts as on when non-zero."""
+    values = {}
     for name, value in point.items():
-        _set(AXES[name][0])(scenario, value)
+        path = AXES[name][0]
+        current = functools.reduce(getattr, path.split("."), base)
+        values[path] = bool(value) if isinstance(current, bool) else float(value)
     try:
-        return scenario.validate()
+        return layered(base, overrides_text(values))
     except ValueError as error:
         raise ValueError(f"sweep point {point}: {error}") from None
 

@@ -9,14 +9,15 @@ import pytest
 
 from heft.diagrams import analyze_passivity
 from heft.diagrams.simulate import true_load
-from heft.diagrams.simulate import resolve_scenario, run_teleop, with_overrides
+from heft.diagrams.scenario import NOISE_OFF, overrides_text, resolve_scenario
+from heft.diagrams.simulate import run_teleop
 from heft.systems.passivity_controller import PassivityParams
 
 
 @pytest.fixture(scope="module")
 def log_path(tmp_path_factory):
     """0.5 s of the fig8 scenario (the tool strikes the sheet spring at about 0.22 s)."""
-    scenario = with_overrides(resolve_scenario("fig8"), noise=False, duration=0.5)
+    scenario = resolve_scenario("fig8", overrides_text({**NOISE_OFF, "duration": 0.5}))
     load, _ = true_load(scenario)
     path = tmp_path_factory.mktemp("passivity") / "log.npz"
     np.savez(path, **run_teleop(scenario, load, 1.0, quiet=True))

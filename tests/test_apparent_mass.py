@@ -59,8 +59,8 @@ def test_bad_input_is_refused():
 
 @pytest.fixture(scope="module")
 def fig6():
-    from heft.diagrams.simulate import resolve_scenario, with_overrides
-    return with_overrides(resolve_scenario("fig6"), noise=False)
+    from heft.diagrams.scenario import NOISE_OFF, overrides_text, resolve_scenario
+    return resolve_scenario("fig6", overrides_text(NOISE_OFF))
 
 
 def test_short_sigma_one_run_renders_the_scaled_mass(fig6):

@@ -48,7 +48,7 @@ def test_simulate_writes_the_log_metrics_and_figure(tmp_path):
     import numpy as np
     import yaml
 
-    from heft.diagrams.simulate import resolve_scenario
+    from heft.diagrams.scenario import resolve_scenario
     from heft.diagrams.sim_station import MakeSimStation
 
     station = MakeSimStation(resolve_scenario("fig6"))
@@ -88,3 +88,8 @@ def test_picture_draws_every_block_of_the_controller(tmp_path, capsys):
         assert block in text, block
     assert main(["picture", "--out", str(tmp_path / "controller.pdf")]) == 2
     assert ".svg, .png or .dot" in capsys.readouterr().err
+
+
+def test_set_lays_yaml_over_the_scenario_and_names_a_wrong_field(capsys):
+    assert main(["simulate", "fig6", "--set", "{controller: {force: {gama: 0.5}}}"]) == 2
+    assert "controller.force.gama" in capsys.readouterr().err

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from heft.diagrams.hardware_identify import HardwareIdentification, IdentificationAborted, identify_on_hardware
 from heft.diagrams.identify import design_excitation
-from heft.diagrams.simulate import resolve_scenario
+from heft.diagrams.scenario import resolve_scenario
 from heft.diagrams.stand_in import FaultInjection, StandIn
 from heft.hardware_interface.channels import LcmChannels
 from heft.systems.excitation import ExcitationSettings, FourierTrajectory

@@ -12,7 +12,8 @@ from pydrake.multibody.plant import MultibodyPlant
 from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import AddArmWithSensor
-from heft.diagrams.simulate import resolve_scenario, true_load
+from heft.diagrams.scenario import resolve_scenario
+from heft.diagrams.simulate import true_load
 from heft.diagrams.stand_in import FaultInjection, StandIn
 from heft.diagrams.hardware_teleop import HardwareTeleop
 from heft.hardware_interface.channels import LcmChannels

@@ -25,7 +25,7 @@ from heft.analysis.stability import (
 from heft.diagrams import analyze_linear
 from heft.diagrams.linear_model_params import linear_model_params
 from heft.diagrams.sim_station import MakeSimStation
-from heft.diagrams.simulate import resolve_scenario
+from heft.diagrams.scenario import resolve_scenario
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation
 from heft.systems.operator_hand import smooth_sine_offset

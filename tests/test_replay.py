@@ -19,7 +19,8 @@ from heft.diagrams.replay import (
 )
 from heft.diagrams.plants import AddSlave
 from heft.diagrams.sim_station import MakeSimStation
-from heft.diagrams.simulate import resolve_scenario, run_teleop, with_overrides
+from heft.diagrams.scenario import NOISE_OFF, overrides_text, resolve_scenario
+from heft.diagrams.simulate import run_teleop
 from heft.diagrams.load_estimate import LoadEstimate
 from pydrake.geometry import Meshcat, MeshcatParams
 from pydrake.multibody.parsing import Parser
@@ -58,7 +59,7 @@ return {meshes, animated, duration: viewer.animator.duration, poses};
 def replay(tmp_path_factory):
     """0.3 s of Fig. 8 without sensor noise (the tip meets the sheet spring at ≈ 0.22 s), its
     log round-tripped through log.npz, and the replay written from it."""
-    scenario = with_overrides(resolve_scenario("fig8"), noise=False, duration=0.3)
+    scenario = resolve_scenario("fig8", overrides_text({**NOISE_OFF, "duration": 0.3}))
     station = MakeSimStation(scenario)
     phi = np.array(station.GetOutputPort("truth.phi").Eval(station.CreateDefaultContext()))
     folder = tmp_path_factory.mktemp("replay")
@@ -180,7 +181,7 @@ def test_cli_hook_writes_the_replay_and_one_summary_line(replay, tmp_path, capsy
 
 
 def test_simulation_draws_the_slave_live_on_a_meshcat():
-    scenario = with_overrides(resolve_scenario("fig8"), noise=False, duration=0.002)
+    scenario = resolve_scenario("fig8", overrides_text({**NOISE_OFF, "duration": 0.002}))
     meshcat = Meshcat(MeshcatParams(host="localhost", port=0))
     run_teleop(scenario, LoadEstimate(phi=np.zeros(10), offsets=np.zeros(6)), 1.0, meshcat=meshcat)
     for path in ("/drake/visualizer/rx90/rx90_link1", "/drake/visualizer/tool", "/drake/visualizer/sheet_spring/plate"):

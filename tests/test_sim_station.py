@@ -292,3 +292,18 @@ def test_scenario_that_is_not_yaml(tmp_path):
         load_scenario(path)
     with pytest.raises(ValueError, match="does not exist"):
         load_scenario(tmp_path / "missing.yaml")
+
+
+def test_overrides_are_yaml_laid_over_the_scenario():
+    """One override path: dotted names → YAML → laid over the scenario; the rest is kept."""
+    from heft.diagrams.scenario import layered, overrides_text, resolve_scenario
+
+    base = resolve_scenario("fig6")
+    changed = resolve_scenario("fig6", overrides_text({"controller.force.gamma": 0.5, "duration": 3.0,
+                                                       "controller.force.eta": None}))
+    assert (changed.controller.force.gamma, changed.duration) == (0.5, 3.0)
+    assert changed.controller.force.eta == base.controller.force.eta
+    assert changed.operator == base.operator and changed.controller.motion == base.controller.motion
+    assert base.controller.force.gamma == 1.0  # the base is not touched
+    with pytest.raises(ValueError, match="controller.delay"):
+        layered(base, "{controller: {delay: 0.0001}}")  # not a whole number of periods

@@ -13,7 +13,7 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from heft.analysis.stability_map import draw_stability_map, stability_limits
 from heft.diagrams.analyze_stability import add_arguments, axis_values, run
-from heft.diagrams.simulate import resolve_scenario
+from heft.diagrams.scenario import resolve_scenario
 from heft.diagrams.stability_sweep import grid, point_scenario, simulate_point
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop_simulation import AddDelay, MakeTeleopSimulation
