@@ -128,6 +128,10 @@ class Scenario:
              f"must be '', 'fig6', 'fig7' or 'fig8', not {self.experiment!r}")
         need(len(self.controller.sigmas) >= 1 and min(self.controller.sigmas) >= 0, "controller.sigmas",
              "needs at least one σ >= 0")
+        force = self.controller.force
+        need(force.eta == 1.0 or force.phi_gripper is not None, "controller.force.eta",
+             f"= {force.eta:g} would do nothing: η acts only with a gripper/object split; give "
+             "controller.force.phi_gripper (the gripper's φ, Eq. 6) or leave η at 1")
         need(self.robot in ("rx90", "rx60"), "robot", f"must be 'rx90' or 'rx60', not {self.robot!r}")
         need(len(self.slave_initial_q) == 6, "slave_initial_q", "needs 6 joint angles (rad)")
         need(len(self.master_initial_q) == 6, "master_initial_q", "needs 6 joint angles (rad)")

@@ -93,3 +93,8 @@ def test_picture_draws_every_block_of_the_controller(tmp_path, capsys):
 def test_set_lays_yaml_over_the_scenario_and_names_a_wrong_field(capsys):
     assert main(["simulate", "fig6", "--set", "{controller: {force: {gama: 0.5}}}"]) == 2
     assert "controller.force.gama" in capsys.readouterr().err
+
+
+def test_eta_without_a_gripper_split_is_an_error_not_a_no_op(capsys):
+    assert main(["simulate", "fig6", "--eta", "0.5"]) == 2
+    assert "controller.force.phi_gripper" in capsys.readouterr().err
