@@ -21,7 +21,7 @@ DEFAULT_LCM_URL = LcmChannels.lcm_url
 
 def _check(args) -> int:
     """Eq. 4 against Drake's own dynamics along a simulated random motion."""
-    from heft.diagrams.load_on_sensor import simulate_random_motion
+    from heft.diagrams.stations.load_on_sensor import simulate_random_motion
     from heft.systems.load_dynamics import InertialParameters, noncontact_wrench
 
     rng = np.random.default_rng(args.seed)
@@ -45,7 +45,7 @@ def _check(args) -> int:
 
 def _bench_regressor(args) -> int:
     from heft.analysis.bench_regressor import run
-    from heft.diagrams.load_on_sensor import LoadOnSensorPlant
+    from heft.diagrams.stations.load_on_sensor import LoadOnSensorPlant
     from heft.systems.load_dynamics import InertialParameters
 
     rng = np.random.default_rng(args.seed)
@@ -68,7 +68,7 @@ def _scenario(args, options: str = ""):
 def _simulate(args) -> int:
     from heft.diagrams.load_estimate import read_load_estimate
     from heft.diagrams.scenario import NOISE_OFF, overrides_text
-    from heft.diagrams.simulate import simulate
+    from heft.diagrams.running.simulation import simulate
 
     noise = {} if args.noise is None else {name: args.noise == "on" for name in NOISE_OFF}
     options = overrides_text({"controller.force.gamma": args.gamma, "controller.force.eta": args.eta, **noise,
@@ -103,7 +103,7 @@ def _identify(args) -> int:
     scenario = _scenario(args)
     settings = ExcitationSettings.quick() if args.quick else ExcitationSettings()
     if args.hardware:
-        from heft.diagrams.hardware_identify import identify_on_hardware
+        from heft.diagrams.running.hardware_identify import identify_on_hardware
         identify_on_hardware(scenario, args.out, args.lcm_url, method=args.method, signals=args.signals,
                              settings=settings, periods=args.periods, record=args.record,
                              params=_station_params(args.watchdog_timeout), priority=args.rt_priority)
@@ -120,7 +120,7 @@ def _demo(args) -> int:
     """Identify the paper's tool, then replay Fig. 6 with σ = 1, 0.5, 0."""
     from heft.diagrams.identify import identify_in_simulation
     from heft.diagrams.scenario import resolve_scenario
-    from heft.diagrams.simulate import simulate
+    from heft.diagrams.running.simulation import simulate
     from heft.systems.excitation import ExcitationSettings
 
     out = Path(args.out)
@@ -143,7 +143,7 @@ def _demo(args) -> int:
 def _bench_identify(args) -> int:
     from heft.analysis import bench_identify as bench
     from heft.diagrams.identify import ALL_METHODS, design_excitation, kinematic_signals, record_excitation
-    from heft.diagrams.progress import ProgressBar
+    from heft.diagrams.running.progress import ProgressBar
     from heft.diagrams.scenario import Scenario
     from heft.systems.estimators import NoiseLevels
     from heft.systems.excitation import ExcitationSettings
@@ -183,7 +183,7 @@ def _bench_identify(args) -> int:
 
 
 def _bench_lcm(args) -> int:
-    from heft.diagrams.bench_lcm import run
+    from heft.diagrams.commands.bench_lcm import run
 
     rates = [float(r) for r in args.rates.split(",")]
     results = run(rates, args.duration, args.scenario, args.lcm_url)
@@ -193,7 +193,7 @@ def _bench_lcm(args) -> int:
 
 
 def _stand_in(args) -> int:
-    from heft.diagrams.stand_in import FaultInjection, run_stand_in
+    from heft.diagrams.stations.stand_in import FaultInjection, run_stand_in
     from heft.hardware_interface.channels import LcmChannels
 
     scenario = _scenario(args)
@@ -226,7 +226,7 @@ def _station_params(timeout):
 
 
 def _teleop(args) -> int:
-    from heft.diagrams.hardware_teleop import format_summary, run_hardware_teleop
+    from heft.diagrams.running.hardware_teleop import format_summary, run_hardware_teleop
     from heft.diagrams.load_estimate import LoadEstimate, read_load_estimate
 
     if not args.hardware:
@@ -279,7 +279,7 @@ def _load(args) -> int:
 
 
 def _picture(args) -> int:
-    from heft.diagrams.diagram_picture import write_picture
+    from heft.diagrams.commands.picture import write_picture
 
     print(f"wrote {write_picture(args.out, args.what, args.scenario, args.depth)}")
     return 0
@@ -428,15 +428,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 ANALYSES = (
-    ("passivity", "heft.diagrams.analyze_passivity",
+    ("passivity", "heft.diagrams.commands.analyze_passivity",
      "port energies, the passivity observer and what the passivity controller dissipated, from a run's log"),
-    ("stability", "heft.diagrams.analyze_stability",
+    ("stability", "heft.diagrams.commands.analyze_stability",
      "stability maps by simulation sweeps (stiffness, damping, scales, rate, delay; with/without the PC)"),
-    ("linear", "heft.diagrams.analyze_linear",
+    ("linear", "heft.diagrams.commands.analyze_linear",
      "the loop linearised: eigenvalues, hybrid parameters H(jω), Llewellyn, Z-width, transparency"),
-    ("apparent-mass", "heft.diagrams.analyze_apparent_mass",
+    ("apparent-mass", "heft.diagrams.commands.analyze_apparent_mass",
      "the mass the operator feels for σ from 0 to 2 and the gripper/object split (Sec. V: m_a = σ·m)"),
-    ("replay", "heft.diagrams.replay", "a run's log as a self-contained HTML replay (Meshcat)"),
+    ("replay", "heft.diagrams.commands.replay", "a run's log as a self-contained HTML replay (Meshcat)"),
 )
 """``heft analyze`` subcommands: name, module (with ``add_arguments`` and ``run``), help."""
 
@@ -469,7 +469,7 @@ def main(argv=None) -> int:
         print(f"heft {args.command}: error: {error}", file=sys.stderr)
         return 2
     except RuntimeError as error:
-        from heft.diagrams.realtime import HardwareRunFailed
+        from heft.diagrams.running.realtime import HardwareRunFailed
         if not isinstance(error, HardwareRunFailed):
             raise
         print(f"heft {args.command}: stopped: {error}", file=sys.stderr)  # the arm is held, nothing written

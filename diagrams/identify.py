@@ -18,10 +18,10 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, TrajectorySource
 
 from heft.analysis.identification_report import convergence_figure, estimate_errors
-from heft.diagrams.progress import ProgressBar
+from heft.diagrams.running.progress import ProgressBar
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import MakeSlavePlant
-from heft.diagrams.sim_station import MakeSimStation
+from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.diagrams.load_estimate import LoadEstimate, estimate_record, read_load_estimate, write_load_estimate
 from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.estimators import (

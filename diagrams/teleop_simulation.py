@@ -8,7 +8,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Adder, ConstantVectorSource, DiscreteTimeDelay, LogVectorOutput
 
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.sim_station import MakeSimStation
+from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop import CONTROLLER_LOG, STATION_INPUTS_DRIVEN, STATION_OUTPUTS_READ, MakeTeleopController
 

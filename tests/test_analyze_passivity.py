@@ -7,10 +7,10 @@ import json
 import numpy as np
 import pytest
 
-from heft.diagrams import analyze_passivity
-from heft.diagrams.simulate import true_load
+from heft.diagrams.commands import analyze_passivity
+from heft.diagrams.running.simulation import true_load
 from heft.diagrams.scenario import NOISE_OFF, overrides_text, resolve_scenario
-from heft.diagrams.simulate import run_teleop
+from heft.diagrams.running.simulation import run_teleop
 from heft.systems.passivity_controller import PassivityParams
 
 

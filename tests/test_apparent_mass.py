@@ -69,9 +69,9 @@ def test_short_sigma_one_run_renders_the_scaled_mass(fig6):
     (slave tracking lag included) to 10 %."""
     import dataclasses
 
-    from heft.diagrams.apparent_mass import fit_run
-    from heft.diagrams.simulate import true_load
-    from heft.diagrams.simulate import run_teleop
+    from heft.diagrams.studies.apparent_mass import fit_run
+    from heft.diagrams.running.simulation import true_load
+    from heft.diagrams.running.simulation import run_teleop
     scenario = dataclasses.replace(fig6, duration=0.8, operator=dataclasses.replace(
         fig6.operator, amplitude=[0.0, 0.0, 0.028])).validate()
     load, _ = true_load(scenario)
@@ -83,7 +83,7 @@ def test_short_sigma_one_run_renders_the_scaled_mass(fig6):
 
 @pytest.mark.slow
 def test_rendered_mass_follows_sigma_and_eta(fig6, tmp_path):
-    from heft.diagrams.apparent_mass import apparent_mass_study, write_study
+    from heft.diagrams.studies.apparent_mass import apparent_mass_study, write_study
     study = apparent_mass_study(fig6, sigmas=(0.5, 1.0, 2.0), etas=(0.0, 1.0))
     k_f, s = 1 / 17.5, 2.0
     for row in study["sigma_runs"]:

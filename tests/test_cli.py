@@ -49,7 +49,7 @@ def test_simulate_writes_the_log_metrics_and_figure(tmp_path):
     import yaml
 
     from heft.diagrams.scenario import resolve_scenario
-    from heft.diagrams.sim_station import MakeSimStation
+    from heft.diagrams.stations.sim_station import MakeSimStation
 
     station = MakeSimStation(resolve_scenario("fig6"))
     phi = station.GetOutputPort("truth.phi").Eval(station.CreateDefaultContext())

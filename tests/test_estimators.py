@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from heft.diagrams.load_on_sensor import simulate_random_motion
+from heft.diagrams.stations.load_on_sensor import simulate_random_motion
 from heft.systems.estimators import (
     PARAMETER_NAMES, NoiseLevels, RecursiveInstrumentalVariables, RecursiveLeastSquares,
     RecursiveTotalLeastSquares, batch_estimate, phi_from_pseudo_inertia, project_to_physical,

@@ -4,10 +4,10 @@ the stand-in over LCM (memq://) with the estimate checked against the station's 
 import lcm
 import numpy as np
 import pytest
-from heft.diagrams.hardware_identify import HardwareIdentification, IdentificationAborted, identify_on_hardware
+from heft.diagrams.running.hardware_identify import HardwareIdentification, IdentificationAborted, identify_on_hardware
 from heft.diagrams.identify import design_excitation
 from heft.diagrams.scenario import resolve_scenario
-from heft.diagrams.stand_in import FaultInjection, StandIn
+from heft.diagrams.stations.stand_in import FaultInjection, StandIn
 from heft.hardware_interface.channels import LcmChannels
 from heft.systems.excitation import ExcitationSettings, FourierTrajectory
 from heft.systems.excitation_commander import (

@@ -13,9 +13,9 @@ from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import AddArmWithSensor
 from heft.diagrams.scenario import resolve_scenario
-from heft.diagrams.simulate import true_load
-from heft.diagrams.stand_in import FaultInjection, StandIn
-from heft.diagrams.hardware_teleop import HardwareTeleop
+from heft.diagrams.running.simulation import true_load
+from heft.diagrams.stations.stand_in import FaultInjection, StandIn
+from heft.diagrams.running.hardware_teleop import HardwareTeleop
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import HardwareStationParams
 from heft.hardware_interface.lcmtypes import heft_load_command, heft_load_status

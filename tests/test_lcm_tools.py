@@ -5,12 +5,12 @@ import sys
 
 import numpy as np
 import pytest
-from heft.diagrams.bench_lcm import step_latencies
-from heft.diagrams.lcm_recording import LcmTrafficRecorder
+from heft.diagrams.commands.bench_lcm import step_latencies
+from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
 
 RECORD_AND_PUBLISH = """
 import sys, time, lcm
-from heft.diagrams.lcm_recording import LcmTrafficRecorder
+from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
 url = "udpm://239.255.76.67:7667?ttl=0"
 bus = lcm.LCM(url)
 with LcmTrafficRecorder(url, sys.argv[1]):
@@ -55,7 +55,7 @@ def test_recorder_writes_a_log_lcm_reads_back(netns, tmp_path):
 
 PROBE_RECEIVER_CHECK = """
 import time, lcm
-from heft.diagrams.bench_lcm import _TimestampedReceiver
+from heft.diagrams.commands.bench_lcm import _TimestampedReceiver
 url = "udpm://239.255.76.67:7667?ttl=0"
 receiver = _TimestampedReceiver(url, "HEFT_MASTER_COMMAND")
 bus = lcm.LCM(url)

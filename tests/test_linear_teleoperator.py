@@ -22,9 +22,9 @@ from heft.analysis.stability import (
     llewellyn_absolutely_stable,
     virtual_wall_stiffness_limit,
 )
-from heft.diagrams import analyze_linear
-from heft.diagrams.linear_model_params import linear_model_params
-from heft.diagrams.sim_station import MakeSimStation
+from heft.diagrams.commands import analyze_linear
+from heft.diagrams.studies.linear_model_params import linear_model_params
+from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.diagrams.scenario import resolve_scenario
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation

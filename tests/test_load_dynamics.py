@@ -5,7 +5,7 @@ import pytest
 from pydrake.multibody.math import SpatialForce
 from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 
-from heft.diagrams.load_on_sensor import LoadOnSensorPlant, simulate_random_motion
+from heft.diagrams.stations.load_on_sensor import LoadOnSensorPlant, simulate_random_motion
 from heft.systems.drake_conventions import spatial_force_from_wrench, wrench_from_spatial_force
 from heft.systems.force_scaling import scale_wrench
 from heft.systems.load_dynamics import (

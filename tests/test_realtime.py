@@ -3,7 +3,7 @@ points it overran (never replays them) and reports the measured time since the l
 
 import pytest
 
-from heft.diagrams.realtime import run_realtime, timing_summary
+from heft.diagrams.running.realtime import run_realtime, timing_summary
 
 PERIOD = 0.001
 

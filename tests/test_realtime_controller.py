@@ -10,7 +10,7 @@ import pytest
 from pydrake.systems.analysis import Simulator
 
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.simulate import true_load
+from heft.diagrams.running.simulation import true_load
 from heft.systems.offset_tracking import COLLECTING, DONE
 from heft.diagrams.teleop import MakeRealtimeTeleopController, MakeTeleopController
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from heft.diagrams.models import model_path
-from heft.diagrams.replay import (
+from heft.diagrams.commands.replay import (
     ARROW_ROOT,
     MASTER_BASE_IN_W,
     add_arguments,
@@ -18,9 +18,9 @@ from heft.diagrams.replay import (
     write_replay,
 )
 from heft.diagrams.plants import AddSlave
-from heft.diagrams.sim_station import MakeSimStation
+from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.diagrams.scenario import NOISE_OFF, overrides_text, resolve_scenario
-from heft.diagrams.simulate import run_teleop
+from heft.diagrams.running.simulation import run_teleop
 from heft.diagrams.load_estimate import LoadEstimate
 from pydrake.geometry import Meshcat, MeshcatParams
 from pydrake.multibody.parsing import Parser

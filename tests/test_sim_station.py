@@ -9,7 +9,7 @@ from pydrake.systems.analysis import Simulator
 
 from heft.diagrams.scenario import Scenario, load_scenario
 from heft.diagrams.plants import AddSlave
-from heft.diagrams.sim_station import MakeSimStation
+from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.systems.load_dynamics import InertialParameters, regressor
 
 STATION_PORTS = {

@@ -12,9 +12,9 @@ from pydrake.systems.primitives import DiscreteTimeDelay, LogVectorOutput, Traje
 from pydrake.trajectories import PiecewisePolynomial
 
 from heft.analysis.stability_map import draw_stability_map, stability_limits
-from heft.diagrams.analyze_stability import add_arguments, axis_values, run
+from heft.diagrams.commands.analyze_stability import add_arguments, axis_values, run
 from heft.diagrams.scenario import resolve_scenario
-from heft.diagrams.stability_sweep import grid, point_scenario, simulate_point
+from heft.diagrams.studies.stability_sweep import grid, point_scenario, simulate_point
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop_simulation import AddDelay, MakeTeleopSimulation
 
@@ -158,7 +158,7 @@ def test_the_simulated_stiffness_limit_brackets_the_linear_models_prediction():
     poles leave the unit circle; the full simulation without the PC holds contact below that
     stiffness and bounces above it."""
     from heft.analysis.linear_teleoperator import predicted_stiffness_limit
-    from heft.diagrams.linear_model_params import linear_model_params
+    from heft.diagrams.studies.linear_model_params import linear_model_params
 
     limit = predicted_stiffness_limit(linear_model_params(wall(1.5)))
     assert 5e3 < limit < 5e4

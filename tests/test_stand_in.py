@@ -14,7 +14,7 @@ from heft.diagrams.cli import main
 from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import AddSlave
-from heft.diagrams.stand_in import HAPTIC_WATCHDOG_S, FaultInjection, StandIn, _uniform, run_stand_in
+from heft.diagrams.stations.stand_in import HAPTIC_WATCHDOG_S, FaultInjection, StandIn, _uniform, run_stand_in
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.ft_receiver import FtSampleReader
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump

@@ -5,9 +5,9 @@ import pytest
 from pydrake.systems.analysis import Simulator
 
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.sim_station import MakeSimStation
+from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.diagrams.scenario import resolve_scenario
-from heft.diagrams.simulate import run_teleop
+from heft.diagrams.running.simulation import run_teleop
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop import STATION_INPUTS_DRIVEN, STATION_OUTPUTS_READ, MakeTeleopController
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation

@@ -139,7 +139,7 @@ def test_tool_change_and_rezero_reach_the_running_controller(netns, tmp_path):
     re-zeroes the offsets (the clutch never pressed, so the slave is still), each answered over
     LCM; the controller never restarts."""
     from heft.diagrams.scenario import resolve_scenario
-    from heft.diagrams.simulate import true_load
+    from heft.diagrams.running.simulation import true_load
 
     true = true_load(resolve_scenario("fig6"))[0]
     estimate = tmp_path / "estimate.yaml"

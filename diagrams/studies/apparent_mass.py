@@ -30,7 +30,7 @@ from pydrake.math import RollPitchYaw, RotationMatrix
 from heft.analysis.apparent_mass import estimate_apparent_mass, fit_apparent_mass, hand_mass
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
-from heft.diagrams.simulate import run_teleop, true_load
+from heft.diagrams.running.simulation import run_teleop, true_load
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 

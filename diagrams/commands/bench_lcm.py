@@ -211,7 +211,8 @@ def bench_rate(rate_hz: float, duration: float, lcm_url: str, scenario: str, fol
          "--rate", str(rate_hz), "--duration", str(duration + SETTLE), "--out", str(summary_path)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
     probe = subprocess.Popen(
-        [*python, "-m", "heft.diagrams.bench_lcm", "--probe", lcm_url, str(20 * (duration + SETTLE)), str(probe_path),
+        [*python, "-m", "heft.diagrams.commands.bench_lcm", "--probe", lcm_url, str(20 * (duration + SETTLE)),
+         str(probe_path),
          json.dumps(loaded.master_initial_q), json.dumps(loaded.slave_initial_q)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
     _finish({"teleop": (teleop, 20 * (duration + SETTLE) + 120), "probe": (probe, 30)})

@@ -12,7 +12,7 @@ import subprocess
 from pathlib import Path
 
 from heft.diagrams.scenario import resolve_scenario
-from heft.diagrams.simulate import true_load
+from heft.diagrams.running.simulation import true_load
 from heft.diagrams.teleop import MakeTeleopController
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation
 

@@ -27,8 +27,8 @@ import time
 import lcm
 import numpy as np
 
-from heft.diagrams.lcm_recording import LcmTrafficRecorder
-from heft.diagrams.realtime import claim_realtime, format_timing, run_realtime, timing_summary
+from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
+from heft.diagrams.running.realtime import claim_realtime, format_timing, run_realtime, timing_summary
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop import MakeRealtimeTeleopController

@@ -19,7 +19,7 @@ import numpy as np
 from heft.analysis.parallel import run_points
 from heft.analysis.stability import oscillation_growth
 from heft.diagrams.scenario import Scenario, layered, overrides_text
-from heft.diagrams.simulate import run_teleop, true_load
+from heft.diagrams.running.simulation import run_teleop, true_load
 
 
 # Swept parameter → (scenario field it sets, units).

@@ -7,7 +7,7 @@ apparent_mass.png and apparent_mass.json to ``--out``.
 import sys
 from pathlib import Path
 
-from heft.diagrams.apparent_mass import apparent_mass_study, write_study
+from heft.diagrams.studies.apparent_mass import apparent_mass_study, write_study
 from heft.diagrams.scenario import NOISE_OFF, overrides_text, resolve_scenario
 
 

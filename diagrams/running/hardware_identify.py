@@ -28,9 +28,10 @@ from heft.diagrams.identify import (
     kinematic_signals,
     noise_levels,
 )
-from heft.diagrams.lcm_recording import LcmTrafficRecorder
+from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
 from heft.diagrams.load_estimate import estimate_record, write_load_estimate
-from heft.diagrams.realtime import HardwareRunFailed, claim_realtime, format_timing, run_realtime, timing_summary
+from heft.diagrams.running.realtime import (HardwareRunFailed, claim_realtime, format_timing, run_realtime,
+                                            timing_summary)
 from heft.diagrams.scenario import Scenario
 from heft.systems.slave_kinematics import NUM_JOINTS
 from heft.hardware_interface.channels import LcmChannels

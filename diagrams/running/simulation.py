@@ -15,9 +15,9 @@ from pydrake.systems.analysis import Simulator
 
 from heft.analysis.experiment_metrics import experiment_metrics
 from heft.analysis.figures import paper_figure
-from heft.diagrams.progress import ProgressBar
+from heft.diagrams.running.progress import ProgressBar
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.sim_station import MakeSimStation
+from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation
 

@@ -14,9 +14,9 @@ from pathlib import Path
 import numpy as np
 
 from heft.analysis.stability_map import draw_stability_map, stability_limits
-from heft.diagrams.progress import ProgressBar
+from heft.diagrams.running.progress import ProgressBar
 from heft.diagrams.scenario import resolve_scenario
-from heft.diagrams.stability_sweep import AXES, point_scenario, sweep
+from heft.diagrams.studies.stability_sweep import AXES, point_scenario, sweep
 
 
 def axis_values(axis: str, count: int, period: float) -> list[float]:
@@ -86,7 +86,7 @@ def predicted_stiffness_limits(base, levels, y: str | None) -> dict | None:
     """{level of ``y``: the linear model's stiffness limit (N/m)} (``linear_teleoperator``; no
     passivity controller); None where the model does not apply to the scenario."""
     from heft.analysis.linear_teleoperator import predicted_stiffness_limit
-    from heft.diagrams.linear_model_params import linear_model_params, operating_point
+    from heft.diagrams.studies.linear_model_params import linear_model_params, operating_point
 
     try:
         point = operating_point(base)

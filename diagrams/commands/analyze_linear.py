@@ -8,7 +8,7 @@ import json
 from pathlib import Path
 
 from heft.analysis.linear_teleoperator import analyze, write_figures
-from heft.diagrams.linear_model_params import linear_model_params
+from heft.diagrams.studies.linear_model_params import linear_model_params
 from heft.diagrams.scenario import resolve_scenario
 
 

@@ -66,7 +66,7 @@ from pydrake.multibody.tree import JacobianWrtVariable
 
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import MakeMasterPlant, MakeSlavePlant, phi_about_S
-from heft.diagrams.sim_station import MASTER_ENCODER_COUNTS_PER_REV
+from heft.diagrams.stations.sim_station import MASTER_ENCODER_COUNTS_PER_REV
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import CLUTCH_BUTTON
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump

@@ -37,7 +37,7 @@ import numpy as np
 from heft.analysis.linear_teleoperator import LinearTeleoperatorParams
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import MakeSlavePlant
-from heft.diagrams.sim_station import MakeSimStation
+from heft.diagrams.stations.sim_station import MakeSimStation
 from pydrake.math import RollPitchYaw, RotationMatrix
 from pydrake.multibody.tree import JacobianWrtVariable, JointActuatorIndex
 

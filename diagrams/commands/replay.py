@@ -22,7 +22,7 @@ import numpy as np
 from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import AddSlave
-from heft.diagrams.sim_station import AddSheetSpring
+from heft.diagrams.stations.sim_station import AddSheetSpring
 from heft.diagrams.scenario import resolve_scenario
 from pydrake.geometry import (
     Cylinder,
