@@ -11,17 +11,18 @@ import shutil
 import subprocess
 from pathlib import Path
 
-from heft.diagrams.scenario import resolve_scenario
-from heft.diagrams.running.simulation import true_load
-from heft.diagrams.teleop import MakeTeleopController
-from heft.diagrams.teleop_simulation import MakeTeleopSimulation
-
 WHAT = ("controller", "simulation")
+HELP = "draw the controller Diagram (or the whole simulation) as Drake sees it (Graphviz)"
 
 
 def teleop_graphviz(what: str = "controller", scenario_name: str = "fig6", depth: int = 1) -> str:
     """The DOT text of the controller Diagram, or of the ``simulation`` (controller closed around
     the simulated station), with ``depth`` levels of subsystems drawn."""
+    from heft.diagrams.running.simulation import true_load
+    from heft.diagrams.scenario import resolve_scenario
+    from heft.diagrams.teleop import MakeTeleopController
+    from heft.diagrams.teleop_simulation import MakeTeleopSimulation
+
     if what not in WHAT:
         raise ValueError(f"draw one of {', '.join(WHAT)}; got {what!r}")
     scenario = resolve_scenario(scenario_name)
@@ -52,3 +53,16 @@ def write_picture(out, what: str = "controller", scenario_name: str = "fig6", de
                          f"write {out.with_suffix('.dot')} instead and render it elsewhere")
     subprocess.run([dot, f"-T{out.suffix[1:]}", "-o", str(out)], input=text.encode(), check=True)
     return out
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--what", default="controller", choices=WHAT,
+                        help="the controller alone (default) or closed around the simulated station")
+    parser.add_argument("--out", default="teleop_controller.svg", help="an .svg, .png or .dot file")
+    parser.add_argument("--scenario", default="fig6", help="fig6 | fig7 | fig8 | path to a scenario YAML")
+    parser.add_argument("--depth", type=int, default=1, help="levels of subsystems drawn (default 1)")
+
+
+def run(args) -> int:
+    print(f"wrote {write_picture(args.out, args.what, args.scenario, args.depth)}")
+    return 0

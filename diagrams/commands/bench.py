@@ -1,0 +1,111 @@
+"""`heft bench`: benchmarks, each printed beside a reference measured in the same run.
+
+``regressor``: V·φ per sample and per batch against Drake; ``identify``: Monte Carlo accuracy
+of every estimator against the Cramér–Rao bound, and update costs; ``lcm``: the controller
+against a driver probe and the stand-in over LCM in two processes."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+
+from heft.diagrams.commands.options import DEFAULT_LCM_URL
+
+HELP = "benchmarks, each printed beside a reference measured in the same run"
+
+
+def _bench_regressor(args) -> int:
+    from heft.analysis.bench_regressor import run
+    from heft.diagrams.stations.load_on_sensor import LoadOnSensorPlant
+    from heft.systems.load_dynamics import InertialParameters
+
+    rng = np.random.default_rng(args.seed)
+    load = InertialParameters.random(rng)
+    reference = LoadOnSensorPlant(load)
+    run(load.to_phi(), reference.reaction_wrench, reference.motion_in_S, reference.random_state, rng,
+        batch_size=args.batch)
+    return 0
+
+
+def _bench_identify(args) -> int:
+    from heft.analysis import bench_identify as bench
+    from heft.diagrams.identify import ALL_METHODS, design_excitation, kinematic_signals, record_excitation
+    from heft.diagrams.running.progress import ProgressBar
+    from heft.diagrams.scenario import Scenario
+    from heft.systems.estimators import NoiseLevels
+    from heft.systems.excitation import ExcitationSettings
+    from heft.systems.load_dynamics import noncontact_wrench
+
+    scenario = Scenario()  # the paper's tool, ideal sensors: noise is added per run below
+    scenario.ft_sensor.noise = scenario.accelerometer.noise = False
+    settings = dataclasses.replace(ExcitationSettings.quick(), base_frequency=0.5, duration=2.0)
+    excitation = design_excitation(scenario, settings)
+    recording = record_excitation(scenario, excitation.trajectory, settings.duration)
+    (a, alpha, omega, g), _ = kinematic_signals(scenario, recording, settings.base_frequency,
+                                                settings.harmonics, "accelerometer")
+    theta_true = np.concatenate((np.zeros(6), recording.phi_true))
+    # The exact wrench of these signals, so the spread measured is the estimators' alone
+    # (the simulation's own model error is what `heft identify` reports with noise off).
+    exact_wrench = noncontact_wrench(recording.phi_true, a, alpha, omega, g)
+    noise = NoiseLevels()
+    bound = bench.cramer_rao_bound(a, alpha, omega, g, noise)
+    methods = args.methods or list(ALL_METHODS)
+    print(f"{len(recording.t)} samples of a {settings.duration:g} s excitation; {args.runs} runs per noise model; "
+          f"noise {noise}")
+    results = {}
+    for label, accelerometer_noise in (("wrench", False), ("wrench+accelerometer", True)):
+        bar = ProgressBar(args.runs, label)
+        estimates = bench.monte_carlo(exact_wrench, a, alpha, omega, g, noise, args.runs, methods, args.seed,
+                                      accelerometer_noise, bar.update, workers=args.workers, dask_address=args.dask)
+        bar.close()
+        results[label] = bench.summarise(estimates, theta_true, bound)
+        bench.print_table(f"noise on {label}: bias / std / Cramér–Rao std (efficiency σ²_CR/MSE)", results[label])
+    costs = bench.update_costs(exact_wrench, a, alpha, omega, g, noise)
+    print("\ncost per sample (µs): " + ", ".join(f"{m} {1e6 * c:.1f}" for m, c in costs.items()))
+    print(f"a recursive RTLS update costs {costs['rtls'] / costs['tls']:.0f}× a batch TLS solve's share per sample, "
+          f"and {costs['rtls'] / 500e-6:.1%} of a 2 kHz tick")
+    if args.out:
+        Path(args.out).write_text(json.dumps({"accuracy": results, "cost_per_sample_s": costs}, indent=2) + "\n")
+    return 0
+
+
+def _bench_lcm(args) -> int:
+    from heft.diagrams.commands.bench_lcm import run
+
+    rates = [float(r) for r in args.rates.split(",")]
+    results = run(rates, args.duration, args.scenario, args.lcm_url)
+    if args.out:
+        Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
+    return 0
+
+
+def add_arguments(parser) -> None:
+    benches = parser.add_subparsers(dest="bench_name", metavar="BENCH", required=True)
+    regressor_parser = benches.add_parser("regressor", help="cost of V·φ per sample and per batch, against Drake")
+    regressor_parser.add_argument("--seed", type=int, default=0)
+    regressor_parser.add_argument("--batch", type=int, default=100_000, help="batch size (default 100000)")
+    regressor_parser.set_defaults(bench=_bench_regressor)
+    identify_parser = benches.add_parser("identify", help="Monte Carlo accuracy of every estimator against the "
+                                                         "Cramér–Rao bound, and update costs")
+    identify_parser.add_argument("--runs", type=int, default=100, help="noise realisations per model (default 100)")
+    identify_parser.add_argument("--seed", type=int, default=0)
+    identify_parser.add_argument("--methods", nargs="+", choices=("ols", "wls", "tls", "rls", "riv", "rtls"))
+    identify_parser.add_argument("--out", help="write every number as JSON here")
+    identify_parser.add_argument("--workers", type=int, help="local worker processes (default: every core)")
+    identify_parser.add_argument("--dask", metavar="ADDRESS", help="run on this Dask scheduler (tcp://host:port)")
+    identify_parser.set_defaults(bench=_bench_identify)
+    lcm_parser = benches.add_parser("lcm", help="the controller against a driver probe over LCM in two processes: "
+                                                "sensor-to-torque latency and the loop rate sustained")
+    lcm_parser.add_argument("--rates", default="2000,4000", help="controller rates to try (Hz, default 2000,4000)")
+    lcm_parser.add_argument("--duration", type=float, default=5.0, help="controller seconds per rate (default 5)")
+    lcm_parser.add_argument("--scenario", default="fig6", help="controller settings (default fig6)")
+    lcm_parser.add_argument("--lcm-url", default=DEFAULT_LCM_URL, help=f"LCM URL (default {DEFAULT_LCM_URL})")
+    lcm_parser.add_argument("--out", help="write every number as JSON here")
+    lcm_parser.set_defaults(bench=_bench_lcm)
+
+
+def run(args) -> int:
+    return args.bench(args)

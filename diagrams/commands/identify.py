@@ -1,0 +1,53 @@
+"""`heft identify`: the load's inertial parameters and the sensor offsets from an excitation,
+in simulation or on the hardware."""
+
+from __future__ import annotations
+
+
+
+from heft.diagrams.commands.options import DEFAULT_LCM_URL, add_set, scenario_from, station_params
+
+HELP = ("identify the load's inertial parameters and the sensor "
+       "offsets from an excitation motion (Sec. IV)")
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--scenario", required=True, help="fig6 | fig7 | fig8 | path to a scenario YAML")
+    add_set(parser)
+    parser.add_argument("--out", required=True, help="output folder")
+    parser.add_argument("--method", default="tls", choices=("ols", "wls", "tls", "rls", "riv", "rtls"),
+                          help="the estimate written to estimate.yaml (all are reported; default tls)")
+    parser.add_argument("--signals", default="accelerometer", choices=("accelerometer", "encoders"),
+                          help="where a and α come from (ω and g always from the encoders)")
+    parser.add_argument("--periods", type=int, default=1, help="excitation periods recorded (default 1)")
+    parser.add_argument("--quick", action="store_true", help="a short, quickly optimised excitation")
+    parser.add_argument("--hardware", action="store_true",
+                          help="excite the real arm over LCM (the scenario gives the robot, start pose and load "
+                               "model's settings); the arm first moves slowly to the excitation's start")
+    parser.add_argument("--lcm-url", default=DEFAULT_LCM_URL, help=f"with --hardware (default {DEFAULT_LCM_URL})")
+    parser.add_argument("--record", help="with --hardware: record the LCM traffic to this file (lcm-logger format)")
+    parser.add_argument("--watchdog-timeout", type=float,
+                          help="with --hardware: stale-channel timeout (s, default 0.02)")
+    parser.add_argument("--rt-priority", type=int, default=50,
+                          help="with --hardware: SCHED_FIFO priority of the loop, pinned to the last CPU "
+                               "(default 50; 0: normal)")
+
+
+def run(args) -> int:
+    from heft.diagrams.identify import identify
+    from heft.systems.excitation import ExcitationSettings
+
+    scenario = scenario_from(args)
+    settings = ExcitationSettings.quick() if args.quick else ExcitationSettings()
+    if args.hardware:
+        from heft.diagrams.running.hardware_identify import identify_on_hardware
+        identify_on_hardware(scenario, args.out, args.lcm_url, method=args.method, signals=args.signals,
+                             settings=settings, periods=args.periods, record=args.record,
+                             params=station_params(args.watchdog_timeout), priority=args.rt_priority)
+        print(f"wrote {args.out}/estimate.yaml, metrics.json{f', {args.record}' if args.record else ''}")
+        return 0
+    if args.record:
+        raise ValueError("--record records LCM traffic: it needs --hardware")
+    identify(scenario, args.out, method=args.method, signals=args.signals, settings=settings, periods=args.periods)
+    print(f"wrote {args.out}/estimate.yaml, metrics.json, convergence.png")
+    return 0

@@ -1,0 +1,56 @@
+"""`heft simulate`: one of the paper's experiments, or a scenario file, in the simulated station."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+
+from heft.diagrams.commands.options import add_set, scenario_from
+
+HELP = ("replay one of the paper's experiments (fig6, fig7, fig8) "
+       "or a scenario file in the simulated station")
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("scenario", help="fig6 | fig7 | fig8 | path to a scenario YAML")
+    add_set(parser)
+    parser.add_argument("--sigma", type=float, help="σ: non-contact scale (default: the scenario's set)")
+    parser.add_argument("--gamma", type=float, help="γ: contact scale")
+    parser.add_argument("--eta", type=float, help="η: share of the gripped object's non-contact wrench kept")
+    parser.add_argument("--noise", choices=("on", "off"), help="sensor noise, offsets, drift, quantisation")
+    parser.add_argument("--duration", type=float, help="simulated seconds")
+    parser.add_argument("--estimate", help="estimate.yaml from `heft identify` (default: identify first)")
+    parser.add_argument("--out", help="output folder (default out/SCENARIO)")
+    parser.add_argument("--meshcat", action="store_true", help="show the simulation live in a browser (URL printed)")
+
+
+def run(args) -> int:
+    from heft.diagrams.load_estimate import read_load_estimate
+    from heft.diagrams.scenario import NOISE_OFF, overrides_text
+    from heft.diagrams.running.simulation import simulate
+
+    noise = {} if args.noise is None else {name: args.noise == "on" for name in NOISE_OFF}
+    options = overrides_text({"controller.force.gamma": args.gamma, "controller.force.eta": args.eta, **noise,
+                              "duration": args.duration,
+                              "controller.sigmas": None if args.sigma is None else [args.sigma]})
+    scenario = scenario_from(args, options)
+    out = Path(args.out or f"out/{Path(args.scenario).stem}")
+    estimate = args.estimate or scenario.controller.load_estimate
+    if estimate:
+        load = read_load_estimate(estimate)
+        print(f"load estimate from {estimate}")
+    else:
+        from heft.diagrams.identify import identify_in_simulation
+        print("no load estimate given: identifying the load in simulation first (Sec. IV)")
+        load = identify_in_simulation(scenario, out / "identify")
+    sigmas = scenario.controller.sigmas
+    meshcat = None
+    if args.meshcat:
+        from pydrake.geometry import Meshcat
+        meshcat = Meshcat()
+        print(f"live view: {meshcat.web_url()}", flush=True)
+    metrics = simulate(scenario, load, out, sigmas, name=Path(args.scenario).stem, meshcat=meshcat)
+    print(json.dumps(metrics, indent=2))
+    print(f"wrote {out}/log.npz, metrics.json, figure.png")
+    return 0
