@@ -18,6 +18,7 @@ import yaml
 
 from pydrake.common.yaml import yaml_load_typed
 
+from heft.systems.estimator_gate import EstimatorSpec
 from heft.systems.feedback_mapping import FeedbackMappingParams
 from heft.systems.force_scaling import ForceScalingParams
 from heft.systems.motion_scaling import MotionScalingParams
@@ -90,6 +91,7 @@ class ControllerSpec:
     feedback: FeedbackMappingParams = dataclasses.field(default_factory=FeedbackMappingParams)
     passivity: PassivityParams = dataclasses.field(default_factory=PassivityParams)
     offsets: OffsetTrackingParams = dataclasses.field(default_factory=OffsetTrackingParams)
+    estimator: EstimatorSpec = dataclasses.field(default_factory=EstimatorSpec)
     # One-way communication delay (s) between controller and station, in each direction;
     # a whole number of controller periods.
     delay: float = 0.0

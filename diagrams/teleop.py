@@ -18,7 +18,10 @@ from pydrake.systems.primitives import ConstantVectorSource
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
 from heft.diagrams.scenario import ControllerSpec
+from heft.systems.accelerometer_reading import AccelerometerToMotion
+from heft.systems.estimator_gate import EstimatorGate
 from heft.systems.feedback_mapping import FeedbackMapping
+from heft.systems.load_estimator_system import LoadEstimatorSystem
 from heft.systems.force_scaling import ForceScalingElimination
 from heft.systems.master_kinematics import MasterKinematics
 from heft.systems.motion_scaling import MotionScaling
@@ -36,7 +39,7 @@ STATION_INPUTS_DRIVEN = ("master.torque_commanded", "slave.position_commanded")
 CONTROLLER_LOG = {"log.wrench_feedback": 6, "log.wrench_contact": 6, "log.wrench_noncontact": 6,
                   "log.master_wrench": 6, "log.pose_RS_desired": 7, "log.passivity_energy": 2,
                   "log.passivity_damping": 2, "log.ik_status": 2, "log.force_fault": 1, "log.scales": 3,
-                  "log.offsets": 6, "log.rezero_status": 1}
+                  "log.offsets": 6, "log.rezero_status": 1, "log.phi_hat": 10}
 
 
 def _slave_ik_model(robot: str) -> tuple[MultibodyPlant, RxKinematics, RigidTransform]:
@@ -52,6 +55,9 @@ def MakeRealtimeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot
                                  accelerometer_includes_gravity: bool) -> RealtimeTeleopController:
     """The controller of ``MakeTeleopController`` as one computation per tick, for the hardware's
     real-time loop (``systems.realtime_controller``): same models, same parameters."""
+    if spec.estimator.mode != "fixed":
+        raise ValueError("controller.estimator.mode 'online' runs in simulation only so far; on hardware use "
+                         "'fixed' and give a new tool's estimate with `heft load --estimate`")
     slave, kinematics, X_FS = _slave_ik_model(robot)
     return RealtimeTeleopController(MakeMasterPlant(), slave, f"{robot}_base", kinematics, X_FS, load.phi, load.offsets,
                                     spec.motion, spec.force, spec.feedback, spec.passivity, spec.offsets,
@@ -65,8 +71,10 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     (``accelerometer_reading``; the scenario's ``accelerometer.includes_gravity``).
 
     Inputs: the station outputs ``STATION_OUTPUTS_READ``; ``clutch`` (1, > 0.5 engaged);
-    optional ``sigma``, ``gamma``, ``eta`` (1 each; unconnected → ``spec.force``'s values) and
-    ``rezero`` (1, a request counter: ``OffsetTracker``).
+    optional ``sigma``, ``gamma``, ``eta`` (1 each; unconnected → ``spec.force``'s values),
+    ``rezero`` (1, a request counter: ``OffsetTracker``) and, with ``spec.estimator.mode``
+    "online", ``estimator_reset`` (1, a request counter: a new load). φ̂ is ``load.phi`` or,
+    online, the load estimator's (Fig. 4; ``EstimatorGate`` decides which samples it takes).
     Outputs: ``master.torque_commanded`` (6, N·m), ``slave.position_commanded`` (6, rad),
     and the ``CONTROLLER_LOG`` signals. The slave's tool frame T of the motion mapping is S.
     """
@@ -83,7 +91,14 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     feedback = builder.AddNamedSystem("feedback_mapping", FeedbackMapping(spec.feedback))
     passivity = builder.AddNamedSystem("passivity", PassivityController(
         dataclasses.replace(spec.passivity, **rate), spec.feedback.max_force, spec.feedback.max_torque))
-    phi = builder.AddNamedSystem("phi_hat", ConstantVectorSource(np.asarray(load.phi, dtype=float)))
+    estimation = spec.estimator
+    estimation.validate()
+    if estimation.mode == "online":
+        to_motion = builder.AddNamedSystem("accelerometer_to_motion",
+                                           AccelerometerToMotion(accelerometer_includes_gravity))
+        phi = builder.AddNamedSystem("phi_hat", LoadEstimatorSystem(
+            method=estimation.method, offsets=True, period=period, forgetting=estimation.forgetting))
+        gate = builder.AddNamedSystem("estimator_gate", EstimatorGate(estimation, period))
     offsets = builder.AddNamedSystem("offsets_hat", OffsetTracker(load.offsets, spec.offsets, period))
 
     def export_input(name, *ports):
@@ -97,8 +112,24 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
                  ik.GetInputPort("position_measured"))
     export_input("slave.velocity_estimated", slave_kinematics.GetInputPort("velocity"),
                  offsets.GetInputPort("slave_velocity"))
-    export_input("ft.wrench_measured", force.GetInputPort("wrench"))
-    export_input("ft.acceleration_measured", force.GetInputPort("acceleration"))
+    if estimation.mode == "online":
+        export_input("ft.wrench_measured", force.GetInputPort("wrench"), phi.GetInputPort("wrench"))
+        export_input("ft.acceleration_measured", force.GetInputPort("acceleration"), to_motion.GetInputPort("reading"))
+        export_input("estimator_reset", phi.GetInputPort("reset"), gate.GetInputPort("reset"))
+        builder.Connect(slave_kinematics.GetOutputPort("gravity_S"), to_motion.GetInputPort("gravity"))
+        for sink in (phi, gate):
+            builder.Connect(to_motion.GetOutputPort("acceleration"), sink.GetInputPort("acceleration"))
+            builder.Connect(slave_kinematics.GetOutputPort("omega_S"), sink.GetInputPort("omega"))
+        builder.Connect(slave_kinematics.GetOutputPort("gravity_S"), phi.GetInputPort("gravity"))
+        builder.Connect(force.GetOutputPort("wrench_contact"), gate.GetInputPort("wrench_contact"))
+        builder.Connect(force.GetOutputPort("fault"), gate.GetInputPort("fault"))
+        builder.Connect(gate.GetOutputPort("enable"), phi.GetInputPort("enable"))
+        phi_hat = phi.GetOutputPort("phi")
+    else:
+        phi_hat = builder.AddNamedSystem(
+            "phi_hat", ConstantVectorSource(np.asarray(load.phi, dtype=float))).get_output_port()
+        export_input("ft.wrench_measured", force.GetInputPort("wrench"))
+        export_input("ft.acceleration_measured", force.GetInputPort("acceleration"))
     export_input("clutch", motion.GetInputPort("clutch"))
     for name in ("sigma", "gamma", "eta"):
         export_input(name, force.GetInputPort(name))
@@ -110,7 +141,7 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     connect(motion.GetOutputPort("pose_RT_desired"), ik.GetInputPort("pose_desired"))
     connect(slave_kinematics.GetOutputPort("omega_S"), force.GetInputPort("omega"))
     connect(slave_kinematics.GetOutputPort("gravity_S"), force.GetInputPort("gravity"))
-    connect(phi.get_output_port(), force.GetInputPort("phi"))
+    connect(phi_hat, force.GetInputPort("phi"))
     connect(offsets.GetOutputPort("offsets"), force.GetInputPort("offsets"))
     connect(force.GetOutputPort("wrench_contact"), offsets.GetInputPort("wrench_contact"))
     connect(force.GetOutputPort("fault"), offsets.GetInputPort("fault"))
@@ -133,7 +164,8 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
                        ("log.force_fault", force.GetOutputPort("fault")),
                        ("log.scales", force.GetOutputPort("scales")),
                        ("log.offsets", offsets.GetOutputPort("offsets")),
-                       ("log.rezero_status", offsets.GetOutputPort("rezero_status"))):
+                       ("log.rezero_status", offsets.GetOutputPort("rezero_status")),
+                       ("log.phi_hat", phi_hat)):
         builder.ExportOutput(port, name)
     diagram = builder.Build()
     diagram.set_name("teleop_controller")

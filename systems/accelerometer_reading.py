@@ -19,6 +19,7 @@ pass the reading through.
 """
 
 import numpy as np
+from pydrake.systems.framework import LeafSystem
 
 
 def reading_from_motion(acceleration, gravity, includes_gravity: bool = True) -> np.ndarray:
@@ -38,3 +39,20 @@ def motion_from_reading(out: np.ndarray, reading, gravity, includes_gravity: boo
     if includes_gravity:
         out[..., :3] += gravity
     return out
+
+
+class AccelerometerToMotion(LeafSystem):
+    """``motion_from_reading`` as a block: inputs ``reading`` (6) and ``gravity`` (3, g in S),
+    output ``acceleration`` (6, kinematic [a; α] in S), for the blocks that take the kinematic
+    motion (the load estimator and its gate)."""
+
+    def __init__(self, includes_gravity: bool):
+        super().__init__()
+        self._includes_gravity = includes_gravity
+        self._reading = self.DeclareVectorInputPort("reading", 6)
+        self._gravity = self.DeclareVectorInputPort("gravity", 3)
+        self.DeclareVectorOutputPort("acceleration", 6, self._calc)
+
+    def _calc(self, context, output):
+        motion_from_reading(output.get_mutable_value(), self._reading.Eval(context), self._gravity.Eval(context),
+                            self._includes_gravity)

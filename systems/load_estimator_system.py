@@ -31,8 +31,10 @@ class LoadEstimatorSystem(LeafSystem):
 
     Input ports (all in the sensor frame S, DESIGN §4):
       wrench (6) [f; τ] the sensor exerts on the load (N, N·m); acceleration (6) [a; α]
-      (m/s², rad/s²); omega (3) (rad/s); gravity (3) (m/s²); enable (1): > 0.5 takes the
-      sample, otherwise the estimate is frozen. For method "riv" also
+      (m/s², rad/s²; kinematic: ``accelerometer_reading.AccelerometerToMotion`` converts the
+      sensor's reading); omega (3) (rad/s); gravity (3) (m/s²); enable (1): > 0.5 takes the
+      sample, otherwise the estimate is frozen; reset (1, optional): a request counter, each
+      increase empties the estimator (a new load) before the sample. For method "riv" also
       instrument_acceleration (6) and instrument_omega (3): the same motion from signals
       whose noise is independent of the accelerometer's (e.g. encoder-derived); the
       instrument's gravity is the gravity input.
@@ -44,7 +46,8 @@ class LoadEstimatorSystem(LeafSystem):
     ``noise`` (``estimators.NoiseLevels``, None for its defaults) and ``offsets`` go to the
     estimator, and so do ``estimator_options``
     (``initial_covariance`` for rls/riv, ``prior_weight`` for rtls, ``rcond``). The
-    estimator's state is the discrete state vector [estimator.state_vector(), num_skipped];
+    estimator's state is the discrete state vector [estimator.state_vector(), num_skipped,
+    resets seen];
     the numpy estimator object that updates it is per-context scratch in a cache entry, so
     nothing mutable lives on the system. A tick whose inputs are not all finite is skipped
     and counted; it never reaches the state.
@@ -71,11 +74,12 @@ class LoadEstimatorSystem(LeafSystem):
         self._omega = self.DeclareVectorInputPort("omega", 3)
         self._gravity = self.DeclareVectorInputPort("gravity", 3)
         self._enable = self.DeclareVectorInputPort("enable", 1)
+        self._reset = self.DeclareVectorInputPort("reset", 1)
         if self._instrumented:
             self._instrument_acceleration = self.DeclareVectorInputPort("instrument_acceleration", 6)
             self._instrument_omega = self.DeclareVectorInputPort("instrument_omega", 3)
 
-        self._state_index = self.DeclareDiscreteState(np.append(prototype.state_vector(), 0.0))
+        self._state_index = self.DeclareDiscreteState(np.append(prototype.state_vector(), [0.0, 0.0]))
         self._scratch = self.DeclareCacheEntry(
             description="estimator scratch (reloaded from the state before every use)",
             value_producer=ValueProducer(allocate=lambda: AbstractValue.Make(make_estimator()),
@@ -91,19 +95,24 @@ class LoadEstimatorSystem(LeafSystem):
 
     def _estimator_at(self, context, state: np.ndarray):
         estimator = self._scratch.get_mutable_cache_entry_value(context).GetMutableValueOrThrow()
-        estimator.load_state_vector(state[:-1])
+        estimator.load_state_vector(state[:-2])
         return estimator
 
     def _update(self, context, discrete_state) -> EventStatus:
+        state = discrete_state.get_mutable_vector(self._state_index).get_mutable_value()
+        requests = self._reset.Eval(context)[0] if self._reset.HasValue(context) else 0.0
+        if requests > state[-1]:  # a new load: forget everything, before this sample
+            estimator = self._estimator_at(context, state)
+            estimator.reset()
+            state[:-2], state[-1] = estimator.state_vector(), requests
         if not self._enable.Eval(context)[0] > 0.5:
-            return EventStatus.DidNothing()
+            return EventStatus.Succeeded()
         signals = [self._wrench.Eval(context), self._acceleration.Eval(context),
                    self._omega.Eval(context), self._gravity.Eval(context)]
         if self._instrumented:
             signals += [self._instrument_acceleration.Eval(context), self._instrument_omega.Eval(context)]
-        state = discrete_state.get_mutable_vector(self._state_index).get_mutable_value()
         if not math.isfinite(sum(sum(signal.tolist()) for signal in signals)):
-            state[-1] += 1.0
+            state[-2] += 1.0
             return EventStatus.Succeeded()
         estimator = self._estimator_at(context, state)
         wrench, acceleration, omega, gravity = signals[:4]
@@ -112,7 +121,7 @@ class LoadEstimatorSystem(LeafSystem):
             estimator.update(wrench, acceleration[:3], acceleration[3:], omega, gravity, instrument=instrument)
         else:
             estimator.update(wrench, acceleration[:3], acceleration[3:], omega, gravity)
-        state[:-1] = estimator.state_vector()
+        state[:-2] = estimator.state_vector()
         return EventStatus.Succeeded()
 
     def _state(self, context) -> np.ndarray:
@@ -129,5 +138,5 @@ class LoadEstimatorSystem(LeafSystem):
         estimator = self._estimator_at(context, state)
         condition = estimator.condition_number
         rms = estimator.residual_rms
-        output.SetFromVector([estimator.num_samples, state[-1], 1.0 / condition,
+        output.SetFromVector([estimator.num_samples, state[-2], 1.0 / condition,
                               np.linalg.norm(rms[:3]), np.linalg.norm(rms[3:])])

@@ -46,10 +46,11 @@ def rig():
         builder.Connect(split.get_output_port(1), estimator.GetInputPort("acceleration"))
         builder.Connect(split.get_output_port(2), estimator.GetInputPort("omega"))
         builder.Connect(split.get_output_port(3), estimator.GetInputPort("gravity"))
-        if estimators:
-            builder.ConnectInput("enable", estimator.GetInputPort("enable"))
-        else:
-            builder.ExportInput(estimator.GetInputPort("enable"), "enable")
+        for name in ("enable", "reset"):
+            if estimators:
+                builder.ConnectInput(name, estimator.GetInputPort(name))
+            else:
+                builder.ExportInput(estimator.GetInputPort(name), name)
         if method == "riv":  # exact data: the instrument is the same motion
             builder.Connect(split.get_output_port(1), estimator.GetInputPort("instrument_acceleration"))
             builder.Connect(split.get_output_port(2), estimator.GetInputPort("instrument_omega"))
@@ -103,8 +104,27 @@ def test_the_state_matches_the_numpy_estimator_fed_the_same_samples(rig):
         probe.SetTime(t)
         wrench, a, alpha, omega, g = np.split(source.get_output_port().Eval(probe), [6, 9, 12, 15])
         reference.update(wrench, a, alpha, omega, g)
-    np.testing.assert_allclose(state[:-1], reference.state_vector(), rtol=1e-12, atol=1e-12)
-    assert state[-1] == 0
+    np.testing.assert_allclose(state[:-2], reference.state_vector(), rtol=1e-12, atol=1e-12)
+    assert state[-2] == 0 and state[-1] == 0
+
+
+def test_reset_forgets_the_old_load_before_the_next_sample(rig):
+    """A reset request at 50 ms: the state is then what a fresh estimator fed only the samples
+    from that tick on holds."""
+    diagram, source, estimators, _, _ = rig
+    simulator, context = start(diagram)
+    simulator.AdvanceTo(0.05)
+    diagram.GetInputPort("reset").FixValue(context, [1.0])
+    simulator.AdvanceTo(0.1)
+    state = estimators["rls"].GetMyContextFromRoot(context).get_discrete_state_vector().get_value()
+    reference = RecursiveLeastSquares()
+    probe = source.CreateDefaultContext()
+    for t in np.arange(100, 200) * PERIOD:
+        probe.SetTime(t)
+        wrench, a, alpha, omega, g = np.split(source.get_output_port().Eval(probe), [6, 9, 12, 15])
+        reference.update(wrench, a, alpha, omega, g)
+    np.testing.assert_allclose(state[:-2], reference.state_vector(), rtol=1e-12, atol=1e-12)
+    assert state[-1] == 1.0
 
 
 def test_enable_zero_freezes_the_estimate(rig):
@@ -159,7 +179,7 @@ def test_no_direct_feedthrough(rig):
 def test_ports_and_bad_parameters():
     system = LoadEstimatorSystem(method="rls", offsets=False)
     assert [system.get_input_port(i).get_name() for i in range(system.num_input_ports())] == [
-        "wrench", "acceleration", "omega", "gravity", "enable"]
+        "wrench", "acceleration", "omega", "gravity", "enable", "reset"]
     assert [system.get_output_port(i).size() for i in range(3)] == [10, 6, len(QUALITY_NAMES)]
     with pytest.raises(ValueError, match="method must be one of"):
         LoadEstimatorSystem(method="kalman")

@@ -143,3 +143,11 @@ def test_step_before_start_is_refused():
         fused.step(5e-4, *([np.zeros(6)] * 6), True)
     with pytest.raises(ValueError, match="finite"):
         fused.start([0.0, np.nan, 0, 0, 0, 0])
+
+
+def test_online_estimation_is_refused_on_hardware_with_what_to_do():
+    scenario = Scenario()
+    scenario.controller.estimator.mode = "online"
+    with pytest.raises(ValueError, match="heft load --estimate"):
+        MakeRealtimeTeleopController(scenario.controller, true_load(scenario)[0], scenario.robot,
+                                     accelerometer_includes_gravity=True)

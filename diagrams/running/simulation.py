@@ -70,7 +70,6 @@ def run_teleop(scenario: Scenario, load: LoadEstimate, sigma: float, label: str 
     data["t"] = logs["wrench_measured"].sample_times().copy()
     data["master_force"] = data.pop("master_wrench")
     data["phi_true"] = np.asarray(phi_true).copy()
-    data["phi_hat"] = np.asarray(load.phi, dtype=float)
     data["offsets_hat"] = data.pop("offsets")  # (N, 6): the estimate at start, then tracked
     data["sigma"] = np.array(sigma)
     data["realtime_factor"] = np.array(scenario.duration / wall)

@@ -1,0 +1,126 @@
+"""When the online load estimator may learn (Fig. 4's estimator in the loop).
+
+A sample teaches the estimator about φ only if the motion excites the regressor
+beyond statics, and corrupts it if the wrench holds contact. So a sample is
+taken when
+
+* excitation: ‖V(a, α, ω, 0)‖ (the regressor of Eq. 5 without its static part,
+  a the kinematic acceleration) reaches ``min_excitation``: at rest or in slow
+  motion only gravity's direction is seen, which the stabilized forgetting of
+  ``estimators`` already holds; and
+* no contact: the eliminated wrench c (Eq. 13, from force scaling) is within
+  ``contact_force``/``contact_torque``, except during ``learning_window`` s
+  after a reset (a new load), when c holds the not yet learned load itself, and
+* force scaling is not faulted.
+
+Units: m/s², rad/s², rad/s for the motion, N and N·m for the wrench; all in S.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+from .load_dynamics import regressor
+
+ESTIMATOR_MODES = ("fixed", "online")
+ONLINE_METHODS = ("rls", "rtls")
+
+
+@dataclasses.dataclass
+class EstimatorSpec:
+    """The load estimate the controller uses: ``fixed`` (the estimate file's φ̂) or ``online``
+    (``method`` updating φ̂ every tick while ``EstimatorGate`` allows)."""
+
+    mode: str = "fixed"
+    method: str = "rls"
+    forgetting: float = 0.9995
+    """λ per tick: a memory of 1/(1 − λ) = 2000 ticks, 1 s at 2 kHz."""
+
+    min_excitation: float = 2.0
+    """Least ‖V(a, α, ω, 0)‖ (Frobenius; m/s², rad/s², rad²/s² mixed) of a sample taken."""
+
+    contact_force: float = 2.0
+    """|c_f| (N) above which a sample counts as contact."""
+
+    contact_torque: float = 0.2
+    """|c_τ| (N·m) above which a sample counts as contact."""
+
+    learning_window: float = 1.5
+    """Time (s) after a reset during which contact is not judged (the new load is learned)."""
+
+    def validate(self) -> None:
+        if self.mode not in ESTIMATOR_MODES:
+            raise ValueError(f"estimator mode must be one of {ESTIMATOR_MODES}; got {self.mode!r}")
+        if self.method not in ONLINE_METHODS:
+            raise ValueError(f"online estimator method must be one of {ONLINE_METHODS} (RIV needs "
+                             f"encoder-derived instruments, not available in the loop); got {self.method!r}")
+        if not 0.5 <= self.forgetting <= 1.0:
+            raise ValueError(f"estimator forgetting must lie in [0.5, 1]; got {self.forgetting}")
+        for name in ("min_excitation", "contact_force", "contact_torque", "learning_window"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"estimator {name} must be finite and >= 0; got {value}")
+
+
+_ZERO = np.zeros(3)
+
+
+def excitation(acceleration, omega) -> float:
+    """‖V(a, α, ω, 0)‖ of the kinematic [a; α] (6) and ω (3), in S."""
+    return float(np.linalg.norm(regressor(acceleration[:3], acceleration[3:], omega, _ZERO)))
+
+
+def gate_open(spec: EstimatorSpec, acceleration, omega, contact, fault: bool, since_reset: float) -> bool:
+    """Whether this sample may update the estimator (module docstring); ``since_reset`` in s."""
+    if fault or excitation(acceleration, omega) < spec.min_excitation:
+        return False
+    if since_reset < spec.learning_window:
+        return True
+    c = contact.tolist()
+    return (math.sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) <= spec.contact_force
+            and math.sqrt(c[3] * c[3] + c[4] * c[4] + c[5] * c[5]) <= spec.contact_torque)
+
+
+class EstimatorGate(LeafSystem):
+    """``enable`` (1: 1.0 to take the sample) for ``LoadEstimatorSystem`` (module docstring).
+
+    Inputs: ``acceleration`` (6, kinematic [a; α], ``AccelerometerToMotion``), ``omega`` (3),
+    ``wrench_contact`` (6) and ``fault`` (1) from force scaling, ``reset`` (1, a request
+    counter, as the estimator's). State: the time since the last reset (s) and the counter
+    seen, advanced every ``period`` s.
+    """
+
+    def __init__(self, spec: EstimatorSpec, period: float):
+        super().__init__()
+        spec.validate()
+        self._spec, self._period = spec, period
+        self._acceleration = self.DeclareVectorInputPort("acceleration", 6)
+        self._omega = self.DeclareVectorInputPort("omega", 3)
+        self._contact = self.DeclareVectorInputPort("wrench_contact", 6)
+        self._fault = self.DeclareVectorInputPort("fault", 1)
+        self._reset = self.DeclareVectorInputPort("reset", 1)
+        # Time since the last reset (s; the start counts as one) and the reset counter seen.
+        self._clock = self.DeclareDiscreteState(BasicVector([0.0, 0.0]))
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
+        self.DeclareVectorOutputPort("enable", 1, self._calc_enable)
+
+    def _requests(self, context) -> float:
+        return self._reset.Eval(context)[0] if self._reset.HasValue(context) else 0.0
+
+    def _calc_enable(self, context, output):
+        since_reset, seen = context.get_discrete_state(self._clock).get_value()
+        if self._requests(context) > seen:
+            since_reset = 0.0
+        open_ = gate_open(self._spec, self._acceleration.Eval(context), self._omega.Eval(context),
+                          self._contact.Eval(context),
+                          self._fault.Eval(context)[0] > 0.5, since_reset)
+        output.SetAtIndex(0, 1.0 if open_ else 0.0)
+
+    def _update(self, context, discrete_state):
+        since_reset, seen = context.get_discrete_state(self._clock).get_value()
+        requests = self._requests(context)
+        if requests > seen:
+            since_reset, seen = 0.0, requests
+        discrete_state.set_value(self._clock, [since_reset + self._period, seen])
