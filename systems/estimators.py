@@ -107,6 +107,13 @@ def _regressor_derivatives():
 _DV_DA, _DV_DALPHA, _D2V_DOMEGA2 = _regressor_derivatives()
 
 
+def wrench_motion_jacobian(phi) -> np.ndarray:
+    """∂(V·φ)/∂[a; α] (6, 6): how the load's wrench moves with S's accelerations. V is affine in
+    a and α, so it does not depend on the motion."""
+    phi = np.asarray(phi, dtype=float)
+    return np.hstack(((_DV_DA @ phi).T, (_DV_DALPHA @ phi).T))
+
+
 def _noise_gram_terms(noise: NoiseLevels, weights: np.ndarray):
     """First-order expected Gram matrix of the kinematic noise in the row-weighted V (rows
     scaled by √weights): over n samples with Ω = Σ ω ωᵀ it is
