@@ -9,6 +9,7 @@ derived from the encoders by harmonic differentiation (``--signals``).
 
 import dataclasses
 import json
+import math
 import time
 from pathlib import Path
 
@@ -21,7 +22,7 @@ from heft.analysis.identification_report import convergence_figure, estimate_err
 from heft.diagrams.running.progress import ProgressBar
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import MakeSlavePlant
-from heft.diagrams.stations.sim_station import MakeSimStation
+from heft.diagrams.stations.sim_station import MakeSimStation, set_holding
 from heft.diagrams.load_estimate import LoadEstimate, estimate_record, read_load_estimate, write_load_estimate
 from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.estimators import (
@@ -84,6 +85,8 @@ def record_excitation(scenario: Scenario, trajectory, duration: float) -> Record
     loggers = {name: LogVectorOutput(station.GetOutputPort(name), builder, period) for name in names}
     diagram = builder.Build()
     simulator = Simulator(diagram)
+    if math.isfinite(scenario.load.grasp_at):  # the gripper alone is identified, before any grasp
+        set_holding(station, simulator.get_mutable_context(), False)
     simulator.Initialize()
     progress = ProgressBar(duration + period, "excitation")
     for t in np.arange(1, int(np.ceil((duration + period) / 0.1)) + 1) * 0.1:

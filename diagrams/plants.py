@@ -75,9 +75,10 @@ def AddSlave(plant: MultibodyPlant, scenario: Scenario) -> SlaveParts:
     return SlaveParts(arm, sensor_body, S, load_bodies, weld, gripper_bodies)
 
 
-def phi_about_S(plant: MultibodyPlant, S, bodies) -> np.ndarray:
-    """φ (Eq. 6) of ``bodies`` about S's origin in S, from the plant's own composite inertia."""
-    context = plant.CreateDefaultContext()
+def phi_about_S(plant: MultibodyPlant, S, bodies, context=None) -> np.ndarray:
+    """φ (Eq. 6) of ``bodies`` about S's origin in S, from the plant's own composite inertia (in
+    ``context``, else the default one)."""
+    context = context or plant.CreateDefaultContext()
     M = plant.CalcSpatialInertia(context, S, [b.index() for b in bodies])
     return np.concatenate(([M.get_mass()], M.get_mass() * M.get_com(),
                            inertia_entries(M.CalcRotationalInertia().CopyToFullMatrix3())))

@@ -40,6 +40,9 @@ class LoadSpec:
     com: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.05])  # p_SC_S, m
     # Inertia about the COM, axes of S: [Ixx, Ixy, Ixz, Iyy, Iyz, Izz], kg·m².
     inertia_com: list[float] = dataclasses.field(default_factory=lambda: [1e-3, 0, 0, 1e-3, 0, 1e-3])
+    # "gripper_object" only: the gripper closes on the object at this time (s) of a teleoperation
+    # run, in free space; before it, and throughout identification, it holds nothing. inf: held always.
+    grasp_at: float = math.inf
 
 
 @dataclasses.dataclass
@@ -131,15 +134,18 @@ class Scenario:
         need(len(self.controller.sigmas) >= 1 and min(self.controller.sigmas) >= 0, "controller.sigmas",
              "needs at least one σ >= 0")
         force = self.controller.force
-        need(force.eta == 1.0 or force.phi_gripper is not None, "controller.force.eta",
-             f"= {force.eta:g} would do nothing: η acts only with a gripper/object split; give "
-             "controller.force.phi_gripper (the gripper's φ, Eq. 6) or leave η at 1")
+        need(force.eta == 1.0 or force.phi_gripper is not None or math.isfinite(self.load.grasp_at),
+             "controller.force.eta", f"= {force.eta:g} would do nothing: η acts only with a gripper/object "
+             "split; give controller.force.phi_gripper (the gripper's φ, Eq. 6), use a load with a grasp "
+             "(load.grasp_at: the gripper is identified alone) or leave η at 1")
         need(self.robot in ("rx90", "rx60"), "robot", f"must be 'rx90' or 'rx60', not {self.robot!r}")
         need(len(self.slave_initial_q) == 6, "slave_initial_q", "needs 6 joint angles (rad)")
         need(len(self.master_initial_q) == 6, "master_initial_q", "needs 6 joint angles (rad)")
         need(self.load.kind in ("tool", "gripper_object", "custom"), "load.kind",
              f"must be 'tool', 'gripper_object' or 'custom', not {self.load.kind!r}")
         need(len(self.load.com) == 3, "load.com", "needs 3 numbers (m)")
+        need(math.isinf(self.load.grasp_at) or (self.load.kind == "gripper_object" and self.load.grasp_at > 0),
+             "load.grasp_at", "is a time > 0 (s) for a 'gripper_object' load only")
         need(len(self.load.inertia_com) == 6, "load.inertia_com", "needs 6 numbers [Ixx, Ixy, Ixz, Iyy, Iyz, Izz]")
         need(self.environment.kind in ("sheet_spring", "none"), "environment.kind",
              f"must be 'sheet_spring' or 'none', not {self.environment.kind!r}")

@@ -13,7 +13,7 @@ import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource
+from pydrake.systems.primitives import Adder, ConstantVectorSource
 
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
@@ -96,8 +96,12 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     if estimation.mode == "online":
         to_motion = builder.AddNamedSystem("accelerometer_to_motion",
                                            AccelerometerToMotion(accelerometer_includes_gravity))
+        # φ alone is estimated, from f − ô = c + V·φ̂ (force scaling's outputs): the offsets are
+        # the OffsetTracker's, so the weight cannot trade against the force offsets.
         phi = builder.AddNamedSystem("phi_hat", LoadEstimatorSystem(
-            method=estimation.method, offsets=True, period=period, forgetting=estimation.forgetting))
+            method=estimation.method, offsets=False, period=period, forgetting=estimation.forgetting,
+            initial_theta=load.phi))
+        unbiased = builder.AddNamedSystem("wrench_without_offsets", Adder(2, 6))
         gate = builder.AddNamedSystem("estimator_gate", EstimatorGate(estimation, period))
     offsets = builder.AddNamedSystem("offsets_hat", OffsetTracker(load.offsets, spec.offsets, period))
 
@@ -113,7 +117,10 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     export_input("slave.velocity_estimated", slave_kinematics.GetInputPort("velocity"),
                  offsets.GetInputPort("slave_velocity"))
     if estimation.mode == "online":
-        export_input("ft.wrench_measured", force.GetInputPort("wrench"), phi.GetInputPort("wrench"))
+        export_input("ft.wrench_measured", force.GetInputPort("wrench"))
+        builder.Connect(force.GetOutputPort("wrench_contact"), unbiased.get_input_port(0))
+        builder.Connect(force.GetOutputPort("wrench_noncontact"), unbiased.get_input_port(1))
+        builder.Connect(unbiased.get_output_port(), phi.GetInputPort("wrench"))
         export_input("ft.acceleration_measured", force.GetInputPort("acceleration"), to_motion.GetInputPort("reading"))
         export_input("estimator_reset", phi.GetInputPort("reset"), gate.GetInputPort("reset"))
         builder.Connect(slave_kinematics.GetOutputPort("gravity_S"), to_motion.GetInputPort("gravity"))

@@ -2,10 +2,13 @@
 in simulation, with an optional communication delay, and the signals analysis logs."""
 
 import dataclasses
+import math
 
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import Adder, ConstantVectorSource, DiscreteTimeDelay, LogVectorOutput
+from pydrake.systems.primitives import (Adder, ConstantVectorSource, DiscreteTimeDelay, LogVectorOutput,
+                                        TrajectorySource)
+from pydrake.trajectories import PiecewisePolynomial
 
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.stations.sim_station import MakeSimStation
@@ -19,7 +22,7 @@ STATION_LOG = {"ft.wrench_measured": "wrench_measured", "ft.acceleration_measure
                "truth.acceleration": "accel_true", "truth.omega": "omega_true", "truth.gravity_S": "gravity_S",
                "truth.ft_offsets": "offsets_true", "truth.slave_position": "slave_q",
                "master.position_measured": "master_q", "master.velocity_estimated": "master_v",
-               "truth.ft_saturated": "ft_saturated"}
+               "truth.ft_saturated": "ft_saturated", "truth.phi": "phi_true"}
 
 
 def AddDelay(builder: DiagramBuilder, port, steps: int, period: float, initial=None):
@@ -80,6 +83,11 @@ def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, sigma: float | 
                                {"master.position_measured": scenario.master_initial_q,
                                 "slave.position_measured": scenario.slave_initial_q,
                                 "slave.position_commanded": scenario.slave_initial_q})
+    grasp_at = scenario.load.grasp_at
+    if spec.estimator.mode == "online" and math.isfinite(grasp_at):  # the grasp is a new load
+        step = PiecewisePolynomial.ZeroOrderHold([0.0, grasp_at, grasp_at + 1.0], [[0.0, 1.0, 1.0]])
+        builder.Connect(builder.AddNamedSystem("grasp_event", TrajectorySource(step)).get_output_port(),
+                        controller.GetInputPort("estimator_reset"))
     loggers = {key: LogVectorOutput(station.GetOutputPort(name), builder, period)
                for name, key in STATION_LOG.items()}
     for name in CONTROLLER_LOG:

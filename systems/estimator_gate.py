@@ -25,13 +25,14 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 from .load_dynamics import regressor
 
 ESTIMATOR_MODES = ("fixed", "online")
-ONLINE_METHODS = ("rls", "rtls")
+ONLINE_METHODS = ("rls",)
 
 
 @dataclasses.dataclass
 class EstimatorSpec:
     """The load estimate the controller uses: ``fixed`` (the estimate file's φ̂) or ``online``
-    (``method`` updating φ̂ every tick while ``EstimatorGate`` allows)."""
+    (``method`` updating φ̂ every tick while ``EstimatorGate`` allows, starting from the
+    estimate file's and, on a new load, forgetting the data but keeping the estimate)."""
 
     mode: str = "fixed"
     method: str = "rls"
@@ -54,8 +55,9 @@ class EstimatorSpec:
         if self.mode not in ESTIMATOR_MODES:
             raise ValueError(f"estimator mode must be one of {ESTIMATOR_MODES}; got {self.mode!r}")
         if self.method not in ONLINE_METHODS:
-            raise ValueError(f"online estimator method must be one of {ONLINE_METHODS} (RIV needs "
-                             f"encoder-derived instruments, not available in the loop); got {self.method!r}")
+            raise ValueError(f"online estimator method must be one of {ONLINE_METHODS}: it starts from the "
+                             f"estimate and keeps it as the prior on a new load (RIV would need encoder-derived "
+                             f"instruments, RTLS a prior mean); got {self.method!r}")
         if not 0.5 <= self.forgetting <= 1.0:
             raise ValueError(f"estimator forgetting must lie in [0.5, 1]; got {self.forgetting}")
         for name in ("min_excitation", "contact_force", "contact_torque", "learning_window"):

@@ -783,6 +783,15 @@ class RecursiveLeastSquares(_InformationFormEstimator):
         super().reset()
         self._root.flat[0:self._p * (self._p + 2):self._p + 2] = math.sqrt(self._prior)
 
+    def start_from(self, theta) -> None:
+        """No data, but the estimate ``theta`` ([offsets; φ] or φ) held by the prior: the
+        information is reset, the estimate kept where the data will not say otherwise (a
+        covariance reset, e.g. on a known change of load)."""
+        theta = _vector("theta", theta, self._p)
+        self.reset()
+        self._theta[:] = theta
+        self._root[:self._p, self._p] = math.sqrt(self._prior) * theta
+
     def update(self, wrench, a, alpha, omega, g) -> None:
         """Adds one sample: wrench (6,), a, alpha, omega, g (3,), all in S."""
         wrench = _vector("wrench", wrench, 6)

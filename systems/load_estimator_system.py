@@ -34,7 +34,8 @@ class LoadEstimatorSystem(LeafSystem):
       (m/s², rad/s²; kinematic: ``accelerometer_reading.AccelerometerToMotion`` converts the
       sensor's reading); omega (3) (rad/s); gravity (3) (m/s²); enable (1): > 0.5 takes the
       sample, otherwise the estimate is frozen; reset (1, optional): a request counter, each
-      increase empties the estimator (a new load) before the sample. For method "riv" also
+      increase forgets the data before the sample (a new load): RLS keeps its estimate as the
+      prior mean (``start_from``), the others start from zero. For method "riv" also
       instrument_acceleration (6) and instrument_omega (3): the same motion from signals
       whose noise is independent of the accelerometer's (e.g. encoder-derived); the
       instrument's gravity is the gravity input.
@@ -42,7 +43,8 @@ class LoadEstimatorSystem(LeafSystem):
     estimator never closes an algebraic loop): phi (10); offsets (6) [f_o; τ_o], zeros when
     not estimated; quality (5), see ``QUALITY_NAMES``.
 
-    ``method`` is "rls", "riv" or "rtls" (``estimators.Recursive*``); ``forgetting``,
+    ``method`` is "rls", "riv" or "rtls" (``estimators.Recursive*``); ``initial_theta`` (RLS
+    only) the estimate it starts from, [offsets; φ] (or φ); ``forgetting``,
     ``noise`` (``estimators.NoiseLevels``, None for its defaults) and ``offsets`` go to the
     estimator, and so do ``estimator_options``
     (``initial_covariance`` for rls/riv, ``prior_weight`` for rtls, ``rcond``). The
@@ -54,7 +56,8 @@ class LoadEstimatorSystem(LeafSystem):
     """
 
     def __init__(self, method: str = "rtls", offsets: bool = True, period: float = 1 / 2000,
-                 forgetting: float = 1.0, noise: NoiseLevels | None = None, **estimator_options):
+                 forgetting: float = 1.0, noise: NoiseLevels | None = None, initial_theta=None,
+                 **estimator_options):
         super().__init__()
         if method not in ESTIMATORS:
             raise ValueError(f"method must be one of {tuple(ESTIMATORS)}; got {method!r}")
@@ -65,6 +68,10 @@ class LoadEstimatorSystem(LeafSystem):
             return ESTIMATORS[method](offsets=offsets, forgetting=forgetting, noise=noise, **estimator_options)
 
         prototype = make_estimator()
+        if initial_theta is not None:
+            if not hasattr(prototype, "start_from"):
+                raise ValueError(f"an initial estimate needs method 'rls' (a prior mean); got {method!r}")
+            prototype.start_from(initial_theta)
         self._p = 16 if offsets else 10
         self._offsets = offsets
         self._instrumented = method == "riv"
@@ -101,9 +108,12 @@ class LoadEstimatorSystem(LeafSystem):
     def _update(self, context, discrete_state) -> EventStatus:
         state = discrete_state.get_mutable_vector(self._state_index).get_mutable_value()
         requests = self._reset.Eval(context)[0] if self._reset.HasValue(context) else 0.0
-        if requests > state[-1]:  # a new load: forget everything, before this sample
+        if requests > state[-1]:  # a new load: forget the data before this sample
             estimator = self._estimator_at(context, state)
-            estimator.reset()
+            if hasattr(estimator, "start_from"):
+                estimator.start_from(estimator.state_vector()[:self._p])  # keep the estimate as the prior
+            else:
+                estimator.reset()
             state[:-2], state[-1] = estimator.state_vector(), requests
         if not self._enable.Eval(context)[0] > 0.5:
             return EventStatus.Succeeded()

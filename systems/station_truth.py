@@ -118,14 +118,14 @@ class ContactWrenchAtSensor(LeafSystem):
 
 
 class TrueNonContactWrench(LeafSystem):
-    """V(a, α, ω, g)·φ (Eq. 12) for known parameters ``phi``.
+    """V(a, α, ω, g)·φ (Eq. 12) for the true parameters.
 
-    Inputs ``acceleration`` ([a; α], 6), ``omega`` (3), ``gravity`` (3), all in S;
-    output ``wrench`` (6)."""
+    Inputs ``acceleration`` ([a; α], 6), ``omega`` (3), ``gravity`` (3), all in S, ``phi``
+    (10, the load's true φ); output ``wrench`` (6)."""
 
-    def __init__(self, phi):
+    def __init__(self):
         super().__init__()
-        self._phi = np.array(phi, dtype=float)
+        self._phi = self.DeclareVectorInputPort("phi", 10)
         self._acceleration = self.DeclareVectorInputPort("acceleration", 6)
         self._omega = self.DeclareVectorInputPort("omega", 3)
         self._gravity = self.DeclareVectorInputPort("gravity", 3)
@@ -134,4 +134,4 @@ class TrueNonContactWrench(LeafSystem):
     def _calc(self, context, output):
         accel = self._acceleration.Eval(context)
         V = regressor(accel[:3], accel[3:], self._omega.Eval(context), self._gravity.Eval(context))
-        output.SetFromVector(V @ self._phi)
+        output.SetFromVector(V @ self._phi.Eval(context))

@@ -1,9 +1,11 @@
 """The `heft` command: entry point, --version, and the check job."""
 
+import json
 import subprocess
 import sys
 from importlib.metadata import entry_points, version
 
+import pytest
 
 from heft.diagrams.cli import main
 
@@ -66,7 +68,7 @@ def test_simulate_writes_the_log_metrics_and_figure(tmp_path):
         assert log[key].shape == (n, 6), key
     for key in ("omega_true", "gravity_S"):
         assert log[key].shape == (n, 3), key
-    assert log["phi_true"].shape == (10,)
+    assert log["phi_true"].shape == (len(log["t"]), 10) and log["phi_hat"].shape == (len(log["t"]), 10)
     metrics = json.loads((out / "metrics.json").read_text())
     assert {"noncontact_peak_N", "residual_peak_N", "residual_ratio", "realtime_factor"} <= set(metrics)
     assert (out / "figure.png").stat().st_size > 10_000
@@ -98,3 +100,20 @@ def test_set_lays_yaml_over_the_scenario_and_names_a_wrong_field(capsys):
 def test_eta_without_a_gripper_split_is_an_error_not_a_no_op(capsys):
     assert main(["simulate", "fig6", "--eta", "0.5"]) == 2
     assert "controller.force.phi_gripper" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_simulate_grasp_keeps_eta_of_the_objects_weight(tmp_path):
+    """`heft simulate grasp --eta E --sigma 0` with the sensor model's noise: the gripper is
+    identified alone, the object is learned within 1.5 s of the grasp, and the fed-back force,
+    averaged over 10 ms, stays within 5 % of the object's weight of contact + η·(its non-contact
+    wrench) (per sample the sensors' noise, ≈ 0.26 N, is about 5 % of it)."""
+    for eta in (0.5, 0.0, 1.0):
+        out = tmp_path / f"eta{eta:g}"
+        estimate = ["--estimate", str(tmp_path / "eta0.5" / "identify" / "estimate.yaml")] if eta != 0.5 else []
+        assert main(["simulate", "grasp", "--eta", str(eta), "--sigma", "0", "--out", str(out), *estimate]) == 0
+        grasp = json.loads((out / "metrics.json").read_text())["grasp"]["sigma0"]
+        assert grasp["eta"] == eta
+        assert grasp["object_mass_settled_after_s"] < 1.5
+        assert abs(grasp["object_mass_hat_kg"] - grasp["object_mass_kg"]) < 0.02 * grasp["object_mass_kg"]
+        assert grasp["force_deviation_smoothed_peak_of_weight"] < 0.05

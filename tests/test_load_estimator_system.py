@@ -109,15 +109,17 @@ def test_the_state_matches_the_numpy_estimator_fed_the_same_samples(rig):
 
 
 def test_reset_forgets_the_old_load_before_the_next_sample(rig):
-    """A reset request at 50 ms: the state is then what a fresh estimator fed only the samples
-    from that tick on holds."""
+    """A reset request at 50 ms: the RLS state is then what an estimator started from the
+    estimate of that moment and fed only the samples from that tick on holds."""
     diagram, source, estimators, _, _ = rig
     simulator, context = start(diagram)
     simulator.AdvanceTo(0.05)
+    theta = estimators["rls"].GetMyContextFromRoot(context).get_discrete_state_vector().get_value()[:16].copy()
     diagram.GetInputPort("reset").FixValue(context, [1.0])
     simulator.AdvanceTo(0.1)
     state = estimators["rls"].GetMyContextFromRoot(context).get_discrete_state_vector().get_value()
     reference = RecursiveLeastSquares()
+    reference.start_from(theta)
     probe = source.CreateDefaultContext()
     for t in np.arange(100, 200) * PERIOD:
         probe.SetTime(t)

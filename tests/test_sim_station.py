@@ -307,3 +307,23 @@ def test_overrides_are_yaml_laid_over_the_scenario():
     assert base.controller.force.gamma == 1.0  # the base is not touched
     with pytest.raises(ValueError, match="controller.delay"):
         layered(base, "{controller: {delay: 0.0001}}")  # not a whole number of periods
+
+
+def test_the_grasp_adds_the_objects_weight_at_the_sensor_and_in_the_truth():
+    """A gripper_object load with a grasp: holding nothing, the sensor carries the gripper's
+    weight and truth.phi is the gripper's; holding, both grow by the object (Drake's reaction)."""
+    from heft.diagrams.scenario import overrides_text, resolve_scenario
+    from heft.diagrams.stations.sim_station import set_holding
+
+    scenario = resolve_scenario("grasp", overrides_text({"ft_sensor.noise": False, "accelerometer.noise": False}))
+    run = Run(scenario)
+    weights = []
+    for holding in (False, True):
+        set_holding(run.station, run.context, holding)
+        for _ in range(400):
+            run.step()
+        weights.append((np.linalg.norm(run.out("truth.wrench_sensor")[:3]), run.out("truth.phi")[0]))
+    m_gripper = run.out("truth.phi_gripper")[0]
+    (w_empty, m_empty), (w_full, m_full) = weights
+    assert m_empty == pytest.approx(m_gripper) and m_full == pytest.approx(m_gripper + 0.5024, rel=1e-6)
+    assert w_empty == pytest.approx(9.81 * m_empty, rel=1e-3) and w_full == pytest.approx(9.81 * m_full, rel=1e-3)

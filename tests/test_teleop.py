@@ -156,3 +156,21 @@ def test_online_estimation_learns_the_load_in_the_loop():
     late = log["t"] > 1.0
     peak = np.abs(log["wrench_noncontact_true"][:, :3]).max()
     assert np.abs(log["wrench_feedback"][late, :3]).max() < 0.02 * peak
+
+
+@pytest.mark.parametrize("eta", [0.5])
+def test_eq_14_after_a_grasp_with_the_estimator_in_the_loop(eta):
+    """The grasp scenario with ideal sensors, φ_gr the gripper's: the estimator learns the object
+    within 1.5 s of the grasp (mass within 2 %), and then the operator feels the contact plus η of
+    the object's true non-contact wrench and nothing of the gripper's (σ = 0), to 1 % of its weight."""
+    from heft.analysis.experiment_metrics import grasp_metrics
+    from heft.diagrams.running.simulation import true_load as station_truth
+
+    scenario = resolve_scenario("grasp", overrides_text({"ft_sensor.noise": False, "accelerometer.noise": False,
+                                                         "duration": 2.2, "controller.force.eta": eta}))
+    load, phi_gripper = station_truth(scenario)
+    scenario.controller.force.phi_gripper = phi_gripper.tolist()
+    gripper_only = LoadEstimate(phi=phi_gripper, offsets=load.offsets)
+    metrics = grasp_metrics(run_teleop(scenario, gripper_only, 0.0, quiet=True), scenario.load.grasp_at)
+    assert metrics["object_mass_settled_after_s"] < 1.5
+    assert metrics["force_deviation_peak_of_weight"] < 0.01

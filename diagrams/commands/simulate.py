@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 
@@ -27,7 +28,7 @@ def add_arguments(parser) -> None:
 
 def run(args) -> int:
     from heft.diagrams.load_estimate import read_load_estimate
-    from heft.diagrams.scenario import NOISE_OFF, overrides_text
+    from heft.diagrams.scenario import NOISE_OFF, layered, overrides_text
     from heft.diagrams.running.simulation import simulate
 
     noise = {} if args.noise is None else {name: args.noise == "on" for name in NOISE_OFF}
@@ -44,6 +45,10 @@ def run(args) -> int:
         from heft.diagrams.identify import identify_in_simulation
         print("no load estimate given: identifying the load in simulation first (Sec. IV)")
         load = identify_in_simulation(scenario, out / "identify")
+    if math.isfinite(scenario.load.grasp_at) and scenario.controller.force.phi_gripper is None:
+        # Before the grasp the gripper holds nothing: the estimate is the gripper's, Eq. 14's φ_gr.
+        scenario = layered(scenario, overrides_text({"controller.force.phi_gripper": load.phi.tolist()}))
+        print(f"gripper alone: m = {load.phi[0]:.4g} kg (φ_gr of Eq. 14); the object is learned after the grasp")
     sigmas = scenario.controller.sigmas
     meshcat = None
     if args.meshcat:

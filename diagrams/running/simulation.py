@@ -6,6 +6,7 @@ the paper-style figure (analysis/figures.py).
 
 import io
 import json
+import math
 import sys
 import time
 from pathlib import Path
@@ -13,17 +14,18 @@ from pathlib import Path
 import numpy as np
 from pydrake.systems.analysis import Simulator
 
-from heft.analysis.experiment_metrics import experiment_metrics
+from heft.analysis.experiment_metrics import experiment_metrics, grasp_metrics
 from heft.analysis.figures import paper_figure
 from heft.diagrams.running.progress import ProgressBar
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.stations.sim_station import MakeSimStation
+from heft.diagrams.stations.sim_station import MakeSimStation, set_holding
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation
+from heft.systems.load_dynamics import regressor
 
 # Plant-truth logs, re-timed to the sensor sample they belong to (see run_teleop).
 SAMPLE_ALIGNED_TRUTH = ("wrench_contact_true", "wrench_noncontact_true", "accel_true", "omega_true", "gravity_S",
-                        "slave_q")
+                        "slave_q", "phi_true")
 
 
 def true_load(scenario: Scenario) -> tuple[LoadEstimate, np.ndarray]:
@@ -46,21 +48,27 @@ def run_teleop(scenario: Scenario, load: LoadEstimate, sigma: float, label: str 
     shows the run live; ``quiet`` hides the progress bar."""
     diagram, loggers = MakeTeleopSimulation(scenario, load, sigma=sigma, meshcat=meshcat)
     simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    station = diagram.GetSubsystemByName("station")
+    grasp_at = scenario.load.grasp_at
+    if math.isfinite(grasp_at):
+        set_holding(station, context, False)
     simulator.Initialize()
-    context = simulator.get_context()
     progress = ProgressBar(scenario.duration, label or f"σ = {sigma:g}", stream=io.StringIO() if quiet else sys.stderr)
     start = time.perf_counter()
     chunk = 0.05
     t = 0.0
     while t < scenario.duration:
         t = min(t + chunk, scenario.duration)
+        if t - chunk < grasp_at <= t:  # the gripper closes on the object
+            simulator.AdvanceTo(grasp_at)
+            set_holding(station, context, True)
         simulator.AdvanceTo(t)
         progress.update(t)
     wall = time.perf_counter() - start
     progress.close()
     logs = {key: logger.FindLog(context) for key, logger in loggers.items()}
-    station = diagram.GetSubsystemByName("station")
-    phi_true = station.GetOutputPort("truth.phi").Eval(station.GetMyContextFromRoot(context))
+    phi_gripper = station.GetOutputPort("truth.phi_gripper").Eval(station.GetMyContextFromRoot(context))
     data = {key: log.data().T.copy() for key, log in logs.items()}
     # A logger publishes before the discrete updates of its instant, so at t_k it sees the
     # sensor sample taken at t_{k−1} (and what the controller made of it) beside the plant's
@@ -69,7 +77,13 @@ def run_teleop(scenario: Scenario, load: LoadEstimate, sigma: float, label: str 
         data[key] = np.concatenate((data[key][:1], data[key][:-1]))
     data["t"] = logs["wrench_measured"].sample_times().copy()
     data["master_force"] = data.pop("master_wrench")
-    data["phi_true"] = np.asarray(phi_true).copy()
+    # The gripped object's share of the true non-contact wrench (Eq. 14's V·φ_obj; zero without a split).
+    phi_object = data["phi_true"] - (phi_gripper if np.any(phi_gripper) else data["phi_true"])
+    data["wrench_noncontact_object_true"] = np.einsum(
+        "nij,nj->ni", regressor(data["accel_true"][:, :3], data["accel_true"][:, 3:], data["omega_true"],
+                                data["gravity_S"]), phi_object)
+    data["phi_gripper_true"] = np.asarray(phi_gripper).copy()
+    data["phi_gripper_hat"] = np.asarray(scenario.controller.force.phi_gripper or np.zeros(10), dtype=float)
     data["offsets_hat"] = data.pop("offsets")  # (N, 6): the estimate at start, then tracked
     data["sigma"] = np.array(sigma)
     data["realtime_factor"] = np.array(scenario.duration / wall)
@@ -88,6 +102,9 @@ def simulate(scenario: Scenario, load: LoadEstimate, out_dir, sigmas, name: str,
     np.savez_compressed(out / "log.npz", **runs[sigmas[0]])
     metrics = experiment_metrics(scenario.experiment, runs, scenario.controller.feedback.force_scale)
     metrics["realtime_factor"] = float(min(run["realtime_factor"] for run in runs.values()))
+    if math.isfinite(scenario.load.grasp_at):
+        metrics["grasp"] = {f"sigma{sigma:g}": grasp_metrics(run, scenario.load.grasp_at)
+                            for sigma, run in runs.items()}
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     paper_figure(runs, scenario.experiment, out / "figure.png", title=name)
     return metrics

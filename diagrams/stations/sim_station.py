@@ -13,7 +13,7 @@ from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, MultibodyPlant, MultibodyPlantConfig
 from pydrake.multibody.tree import (FixedOffsetFrame, JointActuatorIndex, PdControllerGains, PrismaticJoint,
-                                   PrismaticSpring, SpatialInertia)
+                                    PrismaticSpring, SpatialInertia)
 from pydrake.geometry import AddContactMaterial, Box, MeshcatVisualizer, ProximityProperties
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, Saturation
@@ -140,9 +140,11 @@ def _add_wrist_sensor(builder: DiagramBuilder, scenario: Scenario, plant: Multib
 
     phi = phi_about_S(plant, parts.S, parts.load_bodies)
     phi_gripper = phi_about_S(plant, parts.S, parts.gripper_bodies) if parts.gripper_bodies else np.zeros(10)
-    noncontact = builder.AddSystem(TrueNonContactWrench(phi))
+    truth_phi = builder.AddNamedSystem("truth_phi", ConstantVectorSource(phi))  # set_holding changes it
+    noncontact = builder.AddSystem(TrueNonContactWrench())
     for name in ("acceleration", "omega", "gravity"):
         builder.Connect(kinematics.GetOutputPort(name), noncontact.GetInputPort(name))
+    builder.Connect(truth_phi.get_output_port(), noncontact.GetInputPort("phi"))
     for port, name in ((reaction.get_output_port(), "truth.wrench_sensor"),
                        (contact.get_output_port(), "truth.wrench_contact"),
                        (noncontact.get_output_port(), "truth.wrench_noncontact"),
@@ -152,7 +154,7 @@ def _add_wrist_sensor(builder: DiagramBuilder, scenario: Scenario, plant: Multib
                        (ft.GetOutputPort("offsets_true"), "truth.ft_offsets"),
                        (ft.GetOutputPort("saturated"), "truth.ft_saturated"),
                        (accelerometer.GetOutputPort("saturated"), "truth.accelerometer_saturated"),
-                       (builder.AddSystem(ConstantVectorSource(phi)).get_output_port(), "truth.phi"),
+                       (truth_phi.get_output_port(), "truth.phi"),
                        (builder.AddSystem(ConstantVectorSource(phi_gripper)).get_output_port(),
                         "truth.phi_gripper")):
         builder.ExportOutput(port, name)
@@ -196,6 +198,21 @@ def _add_master(builder: DiagramBuilder, scenario: Scenario):
     builder.ExportOutput(state.get_output_port(1), "master.velocity_estimated")
     builder.ExportOutput(master.get_body_poses_output_port(), "truth.master_body_poses")
     return master
+
+
+def set_holding(station, root_context, holding: bool) -> None:
+    """For a "gripper_object" load: whether the gripper holds the object in ``root_context`` (of
+    the station or of a Diagram around it): the object's inertia, or none; the truth φ follows. Before the grasp of ``load.grasp_at``
+    it holds nothing; a runner calls this at the start of a run and at the grasp."""
+    plant = station.GetSubsystemByName("slave_plant")
+    plant_context = plant.GetMyMutableContextFromRoot(root_context)
+    obj = plant.GetBodyByName("object")
+    obj.SetSpatialInertiaInBodyFrame(plant_context, obj.default_spatial_inertia() if holding else SpatialInertia.Zero())
+    S = plant.GetFrameByName("S")
+    load = [obj, plant.GetBodyByName("gripper")]
+    source = station.GetSubsystemByName("truth_phi")
+    source.get_mutable_source_value(source.GetMyMutableContextFromRoot(root_context)).set_value(
+        phi_about_S(plant, S, load, plant_context))
 
 
 def MakeSimStation(scenario: Scenario, meshcat=None):
