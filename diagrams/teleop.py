@@ -7,7 +7,6 @@ module imports no simulation. ``MakeRealtimeTeleopController`` is the same
 controller as one computation per tick, for the hardware's real-time loop.
 """
 
-import dataclasses
 
 import numpy as np
 from pydrake.math import RigidTransform
@@ -79,18 +78,17 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     and the ``CONTROLLER_LOG`` signals. The slave's tool frame T of the motion mapping is S.
     """
     builder = DiagramBuilder()
-    rate = {"period": period}
     slave, kinematics, X_FS = _slave_ik_model(robot)
     master_kinematics = builder.AddNamedSystem("master_kinematics", MasterKinematics(MakeMasterPlant()))
     slave_kinematics = builder.AddNamedSystem(
         "slave_kinematics", SlaveKinematics(slave, base_frame=f"{robot}_base", sensor_frame="S"))
-    motion = builder.AddNamedSystem("motion_scaling", MotionScaling(dataclasses.replace(spec.motion, **rate)))
+    motion = builder.AddNamedSystem("motion_scaling", MotionScaling(spec.motion, period))
     ik = builder.AddNamedSystem("slave_ik", SlaveInverseKinematics(kinematics, X_FS, slave_initial_q, period))
     force = builder.AddNamedSystem("force_scaling", ForceScalingElimination(
-        dataclasses.replace(spec.force, **rate), accelerometer_includes_gravity))
+        spec.force, period, accelerometer_includes_gravity))
     feedback = builder.AddNamedSystem("feedback_mapping", FeedbackMapping(spec.feedback))
     passivity = builder.AddNamedSystem("passivity", PassivityController(
-        dataclasses.replace(spec.passivity, **rate), spec.feedback.max_force, spec.feedback.max_torque))
+        spec.passivity, spec.feedback.max_force, spec.feedback.max_torque, period))
     estimation = spec.estimator
     estimation.validate()
     if estimation.mode == "online":

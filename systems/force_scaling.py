@@ -28,6 +28,7 @@ from pydrake.systems.framework import LeafSystem, ValueProducer
 
 from .accelerometer_reading import motion_from_reading
 from .load_dynamics import regressor
+from .sample_period import DEFAULT_PERIOD, require_period
 
 
 @dataclasses.dataclass
@@ -49,9 +50,6 @@ class ForceScalingParams:
     """Largest change of each of σ, γ, η per second (1/s), so that a new request
     fades in instead of jumping (default: 0 → 1 in 0.5 s)."""
 
-    period: float = 0.0005
-    """Update period (s) of the scales and the fault memory (the controller's rate)."""
-
     phi_gripper: list[float] | None = None
     """The gripper's φ (Eq. 6, about S's origin, in S) for the Eq. 14 split; None
     treats the whole load as one body."""
@@ -68,7 +66,7 @@ class ForceScalingParams:
                 raise ValueError(f"{name} must be finite and >= 0; got {value}")
         if not 0.0 <= self.eta <= 1.0:
             raise ValueError(f"eta must lie in [0, 1]; got {self.eta}")
-        for name in ("slew_rate", "period"):
+        for name in ("slew_rate",):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be finite and > 0; got {value}")
@@ -172,6 +170,8 @@ class ForceScalingElimination(LeafSystem):
     ``wrench_noncontact`` (6, Eq. 12), ``scales`` (3, σ, γ, η in effect), ``fault``
     (1: 1.0 while f′ is not computed from the inputs).
 
+    Updated every ``period`` s (the controller's rate; 2 kHz by default).
+
     Timing. f′, c, n and fault are a feedthrough calculation from the six signal
     inputs and the discrete state (narrow prerequisites: no time, no requests,
     no all-sources ticket). The controller reads ``ft.wrench_measured``, already
@@ -193,16 +193,18 @@ class ForceScalingElimination(LeafSystem):
     live value.
     """
 
-    def __init__(self, params: ForceScalingParams | None = None, accelerometer_includes_gravity: bool = True):
+    def __init__(self, params: ForceScalingParams | None = None, period: float = DEFAULT_PERIOD,
+                 accelerometer_includes_gravity: bool = True):
         super().__init__()
         params = params or ForceScalingParams()
         params.validate()
+        period = require_period(period)
         self._includes_gravity = accelerometer_includes_gravity
-        self._max_step = params.slew_rate * params.period
+        self._max_step = params.slew_rate * period
         self._defaults = (params.sigma, params.gamma, params.eta)
         self._phi_gripper = (None if params.phi_gripper is None
                              else np.array(params.phi_gripper, dtype=float))
-        self._decay_per_tick = decay_factor(params.period, params.fault_decay_time)
+        self._decay_per_tick = decay_factor(period, params.fault_decay_time)
 
         self._signals = tuple(self.DeclareVectorInputPort(name, size) for name, size in (
             ("wrench", 6), ("acceleration", 6), ("omega", 3), ("gravity", 3), ("phi", 10),
@@ -214,7 +216,7 @@ class ForceScalingElimination(LeafSystem):
         # The f′ in effect during the last tick (6; N, N·m) and a flag (1) raised by a
         # non-finite request.
         self._memory = self.DeclareDiscreteState(7)
-        self.DeclarePeriodicDiscreteUpdateEvent(params.period, 0.0, self._update)
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
 
         self._evaluation = self.DeclareCacheEntry(
             "evaluation",

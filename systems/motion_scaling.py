@@ -28,6 +28,7 @@ from pydrake.math import RollPitchYaw, RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
 from heft.systems.pose_vectors import POSE_SIZE
+from heft.systems.sample_period import DEFAULT_PERIOD, require_period
 
 IDENTITY_POSE = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
 # Layout of the memory state: [engaged, k_t, k_r, pose_BE0 (7), pose_RT0 (7)].
@@ -48,9 +49,6 @@ class MotionScalingParams:
     R_RB: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
     """The fixed rotation from the master base B to the slave base R as roll-pitch-yaw (rad)."""
 
-    period: float = 0.0005
-    """Update period (s): the controller's 2 kHz by default."""
-
     def validate(self) -> None:
         """Raises ValueError naming the first field out of range."""
         for name in ("translation_scale", "rotation_scale"):
@@ -58,8 +56,6 @@ class MotionScalingParams:
                 raise ValueError(f"{name} must be finite and >= 0; got {getattr(self, name)}")
         if len(self.R_RB) != 3 or not all(math.isfinite(x) for x in self.R_RB):
             raise ValueError(f"R_RB must be 3 finite roll-pitch-yaw angles (rad); got {self.R_RB}")
-        if not (math.isfinite(self.period) and self.period > 0):
-            raise ValueError(f"period must be finite and > 0; got {self.period}")
 
 
 def valid_scale(k: float) -> bool:
@@ -159,10 +155,11 @@ class MotionScaling(LeafSystem):
     no algebraic loop through here.
     """
 
-    def __init__(self, params: MotionScalingParams | None = None):
+    def __init__(self, params: MotionScalingParams | None = None, period: float = DEFAULT_PERIOD):
         super().__init__()
         params = params or MotionScalingParams()
         params.validate()
+        period = require_period(period)
         self._params = params
         self._R_RB = RotationMatrix(RollPitchYaw(params.R_RB)).matrix()
         self._pose_BE = self.DeclareVectorInputPort("pose_BE", POSE_SIZE)
@@ -175,7 +172,7 @@ class MotionScaling(LeafSystem):
         self._memory = self.DeclareDiscreteState(memory)
         self._desired = self.DeclareDiscreteState(IDENTITY_POSE)
         self.DeclareInitializationDiscreteUpdateEvent(self._initialize)
-        self.DeclarePeriodicDiscreteUpdateEvent(params.period, 0.0, self._update)
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
         self.DeclareStateOutputPort("pose_RT_desired", self._desired)
 
     def _scale(self, context, port, default: float) -> float:

@@ -37,6 +37,7 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from heft.systems.feedback_mapping import clamp_norm
+from heft.systems.sample_period import DEFAULT_PERIOD, require_period
 
 
 @dataclasses.dataclass
@@ -51,9 +52,6 @@ class PassivityParams:
     """Bound of α_r (N·m·s/rad): CHAI3D's maximum angular damping for the Phantom
     Premium 1.5 6DOF (m_maxAngularDamping in its cPhantomDevice specifications)."""
 
-    period: float = 0.0005
-    """Sample period T (s) of the PO/PC (the haptic loop's)."""
-
     enabled: bool = True
     """False keeps the observer running but never damps (α = 0)."""
 
@@ -63,8 +61,6 @@ class PassivityParams:
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be finite and >= 0; got {value}")
-        if not (math.isfinite(self.period) and self.period > 0):
-            raise ValueError(f"period must be finite and > 0; got {self.period}")
 
 
 # --- pure numpy core ----------------------------------------------------------
@@ -158,13 +154,14 @@ class PassivityController(LeafSystem):
     """
 
     def __init__(self, params: PassivityParams | None = None, max_force: float = math.inf,
-                 max_torque: float = math.inf):
+                 max_torque: float = math.inf, period: float = DEFAULT_PERIOD):
         super().__init__()
         params = params or PassivityParams()
         params.validate()
+        period = require_period(period)
         if not (max_force > 0 and max_torque > 0):
             raise ValueError(f"max_force and max_torque must be > 0; got {max_force}, {max_torque}")
-        self._period = params.period
+        self._period = period
         self._limits = (max_force, max_torque)
         self._max_damping = ((params.max_translational_damping, params.max_rotational_damping)
                              if params.enabled else (0.0, 0.0))
@@ -175,7 +172,7 @@ class PassivityController(LeafSystem):
         self._energy = self.DeclareDiscreteState(2)
         self._damping = self.DeclareDiscreteState(2)
         self._dissipated = self.DeclareDiscreteState(2)
-        self.DeclarePeriodicDiscreteUpdateEvent(params.period, 0.0, self._update)
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
         self.DeclareStateOutputPort("torque", self._torque)
         self.DeclareStateOutputPort("energy_observed", self._energy)
         self.DeclareStateOutputPort("damping", self._damping)

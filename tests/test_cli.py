@@ -95,6 +95,9 @@ def test_picture_draws_every_block_of_the_controller(tmp_path, capsys):
 def test_set_lays_yaml_over_the_scenario_and_names_a_wrong_field(capsys):
     assert main(["simulate", "fig6", "--set", "{controller: {force: {gama: 0.5}}}"]) == 2
     assert "controller.force.gama" in capsys.readouterr().err
+    # The rate is stated once (controller_period); a block's own period is not a field to be overwritten.
+    assert main(["simulate", "fig6", "--set", "{controller: {force: {period: 0.001}}}"]) == 2
+    assert "controller.force.period" in capsys.readouterr().err
 
 
 def test_eta_without_a_gripper_split_is_an_error_not_a_no_op(capsys):

@@ -132,10 +132,12 @@ def test_params_validate_and_load_from_yaml():
     params = yaml_load_typed(schema=ForceScalingParams,
                              data="{sigma: 0.5, phi_gripper: [1, 0, 0, 0.1, 0, 0, 0, 0, 0, 0]}")
     assert params.sigma == 0.5 and len(params.phi_gripper) == 10
-    for bad in (dict(sigma=-1.0), dict(eta=1.5), dict(slew_rate=0.0), dict(period=np.inf),
+    for bad in (dict(sigma=-1.0), dict(eta=1.5), dict(slew_rate=0.0),
                 dict(phi_gripper=[1.0] * 9), dict(fault_decay_time=-1.0)):
         with pytest.raises(ValueError):
             ForceScalingElimination(dataclasses.replace(ForceScalingParams(), **bad))
+    with pytest.raises(ValueError, match="period"):
+        ForceScalingElimination(ForceScalingParams(), period=np.inf)
 
 
 # --- the Drake system ----------------------------------------------------------------
@@ -166,10 +168,10 @@ def run(scene):
         gamma=np.where(ticks < 2 * STEP_TICK, 1.0, 0.5)[:, None],
         eta=np.full((NUM_TICKS, 1), 0.4))
     builder = DiagramBuilder()
-    base = ForceScalingParams(slew_rate=SLEW_RATE, period=PERIOD, fault_decay_time=DECAY_TIME)
-    systems = {"whole": builder.AddSystem(ForceScalingElimination(base)),
+    base = ForceScalingParams(slew_rate=SLEW_RATE, fault_decay_time=DECAY_TIME)
+    systems = {"whole": builder.AddSystem(ForceScalingElimination(base, PERIOD)),
                "split": builder.AddSystem(ForceScalingElimination(dataclasses.replace(
-                   base, phi_gripper=scene["gripper"].to_phi().tolist())))}
+                   base, phi_gripper=scene["gripper"].to_phi().tolist()), PERIOD))}
     for name, values in sources.items():
         source = builder.AddSystem(hold_per_tick(values))
         for system in systems.values():

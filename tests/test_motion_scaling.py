@@ -68,9 +68,9 @@ def run():
     operator = builder.AddSystem(ScriptedOperator())
     engaged = builder.AddSystem(ConstantVectorSource([1.0]))
     systems = {
-        "identity": (MotionScaling(MotionScalingParams(period=PERIOD)), stylus_pose(0.0)),
-        "scaled": (MotionScaling(MotionScalingParams(0.4, 0.3, RPY_RB, PERIOD)), POSE_RT0),
-        "clutched": (MotionScaling(MotionScalingParams(R_RB=RPY_RB, period=PERIOD)), None),
+        "identity": (MotionScaling(MotionScalingParams(), PERIOD), stylus_pose(0.0)),
+        "scaled": (MotionScaling(MotionScalingParams(0.4, 0.3, RPY_RB), PERIOD), POSE_RT0),
+        "clutched": (MotionScaling(MotionScalingParams(R_RB=RPY_RB), PERIOD), None),
     }
     sinks = {}
     for name, (system, measured) in systems.items():
@@ -222,7 +222,7 @@ def test_invalid_input_holds_and_disengages(bad):
 
 
 def test_start_released_holds_the_measured_pose():
-    system = MotionScaling(MotionScalingParams(period=PERIOD))
+    system = MotionScaling(MotionScalingParams(), PERIOD)
     context = system.CreateDefaultContext()
     system.GetInputPort("pose_BE").FixValue(context, stylus_pose(0.0))
     system.GetInputPort("clutch").FixValue(context, [0.0])
@@ -234,8 +234,10 @@ def test_start_released_holds_the_measured_pose():
 
 def test_params_from_yaml_and_validation():
     params = yaml_load_typed(schema=MotionScalingParams,
-                             data="{translation_scale: 0.5, rotation_scale: 0.25, R_RB: [0, 0, 1.5], period: 0.001}")
-    assert params == MotionScalingParams(0.5, 0.25, [0.0, 0.0, 1.5], 0.001)
+                             data="{translation_scale: 0.5, rotation_scale: 0.25, R_RB: [0, 0, 1.5]}")
+    assert params == MotionScalingParams(0.5, 0.25, [0.0, 0.0, 1.5])
+    with pytest.raises(ValueError, match="period"):
+        MotionScaling(params, period=0.0)
     with pytest.raises(ValueError, match="translation_scale"):
         MotionScaling(MotionScalingParams(translation_scale=-1.0))
     with pytest.raises(ValueError, match="R_RB"):

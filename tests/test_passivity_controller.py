@@ -76,10 +76,11 @@ def test_params_validate_and_load_from_yaml():
     params = yaml_load_typed(schema=PassivityParams,
                              data="{max_rotational_damping: 0.01, enabled: false}")
     assert params.max_rotational_damping == 0.01 and not params.enabled
-    for bad in (dict(max_translational_damping=-1.0), dict(max_rotational_damping=np.nan),
-                dict(period=0.0)):
+    for bad in (dict(max_translational_damping=-1.0), dict(max_rotational_damping=np.nan)):
         with pytest.raises(ValueError):
             dataclasses.replace(PassivityParams(), **bad).validate()
+    with pytest.raises(ValueError, match="period"):
+        PassivityController(PassivityParams(), period=0.0)
 
 
 # --- the Drake system ------------------------------------------------------------
@@ -119,7 +120,7 @@ def run():
     wrenches, loggers = {}, {}
     for name, (gains, enabled) in CASES.items():
         wrenches[name] = twist * np.repeat(gains, 3)
-        pc = builder.AddSystem(PassivityController(PassivityParams(period=PERIOD, enabled=enabled)))
+        pc = builder.AddSystem(PassivityController(PassivityParams(enabled=enabled), period=PERIOD))
         builder.Connect(builder.AddSystem(hold_per_tick(wrenches[name])).get_output_port(),
                         pc.GetInputPort("wrench"))
         builder.Connect(velocity.get_output_port(), pc.GetInputPort("velocity"))
