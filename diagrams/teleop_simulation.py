@@ -1,7 +1,6 @@
 """The teleoperation controller closed around the simulated station: the loop of Fig. 4
 in simulation, with an optional communication delay, and the signals analysis logs."""
 
-import dataclasses
 import math
 
 import numpy as np
@@ -63,16 +62,13 @@ def ConnectControllerToStation(builder: DiagramBuilder, controller, station, del
                     controller.GetInputPort("clutch"))
 
 
-def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, sigma: float | None = None, meshcat=None):
+def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, meshcat=None):
     """The controller closed around the simulated station, with loggers.
 
     Returns (diagram, loggers) where loggers maps a log key to its VectorLogSink
-    (sampled every controller period). ``sigma`` overrides ``scenario.controller.force.sigma``;
-    a ``meshcat`` shows the slave live (``MakeSimStation``).
+    (sampled every controller period); a ``meshcat`` shows the slave live (``MakeSimStation``).
     """
     spec = scenario.controller
-    if sigma is not None:
-        spec = dataclasses.replace(spec, force=dataclasses.replace(spec.force, sigma=sigma))
     builder = DiagramBuilder()
     station = builder.AddNamedSystem("station", MakeSimStation(scenario, meshcat))
     controller = builder.AddNamedSystem("controller", MakeTeleopController(

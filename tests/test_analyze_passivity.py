@@ -10,7 +10,7 @@ import pytest
 from heft.diagrams.commands import analyze_passivity
 from heft.diagrams.running.simulation import true_load
 from heft.diagrams.scenario import NOISE_OFF, overrides_text, resolve_scenario
-from heft.diagrams.running.simulation import run_teleop
+from heft.diagrams.running.simulation import run_teleop, with_sigma
 from heft.systems.passivity_controller import PassivityParams
 
 
@@ -20,7 +20,7 @@ def log_path(tmp_path_factory):
     scenario = resolve_scenario("fig8", overrides_text({**NOISE_OFF, "duration": 0.5}))
     load, _ = true_load(scenario)
     path = tmp_path_factory.mktemp("passivity") / "log.npz"
-    np.savez(path, **run_teleop(scenario, load, 1.0, quiet=True))
+    np.savez(path, **run_teleop(with_sigma(scenario, 1.0), load, quiet=True))
     return path
 
 

@@ -71,11 +71,11 @@ def test_short_sigma_one_run_renders_the_scaled_mass(fig6):
 
     from heft.diagrams.studies.apparent_mass import fit_run
     from heft.diagrams.running.simulation import true_load
-    from heft.diagrams.running.simulation import run_teleop
+    from heft.diagrams.running.simulation import run_teleop, with_sigma
     scenario = dataclasses.replace(fig6, duration=0.8, operator=dataclasses.replace(
         fig6.operator, amplitude=[0.0, 0.0, 0.028])).validate()
     load, _ = true_load(scenario)
-    fits = fit_run(scenario, run_teleop(scenario, load, 1.0, quiet=True))
+    fits = fit_run(scenario, run_teleop(with_sigma(scenario, 1.0), load, quiet=True))
     expected = hand_mass(1.0, 3.13, 1 / 17.5, 2.0)
     assert fits["slave"]["mass_kg"] == pytest.approx(expected, rel=0.01)
     assert fits["hand"]["mass_kg"] == pytest.approx(expected, rel=0.10)

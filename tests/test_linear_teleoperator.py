@@ -25,6 +25,7 @@ from heft.analysis.stability import (
 from heft.diagrams.commands import analyze_linear
 from heft.diagrams.studies.linear_model_params import linear_model_params
 from heft.diagrams.stations.sim_station import MakeSimStation
+from heft.diagrams.running.simulation import with_sigma
 from heft.diagrams.scenario import resolve_scenario
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation
@@ -221,7 +222,7 @@ def test_reduced_model_predicts_the_full_loop_motion():
     station = MakeSimStation(scenario)
     load = LoadEstimate(np.array(station.GetOutputPort("truth.phi").Eval(station.CreateDefaultContext())),
                         np.zeros(6))
-    diagram, _ = MakeTeleopSimulation(scenario, load, sigma=0.0)
+    diagram, _ = MakeTeleopSimulation(with_sigma(scenario, 0.0), load)
     simulator = Simulator(diagram)
     simulator.Initialize()
     context = simulator.get_context()

@@ -20,7 +20,7 @@ from heft.diagrams.commands.replay import (
 from heft.diagrams.plants import AddSlave
 from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.diagrams.scenario import NOISE_OFF, overrides_text, resolve_scenario
-from heft.diagrams.running.simulation import run_teleop
+from heft.diagrams.running.simulation import run_teleop, with_sigma
 from heft.diagrams.load_estimate import LoadEstimate
 from pydrake.geometry import Meshcat, MeshcatParams
 from pydrake.multibody.parsing import Parser
@@ -63,7 +63,8 @@ def replay(tmp_path_factory):
     station = MakeSimStation(scenario)
     phi = np.array(station.GetOutputPort("truth.phi").Eval(station.CreateDefaultContext()))
     folder = tmp_path_factory.mktemp("replay")
-    np.savez_compressed(folder / "log.npz", **run_teleop(scenario, LoadEstimate(phi=phi, offsets=np.zeros(6)), 1.0))
+    load = LoadEstimate(phi=phi, offsets=np.zeros(6))
+    np.savez_compressed(folder / "log.npz", **run_teleop(with_sigma(scenario, 1.0), load))
     log = load_log(folder / "log.npz")
     summary = write_replay(log, scenario, folder / "replay.html", fps=FPS, slave_metres_per_newton=SLAVE_M_PER_N)
     return scenario, log, summary
@@ -183,6 +184,6 @@ def test_cli_hook_writes_the_replay_and_one_summary_line(replay, tmp_path, capsy
 def test_simulation_draws_the_slave_live_on_a_meshcat():
     scenario = resolve_scenario("fig8", overrides_text({**NOISE_OFF, "duration": 0.002}))
     meshcat = Meshcat(MeshcatParams(host="localhost", port=0))
-    run_teleop(scenario, LoadEstimate(phi=np.zeros(10), offsets=np.zeros(6)), 1.0, meshcat=meshcat)
+    run_teleop(with_sigma(scenario, 1.0), LoadEstimate(phi=np.zeros(10), offsets=np.zeros(6)), meshcat=meshcat)
     for path in ("/drake/visualizer/rx90/rx90_link1", "/drake/visualizer/tool", "/drake/visualizer/sheet_spring/plate"):
         assert meshcat.HasPath(path), path

@@ -7,7 +7,7 @@ from pydrake.systems.analysis import Simulator
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.diagrams.scenario import overrides_text, resolve_scenario
-from heft.diagrams.running.simulation import run_teleop
+from heft.diagrams.running.simulation import run_teleop, with_sigma
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop import STATION_INPUTS_DRIVEN, STATION_OUTPUTS_READ, MakeTeleopController
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation
@@ -52,7 +52,7 @@ def test_operator_feels_sigma_times_the_weight_at_rest(sigma, includes_gravity):
     scenario.accelerometer.includes_gravity = includes_gravity
     scenario.operator.stiffness, scenario.operator.damping = 2000.0, 40.0  # a firm grip settles fast
     scenario.duration = 0.5
-    run = run_teleop(scenario, true_load(scenario), sigma)
+    run = run_teleop(with_sigma(scenario, sigma), true_load(scenario))
     k_f = scenario.controller.feedback.force_scale
     expected = -sigma * 3.13 * 9.81 * k_f
     settled = run["master_force"][-200:].mean(axis=0)  # the last 0.1 s
@@ -70,7 +70,7 @@ def test_slave_follows_the_scaled_master_motion():
     scenario.operator.start_time = 0.0
     scenario.controller.motion.translation_scale = 2.0
     scenario.duration = 0.6  # past the top of the reference at 0.5 s
-    diagram, loggers = MakeTeleopSimulation(scenario, true_load(scenario), sigma=0.0)
+    diagram, loggers = MakeTeleopSimulation(with_sigma(scenario, 0.0), true_load(scenario))
     simulator = Simulator(diagram)
     simulator.Initialize()
     context = simulator.get_context()
@@ -102,7 +102,7 @@ def test_paper_experiments_with_the_true_load(name):
     scenario = resolve_scenario(name)
     scenario.duration = 1.2 if name == "fig6" else 0.5
     load = true_load(scenario)
-    runs = {sigma: run_teleop(scenario, load, sigma) for sigma in (1.0, 0.0)}
+    runs = {sigma: run_teleop(with_sigma(scenario, sigma), load) for sigma in (1.0, 0.0)}
     metrics = experiment_metrics(scenario.experiment, runs, scenario.controller.feedback.force_scale)
     if name == "fig6":
         assert metrics["noncontact_peak_N"] > 60
@@ -129,7 +129,7 @@ def test_offset_tracking_in_the_closed_loop_holds_the_residual_against_drift(tra
     offsets.tracking, offsets.time_constant, offsets.max_force_rate = tracking, 0.05, 2.0
     scenario.operator.stiffness, scenario.operator.damping = 2000.0, 40.0
     scenario.duration = 1.5
-    run = run_teleop(scenario, true_load(scenario), 0.0, quiet=True)
+    run = run_teleop(with_sigma(scenario, 0.0), true_load(scenario), quiet=True)
     residual = run["wrench_contact"][200:, 2]  # f_z of the eliminated wrench, after the start
     drift = run["offsets_true"][-1, 2] - run["offsets_true"][0, 2]
     assert drift > 0.15  # the offsets really drifted
@@ -148,7 +148,7 @@ def test_online_estimation_learns_the_load_in_the_loop():
     the non-contact peak, as with the identified estimate."""
     scenario = resolve_scenario("fig6", overrides_text({"controller.estimator.mode": "online", "duration": 1.5}))
     true = true_load(scenario)
-    log = run_teleop(scenario, LoadEstimate(phi=np.zeros(10), offsets=true.offsets), 0.0, quiet=True)
+    log = run_teleop(with_sigma(scenario, 0.0), LoadEstimate(phi=np.zeros(10), offsets=true.offsets), quiet=True)
     error = np.abs(log["phi_hat"][:, 0] - true.phi[0]) / true.phi[0]
     settled = log["t"][np.flatnonzero(error > 0.02)[-1] + 1]
     print(f"mass within 2 % from {settled - scenario.operator.start_time:.3f} s after the motion starts")
@@ -171,6 +171,6 @@ def test_eq_14_after_a_grasp_with_the_estimator_in_the_loop(eta):
     load, phi_gripper = station_truth(scenario)
     scenario.controller.force.phi_gripper = phi_gripper.tolist()
     gripper_only = LoadEstimate(phi=phi_gripper, offsets=load.offsets)
-    metrics = grasp_metrics(run_teleop(scenario, gripper_only, 0.0, quiet=True), scenario.load.grasp_at)
+    metrics = grasp_metrics(run_teleop(with_sigma(scenario, 0.0), gripper_only, quiet=True), scenario.load.grasp_at)
     assert metrics["object_mass_settled_after_s"] < 1.5
     assert metrics["force_deviation_peak_of_weight"] < 0.01

@@ -17,7 +17,7 @@ from pydrake.systems.analysis import Simulator
 from heft.analysis.experiment_metrics import experiment_metrics, grasp_metrics
 from heft.analysis.figures import paper_figure
 from heft.diagrams.running.progress import ProgressBar
-from heft.diagrams.scenario import Scenario
+from heft.diagrams.scenario import Scenario, layered, overrides_text
 from heft.diagrams.stations.sim_station import MakeSimStation, set_holding
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation
@@ -41,12 +41,17 @@ def true_load(scenario: Scenario) -> tuple[LoadEstimate, np.ndarray]:
     return LoadEstimate(phi=phi, offsets=offsets), phi_gripper
 
 
-def run_teleop(scenario: Scenario, load: LoadEstimate, sigma: float, label: str = "", meshcat=None,
-               quiet: bool = False) -> dict:
-    """Simulates ``scenario.duration`` s of the closed loop with σ = ``sigma``; returns the
-    log arrays (names as the README's log.npz) and the achieved real-time factor; a ``meshcat``
-    shows the run live; ``quiet`` hides the progress bar."""
-    diagram, loggers = MakeTeleopSimulation(scenario, load, sigma=sigma, meshcat=meshcat)
+def with_sigma(scenario: Scenario, sigma: float) -> Scenario:
+    """``scenario`` with σ = ``sigma`` in effect from the start (``controller.force.sigma``)."""
+    return layered(scenario, overrides_text({"controller.force.sigma": float(sigma)}))
+
+
+def run_teleop(scenario: Scenario, load: LoadEstimate, label: str = "", meshcat=None, quiet: bool = False) -> dict:
+    """Simulates ``scenario.duration`` s of the closed loop (σ: ``controller.force.sigma``); returns
+    the log arrays (names as the README's log.npz) and the achieved real-time factor; a
+    ``meshcat`` shows the run live; ``quiet`` hides the progress bar."""
+    sigma = scenario.controller.force.sigma
+    diagram, loggers = MakeTeleopSimulation(scenario, load, meshcat=meshcat)
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()
     station = diagram.GetSubsystemByName("station")
@@ -97,7 +102,7 @@ def simulate(scenario: Scenario, load: LoadEstimate, out_dir, sigmas, name: str,
     out.mkdir(parents=True, exist_ok=True)
     runs = {}
     for sigma in sigmas:
-        runs[sigma] = run_teleop(scenario, load, sigma, meshcat=meshcat)
+        runs[sigma] = run_teleop(with_sigma(scenario, sigma), load, meshcat=meshcat)
         np.savez_compressed(out / f"log_sigma{sigma:g}.npz", **runs[sigma])
     np.savez_compressed(out / "log.npz", **runs[sigmas[0]])
     metrics = experiment_metrics(scenario.experiment, runs, scenario.controller.feedback.force_scale)

@@ -202,8 +202,9 @@ def _add_master(builder: DiagramBuilder, scenario: Scenario):
 
 def set_holding(station, root_context, holding: bool) -> None:
     """For a "gripper_object" load: whether the gripper holds the object in ``root_context`` (of
-    the station or of a Diagram around it): the object's inertia, or none; the truth φ follows. Before the grasp of ``load.grasp_at``
-    it holds nothing; a runner calls this at the start of a run and at the grasp."""
+    the station or of a Diagram around it): the object's inertia, or none; the truth φ follows.
+    Before the grasp of ``load.grasp_at`` it holds nothing; a runner calls this at the start of
+    a run and at the grasp."""
     plant = station.GetSubsystemByName("slave_plant")
     plant_context = plant.GetMyMutableContextFromRoot(root_context)
     obj = plant.GetBodyByName("object")

@@ -30,7 +30,7 @@ from pydrake.math import RollPitchYaw, RotationMatrix
 from heft.analysis.apparent_mass import estimate_apparent_mass, fit_apparent_mass, hand_mass
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
-from heft.diagrams.running.simulation import run_teleop, true_load
+from heft.diagrams.running.simulation import run_teleop, true_load, with_sigma
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 
@@ -89,7 +89,7 @@ def fit_run(scenario: Scenario, log: dict, smoothing: float = 0.01) -> dict:
 
 
 def _run(scenario: Scenario, load: LoadEstimate, sigma: float, smoothing: float) -> dict:
-    return fit_run(scenario, run_teleop(scenario, load, sigma, quiet=True), smoothing)
+    return fit_run(scenario, run_teleop(with_sigma(scenario, sigma), load, quiet=True), smoothing)
 
 
 def _subtract(fits: dict, baseline: dict) -> dict:

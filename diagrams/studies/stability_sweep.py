@@ -91,7 +91,7 @@ def simulate_point(base: Scenario, point: dict, seed_sequence: np.random.SeedSeq
     noise_seed = int(seed_sequence.generate_state(1, dtype=np.uint64)[0])
     scenario.ft_sensor.seed = scenario.accelerometer.seed = noise_seed
     load, _ = true_load(scenario)
-    log = run_teleop(scenario, load, scenario.controller.force.sigma, quiet=True)
+    log = run_teleop(scenario, load, quiet=True)
     result = classify(log, scenario.controller.feedback.max_force)
     result["realtime_factor"] = float(log["realtime_factor"])
     return {"point": dict(point), **result}
