@@ -24,9 +24,9 @@ with LcmTrafficRecorder(url, sys.argv[1]):
 def test_step_latency_is_the_first_command_past_half_way():
     """Commands every 0.5 ms; the torque answers each step 3.2 ms late, ramping over 2 ms."""
     receipts = np.arange(0.0, 1.0, 0.0005)
-    steps = [(0.2, 1.0), (0.5, -1.0), (0.8, 1.0)]
+    steps = [(0.2, 1.0, 0.2), (0.5, -1.0, 0.5), (0.8, 1.0, 0.8)]  # (published, direction, due)
     level = np.zeros_like(receipts)
-    for t_step, direction in steps:
+    for t_step, direction, _ in steps:
         ramp = np.clip((receipts - t_step - 0.0032) / 0.002, 0.0, 1.0)
         level = np.where(receipts >= t_step, (1.0 if direction > 0 else 0.0) * ramp
                          + (0.0 if direction > 0 else 1.0) * (1 - ramp), level)

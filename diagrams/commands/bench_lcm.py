@@ -5,12 +5,14 @@ Two processes exchange the lab's messages over UDP multicast: ``heft teleop
 playing the three drivers at their nominal rates (master and slave state at
 2 kHz, wrist sensor at 8 kHz) with fixed joint positions. Every
 ``STEP_PERIOD`` s the probe steps the sensor's force by ``STEP_FORCE`` and
-stamps the wall-clock time of the first stepped sample's publish; the kernel
-stamps the arrival of every master torque command on the probe's socket (so the
-probe's own scheduling does not delay it). The latency of a step is
-the time from that publish to the receipt of the first command that has moved
-half-way to its new level: LCM both ways, the receiver's sampling, the
-controller's ticks and the watchdog-gated sender. The controller reports the
+stamps the wall-clock time right after publishing the first stepped sample (on
+loopback the kernel has delivered it by then); the kernel stamps the arrival of
+every master torque command on the probe's socket (so the probe's own
+scheduling does not delay it). The latency of a step is the time from that
+publish to the receipt of the first command that has moved half-way to its new
+level: LCM both ways, the receiver's sampling, the controller's ticks and the
+watchdog-gated sender. A step stamped more than ``PROBE_LATE`` after it was due
+had the probe preempted around its publish; it is left out and counted. The controller reports the
 loop rate it sustained and its tick cost. Where it may (root, ``ip``), the
 bench runs both processes in a private network namespace so no packet leaves
 the machine.
@@ -40,6 +42,8 @@ STEP_FORCE = 20.0
 """Size of the sensor force step (N, along the sensor's z)."""
 SETTLE = 1.5
 """Seconds of traffic before the first step (start guard and torque ramp)."""
+PROBE_LATE = 0.001
+"""A step published this much (s) after it was due had the probe preempted around its publish."""
 
 
 def run_probe(lcm_url: str, duration: float, out: Path, master_q, slave_q) -> None:
@@ -89,11 +93,15 @@ def run_probe(lcm_url: str, duration: float, out: Path, master_q, slave_q) -> No
                 counter += 1
                 level = (first_command is not None and now - first_command > SETTLE
                          and int((now - first_command - SETTLE) / STEP_PERIOD) % 2 == 1)
-                if level != stepped:
-                    steps.append((now, 1.0 if level else -1.0))
-                    stepped = level
                 msg.sample_counter, msg.utime = counter, utime
                 msg.wrench = [0.0, 0.0, STEP_FORCE if level else 0.0, 0.0, 0.0, 0.0]
+                if level != stepped:
+                    bus.publish(channel.name, msg.encode())
+                    # Stamped once published (the kernel has delivered it by then), with the time
+                    # it was due, so that a probe preempted meanwhile can be told apart.
+                    steps.append((time.time(), 1.0 if level else -1.0, now))
+                    stepped = level
+                    continue
             else:
                 msg.utime = utime
             bus.publish(channel.name, msg.encode())
@@ -149,12 +157,14 @@ class _TimestampedReceiver:
 
 
 def step_latencies(steps, receipts, torques) -> np.ndarray:
-    """Latency (s) of each force step: from its publish to the receipt of the first command
-    whose torque has covered half of the change from before the step to just before the next.
-    Steps whose torque change is below 1e-4 N·m (nothing to see) are skipped."""
+    """Latency (s) of each force step (one per step, ``steps[i][0]`` its publish time): to the
+    receipt of the first command whose torque has covered half of the change from before the
+    step to just before the next; NaN where that cannot be seen (no command before or after, a
+    torque change below 1e-4 N·m, or half-way never reached)."""
     receipts, torques = np.asarray(receipts), np.asarray(torques)
-    latencies = []
-    for (t_step, _), t_next in zip(steps, [s[0] for s in steps[1:]] + [np.inf]):
+    times = [step[0] for step in steps]
+    latencies = np.full(len(steps), np.nan)
+    for i, (t_step, t_next) in enumerate(zip(times, times[1:] + [np.inf])):
         before = np.flatnonzero(receipts < t_step)
         after = np.flatnonzero((receipts >= t_step) & (receipts < t_next))
         if before.size == 0 or after.size < 2:
@@ -166,8 +176,8 @@ def step_latencies(steps, receipts, torques) -> np.ndarray:
         progress = (torques[after] - start) @ change / (change @ change)
         reached = after[np.flatnonzero(progress >= 0.5)]
         if reached.size:
-            latencies.append(receipts[reached[0]] - t_step)
-    return np.array(latencies)
+            latencies[i] = receipts[reached[0]] - t_step
+    return latencies
 
 
 def _namespace():
@@ -217,15 +227,24 @@ def bench_rate(rate_hz: float, duration: float, lcm_url: str, scenario: str, fol
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
     _finish({"teleop": (teleop, 20 * (duration + SETTLE) + 120), "probe": (probe, 30)})
     measured = json.loads(probe_path.read_text())
-    latencies = step_latencies(measured["steps"], measured["receipts"], measured["torques"])
-    timing = json.loads(summary_path.read_text())["timing"]
+    # A step stamped more than PROBE_LATE after it was due had the probe preempted around its
+    # publish: the stamp may then be later than the delivery, so its latency is left out, and counted.
+    steps = measured["steps"]
+    on_time = np.array([step[0] - step[2] <= PROBE_LATE for step in steps], dtype=bool)
+    latencies = step_latencies(steps, measured["receipts"], measured["torques"])
+    latencies = latencies[on_time & np.isfinite(latencies)]
+    summary = json.loads(summary_path.read_text())
+    timing = summary["timing"]
     receipts = np.asarray(measured["receipts"])
     return {
         "rate_hz": rate_hz,
         "steps": len(measured["steps"]),
+        "steps_published_late": int((~on_time).sum()),
         "latency_samples": int(latencies.size),
         "latency_p50_ms": float(np.percentile(latencies, 50) * 1e3) if latencies.size else None,
         "latency_p99_ms": float(np.percentile(latencies, 99) * 1e3) if latencies.size else None,
+        "latency_max_ms": float(latencies.max() * 1e3) if latencies.size else None,
+        "controller_faults": summary["faults"],
         "commands_received_hz": float((receipts.size - 1) / (receipts[-1] - receipts[0])) if receipts.size > 1
         else 0.0,
         "controller": timing,
@@ -285,15 +304,20 @@ def run(rates, duration: float, scenario: str, lcm_url: str) -> dict:
     finally:
         cleanup()
     print(f"{'rate (Hz)':>10s}{'sustained (Hz)':>16s}{'ratio':>7s}{'skipped':>9s}{'tick wall p50/p99 (µs)':>24s}"
-          f"{'cpu p50/p99 (µs)':>18s}{'commands (Hz)':>15s}{'latency p50/p99 (ms)':>22s}")
+          f"{'cpu p50/p99 (µs)':>18s}{'commands (Hz)':>15s}{'latency p50/p99 (ms)':>22s}{'faults':>8s}")
     for r in results:
         c = r["controller"]
         latency = ("n/a" if r["latency_p50_ms"] is None
                    else f"{r['latency_p50_ms']:.2f} / {r['latency_p99_ms']:.2f}")
+        if r["steps_published_late"]:
+            latency += f" ({r['steps_published_late']} late)"
         print(f"{r['rate_hz']:10.0f}{c['achieved_rate_hz']:16.0f}{c['achieved_rate_hz'] / r['rate_hz']:7.2f}"
               f"{c['skipped_ticks']:9d}{c['tick_wall_p50_us']:>13.0f} / {c['tick_wall_p99_us']:<8.0f}"
               f"{c['tick_cpu_p50_us']:>9.0f} / {c['tick_cpu_p99_us']:<6.0f}"
-              f"{r['commands_received_hz']:15.0f}{latency:>22s}")
+              f"{r['commands_received_hz']:15.0f}{latency:>22s}{len(r['controller_faults']):8d}")
+        for fault in r["controller_faults"]:  # a stale channel or a stalled loop, with the ages then
+            print(f"{'':10s}fault at {fault['onset']:.4f} s: bits {fault['fault_bits']}, ages {fault['ages_ms']} ms, "
+                  f"recovered {fault['recovered']}")
     _print_stand_in(stand_in)
     return {"duration_s": duration, "network": where, "results": results, "stand_in": stand_in}
 
