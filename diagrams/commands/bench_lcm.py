@@ -303,7 +303,8 @@ def run(rates, duration: float, scenario: str, lcm_url: str) -> dict:
             stand_in = bench_stand_in(rates[0], duration, lcm_url, scenario, Path(folder), prefix)
     finally:
         cleanup()
-    print(f"{'rate (Hz)':>10s}{'sustained (Hz)':>16s}{'ratio':>7s}{'skipped':>9s}{'tick wall p50/p99 (µs)':>24s}"
+    print(f"{'rate (Hz)':>10s}{'sustained (Hz)':>16s}{'ratio':>7s}{'skipped':>9s}{'late max (ms)':>15s}"
+          f"{'tick wall p50/p99 (µs)':>24s}"
           f"{'cpu p50/p99 (µs)':>18s}{'commands (Hz)':>15s}{'latency p50/p99 (ms)':>22s}{'faults':>8s}")
     for r in results:
         c = r["controller"]
@@ -312,7 +313,8 @@ def run(rates, duration: float, scenario: str, lcm_url: str) -> dict:
         if r["steps_published_late"]:
             latency += f" ({r['steps_published_late']} late)"
         print(f"{r['rate_hz']:10.0f}{c['achieved_rate_hz']:16.0f}{c['achieved_rate_hz'] / r['rate_hz']:7.2f}"
-              f"{c['skipped_ticks']:9d}{c['tick_wall_p50_us']:>13.0f} / {c['tick_wall_p99_us']:<8.0f}"
+              f"{c['skipped_ticks']:9d}{1e3 * c['max_lateness']:15.2f}"
+              f"{c['tick_wall_p50_us']:>13.0f} / {c['tick_wall_p99_us']:<8.0f}"
               f"{c['tick_cpu_p50_us']:>9.0f} / {c['tick_cpu_p99_us']:<6.0f}"
               f"{r['commands_received_hz']:15.0f}{latency:>22s}{len(r['controller_faults']):8d}")
         for fault in r["controller_faults"]:  # a stale channel or a stalled loop, with the ages then
