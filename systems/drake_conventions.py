@@ -1,7 +1,8 @@
 """The one place where Drake's spatial vectors meet heft's conventions (DESIGN §4).
 
-Drake orders a SpatialForce as [τ; f] and a SpatialAcceleration as [α; a];
-heft orders wrenches [f; τ] and accelerations [a; α].
+Drake orders a SpatialForce as [τ; f], a SpatialAcceleration as [α; a] and a
+spatial-velocity Jacobian's rows as [ω; v]; heft orders wrenches [f; τ],
+accelerations [a; α] and Jacobian rows [v; ω].
 """
 
 import numpy as np
@@ -17,3 +18,12 @@ def spatial_force_from_wrench(wrench) -> SpatialForce:
     """A Drake SpatialForce from [f; τ], same frame and point."""
     wrench = np.asarray(wrench, dtype=float)
     return SpatialForce(tau=wrench[3:], f=wrench[:3])
+
+
+def swap_halves(x, axis: int = -1) -> np.ndarray:
+    """Drake's order [rotational; translational] ↔ heft's [translational; rotational] for arrays
+    of spatial-vector coefficients (an acceleration's [α; a] → [a; α], a Jacobian's rows
+    [ω; v] → [v; ω] with ``axis`` 0): the two 3-blocks along ``axis`` exchanged."""
+    x = np.asarray(x)
+    head, tail = np.split(x, [3], axis=axis)
+    return np.concatenate((tail, head), axis=axis)

@@ -62,6 +62,7 @@ from pydrake.trajectories import PiecewisePolynomial
 from scipy.linalg import null_space
 from scipy.optimize import minimize
 
+from heft.systems.drake_conventions import swap_halves
 from heft.systems.load_dynamics import regressor_with_offsets
 
 CRITERIA = ("cond", "d_optimal", "e_optimal")
@@ -246,7 +247,9 @@ class SensorFrameMotion:
         A_WS_W = np.einsum("tij,tj->ti", J, qddot) + bias
         w_WS_W = np.einsum("tij,tj->ti", J[:, :3], qdot)
         to_S = lambda x_W: np.einsum("tji,tj->ti", R_WS, x_W)  # R_SW · x_W
-        out = (to_S(A_WS_W[:, 3:]), to_S(A_WS_W[:, :3]), to_S(w_WS_W), to_S(np.broadcast_to(self._g_W, (T, 3))))
+        acceleration = swap_halves(A_WS_W)  # [a; α] in W
+        out = (to_S(acceleration[:, :3]), to_S(acceleration[:, 3:]), to_S(w_WS_W),
+               to_S(np.broadcast_to(self._g_W, (T, 3))))
         return tuple(x[0] for x in out) if single else out
 
 

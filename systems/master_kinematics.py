@@ -17,6 +17,7 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import Frame, JacobianWrtVariable
 from pydrake.systems.framework import Context, LeafSystem
 
+from heft.systems.drake_conventions import swap_halves
 from heft.systems.pose_vectors import POSE_SIZE, pose_vector
 from heft.systems.scratch_context import declare_plant_scratch
 
@@ -40,7 +41,7 @@ def stylus_jacobian(plant: MultibodyPlant, plant_context: Context, B: Frame, E: 
     at the positions in ``plant_context``. For revolute joints q̇ = v, so J is Drake's
     spatial-velocity Jacobian [ω; v] with its two 3-row blocks swapped."""
     J_wv = plant.CalcJacobianSpatialVelocity(plant_context, JacobianWrtVariable.kV, E, np.zeros(3), B, B)
-    return np.vstack((J_wv[3:], J_wv[:3]))
+    return swap_halves(J_wv, axis=0)
 
 
 def pose_and_jacobian(plant: MultibodyPlant, plant_context: Context, B: Frame, E: Frame,

@@ -241,3 +241,16 @@ def test_wrong_shapes_are_rejected_with_the_argument_name():
         InertialParameters(1.0, z, [[1, 2, 0], [0, 1, 0], [0, 0, 1]])
     with pytest.raises(ValueError, match="rotation"):
         InertialParameters(1.0, z, np.eye(3)).expressed_in(2 * np.eye(3), z)
+
+
+def test_swap_halves_puts_drakes_spatial_order_into_heft_order_and_back():
+    """Drake's SpatialAcceleration [α; a] → heft's [a; α]; Jacobian rows likewise (axis 0)."""
+    from pydrake.multibody.math import SpatialAcceleration
+
+    from heft.systems.drake_conventions import swap_halves
+
+    A = SpatialAcceleration(alpha=[1.0, 2.0, 3.0], a=[4.0, 5.0, 6.0])
+    np.testing.assert_array_equal(swap_halves(A.get_coeffs()), [4, 5, 6, 1, 2, 3])
+    J = np.arange(36.0).reshape(6, 6)
+    np.testing.assert_array_equal(swap_halves(swap_halves(J, axis=0), axis=0), J)
+    np.testing.assert_array_equal(swap_halves(J, axis=0)[:3], J[3:])

@@ -72,6 +72,7 @@ from heft.hardware_interface.hardware_station import CLUTCH_BUTTON
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
 from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_command, heft_haptic_state
 from heft.systems.accelerometer_reading import reading_from_motion
+from heft.systems.drake_conventions import swap_halves
 from heft.systems.load_dynamics import GRAVITY_W, regressor
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, pose_and_jacobian
 from heft.systems.operator_hand import smooth_sine_offset
@@ -243,7 +244,8 @@ class _SensorFrame:
         J = plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV, S, self._origin, W, W)
         bias = plant.CalcBiasSpatialAcceleration(context, JacobianWrtVariable.kV, S, self._origin, W, W)
         A_WS_W = J @ qdd + bias.get_coeffs()  # [α; a]
-        a, alpha = R_SW @ A_WS_W[3:], R_SW @ A_WS_W[:3]
+        acceleration = swap_halves(A_WS_W)  # [a; α] in W
+        a, alpha = R_SW @ acceleration[:3], R_SW @ acceleration[3:]
         omega = R_SW @ (J[:3] @ qd)
         self.acceleration[:3], self.acceleration[3:] = a, alpha
         gravity = R_SW @ GRAVITY_W
