@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from heft.systems.load_dynamics import InertialParameters, inertia_entries
+from heft.systems.load_dynamics import InertialParameters, checked_load, inertia_entries
 
 
 @dataclasses.dataclass
@@ -48,6 +48,8 @@ def read_load_estimate(path) -> LoadEstimate:
     except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError) as error:
         raise ValueError(f"cannot read a load estimate from {path}: {error}; "
                          "write one with `heft identify --scenario FILE --out DIR`") from None
-    if phi.shape != (10,) or offsets.shape != (6,) or not (np.isfinite(phi).all() and np.isfinite(offsets).all()):
-        raise ValueError(f"{path}: 'phi' needs 10 and 'offsets' 6 finite numbers")
+    try:
+        phi, offsets = checked_load(phi, offsets)
+    except ValueError as error:
+        raise ValueError(f"{path}: {error}") from None
     return LoadEstimate(phi=phi, offsets=offsets)

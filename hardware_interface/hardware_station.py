@@ -35,7 +35,6 @@ from .lcmtypes import heft_haptic_command, heft_haptic_state
 from .message_order import stamp_accepted
 from .watchdog import WatchdogParams, watchdog_step
 
-"""Joints of the master (Phantom Premium 1.5 6DoF) and of the slave (RX90/RX60)."""
 WATCHED_CHANNELS = ("master_state", "slave_status", "ft_sample")
 """Channels the watchdog watches; channel i is bit i of the fault bitmask, bit 3 a stalled controller."""
 STALLED_BIT = 1 << len(WATCHED_CHANNELS)

@@ -9,12 +9,13 @@ publishes one when a re-zero finishes or is refused. ``send_load_command`` (in
 from __future__ import annotations
 
 import select
+import struct
 import time
 
 import lcm
 import numpy as np
 
-from heft.systems.offset_tracking import COLLECTING, DONE, IDLE, STATUS_TEXT
+from heft.systems.offset_tracking import COLLECTING, DONE, STATUS_TEXT
 
 from .channels import LcmChannels
 from .lcm_mailbox import LcmMailbox
@@ -35,24 +36,27 @@ class LoadCommandServer:
     def __init__(self, bus: lcm.LCM, channels: LcmChannels, controller):
         self._bus, self._channel, self._controller = bus, channels.load_status.name, controller
         self._mail = LcmMailbox(bus, channels.load_command.name, keep=16)
-        self._status = controller.rezero_status
-        self._rezero_command = 0
+        self._waiting: list[int] = []  # utimes of the re-zero commands whose outcome is not yet told
+        self._requests_seen = controller.rezero_requests_seen
         self.events: list[tuple[int, str]] = []
 
     def serve(self, now_utime: int, healthy: bool) -> None:
         for payload in self._mail.take():
             try:
                 command = heft_load_command.decode(payload)
-            except ValueError:
+            except (ValueError, struct.error):
                 self._answer(now_utime, 0, False, "a message on the load command channel is not a heft_load_command")
                 continue
             accepted, message = self._apply(command, healthy)
             self._answer(now_utime, command.utime, accepted, message)
-        status = self._controller.rezero_status
-        if status != self._status:
-            self._status = status
-            if status not in (IDLE, COLLECTING):
-                self._answer(now_utime, self._rezero_command, status == DONE, STATUS_TEXT[status])
+        controller = self._controller
+        seen = controller.rezero_requests_seen
+        if seen > self._requests_seen and controller.rezero_status != COLLECTING:  # a re-zero ended
+            self._requests_seen = seen
+            status = controller.rezero_status
+            for utime in self._waiting:
+                self._answer(now_utime, utime, status == DONE, STATUS_TEXT[status])
+            self._waiting.clear()
 
     def _apply(self, command, healthy: bool) -> tuple[bool, str]:
         controller = self._controller
@@ -60,7 +64,7 @@ class LoadCommandServer:
             if not healthy:
                 return False, "re-zero refused: the station is not healthy (forces off); ask again once it is"
             controller.request_rezero()
-            self._rezero_command = command.utime
+            self._waiting.append(command.utime)
             return True, STATUS_TEXT[COLLECTING]
         if command.action in (heft_load_command.TRACKING_ON, heft_load_command.TRACKING_OFF):
             on = command.action == heft_load_command.TRACKING_ON

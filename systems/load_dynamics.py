@@ -267,3 +267,13 @@ class InertialParameters:
         if problems:
             raise ValueError(f"{what} are not physical: " + "; ".join(problems))
         return self
+
+
+def checked_load(phi, offsets) -> tuple[np.ndarray, np.ndarray]:
+    """(φ̂, offsets) as float arrays, or a ValueError unless φ̂ has 10 and the offsets 6 finite
+    entries: the one check of a load estimate, from a file or over LCM."""
+    phi, offsets = np.asarray(phi, dtype=float), np.asarray(offsets, dtype=float)
+    if phi.shape != (10,) or offsets.shape != (6,) or not (np.isfinite(phi).all() and np.isfinite(offsets).all()):
+        raise ValueError(f"a load estimate needs 10 finite φ entries (Eq. 6) and 6 finite offsets; "
+                         f"got {phi.tolist()} and {offsets.tolist()}")
+    return phi, offsets

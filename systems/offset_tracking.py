@@ -96,6 +96,12 @@ def initial_state(offsets, params: OffsetTrackingParams) -> np.ndarray:
     return state
 
 
+def restart_rezero_window(state: np.ndarray) -> None:
+    """Empties the re-zero window (a re-zero under way starts averaging afresh)."""
+    state[WINDOW_SUM] = 0.0
+    state[WINDOW_TIME] = 0.0
+
+
 def _norm3(v, start: int) -> float:
     return math.sqrt(v[start] * v[start] + v[start + 1] * v[start + 1] + v[start + 2] * v[start + 2])
 
@@ -107,9 +113,8 @@ def offsets_update(state: np.ndarray, contact, fault: bool, slave_velocity, dt: 
     the re-zero request counter (a re-zero starts whenever it exceeds the last one seen)."""
     if requests > state[REQUESTS]:
         state[REQUESTS] = requests
-        state[WINDOW_SUM] = 0.0
-        state[WINDOW_TIME] = 0.0
         state[STATUS] = COLLECTING
+        restart_rezero_window(state)
     contact = contact.tolist()
     at_rest = max(abs(v) for v in slave_velocity.tolist()) < params.rest_joint_speed
     force, torque = (0.0, 0.0) if fault else (_norm3(contact, 0), _norm3(contact, 3))

@@ -35,12 +35,13 @@ from heft.systems.force_scaling import (
 )
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, pose_and_jacobian
 from heft.systems.motion_scaling import IDENTITY_POSE, MotionScalingParams, motion_scaling_update
-from heft.systems.offset_tracking import OFFSETS, STATUS, TRACKING, OffsetTrackingParams, initial_state, offsets_update
+from heft.systems.load_dynamics import GRAVITY_W, checked_load
+from heft.systems.offset_tracking import (OFFSETS, REQUESTS, STATUS, TRACKING, OffsetTrackingParams, initial_state,
+                                          offsets_update, restart_rezero_window)
 from heft.systems.passivity_controller import PassivityParams, master_torque
 from heft.systems.pose_vectors import pose_vector
 from heft.systems.rx_inverse_kinematics import RxKinematics
 from heft.systems.slave_inverse_kinematics import flange_target, ik_step
-from heft.systems.load_dynamics import GRAVITY_W
 from heft.systems.slave_kinematics import NUM_JOINTS
 
 
@@ -51,8 +52,7 @@ class RealtimeTeleopController:
     ``slave`` a finalized plant of arm + wrist sensor with frames ``base_frame`` (R) and
     ``S``; ``kinematics`` the arm's closed-form IK, ``X_FS`` the pose of S in the flange
     (the tool frame T of the motion mapping is S); ``phi`` (10) and ``offsets`` (6) the
-    load model φ̂ and [f_o; τ_o] (N, N·m). The parameters' ``period`` fields are not
-    used: every step brings its own ``dt``.
+    load model φ̂ and [f_o; τ_o] (N, N·m). Every step brings its own ``dt``.
 
     After ``step``: ``torque`` τ_M (6, N·m) and ``position`` q̄_S (6, rad), plus what the
     per-block Diagram logs: ``wrench_feedback``/``wrench_contact``/``wrench_noncontact``
@@ -60,7 +60,8 @@ class RealtimeTeleopController:
     ``applied_wrench`` (6, as applied after the passivity controller and the device
     limits), ``pose_RS_desired`` (7), ``energy``/``damping`` (2 each, the passivity
     observer's), ``reachable``, ``force_fault``, ``scales`` (3: σ, γ, η in effect). The
-    requested σ, γ, η are ``force``'s: no run-time request reaches this build.
+    requested σ, γ, η are ``force``'s; the load model changes at run time through
+    ``request_rezero``, ``set_tracking`` and ``set_load``.
     """
 
     def __init__(self, master: MultibodyPlant, slave: MultibodyPlant, base_frame: str, kinematics: RxKinematics,
@@ -69,9 +70,7 @@ class RealtimeTeleopController:
                  accelerometer_includes_gravity: bool):
         for params in (motion, force, feedback, passivity, offsets_tracking):
             params.validate()
-        phi, offsets = np.asarray(phi, dtype=float), np.asarray(offsets, dtype=float)
-        if phi.shape != (10,) or offsets.shape != (6,):
-            raise ValueError(f"phi must have 10 entries and offsets 6; got {phi.shape} and {offsets.shape}")
+        phi, offsets = checked_load(phi, offsets)
         self._master, self._master_context = master, master.CreateDefaultContext()
         self._B, self._E = master.GetFrameByName(BASE_FRAME), master.GetFrameByName(STYLUS_FRAME)
         self._slave, self._slave_context = slave, slave.CreateDefaultContext()
@@ -196,6 +195,11 @@ class RealtimeTeleopController:
         return int(self._offset_state[STATUS])
 
     @property
+    def rezero_requests_seen(self) -> int:
+        """How many re-zero requests a step has taken up so far."""
+        return int(self._offset_state[REQUESTS])
+
+    @property
     def tracking(self) -> bool:
         return bool(self._offset_state[TRACKING] > 0.5)
 
@@ -207,11 +211,11 @@ class RealtimeTeleopController:
         self._offset_state[TRACKING] = 1.0 if on else 0.0
 
     def set_load(self, phi, offsets) -> None:
-        """A new tool: φ̂ (10) and offsets (6) from the next step on (checked as at the start).
-        Raises ValueError, changing nothing, unless both are finite with those sizes."""
-        phi, offsets = np.asarray(phi, dtype=float), np.asarray(offsets, dtype=float)
-        if phi.shape != (10,) or offsets.shape != (6,) or not (np.isfinite(phi).all() and np.isfinite(offsets).all()):
-            raise ValueError(f"a load needs 10 finite φ entries and 6 finite offsets; got {phi} and {offsets}")
+        """A new tool: φ̂ (10) and offsets (6) from the next step on (``checked_load``, as at the
+        start; a ValueError changes nothing). A re-zero under way restarts its window, so that
+        it averages only with the new φ̂."""
+        phi, offsets = checked_load(phi, offsets)
         self._phi[:] = phi
         self._offsets[:] = offsets
+        restart_rezero_window(self._offset_state)
 

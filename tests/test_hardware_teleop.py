@@ -173,10 +173,23 @@ def test_rezero_over_lcm_measures_the_offsets_and_refuses_while_moving():
 
     moving, _, _ = still_lab(lambda true: true, clutch_at=0.0, amplitude=0.05)
     moving.run(0.4)
-    send(moving, heft_load_command.REZERO)
-    moving.run(0.3)
-    assert [a.accepted for a in moving.answers] == [True, False]
+    for _ in range(2):  # each request is answered twice, the second time with its outcome
+        send(moving, heft_load_command.REZERO)
+        moving.run(0.3)
+    assert [a.accepted for a in moving.answers] == [True, False, True, False]
     assert moving.answers[-1].rezero_status == REFUSED_MOVING and "hold it still" in moving.answers[-1].message
+    assert moving.answers[1].command_utime == moving.answers[0].command_utime != moving.answers[3].command_utime
+
+
+def test_a_malformed_load_command_is_answered_and_the_loop_goes_on():
+    lab, _, _ = still_lab(lambda true: true)
+    lab.run(0.2)
+    command = heft_load_command()
+    command.utime, command.action = 1, heft_load_command.REZERO
+    lab.bus.publish(LcmChannels().load_command.name, command.encode()[:20])  # right type, cut short
+    lab.run(0.1)
+    assert [a.accepted for a in lab.answers] == [False] and "not a heft_load_command" in lab.answers[0].message
+    assert lab.teleop.station.healthy and not lab.teleop.faults
 
 
 def test_with_the_clutch_held_the_slave_moves_by_the_scaled_stylus_motion():

@@ -63,7 +63,7 @@ def test_noise_free_identification_is_exact_to_the_encoder_resolution(tmp_path):
 def test_bad_estimate_file_says_what_to_do(tmp_path):
     path = tmp_path / "estimate.yaml"
     path.write_text("phi: [1, 2, 3]\noffsets: [0, 0, 0, 0, 0, 0]\n")
-    with pytest.raises(ValueError, match="'phi' needs 10"):
+    with pytest.raises(ValueError, match="needs 10 finite φ entries"):
         read_load_estimate(path)
     with pytest.raises(ValueError, match="heft identify"):
         read_load_estimate(tmp_path / "missing.yaml")

@@ -64,8 +64,8 @@ def run_teleop(scenario: Scenario, load: LoadEstimate, label: str = "", meshcat=
     chunk = 0.05
     t = 0.0
     while t < scenario.duration:
-        t = min(t + chunk, scenario.duration)
-        if t - chunk < grasp_at <= t:  # the gripper closes on the object
+        t_before, t = t, min(t + chunk, scenario.duration)
+        if t_before < grasp_at <= t:  # the gripper closes on the object
             simulator.AdvanceTo(grasp_at)
             set_holding(station, context, True)
         simulator.AdvanceTo(t)
