@@ -204,7 +204,8 @@ def set_holding(station, root_context, holding: bool) -> None:
     """For a "gripper_object" load: whether the gripper holds the object in ``root_context`` (of
     the station or of a Diagram around it): the object's inertia, or none; the truth φ follows.
     Before the grasp of ``load.grasp_at`` it holds nothing; a runner calls this at the start of
-    a run and at the grasp."""
+    a run and at the grasp. The arm controller's gravity feed-forward keeps the holding payload
+    (a robot configured for the heavier load); before the grasp its servo takes up the rest."""
     plant = station.GetSubsystemByName("slave_plant")
     plant_context = plant.GetMyMutableContextFromRoot(root_context)
     obj = plant.GetBodyByName("object")
