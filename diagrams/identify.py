@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from pydrake.systems.analysis import Simulator
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, TrajectorySource
 
@@ -85,6 +85,7 @@ def record_excitation(scenario: Scenario, trajectory, duration: float) -> Record
     loggers = {name: LogVectorOutput(station.GetOutputPort(name), builder, period) for name in names}
     diagram = builder.Build()
     simulator = Simulator(diagram)
+    ApplySimulatorConfig(scenario.simulator, simulator)
     if math.isfinite(scenario.load.grasp_at):  # the gripper alone is identified, before any grasp
         set_holding(station, simulator.get_mutable_context(), False)
     simulator.Initialize()

@@ -17,6 +17,8 @@ from pathlib import Path
 import yaml
 
 from pydrake.common.yaml import yaml_load_typed
+from pydrake.multibody.plant import MultibodyPlantConfig
+from pydrake.systems.analysis import SimulatorConfig
 
 from heft.systems.estimator_gate import EstimatorSpec
 from heft.systems.feedback_mapping import FeedbackMappingParams
@@ -115,7 +117,14 @@ class Scenario:
     accelerometer: AccelerometerParams = dataclasses.field(default_factory=AccelerometerParams)
     operator: OperatorSpec = dataclasses.field(default_factory=OperatorSpec)
     controller: ControllerSpec = dataclasses.field(default_factory=ControllerSpec)
-    plant_time_step: float = 0.0005         # s, discrete MultibodyPlant (SAP) step
+    # The slave's discrete MultibodyPlant (Drake's config; its time_step is the master plant's too):
+    # SAP with the lagged approximation, point contact (ContactWrenchAtSensor sums point contacts).
+    plant: MultibodyPlantConfig = dataclasses.field(default_factory=lambda: MultibodyPlantConfig(
+        time_step=0.0005, contact_model="point", discrete_contact_approximation="lagged",
+        use_sampled_output_ports=False))
+    # How a simulation runs (Drake's config, ApplySimulatorConfig): target_realtime_rate 1 paces it
+    # to the wall clock; the defaults run as fast as they can.
+    simulator: SimulatorConfig = dataclasses.field(default_factory=SimulatorConfig)
     controller_period: float = 0.0005       # s, 2 kHz
     slave_servo_stiffness: list[float] = dataclasses.field(
         default_factory=lambda: [4e4, 4e4, 2e4, 2e3, 2e3, 5e2])  # N·m/rad, the robot's own joint loop
@@ -160,7 +169,10 @@ class Scenario:
             need(getattr(op, name) >= 0, f"operator.{name}", "must be >= 0")
         need(len(op.amplitude) == 3, "operator.amplitude", "needs 3 numbers (m)")
         need(len(op.rotation_amplitude) == 3, "operator.rotation_amplitude", "needs 3 numbers (rad)")
-        need(self.plant_time_step > 0, "plant_time_step", "must be > 0 (s)")
+        need(math.isfinite(self.plant.time_step) and self.plant.time_step > 0, "plant.time_step",
+             "must be finite and > 0 (s): the station's plants are discrete")
+        need(self.plant.contact_model == "point", "plant.contact_model",
+             f"must be 'point' (the contact truth sums point contacts); got {self.plant.contact_model!r}")
         need(self.controller_period > 0, "controller_period", "must be > 0 (s)")
         steps = self.controller.delay / self.controller_period
         need(math.isfinite(steps) and steps >= 0 and abs(steps - round(steps)) < 1e-6, "controller.delay",
@@ -170,8 +182,7 @@ class Scenario:
              "slave_servo_stiffness", "needs 6 positive gains (N·m/rad)")
         need(self.duration > 0, "duration", "must be > 0 (s)")
         need(self.slave_setpoint_bandwidth > 0, "slave_setpoint_bandwidth", "must be > 0 (Hz)")
-        for value, field in ((self.duration, "duration"), (self.plant_time_step, "plant_time_step")):
-            need(math.isfinite(value), field, "must be finite")
+        need(math.isfinite(self.duration), "duration", "must be finite")
         return self
 
 

@@ -327,3 +327,17 @@ def test_the_grasp_adds_the_objects_weight_at_the_sensor_and_in_the_truth():
     (w_empty, m_empty), (w_full, m_full) = weights
     assert m_empty == pytest.approx(m_gripper) and m_full == pytest.approx(m_gripper + 0.5024, rel=1e-6)
     assert w_empty == pytest.approx(9.81 * m_empty, rel=1e-3) and w_full == pytest.approx(9.81 * m_full, rel=1e-3)
+
+
+def test_drakes_own_configs_live_in_the_scenario():
+    """plant (MultibodyPlantConfig) and simulator (SimulatorConfig) load like any field, keep the
+    defaults they are not given, and a contact model the truth cannot sum is refused by name."""
+    from heft.diagrams.scenario import layered, resolve_scenario
+
+    scenario = resolve_scenario("fig6", "{plant: {time_step: 0.001}, simulator: {target_realtime_rate: 1.0}}")
+    assert scenario.plant.time_step == 0.001 and scenario.plant.contact_model == "point"
+    assert scenario.simulator.target_realtime_rate == 1.0
+    station = MakeSimStation(scenario)
+    assert station.GetSubsystemByName("slave_plant").time_step() == 0.001
+    with pytest.raises(ValueError, match="plant.contact_model"):
+        layered(scenario, "{plant: {contact_model: hydroelastic}}")

@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from pydrake.systems.analysis import Simulator
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
 from heft.analysis.experiment_metrics import experiment_metrics, grasp_metrics
 from heft.analysis.figures import paper_figure
@@ -53,6 +53,7 @@ def run_teleop(scenario: Scenario, load: LoadEstimate, label: str = "", meshcat=
     sigma = scenario.controller.force.sigma
     diagram, loggers = MakeTeleopSimulation(scenario, load, meshcat=meshcat)
     simulator = Simulator(diagram)
+    ApplySimulatorConfig(scenario.simulator, simulator)
     context = simulator.get_mutable_context()
     station = diagram.GetSubsystemByName("station")
     grasp_at = scenario.load.grasp_at

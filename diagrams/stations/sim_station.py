@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
-from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, MultibodyPlant, MultibodyPlantConfig
+from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, MultibodyPlant
 from pydrake.multibody.tree import (FixedOffsetFrame, JointActuatorIndex, PdControllerGains, PrismaticJoint,
                                     PrismaticSpring, SpatialInertia)
 from pydrake.geometry import AddContactMaterial, Box, MeshcatVisualizer, ProximityProperties
@@ -64,9 +64,7 @@ def AddSheetSpring(plant: MultibodyPlant, spec) -> PrismaticJoint:
 
 def _add_slave(builder: DiagramBuilder, scenario: Scenario):
     """The slave plant (discrete SAP, point contact), its joint servo and gravity feed-forward."""
-    plant, scene_graph = AddMultibodyPlant(
-        MultibodyPlantConfig(time_step=scenario.plant_time_step, contact_model="point",
-                             discrete_contact_approximation="lagged", use_sampled_output_ports=False), builder)
+    plant, scene_graph = AddMultibodyPlant(scenario.plant, builder)
     plant.set_name("slave_plant")
     parts = AddSlave(plant, scenario)
     if scenario.environment.kind == "sheet_spring":
@@ -101,7 +99,7 @@ def _add_slave(builder: DiagramBuilder, scenario: Scenario):
     builder.Connect(state.get_output_port(0), gravity.get_input_port())
     builder.Connect(gravity.get_output_port(), plant.get_actuation_input_port(parts.arm))
     setpoints = builder.AddSystem(SetpointFilter(
-        scenario.slave_initial_q, scenario.slave_setpoint_bandwidth, scenario.plant_time_step))
+        scenario.slave_initial_q, scenario.slave_setpoint_bandwidth, scenario.plant.time_step))
     setpoints.set_name("slave_setpoint_filter")
     builder.Connect(setpoints.get_output_port(), plant.get_desired_state_input_port(parts.arm))
     builder.ExportInput(setpoints.get_input_port(), "slave.position_commanded")
@@ -163,7 +161,7 @@ def _add_wrist_sensor(builder: DiagramBuilder, scenario: Scenario, plant: Multib
 def _add_master(builder: DiagramBuilder, scenario: Scenario):
     """The Phantom (its own discrete plant, without gravity: the Premium is
     counterbalanced) with the operator's hand mass on the stylus and its impedance."""
-    master = builder.AddSystem(MultibodyPlant(time_step=scenario.plant_time_step))
+    master = builder.AddSystem(MultibodyPlant(time_step=scenario.plant.time_step))
     master.set_name("master_plant")
     (phantom,) = Parser(master).AddModels(model_path(MASTER_URDF))
     master.WeldFrames(master.world_frame(), master.GetFrameByName("phantom_base", phantom))

@@ -107,9 +107,9 @@ def linear_model_params(scenario: Scenario, environment_stiffness: float | None 
     """`LinearTeleoperatorParams` for ``scenario`` (module docstring), with the sheet spring's
     stiffness replaced by ``environment_stiffness`` (N/m) if given. ``point`` reuses an
     `operating_point` already computed for the same scenario."""
-    if scenario.plant_time_step != scenario.controller_period:
-        raise ValueError(f"the linear model assumes plant_time_step == controller_period (the plants read the "
-                         f"controller once per tick); got {scenario.plant_time_step} and {scenario.controller_period}")
+    if scenario.plant.time_step != scenario.controller_period:
+        raise ValueError(f"the linear model assumes plant.time_step == controller_period (the plants read the "
+                         f"controller once per tick); got {scenario.plant.time_step} and {scenario.controller_period}")
     if environment_stiffness is not None and not environment_stiffness > 0:
         raise ValueError(f"environment_stiffness must be > 0 (N/m); got {environment_stiffness}")
     point = point or operating_point(scenario)
