@@ -1,5 +1,7 @@
 """`heft identify`: excite the slave, record the wrist sensor, estimate the load
-with every method (Sec. IV), and write what the teleoperation controller loads.
+with every method (Sec. IV), and write what the teleoperation controller loads —
+one path for simulation and hardware, which differ only in the recorder
+(``running.sim_identification``, ``running.hardware_identify``).
 
 The excitation runs in free space (the paper's trajectory involves no contact):
 the scenario's environment is removed for it. Signals: ω and g always from the
@@ -9,25 +11,21 @@ derived from the encoders by harmonic differentiation (``--signals``).
 
 import dataclasses
 import json
-import math
 import time
 from pathlib import Path
 
 import numpy as np
-from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
-from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, TrajectorySource
 
 from heft.analysis.identification_report import convergence_figure, estimate_errors
 from heft.diagrams.running.progress import ProgressBar
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import MakeSlavePlant
-from heft.diagrams.stations.sim_station import MakeSimStation, set_holding
-from heft.diagrams.load_estimate import LoadEstimate, estimate_record, read_load_estimate, write_load_estimate
+from heft.diagrams.load_estimate import estimate_record, write_load_estimate
 from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.estimators import (
     METHODS, NoiseLevels, RecursiveInstrumentalVariables, RecursiveLeastSquares, RecursiveTotalLeastSquares,
     batch_estimate, feed)
+from heft.systems.load_dynamics import regressor_with_offsets
 from heft.systems.excitation import ExcitationSettings, JointLimits, SensorFrameMotion, optimize_excitation
 from heft.systems.periodic_differentiation import differentiate_periodic
 
@@ -67,44 +65,6 @@ def design_excitation(scenario: Scenario, settings: ExcitationSettings):
     limits = JointLimits.from_plant(plant, EXCITATION_ACCELERATION, arm, EXCITATION_VELOCITY_FRACTION)
     limits = limits.within(scenario.slave_initial_q, EXCITATION_RANGE)
     return optimize_excitation(motion, scenario.slave_initial_q, limits, **dataclasses.asdict(settings))
-
-
-def record_excitation(scenario: Scenario, trajectory, duration: float) -> Recording:
-    """Drives the simulated slave through ``trajectory`` for ``duration`` s (free space)."""
-    scenario = dataclasses.replace(scenario, environment=dataclasses.replace(scenario.environment, kind="none"))
-    period = scenario.controller_period
-    builder = DiagramBuilder()
-    station = builder.AddNamedSystem("station", MakeSimStation(scenario))
-    samples = int(round(duration / period))
-    command = builder.AddNamedSystem("excitation", TrajectorySource(trajectory.to_drake(duration, samples + 1)))
-    builder.Connect(command.get_output_port(), station.GetInputPort("slave.position_commanded"))
-    builder.Connect(builder.AddSystem(ConstantVectorSource(np.zeros(6))).get_output_port(),
-                    station.GetInputPort("master.torque_commanded"))
-    names = ("ft.wrench_measured", "ft.acceleration_measured", "slave.position_measured", "truth.ft_offsets",
-             "truth.acceleration")
-    loggers = {name: LogVectorOutput(station.GetOutputPort(name), builder, period) for name in names}
-    diagram = builder.Build()
-    simulator = Simulator(diagram)
-    ApplySimulatorConfig(scenario.simulator, simulator)
-    if math.isfinite(scenario.load.grasp_at):  # the gripper alone is identified, before any grasp
-        set_holding(station, simulator.get_mutable_context(), False)
-    simulator.Initialize()
-    progress = ProgressBar(duration + period, "excitation")
-    for t in np.arange(1, int(np.ceil((duration + period) / 0.1)) + 1) * 0.1:
-        simulator.AdvanceTo(min(t, duration + period))
-        progress.update(simulator.get_context().get_time())
-    progress.close()
-    context = simulator.get_context()
-    logs = {name: logger.FindLog(context).data().T for name, logger in loggers.items()}
-    phi = station.GetOutputPort("truth.phi").Eval(station.GetMyContextFromRoot(context))
-    # A logger publishes before the discrete updates of its instant: the held sensor samples
-    # it sees at t_k were taken at t_{k−1}, while plant-derived signals are those of t_k.
-    held = slice(1, samples + 1)
-    now = slice(0, samples)
-    return Recording(t=np.arange(samples) * period, wrench=logs["ft.wrench_measured"][held],
-                     accel_measured=logs["ft.acceleration_measured"][held],
-                     q=logs["slave.position_measured"][now], phi_true=np.asarray(phi).copy(),
-                     offsets_true=logs["truth.ft_offsets"][held], accel_true=logs["truth.acceleration"][now])
 
 
 def kinematic_signals(scenario: Scenario, recording: Recording, base_frequency: float, harmonics: int,
@@ -160,10 +120,21 @@ def estimate_all(wrench, signals, instruments, noise: NoiseLevels):
     return results, histories
 
 
-def identify(scenario: Scenario, out_dir, method: str = "tls", signals: str = "accelerometer",
+def residual_rms(result, signals, wrench) -> list[float]:
+    """RMS over samples of wrench − [E₆ V]·[offsets; φ] per axis ([f; τ]; N, N·m)."""
+    theta = np.concatenate((np.asarray(result.offsets, dtype=float), np.asarray(result.phi, dtype=float)))
+    predicted = regressor_with_offsets(*signals) @ theta
+    return np.sqrt(np.mean((wrench - predicted) ** 2, axis=0)).tolist()
+
+
+def identify(scenario: Scenario, out_dir, record, method: str = "tls", signals: str = "accelerometer",
              settings: ExcitationSettings | None = None, periods: int = 1) -> dict:
-    """Designs and runs the excitation, estimates with every method and writes
-    estimate.yaml (``method``'s result), metrics.json, convergence.png. Returns metrics."""
+    """Sec. IV in one path for simulation and hardware: designs the excitation, has ``record``
+    run it (``record(trajectory, duration)`` → (Recording, extra metrics): the simulated
+    station's or the hardware's), estimates with every method and writes estimate.yaml
+    (``method``'s), metrics.json (every method's estimate, residual RMS and the spread of the
+    mass between methods) and, where the recording knows the truth (simulation), each method's
+    error and convergence.png. Returns the metrics."""
     if method not in ALL_METHODS:
         raise ValueError(f"method must be one of {', '.join(ALL_METHODS)}; got {method!r}")
     settings = settings or ExcitationSettings()
@@ -173,31 +144,36 @@ def identify(scenario: Scenario, out_dir, method: str = "tls", signals: str = "a
     excitation = design_excitation(scenario, settings)
     print(f"excitation: {settings.harmonics} harmonics of {settings.base_frequency:g} Hz, criterion "
           f"{excitation.criterion}, condition number {excitation.metrics.condition_number:.2f} "
-          f"(random start {excitation.initial_metrics.condition_number:.1f})")
+          f"(random start {excitation.initial_metrics.condition_number:.1f})", flush=True)
     duration = periods / settings.base_frequency
-    recording = record_excitation(scenario, excitation.trajectory, duration)
+    recording, extra = record(excitation.trajectory, duration)
     signal_set, instruments = kinematic_signals(scenario, recording, settings.base_frequency,
                                                 settings.harmonics, signals)
     results, histories = estimate_all(recording.wrench, signal_set, instruments, noise_levels(scenario))
-    offsets_true = recording.offsets_true.mean(axis=0)
-    errors = {m: estimate_errors(r.phi, r.offsets, recording.phi_true, offsets_true) for m, r in results.items()}
+    records = {m: estimate_record(r, m, signals, len(recording.t)) for m, r in results.items()}
+    masses = [r["phi"][0] for r in records.values()]
     metrics = {"signals": signals, "samples": len(recording.t), "duration_s": duration,
-               "excitation_condition_number": excitation.metrics.condition_number,
-               "phi_true": recording.phi_true.tolist(), "offsets_true_mean": offsets_true.tolist(),
-               "errors": errors, "wall_time_s": time.perf_counter() - started}
-    record = estimate_record(results[method], method, signals, len(recording.t))
-    write_load_estimate(out / "estimate.yaml", record)
+               "excitation_condition_number": excitation.metrics.condition_number, "estimates": records,
+               "residual_rms": {m: residual_rms(r, signal_set, recording.wrench) for m, r in results.items()},
+               "mass_spread_kg": float(np.ptp(masses)), **extra}
+    print(f"{'method':8s}{'mass (kg)':>11s}{'σ (g)':>8s}{'COM (mm)':>26s}{'residual f (N)':>16s}{'τ (N·m)':>9s}")
+    for m, r in records.items():
+        com = 1e3 * np.asarray(r.get("com", [np.nan] * 3))
+        rms = metrics["residual_rms"][m]
+        print(f"{m:8s}{r['phi'][0]:11.4f}{1e3 * r['std_phi'][0]:8.2f}   "
+              f"[{com[0]:7.2f} {com[1]:7.2f} {com[2]:7.2f}]{max(rms[:3]):16.3f}{max(rms[3:]):9.4f}")
+    if recording.phi_true is not None:  # simulation: the truth is known
+        offsets_true = recording.offsets_true.mean(axis=0)
+        errors = {m: estimate_errors(r.phi, r.offsets, recording.phi_true, offsets_true) for m, r in results.items()}
+        metrics.update(phi_true=recording.phi_true.tolist(), offsets_true_mean=offsets_true.tolist(), errors=errors)
+        convergence_figure(histories, recording.t[1] - recording.t[0], recording.phi_true, offsets_true,
+                           out / "convergence.png")
+        print(f"errors against the truth:\n{'method':8s}{'mass (g)':>10s}{'COM (mm)':>10s}{'I_S (%)':>9s}"
+              f"{'offsets f (N)':>15s}{'τ (N·m)':>10s}")
+        for m, e in errors.items():
+            print(f"{m:8s}{1e3 * e['mass_kg']:10.2f}{1e3 * e['com_m']:10.3f}{100 * e['inertia_relative']:9.2f}"
+                  f"{e['force_offsets_N']:15.3f}{e['torque_offsets_Nm']:10.4f}")
+    metrics["wall_time_s"] = time.perf_counter() - started
+    write_load_estimate(out / "estimate.yaml", records[method])
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
-    convergence_figure(histories, recording.t[1] - recording.t[0], recording.phi_true, offsets_true,
-                       out / "convergence.png")
-    print(f"{'method':8s}{'mass (g)':>10s}{'COM (mm)':>10s}{'I_S (%)':>9s}{'offsets f (N)':>15s}{'τ (N·m)':>10s}")
-    for m, e in errors.items():
-        print(f"{m:8s}{1e3 * e['mass_kg']:10.2f}{1e3 * e['com_m']:10.3f}{100 * e['inertia_relative']:9.2f}"
-              f"{e['force_offsets_N']:15.3f}{e['torque_offsets_Nm']:10.4f}")
     return metrics
-
-
-def identify_in_simulation(scenario: Scenario, out_dir, settings: ExcitationSettings | None = None) -> LoadEstimate:
-    """Identifies the scenario's load (default method) and returns the estimate."""
-    identify(scenario, out_dir, settings=settings)
-    return read_load_estimate(Path(out_dir) / "estimate.yaml")

@@ -4,8 +4,8 @@ the stand-in over LCM (memq://) with the estimate checked against the station's 
 import lcm
 import numpy as np
 import pytest
-from heft.diagrams.running.hardware_identify import HardwareIdentification, IdentificationAborted, identify_on_hardware
-from heft.diagrams.identify import design_excitation
+from heft.diagrams.running.hardware_identify import HardwareIdentification, IdentificationAborted
+from heft.diagrams.identify import design_excitation, identify
 from heft.diagrams.scenario import resolve_scenario
 from heft.diagrams.stations.stand_in import FaultInjection, StandIn
 from heft.hardware_interface.channels import LcmChannels
@@ -98,8 +98,8 @@ def test_identification_against_the_stand_in_recovers_the_load(tmp_path):
                                   max_iterations=40)
     excitation = design_excitation(scenario, settings)
     stand_in, run = run_in_process(scenario, excitation.trajectory, 2.0)
-    metrics = identify_on_hardware(scenario, tmp_path, "memq://", settings=settings,
-                                   recording=run.recording(scenario.controller_period))
+    recording = run.recording(scenario.controller_period)
+    metrics = identify(scenario, tmp_path, lambda trajectory, duration: (recording, {}), settings=settings)
     truth = stand_in.phi_true
     tls = metrics["estimates"]["tls"]
     assert tls["phi"][0] == pytest.approx(truth[0], rel=0.01)

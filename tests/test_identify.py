@@ -7,6 +7,7 @@ import pytest
 import yaml
 
 from heft.diagrams.identify import ALL_METHODS, identify
+from heft.diagrams.running.sim_identification import simulated_recorder
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.load_estimate import read_load_estimate
 from heft.systems.excitation import ExcitationSettings
@@ -22,7 +23,7 @@ def short_excitation() -> ExcitationSettings:
 def identified(tmp_path_factory):
     """A noisy 2 s excitation of the paper's tool, identified with every method."""
     out = tmp_path_factory.mktemp("identify")
-    metrics = identify(Scenario(), out, method="tls", settings=short_excitation())
+    metrics = identify(Scenario(), out, simulated_recorder(Scenario()), method="tls", settings=short_excitation())
     return out, metrics
 
 
@@ -55,7 +56,7 @@ def test_noise_free_identification_is_exact_to_the_encoder_resolution(tmp_path):
     scenario = Scenario()
     scenario.ft_sensor.noise = False
     scenario.accelerometer.noise = False
-    metrics = identify(scenario, tmp_path, method="ols", settings=short_excitation())
+    metrics = identify(scenario, tmp_path, simulated_recorder(scenario), method="ols", settings=short_excitation())
     errors = metrics["errors"]["ols"]
     assert errors["mass_kg"] < 5e-4 and errors["inertia_relative"] < 5e-3 and errors["force_offsets_N"] < 0.01
 
@@ -71,4 +72,4 @@ def test_bad_estimate_file_says_what_to_do(tmp_path):
 
 def test_unknown_method_is_rejected(tmp_path):
     with pytest.raises(ValueError, match="method must be one of"):
-        identify(Scenario(), tmp_path, method="magic")
+        identify(Scenario(), tmp_path, simulated_recorder(Scenario()), method="magic")

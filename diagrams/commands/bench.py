@@ -32,7 +32,8 @@ def _bench_regressor(args) -> int:
 
 def _bench_identify(args) -> int:
     from heft.analysis import bench_identify as bench
-    from heft.diagrams.identify import ALL_METHODS, design_excitation, kinematic_signals, record_excitation
+    from heft.diagrams.identify import ALL_METHODS, design_excitation, kinematic_signals
+    from heft.diagrams.running.sim_identification import record_excitation
     from heft.diagrams.running.progress import ProgressBar
     from heft.diagrams.scenario import Scenario
     from heft.systems.estimators import PARAMETER_NAMES, NoiseLevels

@@ -16,7 +16,7 @@ def add_arguments(parser) -> None:
 
 def run(args) -> int:
     """Identify the paper's tool, then replay Fig. 6 with σ = 1, 0.5, 0."""
-    from heft.diagrams.identify import identify_in_simulation
+    from heft.diagrams.running.sim_identification import identify_in_simulation
     from heft.diagrams.scenario import resolve_scenario
     from heft.diagrams.running.simulation import simulate
     from heft.systems.excitation import ExcitationSettings

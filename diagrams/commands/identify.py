@@ -40,14 +40,16 @@ def run(args) -> int:
     scenario = scenario_from(args)
     settings = ExcitationSettings.quick() if args.quick else ExcitationSettings()
     if args.hardware:
-        from heft.diagrams.running.hardware_identify import identify_on_hardware
-        identify_on_hardware(scenario, args.out, args.lcm_url, method=args.method, signals=args.signals,
-                             settings=settings, periods=args.periods, record=args.record,
-                             params=station_params(args.watchdog_timeout), priority=args.rt_priority)
-        print(f"wrote {args.out}/estimate.yaml, metrics.json{f', {args.record}' if args.record else ''}")
-        return 0
-    if args.record:
-        raise ValueError("--record records LCM traffic: it needs --hardware")
-    identify(scenario, args.out, method=args.method, signals=args.signals, settings=settings, periods=args.periods)
-    print(f"wrote {args.out}/estimate.yaml, metrics.json, convergence.png")
+        from heft.diagrams.running.hardware_identify import hardware_recorder
+        recorder = hardware_recorder(scenario, args.lcm_url, args.record, station_params(args.watchdog_timeout),
+                                     args.rt_priority)
+        wrote = f"estimate.yaml, metrics.json{f', {args.record}' if args.record else ''}"
+    else:
+        from heft.diagrams.running.sim_identification import simulated_recorder
+        if args.record:
+            raise ValueError("--record records LCM traffic: it needs --hardware")
+        recorder, wrote = simulated_recorder(scenario), "estimate.yaml, metrics.json, convergence.png"
+    identify(scenario, args.out, recorder, method=args.method, signals=args.signals, settings=settings,
+             periods=args.periods)
+    print(f"wrote {args.out}/{wrote}")
     return 0

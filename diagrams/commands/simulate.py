@@ -42,7 +42,7 @@ def run(args) -> int:
         load = read_load_estimate(estimate)
         print(f"load estimate from {estimate}")
     else:
-        from heft.diagrams.identify import identify_in_simulation
+        from heft.diagrams.running.sim_identification import identify_in_simulation
         print("no load estimate given: identifying the load in simulation first (Sec. IV)")
         load = identify_in_simulation(scenario, out / "identify")
     if math.isfinite(scenario.load.grasp_at) and scenario.controller.force.phi_gripper is None:

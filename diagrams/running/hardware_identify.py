@@ -14,22 +14,12 @@ wrench model per axis, and the spread between methods.
 
 from __future__ import annotations
 
-import json
-import time
-from pathlib import Path
 
 import lcm
 import numpy as np
 
-from heft.diagrams.identify import (
-    Recording,
-    design_excitation,
-    estimate_all,
-    kinematic_signals,
-    noise_levels,
-)
+from heft.diagrams.identify import Recording
 from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
-from heft.diagrams.load_estimate import estimate_record, write_load_estimate
 from heft.diagrams.running.realtime import (HardwareRunFailed, claim_realtime, format_timing, run_realtime,
                                             timing_summary)
 from heft.diagrams.scenario import Scenario
@@ -40,9 +30,7 @@ from heft.hardware_interface.hardware_station import (
     HardwareStation,
     HardwareStationParams,
 )
-from heft.systems.excitation import ExcitationSettings
 from heft.systems.excitation_commander import ExcitationCommander, Phase
-from heft.systems.load_dynamics import regressor_with_offsets
 
 
 class IdentificationAborted(HardwareRunFailed):
@@ -126,49 +114,14 @@ def record_on_hardware(scenario: Scenario, trajectory, duration: float, lcm_url:
     return run.recording(period), timing_summary(times)
 
 
-def residual_rms(result, signals, wrench) -> list[float]:
-    """RMS over samples of wrench − [E₆ V]·[offsets; φ] per axis ([f; τ]; N, N·m)."""
-    theta = np.concatenate((np.asarray(result.offsets, dtype=float), np.asarray(result.phi, dtype=float)))
-    predicted = regressor_with_offsets(*signals) @ theta
-    return np.sqrt(np.mean((wrench - predicted) ** 2, axis=0)).tolist()
-
-
-def identify_on_hardware(scenario: Scenario, out_dir, lcm_url: str, method: str = "tls",
-                         signals: str = "accelerometer", settings: ExcitationSettings | None = None,
-                         periods: int = 1, record=None, recording: Recording | None = None,
-                         params: HardwareStationParams | None = None, priority: int = 50) -> dict:
-    """Designs the excitation, runs it on the hardware at ``lcm_url`` (or takes ``recording``),
-    estimates with every method, writes estimate.yaml (``method``'s) and metrics.json. Returns metrics."""
-    settings = settings or ExcitationSettings()
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    started = time.perf_counter()
-    excitation = design_excitation(scenario, settings)
-    duration = periods / settings.base_frequency
-    timing = None
-    if recording is None:
+def hardware_recorder(scenario: Scenario, lcm_url: str, record=None, params: HardwareStationParams | None = None,
+                      priority: int = 50):
+    """The ``record`` of ``identify`` on the hardware at ``lcm_url`` (``record_on_hardware``); the
+    extra metrics are the LCM URL, the loop's timing and the traffic log's path."""
+    def run(trajectory, duration: float):
         print(f"identify: excitation of {duration:g} s on {lcm_url}; the arm first moves slowly to its start",
               flush=True)
-        recording, timing = record_on_hardware(scenario, excitation.trajectory, duration, lcm_url, record, params,
-                                               priority)
+        recording, timing = record_on_hardware(scenario, trajectory, duration, lcm_url, record, params, priority)
         print(format_timing(timing), flush=True)
-    signal_set, instruments = kinematic_signals(scenario, recording, settings.base_frequency, settings.harmonics,
-                                                signals)
-    results, _ = estimate_all(recording.wrench, signal_set, instruments, noise_levels(scenario))
-    records = {m: estimate_record(r, m, signals, len(recording.t)) for m, r in results.items()}
-    masses = [r["phi"][0] for r in records.values()]
-    metrics = {"signals": signals, "samples": len(recording.t), "duration_s": duration, "lcm_url": lcm_url,
-               "excitation_condition_number": excitation.metrics.condition_number,
-               "estimates": records,
-               "residual_rms": {m: residual_rms(r, signal_set, recording.wrench) for m, r in results.items()},
-               "mass_spread_kg": float(np.ptp(masses)), "timing": timing, "lcm_log": None if record is None
-               else str(record), "wall_time_s": time.perf_counter() - started}
-    write_load_estimate(out / "estimate.yaml", records[method])
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
-    print(f"{'method':8s}{'mass (kg)':>11s}{'σ (g)':>8s}{'COM (mm)':>26s}{'residual f (N)':>16s}{'τ (N·m)':>9s}")
-    for m, r in records.items():
-        com = 1e3 * np.asarray(r.get("com", [np.nan] * 3))
-        rms = metrics["residual_rms"][m]
-        print(f"{m:8s}{r['phi'][0]:11.4f}{1e3 * r['std_phi'][0]:8.2f}   "
-              f"[{com[0]:7.2f} {com[1]:7.2f} {com[2]:7.2f}]{max(rms[:3]):16.3f}{max(rms[3:]):9.4f}")
-    return metrics
+        return recording, {"lcm_url": lcm_url, "timing": timing, "lcm_log": None if record is None else str(record)}
+    return run
