@@ -94,6 +94,11 @@ def test_rendered_mass_follows_sigma_and_eta(fig6, tmp_path):
             assert row["measured_kg"]["slave"] == pytest.approx(expected, rel=0.01)
     m_gripper, m_object = study["gripper_mass_kg"], study["object_mass_kg"]
     assert m_gripper == pytest.approx(1.73710386) and m_object == pytest.approx(0.5024)
+    # The controller's parameters were identified (the gripper alone, then with the object), not given.
+    assert study["gripper_mass_identified_kg"] == pytest.approx(m_gripper, rel=0.01)
+    assert study["gripper_mass_identified_kg"] != m_gripper
+    assert study["load_with_object_identified_kg"] == pytest.approx(m_gripper + m_object, rel=0.01)
+    assert study["load_mass_identified_kg"] == pytest.approx(3.13, rel=0.01)
     eta0, eta1 = study["split_runs"]
     assert eta0["measured_kg"]["hand"] == pytest.approx(hand_mass(1.0, m_gripper, k_f, s), rel=0.05)
     assert eta1["measured_kg"]["hand"] == pytest.approx(hand_mass(1.0, m_gripper + m_object, k_f, s), rel=0.05)

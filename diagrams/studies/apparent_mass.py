@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import tempfile
 from pathlib import Path
 
 from heft.analysis.plotting import plt
@@ -28,10 +29,12 @@ import numpy as np
 from pydrake.math import RollPitchYaw, RotationMatrix
 
 from heft.analysis.apparent_mass import estimate_apparent_mass, fit_apparent_mass, hand_mass
-from heft.diagrams.scenario import Scenario
+from heft.diagrams.scenario import Scenario, layered, overrides_text
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
+from heft.diagrams.running.sim_identification import identify_in_simulation
 from heft.diagrams.running.simulation import run_teleop, true_load, with_sigma
 from heft.diagrams.load_estimate import LoadEstimate
+from heft.systems.excitation import ExcitationSettings
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 
 SETTLE_TIME = 0.25
@@ -97,10 +100,18 @@ def _subtract(fits: dict, baseline: dict) -> dict:
     return {key: fits[key]["mass_kg"] - baseline[key]["mass_kg"] for key in ("hand", "slave")}
 
 
+def _identified(scenario: Scenario, folder: Path, name: str) -> LoadEstimate:
+    """The load as ``heft identify`` finds it in simulation (a quick excitation)."""
+    return identify_in_simulation(scenario, folder / name, ExcitationSettings.quick())
+
+
 def apparent_mass_study(scenario: Scenario, sigmas=(0.0, 0.5, 1.0, 1.5, 2.0), etas=(0.0, 1.0),
                         amplitude_scale: float = 0.4, smoothing: float = 0.01, progress=None) -> dict:
     """Runs ``scenario`` (noise as it says; free space required) once per σ with its own load,
-    and once per η with a gripper holding an object (σ = 1, plus a σ = 0 baseline).
+    and once per η with a gripper holding an object (σ = 1, plus a σ = 0 baseline). The
+    controller uses identified parameters, as in the lab: the load, the gripper alone (Eq. 14's
+    φ_gr) and gripper with object, each from a quick simulated identification; the expected
+    masses are the true ones.
 
     ``amplitude_scale`` shrinks the operator's motion so that the largest σ's force stays
     below the device's force limit (a clamped force hides the mass); the default suits fig6
@@ -117,36 +128,50 @@ def apparent_mass_study(scenario: Scenario, sigmas=(0.0, 0.5, 1.0, 1.5, 2.0), et
     k_f, s = scenario.controller.feedback.force_scale, scenario.controller.motion.translation_scale
     step = progress or (lambda label: None)
 
-    load, _ = true_load(scenario)
-    fits = {}
-    for sigma in sigmas:
-        step(f"σ = {sigma:g}")
-        fits[sigma] = _run(scenario, load, sigma, smoothing)
+    with tempfile.TemporaryDirectory() as work:
+        folder = Path(work)
+        step("identifying the load")
+        identified = _identified(scenario, folder, "load")
+        load, _ = true_load(scenario)
+        fits = {}
+        for sigma in sigmas:
+            step(f"σ = {sigma:g}")
+            fits[sigma] = _run(scenario, identified, sigma, smoothing)
+        split_rows, masses = _split_runs(scenario, etas, k_f, s, smoothing, step, folder) if etas else ([], {})
     sigma_rows = [{"sigma": sigma, "expected_kg": hand_mass(sigma, load.phi[0], k_f, s),
                    "measured_kg": _subtract(fits[sigma], fits[0.0]), "fits": fits[sigma]} for sigma in sigmas]
-
-    split_rows = []
-    if etas:
-        gripper = dataclasses.replace(scenario, load=dataclasses.replace(scenario.load, kind="gripper_object"))
-        gripper_load, phi_gripper = true_load(gripper)
-        m_gripper, m_object = float(phi_gripper[0]), float(gripper_load.phi[0] - phi_gripper[0])
-
-        def split_scenario(eta: float) -> Scenario:
-            force = dataclasses.replace(gripper.controller.force, eta=eta, phi_gripper=phi_gripper.tolist())
-            return dataclasses.replace(gripper, controller=dataclasses.replace(gripper.controller, force=force))
-
-        step("gripper, σ = 0, η = 0")
-        baseline = _run(split_scenario(0.0), gripper_load, 0.0, smoothing)
-        for eta in etas:
-            step(f"gripper, σ = 1, η = {eta:g}")
-            fit = _run(split_scenario(float(eta)), gripper_load, 1.0, smoothing)
-            split_rows.append({"eta": float(eta), "expected_kg": hand_mass(1.0, m_gripper + eta * m_object, k_f, s),
-                               "measured_kg": _subtract(fit, baseline), "fits": fit})
     return {"scenario": scenario.experiment, "force_scale": k_f, "motion_scale": s,
-            "load_mass_kg": float(load.phi[0]), "amplitude": list(scenario.operator.amplitude),
-            "max_force_N": scenario.controller.feedback.max_force, "sigma_runs": sigma_rows,
-            "split_runs": split_rows,
-            **({"gripper_mass_kg": m_gripper, "object_mass_kg": m_object} if etas else {})}
+            "load_mass_kg": float(load.phi[0]), "load_mass_identified_kg": float(identified.phi[0]),
+            "amplitude": list(scenario.operator.amplitude), "max_force_N": scenario.controller.feedback.max_force,
+            "sigma_runs": sigma_rows, "split_runs": split_rows, **masses}
+
+
+def _split_runs(scenario: Scenario, etas, k_f: float, s: float, smoothing: float, step, folder: Path):
+    """The η runs with a gripper holding an object: the controller's φ_gr from identifying the
+    gripper alone, its φ̂ from identifying gripper and object; expected from the truth."""
+    gripper = layered(scenario, overrides_text({"load.kind": "gripper_object"}))
+    gripper_load, phi_gripper = true_load(gripper)
+    m_gripper, m_object = float(phi_gripper[0]), float(gripper_load.phi[0] - phi_gripper[0])
+    step("identifying the gripper alone, then with the object")
+    # A grasp after the identification: the gripper holds nothing while it is identified.
+    phi_gripper_hat = _identified(layered(gripper, overrides_text({"load.grasp_at": 1e9})), folder, "gripper").phi
+    identified = _identified(gripper, folder, "gripper_object")
+
+    def split_scenario(eta: float) -> Scenario:
+        return layered(gripper, overrides_text({"controller.force.eta": eta,
+                                                "controller.force.phi_gripper": phi_gripper_hat.tolist()}))
+
+    step("gripper, σ = 0, η = 0")
+    baseline = _run(split_scenario(0.0), identified, 0.0, smoothing)
+    rows = []
+    for eta in etas:
+        step(f"gripper, σ = 1, η = {eta:g}")
+        fit = _run(split_scenario(float(eta)), identified, 1.0, smoothing)
+        rows.append({"eta": float(eta), "expected_kg": hand_mass(1.0, m_gripper + eta * m_object, k_f, s),
+                     "measured_kg": _subtract(fit, baseline), "fits": fit})
+    return rows, {"gripper_mass_kg": m_gripper, "object_mass_kg": m_object,
+                  "gripper_mass_identified_kg": float(phi_gripper_hat[0]),
+                  "load_with_object_identified_kg": float(identified.phi[0])}
 
 
 def write_study(study: dict, out_dir) -> tuple[Path, Path]:
