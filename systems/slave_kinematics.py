@@ -23,7 +23,7 @@ class SlaveKinematics(LeafSystem):
     ``gravity_S`` (3): the gravity vector expressed in S (m/s²).
 
     ``model`` is a finalized MultibodyPlant of arm + sensor + load (e.g. built with
-    diagrams.sim_station.AddSlave), or a function returning one. ``base_frame`` and
+    diagrams.plants.AddSlave), or a function returning one. ``base_frame`` and
     ``sensor_frame`` name R and S in it; the joints are those of R's model instance.
     ``gravity_R`` is gravity expressed in R (m/s²). Direct feedthrough: pose_RS and
     gravity_S from ``position``, omega_S from both inputs.

@@ -1,6 +1,6 @@
 """``heft analyze apparent-mass``: the mass the operator feels, against σ.
 
-Runs `diagrams.apparent_mass.apparent_mass_study` on a free-space scenario and writes
+Runs `diagrams.studies.apparent_mass.apparent_mass_study` on a free-space scenario and writes
 apparent_mass.png and apparent_mass.json to ``--out``.
 """
 

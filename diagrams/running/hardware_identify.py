@@ -1,7 +1,7 @@
 """`heft identify --hardware`: the excitation on the real arm over LCM, then Sec. IV's estimators.
 
 ``HardwareIdentification.tick`` is one tick of the real-time loop
-(``diagrams.realtime``): the hardware station receives, the
+(``diagrams.running.realtime``): the hardware station receives, the
 ``ExcitationCommander`` (it waits for healthy hardware, moves slowly to the
 excitation's start, settles, excites, holds) commands the slave, the master
 gets zero torque, and every tick of the excitation phase is recorded with its

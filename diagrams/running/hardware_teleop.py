@@ -14,7 +14,7 @@ the clutch button, anchored on the slave's measured pose at the press. Load
 commands (``heft load``: re-zero, offset tracking, a new tool's estimate) are
 served after each tick's send (``hardware_interface.load_commands``).
 
-``run_hardware_teleop`` runs it for a while (``diagrams.realtime``) and returns
+``run_hardware_teleop`` runs it for a while (``diagrams.running.realtime``) and returns
 what the run saw: faults and recoveries, the master command's largest stylus
 force and torque, the largest slave command step, message rates and timing.
 """
