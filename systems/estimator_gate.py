@@ -22,7 +22,7 @@ import math
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from .load_dynamics import regressor
+from .load_dynamics import regressor, wrench_norms
 
 ESTIMATOR_MODES = ("fixed", "online")
 ONLINE_METHODS = ("rls",)
@@ -80,9 +80,8 @@ def gate_open(spec: EstimatorSpec, acceleration, omega, contact, fault: bool, si
         return False
     if since_reset < spec.learning_window:
         return True
-    c = contact.tolist()
-    return (math.sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) <= spec.contact_force
-            and math.sqrt(c[3] * c[3] + c[4] * c[4] + c[5] * c[5]) <= spec.contact_torque)
+    force, torque = wrench_norms(contact.tolist())
+    return force <= spec.contact_force and torque <= spec.contact_torque
 
 
 class EstimatorGate(LeafSystem):

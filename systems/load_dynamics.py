@@ -277,3 +277,9 @@ def checked_load(phi, offsets) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError(f"a load estimate needs 10 finite φ entries (Eq. 6) and 6 finite offsets; "
                          f"got {phi.tolist()} and {offsets.tolist()}")
     return phi, offsets
+
+
+def wrench_norms(wrench: list) -> tuple[float, float]:
+    """(|f| in N, |τ| in N·m) of a wrench [f; τ] given as 6 floats (scalar math, for per-tick use)."""
+    fx, fy, fz, tx, ty, tz = wrench
+    return math.sqrt(fx * fx + fy * fy + fz * fz), math.sqrt(tx * tx + ty * ty + tz * tz)

@@ -27,6 +27,8 @@ import math
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
+from .load_dynamics import wrench_norms
+
 # Layout of the state: offsets, the re-zero window's sum of (c + o)·dt and its length (s),
 # the re-zero status, tracking on (1) or off (0), the last re-zero request counter seen.
 OFFSETS, WINDOW_SUM, WINDOW_TIME, STATUS, TRACKING, REQUESTS = slice(0, 6), slice(6, 12), 12, 13, 14, 15
@@ -102,10 +104,6 @@ def restart_rezero_window(state: np.ndarray) -> None:
     state[WINDOW_TIME] = 0.0
 
 
-def _norm3(v, start: int) -> float:
-    return math.sqrt(v[start] * v[start] + v[start + 1] * v[start + 1] + v[start + 2] * v[start + 2])
-
-
 def offsets_update(state: np.ndarray, contact, fault: bool, slave_velocity, dt: float,
                    params: OffsetTrackingParams, requests: float) -> None:
     """One tick, in place: ``contact`` c (6) of this tick computed with the state's offsets,
@@ -117,7 +115,7 @@ def offsets_update(state: np.ndarray, contact, fault: bool, slave_velocity, dt: 
         restart_rezero_window(state)
     contact = contact.tolist()
     at_rest = max(abs(v) for v in slave_velocity.tolist()) < params.rest_joint_speed
-    force, torque = (0.0, 0.0) if fault else (_norm3(contact, 0), _norm3(contact, 3))
+    force, torque = (0.0, 0.0) if fault else wrench_norms(contact)
     if state[STATUS] == COLLECTING:
         if fault:
             state[STATUS] = REFUSED_FAULT
@@ -136,8 +134,8 @@ def offsets_update(state: np.ndarray, contact, fault: bool, slave_velocity, dt: 
     if (state[TRACKING] > 0.5 and not fault and at_rest and force <= params.track_force
             and torque <= params.track_torque):
         gain = dt / params.time_constant
-        for i, limit in enumerate((params.max_force_rate,) * 3 + (params.max_torque_rate,) * 3):
-            step = limit * dt
+        for i in range(6):
+            step = (params.max_force_rate if i < 3 else params.max_torque_rate) * dt
             state[i] += min(max(gain * contact[i], -step), step)
 
 
