@@ -82,7 +82,7 @@ def kinematic_signals(scenario: Scenario, recording: Recording, base_frequency: 
         raise ValueError(f"signals must be 'accelerometer' or 'encoders'; got {source!r}")
     gravity = encoders[3]
     acceleration = motion_from_reading(np.empty_like(recording.accel_measured), recording.accel_measured, gravity,
-                                       scenario.accelerometer.includes_gravity)
+                                       encoders[2], scenario.accelerometer.convention())
     measured = (acceleration[:, :3], acceleration[:, 3:], encoders[2], gravity)
     return measured, encoders
 

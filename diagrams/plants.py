@@ -12,7 +12,8 @@ import dataclasses
 import numpy as np
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.multibody.tree import RotationalInertia, SpatialInertia
+from pydrake.multibody.tree import (LinearBushingRollPitchYaw, QuaternionFloatingJoint, RotationalInertia,
+                                    SpatialInertia)
 
 from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
@@ -29,8 +30,9 @@ class SlaveParts:
     sensor_body: object         # the JR3 body; its frame is on the flange
     S: object                   # the sensor frame S
     load_bodies: list           # bodies below S (tool, or gripper and object, or custom)
-    sensor_weld: object         # the weld joint S → load; its reaction is the FT measurement
+    sensor_weld: object         # the weld joint at S whose reaction is the FT measurement
     gripper_bodies: list        # the gripper part of a gripper_object load (else empty)
+    mount_joint: object = None  # a compliant mount's floating joint (mount plate → load), else None
 
 
 def _custom_load_inertia(spec) -> SpatialInertia:
@@ -53,8 +55,23 @@ def AddArmWithSensor(plant: MultibodyPlant, robot: str):
     return arm, sensor_body, plant.GetFrameByName("S", sensor_instance)
 
 
-def AddSlave(plant: MultibodyPlant, scenario: Scenario) -> SlaveParts:
-    """Adds the arm with its JR3 (``AddArmWithSensor``) and the scenario's load welded at S."""
+def _add_compliant_mount(plant: MultibodyPlant, S, load_body, spec):
+    """The load on ``spec``'s spring-damper below S: a massless mount plate welded at S (its weld's
+    reaction is then what the sensor measures), the load free on a floating joint from it, and
+    the bushing between the two, both frames at S at rest. Returns (weld, floating joint)."""
+    plate = plant.AddRigidBody("mount_plate", load_body.model_instance(), SpatialInertia.Zero())
+    weld = plant.WeldFrames(S, plate.body_frame())
+    joint = plant.AddJoint(QuaternionFloatingJoint("mount", plate.body_frame(), load_body.body_frame()))
+    plant.AddForceElement(LinearBushingRollPitchYaw(
+        plate.body_frame(), load_body.body_frame(), spec.torque_stiffness, spec.torque_damping,
+        spec.force_stiffness, spec.force_damping))
+    return weld, joint
+
+
+def AddSlave(plant: MultibodyPlant, scenario: Scenario, mount_compliance: bool = False) -> SlaveParts:
+    """Adds the arm with its JR3 (``AddArmWithSensor``) and the scenario's load at S: welded, or on
+    the scenario's compliant mount (``MountSpec``) with ``mount_compliance`` (the simulated station's
+    physics; models of the load for control and analysis stay rigid)."""
     arm, sensor_body, S = AddArmWithSensor(plant, scenario.robot)
     parser = Parser(plant)
     parser.SetAutoRenaming(True)
@@ -71,8 +88,11 @@ def AddSlave(plant: MultibodyPlant, scenario: Scenario) -> SlaveParts:
     else:
         instance = plant.AddModelInstance("custom_load")
         load_bodies = [plant.AddRigidBody("load", instance, _custom_load_inertia(scenario.load))]
-    weld = plant.WeldFrames(S, load_bodies[0].body_frame())
-    return SlaveParts(arm, sensor_body, S, load_bodies, weld, gripper_bodies)
+    if mount_compliance and not scenario.load.mount.rigid:
+        weld, mount = _add_compliant_mount(plant, S, load_bodies[0], scenario.load.mount)
+    else:
+        weld, mount = plant.WeldFrames(S, load_bodies[0].body_frame()), None
+    return SlaveParts(arm, sensor_body, S, load_bodies, weld, gripper_bodies, mount)
 
 
 def phi_about_S(plant: MultibodyPlant, S, bodies, context=None) -> np.ndarray:

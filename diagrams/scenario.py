@@ -30,6 +30,22 @@ from heft.systems.sensor_models import AccelerometerParams, ForceTorqueSensorPar
 
 
 @dataclasses.dataclass
+class MountSpec:
+    """How the load hangs below the sensor: rigidly (the paper's model), or on a compliant
+    mount, a 6-DoF spring-damper between S and the load's frame (Drake's
+    ``LinearBushingRollPitchYaw``; constants about and along S's axes at rest), as a tool
+    on a wrist flange with an adapter plate is. The defaults put the paper's tool's first
+    mode, rocking about x and y, at about 40 Hz ("tens of Hz", as tools on wrist flanges
+    show; the JR3 itself is stiffer), twist and sideways modes near 90 Hz, with some 5 %
+    of critical damping (bolted joints). Assumed values, not measured on a lab's tool."""
+    rigid: bool = False
+    torque_stiffness: list[float] = dataclasses.field(default_factory=lambda: [1500.0, 1500.0, 1500.0])  # N·m/rad
+    torque_damping: list[float] = dataclasses.field(default_factory=lambda: [0.6, 0.6, 0.3])  # N·m·s/rad
+    force_stiffness: list[float] = dataclasses.field(default_factory=lambda: [1e6, 1e6, 1e6])  # N/m
+    force_damping: list[float] = dataclasses.field(default_factory=lambda: [180.0, 180.0, 180.0])  # N·s/m
+
+
+@dataclasses.dataclass
 class LoadSpec:
     """What hangs on the wrist sensor, below its measuring frame S.
 
@@ -45,6 +61,7 @@ class LoadSpec:
     # "gripper_object" only: the gripper closes on the object at this time (s) of a teleoperation
     # run, in free space; before it, and throughout identification, it holds nothing. inf: held always.
     grasp_at: float = math.inf
+    mount: MountSpec = dataclasses.field(default_factory=MountSpec)
 
 
 @dataclasses.dataclass
@@ -131,6 +148,9 @@ class Scenario:
     slave_servo_damping_ratio: float = 1.0
     slave_setpoint_bandwidth: float = 20.0  # Hz, the robot controller's setpoint filter
     encoder_counts_per_rev: float = 2.0 ** 20  # slave; the master's is in the model notes
+    # The arm controller's joint velocity estimate: the encoders' backward difference at the plant's
+    # step through a first-order low-pass of this cut-off (Hz); 0: the true velocity (ideal).
+    slave_velocity_filter: float = 100.0
     duration: float = 2.0                   # s
 
     def validate(self) -> "Scenario":
@@ -155,6 +175,13 @@ class Scenario:
         need(len(self.load.com) == 3, "load.com", "needs 3 numbers (m)")
         need(math.isinf(self.load.grasp_at) or (self.load.kind == "gripper_object" and self.load.grasp_at > 0),
              "load.grasp_at", "is a time > 0 (s) for a 'gripper_object' load only")
+        mount = self.load.mount
+        for name in ("torque_stiffness", "force_stiffness"):
+            need(len(getattr(mount, name)) == 3 and min(getattr(mount, name)) > 0, f"load.mount.{name}",
+                 "needs 3 numbers > 0 (N·m/rad, N/m): set load.mount.rigid true for a rigid mount")
+        for name in ("torque_damping", "force_damping"):
+            need(len(getattr(mount, name)) == 3 and min(getattr(mount, name)) >= 0, f"load.mount.{name}",
+                 "needs 3 numbers >= 0 (N·m·s/rad, N·s/m)")
         need(len(self.load.inertia_com) == 6, "load.inertia_com", "needs 6 numbers [Ixx, Ixy, Ixz, Iyy, Iyz, Izz]")
         need(self.environment.kind in ("sheet_spring", "none"), "environment.kind",
              f"must be 'sheet_spring' or 'none', not {self.environment.kind!r}")
@@ -181,6 +208,14 @@ class Scenario:
         need(len(self.slave_servo_stiffness) == 6 and min(self.slave_servo_stiffness) > 0,
              "slave_servo_stiffness", "needs 6 positive gains (N·m/rad)")
         need(self.duration > 0, "duration", "must be > 0 (s)")
+        need(math.isfinite(self.slave_velocity_filter) and self.slave_velocity_filter >= 0, "slave_velocity_filter",
+             "must be >= 0 (Hz; 0: the true velocity)")
+        need(len(self.accelerometer.position) == 3, "accelerometer.position", "needs 3 numbers (m, in S)")
+        for name in ("ft_sensor", "accelerometer"):
+            try:
+                getattr(self, name).validate()
+            except ValueError as error:
+                raise ValueError(f"scenario field '{name}': {error}") from None
         need(self.slave_setpoint_bandwidth > 0, "slave_setpoint_bandwidth", "must be > 0 (Hz)")
         need(math.isfinite(self.duration), "duration", "must be finite")
         return self
@@ -245,7 +280,13 @@ def layered(scenario: Scenario, text: str) -> Scenario:
 
 
 NOISE_OFF = {"ft_sensor.noise": False, "accelerometer.noise": False}
-"""For ``overrides_text``: both sensor models ideal (sampled and held only)."""
+"""For ``overrides_text``: both sensor models without disturbances (filtered, sampled and held only)."""
+
+IDEAL_STATION = {"load.mount.rigid": True, "ft_sensor.lowpass_cutoff": 0.0, "accelerometer.lowpass_cutoff": 0.0,
+                 "accelerometer.position": [0.0, 0.0, 0.0], "slave_velocity_filter": 0.0}
+"""For ``overrides_text``: the ideal station, the paper's model exactly: the load welded to the
+sensor, no sensor filter, the accelerometer at S, the arm's true joint velocities. The
+default (realistic) station has all four; noise, offsets and their drift are ``NOISE_OFF``'s."""
 
 
 def overrides_text(values: dict) -> str:

@@ -17,7 +17,7 @@ from pydrake.systems.primitives import Adder, ConstantVectorSource
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
 from heft.diagrams.scenario import ControllerSpec
-from heft.systems.accelerometer_reading import AccelerometerToMotion
+from heft.systems.accelerometer_reading import AccelerometerConvention, AccelerometerToMotion
 from heft.systems.estimator_gate import EstimatorGate
 from heft.systems.feedback_mapping import FeedbackMapping
 from heft.systems.load_estimator_system import LoadEstimatorSystem
@@ -51,7 +51,7 @@ def _slave_ik_model(robot: str) -> tuple[MultibodyPlant, RxKinematics, RigidTran
 
 
 def MakeRealtimeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, *,
-                                 accelerometer_includes_gravity: bool) -> RealtimeTeleopController:
+                                 accelerometer: AccelerometerConvention) -> RealtimeTeleopController:
     """The controller of ``MakeTeleopController`` as one computation per tick, for the hardware's
     real-time loop (``systems.realtime_controller``): same models, same parameters."""
     if spec.estimator.mode != "fixed":
@@ -60,14 +60,14 @@ def MakeRealtimeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot
     slave, kinematics, X_FS = _slave_ik_model(robot)
     return RealtimeTeleopController(MakeMasterPlant(), slave, f"{robot}_base", kinematics, X_FS, load.phi, load.offsets,
                                     spec.motion, spec.force, spec.feedback, spec.passivity, spec.offsets,
-                                    accelerometer_includes_gravity)
+                                    accelerometer)
 
 
 def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, period: float, slave_initial_q, *,
-                         accelerometer_includes_gravity: bool):
+                         accelerometer: AccelerometerConvention):
     """The hardware-agnostic controller Diagram of Fig. 4 (DESIGN §3), ticking every ``period`` s.
-    ``accelerometer_includes_gravity``: the convention of ``ft.acceleration_measured``
-    (``accelerometer_reading``; the scenario's ``accelerometer.includes_gravity``).
+    ``accelerometer``: the convention of ``ft.acceleration_measured`` (``accelerometer_reading``;
+    the scenario's ``accelerometer.convention()``).
 
     Inputs: the station outputs ``STATION_OUTPUTS_READ``; ``clutch`` (1, > 0.5 engaged);
     optional ``sigma``, ``gamma``, ``eta`` (1 each; unconnected → ``spec.force``'s values),
@@ -85,7 +85,7 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     motion = builder.AddNamedSystem("motion_scaling", MotionScaling(spec.motion, period))
     ik = builder.AddNamedSystem("slave_ik", SlaveInverseKinematics(kinematics, X_FS, slave_initial_q, period))
     force = builder.AddNamedSystem("force_scaling", ForceScalingElimination(
-        spec.force, period, accelerometer_includes_gravity))
+        spec.force, period, accelerometer))
     feedback = builder.AddNamedSystem("feedback_mapping", FeedbackMapping(spec.feedback))
     passivity = builder.AddNamedSystem("passivity", PassivityController(
         spec.passivity, spec.feedback.max_force, spec.feedback.max_torque, period))
@@ -93,7 +93,7 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     estimation.validate()
     if estimation.mode == "online":
         to_motion = builder.AddNamedSystem("accelerometer_to_motion",
-                                           AccelerometerToMotion(accelerometer_includes_gravity))
+                                           AccelerometerToMotion(accelerometer))
         # φ alone is estimated, from f − ô = c + V·φ̂ (force scaling's outputs): the offsets are
         # the OffsetTracker's, so the weight cannot trade against the force offsets.
         phi = builder.AddNamedSystem("phi_hat", LoadEstimatorSystem(
@@ -122,6 +122,7 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
         export_input("ft.acceleration_measured", force.GetInputPort("acceleration"), to_motion.GetInputPort("reading"))
         export_input("estimator_reset", phi.GetInputPort("reset"), gate.GetInputPort("reset"))
         builder.Connect(slave_kinematics.GetOutputPort("gravity_S"), to_motion.GetInputPort("gravity"))
+        builder.Connect(slave_kinematics.GetOutputPort("omega_S"), to_motion.GetInputPort("omega"))
         for sink in (phi, gate):
             builder.Connect(to_motion.GetOutputPort("acceleration"), sink.GetInputPort("acceleration"))
             builder.Connect(slave_kinematics.GetOutputPort("omega_S"), sink.GetInputPort("omega"))

@@ -21,7 +21,8 @@ STATION_LOG = {"ft.wrench_measured": "wrench_measured", "ft.acceleration_measure
                "truth.acceleration": "accel_true", "truth.omega": "omega_true", "truth.gravity_S": "gravity_S",
                "truth.ft_offsets": "offsets_true", "truth.slave_position": "slave_q",
                "master.position_measured": "master_q", "master.velocity_estimated": "master_v",
-               "truth.ft_saturated": "ft_saturated", "truth.phi": "phi_true"}
+               "truth.ft_saturated": "ft_saturated", "truth.phi": "phi_true",
+               "truth.wrench_noncontact_object": "wrench_noncontact_object_true"}
 
 
 def AddDelay(builder: DiagramBuilder, port, steps: int, period: float, initial=None):
@@ -73,7 +74,7 @@ def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, meshcat=None):
     station = builder.AddNamedSystem("station", MakeSimStation(scenario, meshcat))
     controller = builder.AddNamedSystem("controller", MakeTeleopController(
         spec, load, scenario.robot, scenario.controller_period, scenario.slave_initial_q,
-        accelerometer_includes_gravity=scenario.accelerometer.includes_gravity))
+        accelerometer=scenario.accelerometer.convention()))
     period = scenario.controller_period
     ConnectControllerToStation(builder, controller, station, round(spec.delay / period), period,
                                {"master.position_measured": scenario.master_initial_q,

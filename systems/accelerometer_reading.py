@@ -1,11 +1,16 @@
 """What a wrist accelerometer reports, and the motion heft's dynamics take from it.
 
-An accelerometer measures specific force: the acceleration of S's origin relative
-to free fall, s = a − g (m/s², in S). Hanging still it reads |s| = 9.81 m/s²,
+An accelerometer measures specific force: the acceleration of its own point A
+relative to free fall, s = a_A − g (m/s²). Hanging still it reads |s| = 9.81 m/s²,
 pointing up. The JR3's built-in accelerometer does, and so do the simulated
 sensor and ``heft stand-in``: the station signal ``ft.acceleration_measured``
-and the LCM sample's ``acceleration`` carry [s; α], α being S's angular
-acceleration (rad/s²), both in S.
+and the LCM sample's ``acceleration`` carry [s; α], α being the sensor's angular
+acceleration (rad/s²), both in S's axes.
+
+A sits inside the sensor at p_SA from S's origin (``AccelerometerConvention.p_SA``;
+zero when the driver reports at S). Rigid-body kinematics move the reading to S:
+a_S = a_A − α × p_SA − ω × (ω × p_SA), with ω the sensor's angular velocity from
+the arm's encoders (a sensor that measures α but not ω, like the JR3's, needs it).
 
 heft's dynamics (``load_dynamics``, Eq. 5) take S's kinematic acceleration a
 and gravity g separately. The two conversions live here and nowhere else. The
@@ -15,44 +20,92 @@ kinematics has.
 
 A lab whose driver already subtracts gravity (and publishes a) says so with
 ``includes_gravity = False`` (``AccelerometerParams``); the conversions then
-pass the reading through.
+leave gravity alone.
 """
+
+import dataclasses
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 
-def reading_from_motion(acceleration, gravity, includes_gravity: bool = True) -> np.ndarray:
-    """What the accelerometer reports, (6,) or (N, 6), for S's kinematic [a; α] and gravity g
-    ((3,) or (N, 3)), all in S: [a − g; α], or [a; α] when the driver removes gravity."""
+@dataclasses.dataclass(frozen=True)
+class AccelerometerConvention:
+    """How a reading relates to S's motion: whether it holds gravity (specific force) and
+    where the accelerometer sits, p_SA (m, in S; axes parallel to S)."""
+    includes_gravity: bool = True
+    p_SA: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def __post_init__(self):
+        p = tuple(float(x) for x in self.p_SA)
+        if len(p) != 3 or not np.isfinite(p).all():
+            raise ValueError(f"the accelerometer's position p_SA needs 3 finite numbers (m, in S); got {self.p_SA}")
+        object.__setattr__(self, "p_SA", p)
+
+    @property
+    def displaced(self) -> bool:
+        return any(self.p_SA)
+
+
+AT_S = AccelerometerConvention()
+"""A specific-force reading at S's origin."""
+
+
+def _transport(linear, alpha, omega, p, sign: float) -> None:
+    """``linear`` (…, 3) += sign·(α × p + ω × (ω × p)), in place: the acceleration of the point p
+    from that of the origin (sign 1) or back (sign −1). One sample in scalar arithmetic (it runs
+    every tick of the real-time controller), a batch with numpy."""
+    if np.ndim(linear) > 1:
+        linear += sign * (np.cross(alpha, p) + np.cross(omega, np.cross(omega, p)))
+        return
+    px, py, pz = p
+    ax, ay, az = float(alpha[0]), float(alpha[1]), float(alpha[2])
+    wx, wy, wz = float(omega[0]), float(omega[1]), float(omega[2])
+    vx, vy, vz = wy * pz - wz * py, wz * px - wx * pz, wx * py - wy * px  # ω × p
+    linear[0] += sign * (ay * pz - az * py + wy * vz - wz * vy)
+    linear[1] += sign * (az * px - ax * pz + wz * vx - wx * vz)
+    linear[2] += sign * (ax * py - ay * px + wx * vy - wy * vx)
+
+
+def reading_from_motion(acceleration, gravity, omega=None,
+                        convention: AccelerometerConvention = AT_S) -> np.ndarray:
+    """What the accelerometer reports, (6,) or (N, 6), for S's kinematic [a; α], gravity g and
+    angular velocity ω ((3,) or (N, 3); only needed for a displaced accelerometer), all in S:
+    [a_A − g; α], or [a_A; α] when the driver removes gravity."""
     reading = np.array(acceleration, dtype=float)
-    if includes_gravity:
+    if convention.displaced:
+        _transport(reading[..., :3], reading[..., 3:], omega, convention.p_SA, 1.0)
+    if convention.includes_gravity:
         reading[..., :3] -= gravity
     return reading
 
 
-def motion_from_reading(out: np.ndarray, reading, gravity, includes_gravity: bool = True) -> np.ndarray:
+def motion_from_reading(out: np.ndarray, reading, gravity, omega,
+                        convention: AccelerometerConvention = AT_S) -> np.ndarray:
     """S's kinematic [a; α] into ``out``, (6,) or (N, 6), from the accelerometer's ``reading`` (same
-    shape) and the gravity g ((3,) or (N, 3)) that goes with it into the dynamics, all in S;
-    returns ``out``."""
+    shape), the gravity g that goes with it into the dynamics and the angular velocity ω ((3,) or
+    (N, 3)), all in S; returns ``out``."""
     out[...] = reading
-    if includes_gravity:
+    if convention.includes_gravity:
         out[..., :3] += gravity
+    if convention.displaced:
+        _transport(out[..., :3], out[..., 3:], omega, convention.p_SA, -1.0)
     return out
 
 
 class AccelerometerToMotion(LeafSystem):
-    """``motion_from_reading`` as a block: inputs ``reading`` (6) and ``gravity`` (3, g in S),
-    output ``acceleration`` (6, kinematic [a; α] in S), for the blocks that take the kinematic
-    motion (the load estimator and its gate)."""
+    """``motion_from_reading`` as a block: inputs ``reading`` (6), ``gravity`` (3, g in S) and
+    ``omega`` (3, ω in S), output ``acceleration`` (6, kinematic [a; α] in S), for the blocks that
+    take the kinematic motion (the load estimator and its gate)."""
 
-    def __init__(self, includes_gravity: bool):
+    def __init__(self, convention: AccelerometerConvention):
         super().__init__()
-        self._includes_gravity = includes_gravity
+        self._convention = convention
         self._reading = self.DeclareVectorInputPort("reading", 6)
         self._gravity = self.DeclareVectorInputPort("gravity", 3)
+        self._omega = self.DeclareVectorInputPort("omega", 3)
         self.DeclareVectorOutputPort("acceleration", 6, self._calc)
 
     def _calc(self, context, output):
         motion_from_reading(output.get_mutable_value(), self._reading.Eval(context), self._gravity.Eval(context),
-                            self._includes_gravity)
+                            self._omega.Eval(context), self._convention)

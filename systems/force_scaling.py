@@ -26,7 +26,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
 
-from .accelerometer_reading import motion_from_reading
+from .accelerometer_reading import AT_S, AccelerometerConvention, motion_from_reading
 from .load_dynamics import regressor
 from .sample_period import DEFAULT_PERIOD, require_period
 
@@ -123,16 +123,16 @@ EVALUATION_SIZE = 19
 
 
 def evaluate(out: np.ndarray, wrench, reading, omega, gravity, phi, offsets, scales, memory,
-             decay: float, phi_gripper=None, includes_gravity: bool = True) -> None:
+             decay: float, phi_gripper=None, accelerometer: AccelerometerConvention = AT_S) -> None:
     """One evaluation of the block into ``out`` (19: f′, c, n, fault), as the
     ``ForceScalingElimination`` docstring describes: ``reading`` (6) is the accelerometer's
-    (``accelerometer_reading``, ``includes_gravity`` its convention), ``scales`` (3) are σ, γ,
+    (``accelerometer_reading``, ``accelerometer`` its convention), ``scales`` (3) are σ, γ,
     η in effect, ``memory`` (7) the last f′ in effect and the request-fault flag, ``decay`` the
     factor applied to that f′ while faulted (``decay_factor``)."""
     if memory[6] == 0.0 and math.isfinite(sum(wrench.tolist()) + sum(reading.tolist()) + sum(omega.tolist())
                                           + sum(gravity.tolist()) + sum(phi.tolist()) + sum(offsets.tolist())):
         sigma, gamma, eta = scales
-        acceleration = motion_from_reading(np.empty(6), reading, gravity, includes_gravity)
+        acceleration = motion_from_reading(np.empty(6), reading, gravity, omega, accelerometer)
         out[FEEDBACK], out[CONTACT], out[NONCONTACT] = scale_wrench(
             wrench, offsets, phi, acceleration, omega, gravity, sigma, gamma, eta, phi_gripper)
         out[FAULT] = 0.0
@@ -162,8 +162,8 @@ class ForceScalingElimination(LeafSystem):
     """Fig. 2 with the Eq. 14 split, as the module docstring describes.
 
     Inputs: ``wrench`` (6, the measured [f; τ] on the load), ``acceleration`` (6, the
-    accelerometer's reading: [a − g; α] of S, or [a; α] for ``accelerometer_includes_gravity``
-    False), ``omega`` (3), ``gravity`` (3), ``phi`` (10, φ̂ of the whole load),
+    accelerometer's reading: [a − g; α] at the accelerometer, as its ``accelerometer``
+    convention says), ``omega`` (3), ``gravity`` (3), ``phi`` (10, φ̂ of the whole load),
     ``offsets`` (6), ``sigma``, ``gamma``, ``eta`` (1 each, requested; when
     unconnected the parameter value is requested).
     Outputs: ``wrench_feedback`` f′ (6), ``wrench_contact`` (6, Eq. 13),
@@ -194,12 +194,12 @@ class ForceScalingElimination(LeafSystem):
     """
 
     def __init__(self, params: ForceScalingParams | None = None, period: float = DEFAULT_PERIOD,
-                 accelerometer_includes_gravity: bool = True):
+                 accelerometer: AccelerometerConvention = AT_S):
         super().__init__()
         params = params or ForceScalingParams()
         params.validate()
         period = require_period(period)
-        self._includes_gravity = accelerometer_includes_gravity
+        self._accelerometer = accelerometer
         self._max_step = params.slew_rate * period
         self._defaults = (params.sigma, params.gamma, params.eta)
         self._phi_gripper = (None if params.phi_gripper is None
@@ -239,7 +239,7 @@ class ForceScalingElimination(LeafSystem):
         evaluate(value.get_mutable_value(), wrench, acceleration, omega, gravity, phi, offsets,
                  context.get_discrete_state(self._scales).get_value(),
                  context.get_discrete_state(self._memory).get_value(), self._decay_per_tick, self._phi_gripper,
-                 self._includes_gravity)
+                 self._accelerometer)
 
     def _update(self, context, discrete_state):
         requested = [port.Eval(context)[0] if port.HasValue(context) else default

@@ -21,6 +21,7 @@ import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
 
+from heft.systems.accelerometer_reading import AccelerometerConvention
 from heft.systems.feedback_mapping import FeedbackMappingParams, rendered_wrench
 from heft.systems.force_scaling import (
     CONTACT,
@@ -67,7 +68,7 @@ class RealtimeTeleopController:
     def __init__(self, master: MultibodyPlant, slave: MultibodyPlant, base_frame: str, kinematics: RxKinematics,
                  X_FS: RigidTransform, phi, offsets, motion: MotionScalingParams, force: ForceScalingParams,
                  feedback: FeedbackMappingParams, passivity: PassivityParams, offsets_tracking: OffsetTrackingParams,
-                 accelerometer_includes_gravity: bool):
+                 accelerometer: AccelerometerConvention):
         for params in (motion, force, feedback, passivity, offsets_tracking):
             params.validate()
         phi, offsets = checked_load(phi, offsets)
@@ -91,7 +92,7 @@ class RealtimeTeleopController:
         self._max_damping = ((passivity.max_translational_damping, passivity.max_rotational_damping)
                              if passivity.enabled else (0.0, 0.0))
         self._requested = (force.sigma, force.gamma, force.eta)
-        self._includes_gravity = accelerometer_includes_gravity
+        self._accelerometer = accelerometer
         self._evaluation = np.zeros(EVALUATION_SIZE)
         self.torque = np.zeros(NUM_JOINTS)
         self.position = None
@@ -121,7 +122,7 @@ class RealtimeTeleopController:
              acceleration, clutch: bool) -> None:
         """One tick of ``dt`` s (≥ 0) on the station's readings: q_M, q̇_M (rad, rad/s), q_S, q̇_S
         (rad, rad/s), the wrench [f; τ] the sensor exerts on the load and the accelerometer's reading
-        (``accelerometer_reading``; at S, in S), the clutch engaged. Updates ``torque``, ``position``
+        (``accelerometer_reading``; in S's axes), the clutch engaged. Updates ``torque``, ``position``
         and the logged signals."""
         if not self.started:
             raise RuntimeError("RealtimeTeleopController.step before start(): start it from the measured "
@@ -149,7 +150,7 @@ class RealtimeTeleopController:
         evaluation = self._evaluation
         evaluate(evaluation, wrench, acceleration, omega_S, gravity_S, self._phi, self._offsets, self.scales,
                  self._force_memory, decay_factor(dt, force.fault_decay_time), self._phi_gripper,
-                 self._includes_gravity)
+                 self._accelerometer)
         next_memory_and_scales(self._force_memory, self.scales, evaluation[FEEDBACK], self._requested,
                                force.slew_rate * dt)
         offsets_update(self._offset_state, evaluation[CONTACT], evaluation[FAULT] > 0.5, slave_velocity, dt,

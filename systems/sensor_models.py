@@ -4,9 +4,15 @@ quantising instrument.
 
 Measurement model, per axis, at the sample instants t_k (period T):
 
-    y_k = Q(sat(u(t_k) + o_k + n_k)),   held constant until t_{k+1}
+    y_k = Q(sat(L(u)_k + o_k + n_k)),   held constant until t_{k+1}
 
 * u, the true value on the input port;
+* L, the JR3 DSP's low-pass filter (``lowpass_cutoff``; the DSP offers cascaded
+  filters whose cut-offs fall by 4 from 1/16 of its sample rate, 500 Hz at 8 kHz):
+  a second-order Butterworth, discretised by the bilinear transform at T with the
+  cut-off prewarped, starting in steady state on the first sample. Not a
+  disturbance, so ``noise`` False leaves it on; the noise figures are the
+  filtered output's;
 * o_k, the offset: o_k = o_d + (o_0 − o_d)·exp(−t_k/τ) + w_k, a first-order
   approach from the initial offset o_0 to the drifted offset o_d with a time
   constant τ of minutes (warm-up of the gauges and electronics), plus a random
@@ -38,6 +44,9 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
+from scipy.signal import butter
+
+from .accelerometer_reading import AccelerometerConvention
 
 NUM_AXES = 6
 
@@ -91,6 +100,11 @@ class SixAxisSensorParams:
     drift_time_constant: float = 300.0
     """Time constant τ (s) of the approach to `drifted_offsets` (assumed)."""
 
+    lowpass_cutoff: float = 500.0
+    """Cut-off (Hz) of the sensor's own low-pass filter; 0 turns it off. The JR3 DSP's
+    filter 1 is 500 Hz at 8 kHz sampling (recalled from the JR3 manual, not checked:
+    docs/design.md §6). Must lie below the Nyquist frequency 1/(2T)."""
+
     seed: int = 0
     """Seed of the noise, 0 ≤ seed < 2⁶⁴. The force-torque sensor and the
     accelerometer use different streams even with the same seed."""
@@ -113,6 +127,10 @@ class SixAxisSensorParams:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be finite and > 0; got {value}")
+        if not (math.isfinite(self.lowpass_cutoff) and 0 <= self.lowpass_cutoff < 0.5 / self.sample_period):
+            raise ValueError(f"lowpass_cutoff must be 0 (off) or in (0, {0.5 / self.sample_period:g}) Hz, below "
+                             f"the Nyquist frequency of sample_period {self.sample_period:g} s; "
+                             f"got {self.lowpass_cutoff}")
         if self.counts_per_full_scale < 1:
             raise ValueError(f"counts_per_full_scale must be >= 1; got {self.counts_per_full_scale}")
         if not 0 <= self.seed < 2**64:
@@ -157,6 +175,12 @@ class AccelerometerParams(SixAxisSensorParams):
     (the JR3's included) measures. False: the lab's driver already removes gravity and
     reports the kinematic a. The consumers (controller, identification) read this too."""
 
+    position: list[float] = dataclasses.field(default_factory=lambda: [0.02, 0.01, -0.008])
+    """Where the accelerometer sits, p_SA (m, in S): somewhere inside the 85 mm × 35 mm
+    puck, off its axis (assumed; the JR3's placement is not published). The station
+    measures there, the consumers move the reading to S (``accelerometer_reading``);
+    [0, 0, 0] for a driver that reports at S."""
+
     noise_rms: list[float] = dataclasses.field(
         default_factory=lambda: [0.05, 0.05, 0.05, 0.5, 0.5, 0.5])
     """RMS of the white noise (m/s², rad/s²): the project's floor (DESIGN §6)."""
@@ -176,6 +200,14 @@ class AccelerometerParams(SixAxisSensorParams):
     offset_random_walk: list[float] = dataclasses.field(
         default_factory=lambda: [0.001, 0.001, 0.001, 0.01, 0.01, 0.01])
     """Random-walk intensity q of the biases (m/s²/√s, rad/s²/√s) (assumed)."""
+
+    def validate(self) -> None:
+        super().validate()
+        self.convention()
+
+    def convention(self) -> AccelerometerConvention:
+        """What a reading means, for the consumers: gravity in it or not, and where it is taken."""
+        return AccelerometerConvention(self.includes_gravity, tuple(self.position))
 
 
 # --- pure helpers -------------------------------------------------------------
@@ -202,6 +234,29 @@ def drift_offsets(t, initial_offsets, drifted_offsets, time_constant: float) -> 
     t = np.asarray(t, dtype=float)
     decay = np.exp(-t / time_constant)[..., np.newaxis] if t.ndim else math.exp(-t / time_constant)
     return drifted + (initial - drifted) * decay
+
+
+def lowpass_coefficients(cutoff: float, period: float) -> np.ndarray | None:
+    """(b0, b1, b2, a1, a2) of the second-order Butterworth low-pass of ``cutoff`` (Hz) at sample
+    ``period`` (s) by the prewarped bilinear transform (a0 = 1), or None for cutoff 0."""
+    if cutoff == 0:
+        return None
+    b, a = butter(2, cutoff, fs=1.0 / period)
+    return np.concatenate((b, a[1:]))
+
+
+def lowpass_step(coefficients: np.ndarray, state: np.ndarray, value: np.ndarray) -> np.ndarray:
+    """One sample of the filter (transposed direct form II) on each axis: returns the output
+    for ``value`` (6,) and advances ``state`` (2, 6) in place. A NaN state (a filter not started)
+    starts in the steady state of ``value``."""
+    b0, b1, b2, a1, a2 = coefficients
+    if np.isnan(state[0, 0]):
+        state[1] = (b2 - a2) * value
+        state[0] = (b1 - a1) * value + state[1]
+    out = b0 * value + state[0]
+    state[0] = b1 * value - a1 * out + state[1]
+    state[1] = b2 * value - a2 * out
+    return out
 
 
 def _mix64(z: np.ndarray) -> np.ndarray:
@@ -233,8 +288,9 @@ def standard_normals(key: np.uint64, sample_index, size: int) -> np.ndarray:
 
 class SixAxisMeasurement:
     """The measurement model of the module docstring for one instrument, sampled every
-    ``period`` s: the settings ``params`` implies and the arithmetic on them, shared by
-    the sensor models here and by the stand-in lab."""
+    ``period`` s, but for the low-pass filter L (the sampled systems below apply it; the
+    stand-in lab, sharing the rest, leaves it out): the settings ``params`` implies and the
+    arithmetic on them."""
 
     def __init__(self, params: SixAxisSensorParams, stream: int, period: float):
         params.validate()
@@ -304,6 +360,7 @@ class _SampledSixAxisSensor(LeafSystem):
                  output_name: str):
         super().__init__()
         self._model = SixAxisMeasurement(params, stream, params.sample_period)
+        self._lowpass = lowpass_coefficients(params.lowpass_cutoff, params.sample_period)
         # (first sample index, draws): a memo of the pure function standard_normals,
         # not generator state, so Contexts and their clones stay independent.
         self._noise_block = (0, np.empty((0, 2 * NUM_AXES)))
@@ -315,6 +372,8 @@ class _SampledSixAxisSensor(LeafSystem):
         # The random-walk part of the offsets (6), the index of the next sample, and the
         # time of the last sample.
         self._walk_and_index = self.DeclareDiscreteState(np.append(np.zeros(NUM_AXES + 1), -np.inf))
+        # The low-pass filter's state (2 × 6, NaN until the first sample).
+        self._lowpass_state = self.DeclareDiscreteState(np.full(2 * NUM_AXES, np.nan))
         # Offset 0, like a discrete plant's steps: sample instants k·T then coincide exactly
         # with the plant's (an offset of T gives T + k·T, which round-off can put just after).
         self.DeclareInitializationDiscreteUpdateEvent(self._take_first_sample)
@@ -350,7 +409,12 @@ class _SampledSixAxisSensor(LeafSystem):
         t = context.get_time()
         offsets, disturbance, walk = self._model.disturbance(
             np.array([t]), self._normals(index), walk_and_index[:NUM_AXES], advance_walk)
-        value, saturated = self._model.measure(self._input.Eval(context) + disturbance[0])
+        value = self._input.Eval(context)
+        if self._lowpass is not None:
+            state = context.get_discrete_state(self._lowpass_state).get_value().reshape(2, NUM_AXES).copy()
+            value = lowpass_step(self._lowpass, state, value)
+            discrete_state.set_value(self._lowpass_state, state.ravel())
+        value, saturated = self._model.measure(value + disturbance[0])
         discrete_state.set_value(self._measured, value)
         discrete_state.set_value(self._offsets, offsets[0])
         discrete_state.set_value(self._saturated, saturated)

@@ -14,9 +14,9 @@ from pydrake.common.value import AbstractValue, Value
 from pydrake.math import RigidTransform
 from pydrake.multibody.math import SpatialAcceleration, SpatialForce, SpatialVelocity
 from pydrake.multibody.plant import ContactResults
-from pydrake.systems.framework import LeafSystem
+from pydrake.systems.framework import LeafSystem, ValueProducer
 
-from heft.systems.accelerometer_reading import reading_from_motion
+from heft.systems.accelerometer_reading import AT_S, AccelerometerConvention, reading_from_motion
 from heft.systems.drake_conventions import wrench_from_spatial_force
 from heft.systems.load_dynamics import regressor
 
@@ -35,19 +35,29 @@ class ReactionWrench(LeafSystem):
         output.SetFromVector(wrench_from_spatial_force(self._reactions.Eval(context)[self._joint]))
 
 
+def frame_motion(X_WB: RigidTransform, V_WB: SpatialVelocity, A_WB: SpatialAcceleration, p_BF, g_W):
+    """(a, α, ω, g), each (3,), in F: the motion of a frame F fixed at ``p_BF`` (m) in body B with
+    B's axes, from B's pose, spatial velocity and acceleration in W, and gravity g_W (m/s²)."""
+    R_WB = X_WB.rotation()
+    w_WB_W = V_WB.rotational()
+    A_WF_W = A_WB.Shift(R_WB @ p_BF, w_WB_W)
+    R_BW = R_WB.inverse().matrix()
+    return R_BW @ A_WF_W.translational(), R_BW @ A_WF_W.rotational(), R_BW @ w_WB_W, R_BW @ g_W
+
+
 class SensorFrameKinematics(LeafSystem):
     """Motion of the sensor frame S, fixed at p_BS (m) in body B's frame.
 
     Inputs: the plant's ``body_poses``, ``body_spatial_velocities``,
     ``body_spatial_accelerations``. Outputs: ``acceleration`` [a; α] of S in S
     (m/s², rad/s²), ``omega`` ω_WS in S (rad/s), ``gravity`` g in S (m/s²), and
-    ``accelerometer_reading``, what an ideal accelerometer at S reports
-    (``accelerometer_reading`` with ``accelerometer_includes_gravity``).
+    ``accelerometer_reading``, what an ideal accelerometer in the sensor reports
+    (``accelerometer_reading`` with the ``accelerometer`` convention: at p_SA, in S's axes).
     """
 
-    def __init__(self, body_index, p_BS, gravity_W, accelerometer_includes_gravity: bool = True):
+    def __init__(self, body_index, p_BS, gravity_W, accelerometer: AccelerometerConvention = AT_S):
         super().__init__()
-        self._includes_gravity = accelerometer_includes_gravity
+        self._accelerometer = accelerometer
         self._body = int(body_index)
         self._p_BS = np.asarray(p_BS, dtype=float)
         self._g_W = np.asarray(gravity_W, dtype=float)
@@ -55,30 +65,26 @@ class SensorFrameKinematics(LeafSystem):
         self._velocities = self.DeclareAbstractInputPort("body_spatial_velocities", Value[List[SpatialVelocity]]())
         self._accelerations = self.DeclareAbstractInputPort("body_spatial_accelerations",
                                                             Value[List[SpatialAcceleration]]())
-        self.DeclareVectorOutputPort("acceleration", 6, self._calc_acceleration)
-        self.DeclareVectorOutputPort("omega", 3, self._calc_omega)
-        self.DeclareVectorOutputPort("gravity", 3, self._calc_gravity)
-        self.DeclareVectorOutputPort("accelerometer_reading", 6, self._calc_reading)
+        self._motion = self.DeclareCacheEntry(
+            "motion", ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(12)), calc=self._calc_motion),
+            prerequisites_of_calc={self._poses.ticket(), self._velocities.ticket(), self._accelerations.ticket()})
+        for name, part in (("acceleration", slice(0, 6)), ("omega", slice(6, 9)), ("gravity", slice(9, 12))):
+            self.DeclareVectorOutputPort(name, part.stop - part.start,
+                                         lambda context, output, part=part: output.SetFromVector(
+                                             self._motion.Eval(context)[part]),
+                                         prerequisites_of_calc={self._motion.ticket()})
+        self.DeclareVectorOutputPort("accelerometer_reading", 6, self._calc_reading,
+                                     prerequisites_of_calc={self._motion.ticket()})
 
-    def _R_SW(self, context):
-        return self._poses.Eval(context)[self._body].rotation().inverse()
+    def _calc_motion(self, context, value):
+        body = self._body
+        a, alpha, omega, g = frame_motion(self._poses.Eval(context)[body], self._velocities.Eval(context)[body],
+                                          self._accelerations.Eval(context)[body], self._p_BS, self._g_W)
+        value.get_mutable_value()[:] = np.concatenate((a, alpha, omega, g))
 
     def _calc_reading(self, context, output):
-        output.SetFromVector(reading_from_motion(self.GetOutputPort("acceleration").Eval(context),
-                                                 self.GetOutputPort("gravity").Eval(context), self._includes_gravity))
-
-    def _calc_acceleration(self, context, output):
-        R_WB = self._poses.Eval(context)[self._body].rotation()
-        w_WB_W = self._velocities.Eval(context)[self._body].rotational()
-        A_WS_W = self._accelerations.Eval(context)[self._body].Shift(R_WB @ self._p_BS, w_WB_W)
-        R_SW = R_WB.inverse().matrix()
-        output.SetFromVector(np.concatenate((R_SW @ A_WS_W.translational(), R_SW @ A_WS_W.rotational())))
-
-    def _calc_omega(self, context, output):
-        output.SetFromVector(self._R_SW(context) @ self._velocities.Eval(context)[self._body].rotational())
-
-    def _calc_gravity(self, context, output):
-        output.SetFromVector(self._R_SW(context) @ self._g_W)
+        motion = self._motion.Eval(context)
+        output.SetFromVector(reading_from_motion(motion[:6], motion[9:], motion[6:9], self._accelerometer))
 
 
 class ContactWrenchAtSensor(LeafSystem):
@@ -118,20 +124,41 @@ class ContactWrenchAtSensor(LeafSystem):
 
 
 class TrueNonContactWrench(LeafSystem):
-    """V(a, α, ω, g)·φ (Eq. 12) for the true parameters.
+    """The load's non-contact wrench at S, in S: V(a, α, ω, g)·φ (Eq. 12) of the true φ with the
+    true motion of the load's own frame L (at S when the load is welded there; on a compliant
+    mount it moves against S), moved from L to S. So it equals the sensor's reaction minus the
+    contact wrench (Eq. 11) on either mount.
 
-    Inputs ``acceleration`` ([a; α], 6), ``omega`` (3), ``gravity`` (3), all in S, ``phi``
-    (10, the load's true φ); output ``wrench`` (6)."""
+    Inputs: the plant's ``body_poses``, ``body_spatial_velocities``,
+    ``body_spatial_accelerations``; ``phi`` (10, the load's true φ about L's origin in L) and
+    ``phi_gripper`` (10, the gripper's share, Eq. 14). Outputs ``wrench`` (6, for φ) and
+    ``wrench_object`` (6, for the gripped object's share φ − φ_gripper; zero without a split).
+    """
 
-    def __init__(self):
+    def __init__(self, load_body_index, sensor_body_index, p_BS, gravity_W):
         super().__init__()
+        self._load, self._sensor = int(load_body_index), int(sensor_body_index)
+        self._p_BS = np.asarray(p_BS, dtype=float)
+        self._g_W = np.asarray(gravity_W, dtype=float)
+        self._poses = self.DeclareAbstractInputPort("body_poses", Value[List[RigidTransform]]())
+        self._velocities = self.DeclareAbstractInputPort("body_spatial_velocities", Value[List[SpatialVelocity]]())
+        self._accelerations = self.DeclareAbstractInputPort("body_spatial_accelerations",
+                                                            Value[List[SpatialAcceleration]]())
         self._phi = self.DeclareVectorInputPort("phi", 10)
-        self._acceleration = self.DeclareVectorInputPort("acceleration", 6)
-        self._omega = self.DeclareVectorInputPort("omega", 3)
-        self._gravity = self.DeclareVectorInputPort("gravity", 3)
-        self.DeclareVectorOutputPort("wrench", 6, self._calc)
+        self._phi_gripper = self.DeclareVectorInputPort("phi_gripper", 10)
+        self.DeclareVectorOutputPort("wrench", 6, lambda context, output: self._calc(context, output, False))
+        self.DeclareVectorOutputPort("wrench_object", 6, lambda context, output: self._calc(context, output, True))
 
-    def _calc(self, context, output):
-        accel = self._acceleration.Eval(context)
-        V = regressor(accel[:3], accel[3:], self._omega.Eval(context), self._gravity.Eval(context))
-        output.SetFromVector(V @ self._phi.Eval(context))
+    def _calc(self, context, output, object_share: bool):
+        poses, load = self._poses.Eval(context), self._load
+        phi = self._phi.Eval(context)
+        if object_share:
+            phi_gripper = self._phi_gripper.Eval(context)
+            phi = phi - phi_gripper if np.any(phi_gripper) else np.zeros(10)
+        a, alpha, omega, g = frame_motion(poses[load], self._velocities.Eval(context)[load],
+                                          self._accelerations.Eval(context)[load], np.zeros(3), self._g_W)
+        wrench_L = regressor(a, alpha, omega, g) @ phi
+        X_WS = poses[self._sensor] @ RigidTransform(self._p_BS)
+        X_SL = X_WS.InvertAndCompose(poses[load])
+        f_S = X_SL.rotation() @ wrench_L[:3]
+        output.SetFromVector(np.concatenate((f_S, X_SL.rotation() @ wrench_L[3:] + np.cross(X_SL.translation(), f_S))))

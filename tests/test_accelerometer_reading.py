@@ -5,7 +5,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from heft.systems.accelerometer_reading import motion_from_reading, reading_from_motion
+from pydrake.multibody.math import SpatialAcceleration
+
+from heft.systems.accelerometer_reading import AccelerometerConvention, motion_from_reading, reading_from_motion
 from heft.systems.load_dynamics import regressor
 
 G_W = np.array([0.0, 0.0, -9.81])
@@ -17,7 +19,8 @@ def test_hanging_still_the_reading_points_up_with_one_g():
     R_WS = Rotation.from_rotvec([0.4, -1.1, 0.3]).as_matrix()
     reading = reading_from_motion(np.zeros(6), R_WS.T @ G_W)
     np.testing.assert_allclose(R_WS @ reading[:3], [0.0, 0.0, 9.81], atol=1e-12)
-    np.testing.assert_array_equal(reading_from_motion(np.zeros(6), R_WS.T @ G_W, includes_gravity=False), 0.0)
+    gravity_free = AccelerometerConvention(includes_gravity=False)
+    np.testing.assert_array_equal(reading_from_motion(np.zeros(6), R_WS.T @ G_W, convention=gravity_free), 0.0)
 
 
 @pytest.mark.parametrize("includes_gravity", [True, False])
@@ -28,8 +31,9 @@ def test_the_weight_is_found_once_whatever_error_gravity_in_S_has(includes_gravi
     R_WS = Rotation.from_rotvec([0.2, 2.5, -0.4]).as_matrix()
     g_true = R_WS.T @ G_W
     g_believed = Rotation.from_rotvec([0.0, np.radians(3.0), 0.0]).as_matrix() @ g_true
-    reading = reading_from_motion(np.zeros(6), g_true, includes_gravity)
-    acceleration = motion_from_reading(np.empty(6), reading, g_believed, includes_gravity)
+    convention = AccelerometerConvention(includes_gravity)
+    reading = reading_from_motion(np.zeros(6), g_true, np.zeros(3), convention)
+    acceleration = motion_from_reading(np.empty(6), reading, g_believed, np.zeros(3), convention)
     wrench = regressor(acceleration[:3], acceleration[3:], np.zeros(3), g_believed) @ PHI
     f = -MASS * g_true
     expected = np.concatenate((f, np.cross(COM, f)))
@@ -46,4 +50,37 @@ def test_batches_convert_row_by_row():
     reading = reading_from_motion(motion, gravity)
     np.testing.assert_allclose(reading[:, :3], motion[:, :3] - gravity)
     np.testing.assert_array_equal(reading[:, 3:], motion[:, 3:])
-    np.testing.assert_allclose(motion_from_reading(np.empty((5, 6)), reading, gravity), motion, atol=1e-15)
+    np.testing.assert_allclose(motion_from_reading(np.empty((5, 6)), reading, gravity, None), motion, atol=1e-15)
+
+
+P_SA = (0.02, 0.01, -0.008)
+
+
+def test_a_displaced_accelerometer_reads_the_motion_of_its_own_point():
+    """The reading of an accelerometer at p_SA is Drake's spatial acceleration of S shifted to
+    that point (``SpatialAcceleration.Shift``, an independent reference), less gravity; the
+    conversion moves it back to S exactly, sample by sample and in batches."""
+    rng = np.random.default_rng(3)
+    convention = AccelerometerConvention(True, P_SA)
+    rows = []
+    for _ in range(4):
+        a, alpha, omega, g = rng.normal(size=3) * 5, rng.normal(size=3) * 20, rng.normal(size=3) * 3, \
+            rng.normal(size=3)
+        shifted = SpatialAcceleration(alpha, a).Shift(np.array(P_SA), omega)
+        reading = reading_from_motion(np.concatenate((a, alpha)), g, omega, convention)
+        np.testing.assert_allclose(reading[:3], shifted.translational() - g, atol=1e-12)
+        np.testing.assert_array_equal(reading[3:], alpha)
+        np.testing.assert_allclose(motion_from_reading(np.empty(6), reading, g, omega, convention),
+                                   np.concatenate((a, alpha)), atol=1e-12)
+        rows.append((np.concatenate((a, alpha)), g, omega, reading))
+    motion, g, omega, reading = (np.array(column) for column in zip(*rows))
+    np.testing.assert_allclose(reading_from_motion(motion, g, omega, convention), reading, atol=1e-12)
+    np.testing.assert_allclose(motion_from_reading(np.empty_like(reading), reading, g, omega, convention), motion,
+                               atol=1e-12)
+
+
+def test_an_accelerometer_position_must_be_three_finite_numbers():
+    with pytest.raises(ValueError, match="p_SA"):
+        AccelerometerConvention(True, (0.0, np.nan, 0.0))
+    with pytest.raises(ValueError, match="p_SA"):
+        AccelerometerConvention(True, (0.0, 0.0))

@@ -120,3 +120,16 @@ def test_simulate_grasp_keeps_eta_of_the_objects_weight(tmp_path):
         assert grasp["object_mass_settled_after_s"] < 1.5
         assert abs(grasp["object_mass_hat_kg"] - grasp["object_mass_kg"]) < 0.02 * grasp["object_mass_kg"]
         assert grasp["force_deviation_smoothed_peak_of_weight"] < 0.05
+
+
+def test_station_ideal_lays_the_ideal_station_under_the_commands_options():
+    import argparse
+    from heft.diagrams.commands.options import scenario_from
+
+    args = argparse.Namespace(scenario="fig6", station="ideal", set="{slave_velocity_filter: 50.0}")
+    scenario = scenario_from(args, "{duration: 0.5}")
+    assert scenario.load.mount.rigid and scenario.accelerometer.position == [0.0, 0.0, 0.0]
+    assert scenario.ft_sensor.lowpass_cutoff == 0.0 and scenario.duration == 0.5
+    assert scenario.slave_velocity_filter == 50.0  # --set comes last
+    realistic = scenario_from(argparse.Namespace(scenario="fig6", station=None, set=None))
+    assert not realistic.load.mount.rigid and realistic.ft_sensor.lowpass_cutoff == 500.0

@@ -8,7 +8,7 @@ import yaml
 
 from heft.diagrams.identify import ALL_METHODS, identify
 from heft.diagrams.running.sim_identification import simulated_recorder
-from heft.diagrams.scenario import Scenario
+from heft.diagrams.scenario import IDEAL_STATION, NOISE_OFF, Scenario, layered, overrides_text
 from heft.diagrams.load_estimate import read_load_estimate
 from heft.systems.excitation import ExcitationSettings
 
@@ -53,9 +53,7 @@ def test_estimate_file_is_what_the_controller_loads(identified):
 
 
 def test_noise_free_identification_is_exact_to_the_encoder_resolution(tmp_path):
-    scenario = Scenario()
-    scenario.ft_sensor.noise = False
-    scenario.accelerometer.noise = False
+    scenario = layered(Scenario(), overrides_text({**NOISE_OFF, **IDEAL_STATION}))
     metrics = identify(scenario, tmp_path, simulated_recorder(scenario), method="ols", settings=short_excitation())
     errors = metrics["errors"]["ols"]
     assert errors["mass_kg"] < 5e-4 and errors["inertia_relative"] < 5e-3 and errors["force_offsets_N"] < 0.01

@@ -10,6 +10,7 @@ import pytest
 from pydrake.systems.analysis import Simulator
 
 from heft.diagrams.scenario import Scenario
+from heft.systems.accelerometer_reading import AT_S
 from heft.diagrams.running.simulation import true_load
 from heft.systems.offset_tracking import COLLECTING, DONE
 from heft.diagrams.teleop import MakeRealtimeTeleopController, MakeTeleopController
@@ -64,7 +65,7 @@ def both_runs():
     sequence = input_sequence(scenario, period)
 
     diagram = MakeTeleopController(scenario.controller, load, scenario.robot, period, scenario.slave_initial_q,
-                                   accelerometer_includes_gravity=True)
+                                   accelerometer=AT_S)
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()
     blocks = []
@@ -81,7 +82,7 @@ def both_runs():
             "master.torque_commanded", "slave.position_commanded", "log.pose_RS_desired", "log.passivity_energy",
             "log.passivity_damping", "log.scales", "log.offsets", "log.rezero_status")})
 
-    fused = MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, accelerometer_includes_gravity=True)
+    fused = MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, accelerometer=AT_S)
     fused.start(sequence[0]["slave.position_measured"])
     steps = []
     for k, inputs in enumerate(sequence):
@@ -138,7 +139,7 @@ def test_the_sequence_exercises_contact_clutch_and_fault(both_runs):
 def test_step_before_start_is_refused():
     scenario = Scenario()
     load, _ = true_load(scenario)
-    fused = MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, accelerometer_includes_gravity=True)
+    fused = MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, accelerometer=AT_S)
     with pytest.raises(RuntimeError, match="start"):
         fused.step(5e-4, *([np.zeros(6)] * 6), True)
     with pytest.raises(ValueError, match="finite"):
@@ -150,4 +151,4 @@ def test_online_estimation_is_refused_on_hardware_with_what_to_do():
     scenario.controller.estimator.mode = "online"
     with pytest.raises(ValueError, match="heft load --estimate"):
         MakeRealtimeTeleopController(scenario.controller, true_load(scenario)[0], scenario.robot,
-                                     accelerometer_includes_gravity=True)
+                                     accelerometer=AT_S)

@@ -38,7 +38,8 @@ def held_input(values, t):
 
 @pytest.fixture(scope="module")
 def recording():
-    """One diagram, simulated once: 6 s of readings halfway between 2 kHz samples."""
+    """One diagram, simulated once: 6 s of readings halfway between 2 kHz samples (the low-pass
+    filter off: its own tests are below)."""
     rng = np.random.default_rng(11)
     wrench_values = rng.uniform(-0.5, 0.5, (6, len(INPUT_BREAKS))) * FT_FULL_SCALE[:, None]
     accel_values = rng.uniform(-0.5, 0.5, (6, len(INPUT_BREAKS))) * ACCEL_FULL_SCALE[:, None]
@@ -48,10 +49,11 @@ def recording():
     accel = builder.AddSystem(TrajectorySource(
         PiecewisePolynomial.ZeroOrderHold(INPUT_BREAKS, accel_values)))
     sensors = {
-        "ideal": ForceTorqueSensorModel(ForceTorqueSensorParams(noise=False, sample_period=IDEAL_PERIOD)),
-        "ft": ForceTorqueSensorModel(),
-        "accel": AccelerometerModel(),
-        "drifting": ForceTorqueSensorModel(ForceTorqueSensorParams(white_noise=False, **DRIFT)),
+        "ideal": ForceTorqueSensorModel(ForceTorqueSensorParams(noise=False, sample_period=IDEAL_PERIOD,
+                                                                lowpass_cutoff=0.0)),
+        "ft": ForceTorqueSensorModel(ForceTorqueSensorParams(lowpass_cutoff=0.0)),
+        "accel": AccelerometerModel(AccelerometerParams(lowpass_cutoff=0.0)),
+        "drifting": ForceTorqueSensorModel(ForceTorqueSensorParams(white_noise=False, lowpass_cutoff=0.0, **DRIFT)),
     }
     for name, sensor in sensors.items():
         builder.AddSystem(sensor)
@@ -265,12 +267,12 @@ def test_a_value_beyond_range_is_clipped_and_flagged_on_that_axis_only(axis, exc
 # --- no direct feedthrough ------------------------------------------------------------
 
 def test_a_loop_closed_through_the_sensor_builds_and_delays_by_one_sample():
-    """u = c + g·y: with the sample-and-hold, y_n = c (1 − g^(n+1)) / (1 − g)."""
+    """u = c + g·y: with the sample-and-hold (filter off), y_n = c (1 − g^(n+1)) / (1 − g)."""
     for sensor in (ForceTorqueSensorModel(), AccelerometerModel()):
         assert not any(sensor.HasDirectFeedthrough(0, j) for j in range(3))
     c, g = np.arange(1.0, 7.0), 0.5
     builder = DiagramBuilder()
-    sensor = builder.AddSystem(ForceTorqueSensorModel(ForceTorqueSensorParams(noise=False)))
+    sensor = builder.AddSystem(ForceTorqueSensorModel(ForceTorqueSensorParams(noise=False, lowpass_cutoff=0.0)))
     constant = builder.AddSystem(ConstantVectorSource(c))
     gain = builder.AddSystem(Gain(g, 6))
     adder = builder.AddSystem(Adder(2, 6))
@@ -323,3 +325,65 @@ def test_parameters_load_from_yaml():
     accel = yaml_load_typed(schema=AccelerometerParams, data="full_scale: [50, 50, 50, 500, 500, 500]")
     assert accel.full_scale == [50.0, 50.0, 50.0, 500.0, 500.0, 500.0]
     assert accel.noise_rms == [0.05, 0.05, 0.05, 0.5, 0.5, 0.5]
+
+
+# --- the sensor's own low-pass filter -----------------------------------------------
+
+def filtered_sine(frequency: float, cutoff: float, period: float = FAST_PERIOD, seconds: float = 0.2):
+    """The model's output (noise off) for a unit sine of ``frequency`` (Hz) on every axis, at its
+    samples, after a simulation of ``seconds``; and the input at those instants."""
+    builder = DiagramBuilder()
+    times = np.arange(0.0, seconds + period, period / 8)
+    source = builder.AddSystem(TrajectorySource(PiecewisePolynomial.FirstOrderHold(
+        times, np.tile(np.sin(2 * np.pi * frequency * times), (6, 1)))))
+    sensor = builder.AddSystem(ForceTorqueSensorModel(ForceTorqueSensorParams(
+        noise=False, sample_period=period, lowpass_cutoff=cutoff)))
+    builder.Connect(source.get_output_port(), sensor.get_input_port())
+    simulator = Simulator(builder.Build())
+    context = sensor.GetMyContextFromRoot(simulator.get_context())
+    samples = np.arange(int(seconds / period))
+    out = np.empty(len(samples))
+    for k in samples:
+        simulator.AdvanceTo((k + 0.5) * period)
+        out[k] = sensor.GetOutputPort("wrench_measured").Eval(context)[2]
+    return out, np.sin(2 * np.pi * frequency * samples * period)
+
+
+@pytest.mark.parametrize("ratio", [0.1, 1.0, 1.6])
+def test_the_lowpass_has_the_butterworth_gain_and_phase(ratio):
+    """Steady state of a sine through the filter: a second-order Butterworth, bilinear with the
+    cut-off prewarped, has the analog filter's response at the prewarped frequency (closed form:
+    |H| = 1/√(1 + x⁴), ∠H = −atan2(√2·x, 1 − x²), x = tan(πfT)/tan(πf_cT)); −3 dB and −90° at f_c."""
+    cutoff, period = 200.0, FAST_PERIOD
+    frequency = ratio * cutoff
+    out, sine = filtered_sine(frequency, cutoff, period)
+    x = np.tan(np.pi * frequency * period) / np.tan(np.pi * cutoff * period)
+    expected_gain, expected_phase = 1 / np.sqrt(1 + x**4), -np.arctan2(np.sqrt(2) * x, 1 - x**2)
+    k = np.arange(len(out))[len(out) // 2:]  # transient gone (time constant ≈ 1 ms)
+    basis = np.column_stack((np.sin(2 * np.pi * frequency * k * period), np.cos(2 * np.pi * frequency * k * period)))
+    (s, c), *_ = np.linalg.lstsq(basis, out[k], rcond=None)
+    assert np.hypot(s, c) == pytest.approx(expected_gain, rel=1e-3)
+    assert np.arctan2(c, s) == pytest.approx(expected_phase, abs=1e-3)
+    if ratio == 1.0:
+        assert np.hypot(s, c) == pytest.approx(np.sqrt(0.5), rel=1e-3)
+
+
+def test_the_lowpass_starts_in_steady_state_and_can_be_turned_off():
+    """A constant input is passed unchanged from the first sample (no start-up transient); with
+    cut-off 0 a sine is sampled and held unfiltered."""
+    sensor = ForceTorqueSensorModel(ForceTorqueSensorParams(noise=False, lowpass_cutoff=500.0))
+    context = sensor.CreateDefaultContext()
+    value = np.array([3.0, -2.0, 50.0, 0.1, -0.2, 0.3])
+    sensor.get_input_port().FixValue(context, value)
+    simulator = Simulator(sensor, context)
+    for k in range(5):
+        simulator.AdvanceTo((k + 0.5) * FAST_PERIOD)
+        np.testing.assert_allclose(sensor.GetOutputPort("wrench_measured").Eval(context), value, rtol=1e-12)
+    out, sine = filtered_sine(300.0, 0.0)
+    np.testing.assert_allclose(out, sine, atol=1e-9)
+
+
+@pytest.mark.parametrize("cutoff", [-1.0, 1000.0, float("nan")])
+def test_a_lowpass_at_or_above_nyquist_is_refused(cutoff):
+    with pytest.raises(ValueError, match="^lowpass_cutoff .*Nyquist"):
+        ForceTorqueSensorModel(ForceTorqueSensorParams(lowpass_cutoff=cutoff))

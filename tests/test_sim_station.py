@@ -3,13 +3,15 @@ operator, the ports, and scenario files."""
 
 import numpy as np
 import pytest
+from pydrake.multibody.math import SpatialAcceleration
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.analysis import Simulator
 
-from heft.diagrams.scenario import Scenario, load_scenario
+from heft.diagrams.scenario import IDEAL_STATION, NOISE_OFF, Scenario, layered, load_scenario, overrides_text
 from heft.diagrams.plants import AddSlave
 from heft.diagrams.stations.sim_station import MakeSimStation
+from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.load_dynamics import InertialParameters, regressor
 
 STATION_PORTS = {
@@ -20,9 +22,8 @@ STATION_PORTS = {
 
 
 def ideal(scenario: Scenario) -> Scenario:
-    scenario.ft_sensor.noise = False
-    scenario.accelerometer.noise = False
-    return scenario
+    """``scenario`` in the ideal station with noise-free sensors."""
+    return layered(scenario, overrides_text({**NOISE_OFF, **IDEAL_STATION}))
 
 
 class Run:
@@ -341,3 +342,71 @@ def test_drakes_own_configs_live_in_the_scenario():
     assert station.GetSubsystemByName("slave_plant").time_step() == 0.001
     with pytest.raises(ValueError, match="plant.contact_model"):
         layered(scenario, "{plant: {contact_model: hydroelastic}}")
+
+
+# --- the realistic station ------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def compliant():
+    """The default (realistic) station, noise-free sensors, free space."""
+    scenario = layered(Scenario(), overrides_text({**NOISE_OFF, "environment.kind": "none"}))
+    assert not scenario.load.mount.rigid
+    return Run(scenario)
+
+
+def test_on_its_compliant_mount_the_load_starts_at_rest_under_its_weight(compliant):
+    """The mount starts at its static sag (no ringing when the run begins): the sensor reads the
+    tool's weight from the first step on, f = −m·g_S (closed form), steady to a micro-newton."""
+    run = compliant
+    readings = []
+    for _ in range(200):
+        run.step()
+        readings.append(run.out("truth.wrench_sensor"))
+    readings = np.array(readings)
+    np.testing.assert_allclose(readings[:, :3], np.tile(-3.13 * run.out("truth.gravity_S"), (200, 1)), atol=1e-5)
+    assert np.ptp(readings, axis=0).max() < 1e-6
+
+
+def test_on_a_compliant_mount_the_sensor_reads_the_load_frames_dynamics_not_S(compliant):
+    """Swinging the arm, the load rocks on its mount: the weld's reaction (Drake) is V·φ of the
+    load frame's own motion moved to S (``truth.wrench_noncontact``), while V·φ of S's motion,
+    what the paper's model and the controller compute, misses newtons of it."""
+    run = compliant
+    q0 = np.array(run.scenario.slave_initial_q)
+    phi = run.out("truth.phi")
+    worst_truth, worst_rigid_model = 0.0, 0.0
+    for _ in range(600):
+        t = run.context.get_time()
+        run.command(q0 + 0.25 * (1 - np.cos(2 * np.pi * 2.0 * t)) * np.array([1, -1, 1, 1, 1, 1]))
+        reaction = run.out("truth.wrench_sensor")
+        worst_truth = max(worst_truth, np.abs(reaction - run.out("truth.wrench_noncontact")).max())
+        accel, omega, g = run.out("truth.acceleration"), run.out("truth.omega"), run.out("truth.gravity_S")
+        worst_rigid_model = max(worst_rigid_model,
+                                np.abs(reaction - regressor(accel[:3], accel[3:], omega, g) @ phi)[:3].max())
+        run.advance()
+    assert worst_truth < 1e-6
+    assert worst_rigid_model > 0.5
+
+
+def test_the_accelerometer_sits_where_the_scenario_says():
+    """The realistic station's accelerometer is displaced from S: its reading (its filter off) is
+    the specific force of that point (Drake's S acceleration shifted there), and the conversion
+    back to S recovers S's own motion."""
+    run = Run(layered(Scenario(), overrides_text({**NOISE_OFF, "environment.kind": "none",
+                                                  "accelerometer.lowpass_cutoff": 0.0})))
+    q0 = np.array(run.scenario.slave_initial_q)
+    convention = run.scenario.accelerometer.convention()
+    assert convention.displaced
+    worst, peak = 0.0, 0.0
+    for _ in range(300):
+        t = run.context.get_time()
+        run.command(q0 + 0.3 * (1 - np.cos(2 * np.pi * 2.0 * t)) * np.array([1, 1, 1, 1, 1, 1]))
+        accel, omega, g = run.out("truth.acceleration"), run.out("truth.omega"), run.out("truth.gravity_S")
+        run.advance()
+        reading = run.out("ft.acceleration_measured")
+        shifted = SpatialAcceleration(accel[3:], accel[:3]).Shift(np.array(convention.p_SA), omega)
+        worst = max(worst, np.abs(reading[:3] - (shifted.translational() - g)).max())
+        worst = max(worst, np.abs(motion_from_reading(np.empty(6), reading, g, omega, convention) - accel).max())
+        peak = max(peak, np.linalg.norm(np.cross(omega, np.cross(omega, convention.p_SA))))
+    assert worst < 1e-9
+    assert peak > 0.01  # the displacement mattered (m/s²)

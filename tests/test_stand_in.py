@@ -19,6 +19,7 @@ from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.ft_receiver import FtSampleReader
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
 from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_command, heft_haptic_state
+from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.load_dynamics import noncontact_wrench
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant
 from heft.systems.operator_hand import smooth_sine_offset
@@ -99,9 +100,9 @@ class SlavePlant:
     def X_WS(self):
         return self.plant.CalcRelativeTransform(self.context, self.plant.world_frame(), self.parts.S)
 
-    def velocity_of_S(self):
-        """(ω_WS, v_WS) in W (rad/s, m/s)."""
-        V = self.parts.S.CalcSpatialVelocityInWorld(self.context)
+    def velocity_of_S(self, p_SA=np.zeros(3)):
+        """(ω_WS, v_WA) in W (rad/s, m/s) of the point A fixed at ``p_SA`` in S (m; S's origin)."""
+        V = self.parts.S.CalcSpatialVelocityInWorld(self.context).Shift(self.R_WS() @ p_SA)
         return V.rotational(), V.translational()
 
 
@@ -152,15 +153,18 @@ def moving():
 
 
 def test_sensor_acceleration_is_the_derivative_of_the_velocity_of_S(moving):
-    """The FT sample's accelerometer reading is d/dt of S's spatial velocity (Drake, from the
-    published joint state) minus gravity, expressed in S; checked by central differences."""
+    """The FT sample's accelerometer reading is d/dt of the spatial velocity of the accelerometer's
+    point A in S (Drake, from the published joint state) minus gravity, expressed in S; checked by
+    central differences."""
     statuses = moving.messages(CHANNELS.slave_status.name)
     ft = {m.utime: m for m in moving.messages(CHANNELS.ft_sample.name)}
     slave, period = SlavePlant(moving.scenario), 1.0 / CHANNELS.slave_status.rate
+    p_SA = np.array(moving.scenario.accelerometer.position)
+    assert np.linalg.norm(p_SA) > 0.01  # the default accelerometer is off S's origin
 
     def velocity(status):
         slave.set_state(status.joint_position_measured, status.joint_velocity_estimated)
-        return slave.R_WS(), *slave.velocity_of_S()
+        return slave.R_WS(), *slave.velocity_of_S(p_SA)
 
     errors, peak = [], 0.0
     for before, now, after in zip(statuses, statuses[1:], statuses[2:]):
@@ -191,8 +195,10 @@ def test_moving_wrench_is_v_phi_on_the_held_kinematics(moving):
         slave.set_state(status.joint_position_measured, status.joint_velocity_estimated)
         R_SW = slave.R_WS().T
         omega = R_SW @ slave.velocity_of_S()[0]
-        reading, g = np.array(sample.acceleration), R_SW @ G_W
-        expected = noncontact_wrench(moving.stand_in.phi_true, reading[:3] + g, reading[3:], omega, g)
+        g = R_SW @ G_W
+        a = motion_from_reading(np.empty(6), np.array(sample.acceleration), g, omega,
+                                moving.scenario.accelerometer.convention())
+        expected = noncontact_wrench(moving.stand_in.phi_true, a[:3], a[3:], omega, g)
         # Positions on the wire are encoder-quantised (2π/2²⁰ rad): ω and g agree to that.
         np.testing.assert_allclose(-np.array(sample.wrench), expected, atol=2e-3)
         checked += 1

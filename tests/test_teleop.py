@@ -6,11 +6,12 @@ from pydrake.systems.analysis import Simulator
 
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.stations.sim_station import MakeSimStation
-from heft.diagrams.scenario import overrides_text, resolve_scenario
+from heft.diagrams.scenario import IDEAL_STATION, NOISE_OFF, layered, overrides_text, resolve_scenario
 from heft.diagrams.running.simulation import run_teleop, with_sigma
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop import STATION_INPUTS_DRIVEN, STATION_OUTPUTS_READ, MakeTeleopController
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation
+from heft.systems.accelerometer_reading import AT_S
 
 
 def true_load(scenario: Scenario) -> LoadEstimate:
@@ -21,10 +22,9 @@ def true_load(scenario: Scenario) -> LoadEstimate:
 
 
 def quiet_scenario() -> Scenario:
-    scenario = Scenario()
+    """The ideal station (``IDEAL_STATION``), noise-free sensors, free space, a hand at rest."""
+    scenario = layered(Scenario(), overrides_text({**NOISE_OFF, **IDEAL_STATION}))
     scenario.environment.kind = "none"
-    scenario.ft_sensor.noise = False
-    scenario.accelerometer.noise = False
     scenario.operator.amplitude = [0.0, 0.0, 0.0]
     return scenario
 
@@ -33,7 +33,7 @@ def test_controller_ports_are_the_station_ports_and_it_adds_no_feedthrough():
     scenario = quiet_scenario()
     controller = MakeTeleopController(scenario.controller, true_load(scenario), "rx90",
                                       scenario.controller_period, scenario.slave_initial_q,
-                                      accelerometer_includes_gravity=True)
+                                      accelerometer=AT_S)
     inputs = {controller.get_input_port(i).get_name() for i in range(controller.num_input_ports())}
     outputs = {controller.get_output_port(i).get_name() for i in range(controller.num_output_ports())}
     assert set(STATION_OUTPUTS_READ) <= inputs and set(STATION_INPUTS_DRIVEN) <= outputs
@@ -142,11 +142,12 @@ def test_offset_tracking_in_the_closed_loop_holds_the_residual_against_drift(tra
 
 
 def test_online_estimation_learns_the_load_in_the_loop():
-    """Fig. 6 with the estimator in the loop (RLS, the controller knowing nothing of the tool at
+    """Fig. 6 in the ideal station with the estimator in the loop (RLS, the controller knowing nothing of the tool at
     start): once the stylus moves (0.2 s) the mass settles within 2 % in well under the 1 s aimed
     for (Kubus 2008's RTLS needed about 1.5 s), and the eliminated wrench then stays within 2 % of
     the non-contact peak, as with the identified estimate."""
-    scenario = resolve_scenario("fig6", overrides_text({"controller.estimator.mode": "online", "duration": 1.5}))
+    scenario = resolve_scenario("fig6", overrides_text({**IDEAL_STATION, "controller.estimator.mode": "online",
+                                                        "duration": 1.5}))
     true = true_load(scenario)
     log = run_teleop(with_sigma(scenario, 0.0), LoadEstimate(phi=np.zeros(10), offsets=true.offsets), quiet=True)
     error = np.abs(log["phi_hat"][:, 0] - true.phi[0]) / true.phi[0]
@@ -160,14 +161,14 @@ def test_online_estimation_learns_the_load_in_the_loop():
 
 @pytest.mark.parametrize("eta", [0.5])
 def test_eq_14_after_a_grasp_with_the_estimator_in_the_loop(eta):
-    """The grasp scenario with ideal sensors, φ_gr the gripper's: the estimator learns the object
+    """The grasp scenario in the ideal station with ideal sensors, φ_gr the gripper's: the estimator learns the object
     within 1.5 s of the grasp (mass within 2 %), and then the operator feels the contact plus η of
     the object's true non-contact wrench and nothing of the gripper's (σ = 0), to 1 % of its weight."""
     from heft.analysis.experiment_metrics import grasp_metrics
     from heft.diagrams.running.simulation import true_load as station_truth
 
-    scenario = resolve_scenario("grasp", overrides_text({"ft_sensor.noise": False, "accelerometer.noise": False,
-                                                         "duration": 2.2, "controller.force.eta": eta}))
+    scenario = resolve_scenario("grasp", overrides_text({**NOISE_OFF, **IDEAL_STATION, "duration": 2.2,
+                                                         "controller.force.eta": eta}))
     load, phi_gripper = station_truth(scenario)
     scenario.controller.force.phi_gripper = phi_gripper.tolist()
     gripper_only = LoadEstimate(phi=phi_gripper, offsets=load.offsets)

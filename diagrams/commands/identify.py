@@ -5,7 +5,7 @@ from __future__ import annotations
 
 
 
-from heft.diagrams.commands.options import DEFAULT_LCM_URL, add_set, scenario_from, station_params
+from heft.diagrams.commands.options import DEFAULT_LCM_URL, add_set, add_station, scenario_from, station_params
 
 HELP = ("identify the load's inertial parameters and the sensor "
        "offsets from an excitation motion (Sec. IV)")
@@ -14,6 +14,7 @@ HELP = ("identify the load's inertial parameters and the sensor "
 def add_arguments(parser) -> None:
     parser.add_argument("--scenario", required=True, help="fig6 | fig7 | fig8 | path to a scenario YAML")
     add_set(parser)
+    add_station(parser)
     parser.add_argument("--out", required=True, help="output folder")
     parser.add_argument("--method", default="tls", choices=("ols", "wls", "tls", "rls", "riv", "rtls"),
                           help="the estimate written to estimate.yaml (all are reported; default tls)")

@@ -17,12 +17,22 @@ def add_set(parser: argparse.ArgumentParser) -> None:
                                                       "e.g. '{controller: {force: {gamma: 0.5}}}' (applied last)")
 
 
-def scenario_from(args, options: str = ""):
-    """The scenario of ``--scenario`` with the command's own ``options`` (YAML text) and then
-    ``--set`` laid over it (``scenario.layered``: the one override path)."""
-    from heft.diagrams.scenario import layered, resolve_scenario
+def add_station(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--station", choices=("realistic", "ideal"),
+                        help="the simulated station: realistic (default: a compliant tool mount, the sensor's "
+                             "low-pass filter, the accelerometer off S, velocities from the encoders) or ideal "
+                             "(the paper's rigid, co-located, lag-free model)")
 
-    scenario = resolve_scenario(args.scenario, options)
+
+def scenario_from(args, options: str = ""):
+    """The scenario of ``--scenario`` with ``--station ideal`` (``IDEAL_STATION``), the command's own
+    ``options`` (YAML text) and then ``--set`` laid over it (``scenario.layered``: the one override path)."""
+    from heft.diagrams.scenario import IDEAL_STATION, layered, overrides_text, resolve_scenario
+
+    ideal = getattr(args, "station", None) == "ideal"
+    scenario = resolve_scenario(args.scenario, overrides_text(IDEAL_STATION) if ideal else "")
+    if options:
+        scenario = layered(scenario, options)
     return layered(scenario, args.set) if args.set else scenario
 
 

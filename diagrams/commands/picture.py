@@ -30,7 +30,7 @@ def teleop_graphviz(what: str = "controller", scenario_name: str = "fig6", depth
     if what == "controller":
         diagram = MakeTeleopController(scenario.controller, load, scenario.robot, scenario.controller_period,
                                        scenario.slave_initial_q,
-                                       accelerometer_includes_gravity=scenario.accelerometer.includes_gravity)
+                                       accelerometer=scenario.accelerometer.convention())
     else:
         diagram, _ = MakeTeleopSimulation(scenario, load)
     return diagram.GetGraphvizString(max_depth=depth)

@@ -7,7 +7,7 @@ import math
 from pathlib import Path
 
 
-from heft.diagrams.commands.options import add_set, scenario_from
+from heft.diagrams.commands.options import add_set, add_station, scenario_from
 
 HELP = ("replay one of the paper's experiments (fig6, fig7, fig8) "
        "or a scenario file in the simulated station")
@@ -16,6 +16,7 @@ HELP = ("replay one of the paper's experiments (fig6, fig7, fig8) "
 def add_arguments(parser) -> None:
     parser.add_argument("scenario", help="fig6 | fig7 | fig8 | path to a scenario YAML")
     add_set(parser)
+    add_station(parser)
     parser.add_argument("--sigma", type=float, help="σ: non-contact scale (default: the scenario's set)")
     parser.add_argument("--gamma", type=float, help="γ: contact scale")
     parser.add_argument("--eta", type=float, help="η: share of the gripped object's non-contact wrench kept")

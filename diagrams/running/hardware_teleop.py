@@ -50,7 +50,7 @@ class HardwareTeleop:
         self.station = HardwareStation(bus, channels, params)
         self.controller = MakeRealtimeTeleopController(
             scenario.controller, load, scenario.robot,
-            accelerometer_includes_gravity=scenario.accelerometer.includes_gravity)
+            accelerometer=scenario.accelerometer.convention())
         self.load_commands = LoadCommandServer(bus, channels, self.controller)
         self._zero = np.zeros(NUM_JOINTS)
         self._was_healthy = False

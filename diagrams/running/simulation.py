@@ -21,11 +21,10 @@ from heft.diagrams.scenario import Scenario, layered, overrides_text
 from heft.diagrams.stations.sim_station import MakeSimStation, set_holding
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation
-from heft.systems.load_dynamics import regressor
 
 # Plant-truth logs, re-timed to the sensor sample they belong to (see run_teleop).
 SAMPLE_ALIGNED_TRUTH = ("wrench_contact_true", "wrench_noncontact_true", "accel_true", "omega_true", "gravity_S",
-                        "slave_q", "phi_true")
+                        "slave_q", "phi_true", "wrench_noncontact_object_true")
 
 
 def true_load(scenario: Scenario) -> tuple[LoadEstimate, np.ndarray]:
@@ -83,11 +82,6 @@ def run_teleop(scenario: Scenario, load: LoadEstimate, label: str = "", meshcat=
         data[key] = np.concatenate((data[key][:1], data[key][:-1]))
     data["t"] = logs["wrench_measured"].sample_times().copy()
     data["master_force"] = data.pop("master_wrench")
-    # The gripped object's share of the true non-contact wrench (Eq. 14's V·φ_obj; zero without a split).
-    phi_object = data["phi_true"] - (phi_gripper if np.any(phi_gripper) else data["phi_true"])
-    data["wrench_noncontact_object_true"] = np.einsum(
-        "nij,nj->ni", regressor(data["accel_true"][:, :3], data["accel_true"][:, 3:], data["omega_true"],
-                                data["gravity_S"]), phi_object)
     data["phi_gripper_true"] = np.asarray(phi_gripper).copy()
     data["phi_gripper_hat"] = np.asarray(scenario.controller.force.phi_gripper or np.zeros(10), dtype=float)
     data["offsets_hat"] = data.pop("offsets")  # (N, 6): the estimate at start, then tracked

@@ -9,11 +9,12 @@ from __future__ import annotations
 
 
 import numpy as np
-from pydrake.math import RigidTransform
+from pydrake.common.eigen_geometry import AngleAxis
+from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, MultibodyPlant
-from pydrake.multibody.tree import (FixedOffsetFrame, JointActuatorIndex, PdControllerGains, PrismaticJoint,
-                                    PrismaticSpring, SpatialInertia)
+from pydrake.multibody.tree import (FixedOffsetFrame, JointActuatorIndex, MultibodyForces, PdControllerGains,
+                                    PrismaticJoint, PrismaticSpring, SpatialInertia)
 from pydrake.geometry import AddContactMaterial, Box, MeshcatVisualizer, ProximityProperties
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, Saturation
@@ -21,7 +22,7 @@ from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, Satu
 from heft.diagrams.models import model_path
 from heft.diagrams.plants import MASTER_URDF, AddSlave, SlaveParts, phi_about_S
 from heft.diagrams.scenario import Scenario
-from heft.systems.encoders import EncoderQuantizer
+from heft.systems.encoders import EncoderQuantizer, EncoderVelocityEstimator
 from heft.systems.gravity_compensation import GravityCompensation
 from heft.systems.load_dynamics import GRAVITY_W
 from heft.systems.operator_hand import OperatorHand
@@ -66,7 +67,7 @@ def _add_slave(builder: DiagramBuilder, scenario: Scenario):
     """The slave plant (discrete SAP, point contact), its joint servo and gravity feed-forward."""
     plant, scene_graph = AddMultibodyPlant(scenario.plant, builder)
     plant.set_name("slave_plant")
-    parts = AddSlave(plant, scenario)
+    parts = AddSlave(plant, scenario, mount_compliance=True)
     if scenario.environment.kind == "sheet_spring":
         AddSheetSpring(plant, scenario.environment)
     plant.mutable_gravity_field().set_gravity_vector(GRAVITY_W)
@@ -91,6 +92,10 @@ def _add_slave(builder: DiagramBuilder, scenario: Scenario):
         actuator.set_controller_gains(PdControllerGains(p=p, d=d))
     plant.Finalize()
     plant.SetDefaultPositions(parts.arm, scenario.slave_initial_q)
+    if parts.mount_joint is not None:
+        context = plant.CreateDefaultContext()
+        settle_mount(plant, context, parts.mount_joint)
+        parts.mount_joint.SetDefaultPose(parts.mount_joint.GetPose(context))
 
     state = builder.AddSystem(Demultiplexer([6, 6]))
     builder.Connect(plant.get_state_output_port(parts.arm), state.get_input_port())
@@ -108,7 +113,13 @@ def _add_slave(builder: DiagramBuilder, scenario: Scenario):
     encoders.set_name("slave_encoders")
     builder.Connect(state.get_output_port(0), encoders.get_input_port())
     builder.ExportOutput(encoders.get_output_port(), "slave.position_measured")
-    builder.ExportOutput(state.get_output_port(1), "slave.velocity_estimated")
+    if scenario.slave_velocity_filter > 0:
+        velocity = builder.AddNamedSystem("slave_velocity_estimator", EncoderVelocityEstimator(
+            6, scenario.plant.time_step, scenario.slave_velocity_filter))
+        builder.Connect(encoders.get_output_port(), velocity.get_input_port())
+        builder.ExportOutput(velocity.get_output_port(), "slave.velocity_estimated")
+    else:
+        builder.ExportOutput(state.get_output_port(1), "slave.velocity_estimated")
     builder.ExportOutput(state.get_output_port(0), "truth.slave_position")
     return plant, parts
 
@@ -119,7 +130,7 @@ def _add_wrist_sensor(builder: DiagramBuilder, scenario: Scenario, plant: Multib
     reaction = builder.AddSystem(ReactionWrench(parts.sensor_weld.index()))
     builder.Connect(plant.get_reaction_forces_output_port(), reaction.get_input_port())
     kinematics = builder.AddSystem(SensorFrameKinematics(parts.sensor_body.index(), p_BS, GRAVITY_W,
-                                                         scenario.accelerometer.includes_gravity))
+                                                         scenario.accelerometer.convention()))
     builder.Connect(plant.get_body_poses_output_port(), kinematics.GetInputPort("body_poses"))
     builder.Connect(plant.get_body_spatial_velocities_output_port(), kinematics.GetInputPort("body_spatial_velocities"))
     builder.Connect(plant.get_body_spatial_accelerations_output_port(),
@@ -136,16 +147,24 @@ def _add_wrist_sensor(builder: DiagramBuilder, scenario: Scenario, plant: Multib
     builder.ExportOutput(ft.GetOutputPort("wrench_measured"), "ft.wrench_measured")
     builder.ExportOutput(accelerometer.GetOutputPort("acceleration_measured"), "ft.acceleration_measured")
 
-    phi = phi_about_S(plant, parts.S, parts.load_bodies)
-    phi_gripper = phi_about_S(plant, parts.S, parts.gripper_bodies) if parts.gripper_bodies else np.zeros(10)
+    L = parts.load_bodies[0].body_frame()  # at S when the load rests on its mount
+    phi = phi_about_S(plant, L, parts.load_bodies, _undeflected(plant, parts))
+    phi_gripper = (phi_about_S(plant, L, parts.gripper_bodies, _undeflected(plant, parts)) if parts.gripper_bodies
+                   else np.zeros(10))
     truth_phi = builder.AddNamedSystem("truth_phi", ConstantVectorSource(phi))  # set_holding changes it
-    noncontact = builder.AddSystem(TrueNonContactWrench())
-    for name in ("acceleration", "omega", "gravity"):
-        builder.Connect(kinematics.GetOutputPort(name), noncontact.GetInputPort(name))
+    truth_phi_gripper = builder.AddSystem(ConstantVectorSource(phi_gripper))
+    noncontact = builder.AddSystem(TrueNonContactWrench(parts.load_bodies[0].index(), parts.sensor_body.index(),
+                                                        p_BS, GRAVITY_W))
+    builder.Connect(plant.get_body_poses_output_port(), noncontact.GetInputPort("body_poses"))
+    builder.Connect(plant.get_body_spatial_velocities_output_port(), noncontact.GetInputPort("body_spatial_velocities"))
+    builder.Connect(plant.get_body_spatial_accelerations_output_port(),
+                    noncontact.GetInputPort("body_spatial_accelerations"))
     builder.Connect(truth_phi.get_output_port(), noncontact.GetInputPort("phi"))
+    builder.Connect(truth_phi_gripper.get_output_port(), noncontact.GetInputPort("phi_gripper"))
     for port, name in ((reaction.get_output_port(), "truth.wrench_sensor"),
                        (contact.get_output_port(), "truth.wrench_contact"),
-                       (noncontact.get_output_port(), "truth.wrench_noncontact"),
+                       (noncontact.GetOutputPort("wrench"), "truth.wrench_noncontact"),
+                       (noncontact.GetOutputPort("wrench_object"), "truth.wrench_noncontact_object"),
                        (kinematics.GetOutputPort("acceleration"), "truth.acceleration"),
                        (kinematics.GetOutputPort("omega"), "truth.omega"),
                        (kinematics.GetOutputPort("gravity"), "truth.gravity_S"),
@@ -153,9 +172,44 @@ def _add_wrist_sensor(builder: DiagramBuilder, scenario: Scenario, plant: Multib
                        (ft.GetOutputPort("saturated"), "truth.ft_saturated"),
                        (accelerometer.GetOutputPort("saturated"), "truth.accelerometer_saturated"),
                        (truth_phi.get_output_port(), "truth.phi"),
-                       (builder.AddSystem(ConstantVectorSource(phi_gripper)).get_output_port(),
-                        "truth.phi_gripper")):
+                       (truth_phi_gripper.get_output_port(), "truth.phi_gripper")):
         builder.ExportOutput(port, name)
+
+
+def _undeflected(plant: MultibodyPlant, parts: SlaveParts):
+    """A default context of ``plant`` with the load's compliant mount (if any) at rest length."""
+    context = plant.CreateDefaultContext()
+    if parts.mount_joint is not None:
+        parts.mount_joint.SetPose(context, RigidTransform())
+    return context
+
+
+def settle_mount(plant: MultibodyPlant, context, joint, iterations: int = 4) -> None:
+    """Sets the floating ``joint`` of a compliant mount in ``context`` to the static equilibrium of
+    its load under gravity and the mount's spring, the rest of the plant held where it is and at
+    rest: Newton's method on the joint's generalized forces, the Jacobian by finite differences
+    of small rotations and translations of the joint's pose (its velocity coordinates)."""
+    plant.SetVelocities(context, np.zeros(plant.num_velocities()))
+    velocities = slice(joint.velocity_start(), joint.velocity_start() + 6)
+    forces = MultibodyForces(plant)
+
+    def residual():
+        plant.CalcForceElementsContribution(context, forces)  # gravity and springs
+        return plant.CalcInverseDynamics(context, np.zeros(plant.num_velocities()), forces)[velocities]
+
+    def moved(X, step):  # step = [rotation vector; translation] in the parent frame
+        angle = np.linalg.norm(step[:3])
+        R = RotationMatrix(AngleAxis(angle, step[:3] / angle)) if angle > 0 else RotationMatrix()
+        return RigidTransform(R @ X.rotation(), X.translation() + step[3:])
+
+    h = 1e-7
+    for _ in range(iterations):
+        X, r = joint.GetPose(context), residual()
+        jacobian = np.empty((6, 6))
+        for i in range(6):
+            joint.SetPose(context, moved(X, h * np.eye(6)[i]))
+            jacobian[:, i] = (residual() - r) / h
+        joint.SetPose(context, moved(X, -np.linalg.solve(jacobian, r)))
 
 
 def _add_master(builder: DiagramBuilder, scenario: Scenario):
@@ -208,11 +262,10 @@ def set_holding(station, root_context, holding: bool) -> None:
     plant_context = plant.GetMyMutableContextFromRoot(root_context)
     obj = plant.GetBodyByName("object")
     obj.SetSpatialInertiaInBodyFrame(plant_context, obj.default_spatial_inertia() if holding else SpatialInertia.Zero())
-    S = plant.GetFrameByName("S")
-    load = [obj, plant.GetBodyByName("gripper")]
+    gripper = plant.GetBodyByName("gripper")
     source = station.GetSubsystemByName("truth_phi")
     source.get_mutable_source_value(source.GetMyMutableContextFromRoot(root_context)).set_value(
-        phi_about_S(plant, S, load, plant_context))
+        phi_about_S(plant, gripper.body_frame(), [obj, gripper], plant_context))
 
 
 def MakeSimStation(scenario: Scenario, meshcat=None):

@@ -19,8 +19,8 @@ Models (frames as DESIGN §4: W world = R slave base, B master base, S wrist sen
   the filter's state by Drake: A_WS = J·q̈ + J̇·q̇, with q̈ the filter's own
   acceleration after each step. Gravity in S is R_SW·g_W. The accelerometer
   reports what a real one does (``accelerometer_reading``: specific force a − g
-  unless the scenario's ``accelerometer.includes_gravity`` is False), as in the
-  simulated station.
+  unless the scenario's ``accelerometer.includes_gravity`` is False) at its
+  ``accelerometer.position``, as in the simulated station.
 * JR3 driver: the wrench is the load's non-contact wrench V(a, α, ω, g)·φ (Eq. 5,
   ``load_dynamics.regressor``) with φ of the scenario's load as the simulated
   station computes it, through ``sensor_models``' measurement model (offsets,
@@ -223,7 +223,7 @@ class _SensorFrame:
         plant, parts = MakeSlavePlant(scenario)
         self._plant, self._context = plant, plant.CreateDefaultContext()
         self._W, self._S = plant.world_frame(), parts.S
-        self._includes_gravity = scenario.accelerometer.includes_gravity
+        self._accelerometer = scenario.accelerometer.convention()
         self.phi = phi_about_S(plant, parts.S, parts.load_bodies)
         self._origin = np.zeros(3)
         self._x = np.zeros(2 * NUM_JOINTS)
@@ -249,7 +249,7 @@ class _SensorFrame:
         omega = R_SW @ (J[:3] @ qd)
         self.acceleration[:3], self.acceleration[3:] = a, alpha
         gravity = R_SW @ GRAVITY_W
-        self.reading[:] = reading_from_motion(self.acceleration, gravity, self._includes_gravity)
+        self.reading[:] = reading_from_motion(self.acceleration, gravity, omega, self._accelerometer)
         self.wrench[:] = regressor(a, alpha, omega, gravity) @ self.phi
 
 
