@@ -35,9 +35,10 @@ class MountSpec:
     mount, a 6-DoF spring-damper between S and the load's frame (Drake's
     ``LinearBushingRollPitchYaw``; constants about and along S's axes at rest), as a tool
     on a wrist flange with an adapter plate is. The defaults put the paper's tool's first
-    mode, rocking about x and y, at about 40 Hz ("tens of Hz", as tools on wrist flanges
-    show; the JR3 itself is stiffer), twist and sideways modes near 90 Hz, with some 5 %
-    of critical damping (bolted joints). Assumed values, not measured on a lab's tool."""
+    modes, rocking about x and y, at 36–38 Hz ("tens of Hz", as tools on wrist flanges show;
+    the JR3 itself is stiffer), twist and axial near 90 Hz, sideways near 130 Hz, with 4–9 %
+    of critical damping (bolted joints); ``tests/test_sim_station.py`` checks the rocking mode
+    in the station against the modal analysis. Assumed values, not measured on a lab's tool."""
     rigid: bool = False
     torque_stiffness: list[float] = dataclasses.field(default_factory=lambda: [1500.0, 1500.0, 1500.0])  # N·m/rad
     torque_damping: list[float] = dataclasses.field(default_factory=lambda: [0.6, 0.6, 0.3])  # N·m·s/rad

@@ -46,6 +46,11 @@ class AccelerometerConvention:
     def displaced(self) -> bool:
         return any(self.p_SA)
 
+    def __str__(self) -> str:
+        what = "specific force a − g" if self.includes_gravity else "gravity-free a"
+        return (f"accelerometer reads {what} at p_SA = [{', '.join(f'{x:g}' for x in self.p_SA)}] m in S "
+                "(scenario accelerometer.includes_gravity, accelerometer.position)")
+
 
 AT_S = AccelerometerConvention()
 """A specific-force reading at S's origin."""

@@ -410,3 +410,38 @@ def test_the_accelerometer_sits_where_the_scenario_says():
         peak = max(peak, np.linalg.norm(np.cross(omega, np.cross(omega, convention.p_SA))))
     assert worst < 1e-9
     assert peak > 0.01  # the displacement mattered (m/s²)
+
+
+def test_the_load_rings_on_its_mount_at_the_mounts_rocking_mode():
+    """Tapped about S's x axis, the load rocks on its mount at the frequency of the mount's modal
+    analysis (closed form: the generalized eigenproblem K·x = ω²·M·x of the bushing's stiffness and
+    the load's spatial inertia about S), to the 10 % the arm's own servo compliance leaves."""
+    scenario = layered(Scenario(), overrides_text({**NOISE_OFF, "environment.kind": "none"}))
+    run = Run(scenario)
+    phi = run.out("truth.phi")
+    m, h = phi[0], phi[1:4]
+    I = np.array([[phi[4], phi[5], phi[6]], [phi[5], phi[7], phi[8]], [phi[6], phi[8], phi[9]]])
+    hx = np.array([[0, -h[2], h[1]], [h[2], 0, -h[0]], [-h[1], h[0], 0]])
+    M = np.block([[I, hx], [hx.T, m * np.eye(3)]])  # [rotation; translation] about S
+    mount = scenario.load.mount
+    K = np.diag(mount.torque_stiffness + mount.force_stiffness)
+    eigenvalues, modes = np.linalg.eig(np.linalg.solve(M, K))
+    rocking_x = np.argmax(np.abs(modes[0]) / np.linalg.norm(modes, axis=0))
+    expected = np.sqrt(eigenvalues[rocking_x].real) / (2 * np.pi)
+    assert 20 < expected < 100  # "tens of Hz"
+
+    plant = run.station.GetSubsystemByName("slave_plant")
+    plant.GetJointByName("mount").set_angular_velocity(plant.GetMyMutableContextFromRoot(run.context),
+                                                       [0.05, 0.0, 0.0])
+    torque = []
+    for _ in range(1000):
+        run.step()
+        torque.append(run.out("truth.wrench_sensor")[3])
+    torque = np.array(torque) - np.mean(torque)
+    period = scenario.controller_period
+    frequencies = np.fft.rfftfreq(8 * len(torque), period)
+    spectrum = np.abs(np.fft.rfft(torque * np.hanning(len(torque)), 8 * len(torque)))
+    band = frequencies > 10.0  # above the arm's own slow motion
+    measured = frequencies[band][np.argmax(spectrum[band])]
+    print(f"rocking mode: {measured:.1f} Hz in the station, {expected:.1f} Hz by modal analysis")
+    assert measured == pytest.approx(expected, rel=0.1)

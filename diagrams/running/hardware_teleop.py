@@ -146,6 +146,7 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, lcm_url: str, du
     teleop = HardwareTeleop(scenario, load, lcm.LCM(lcm_url), LcmChannels(lcm_url=lcm_url), params)
     scheduling = claim_realtime(priority)
     print(f"teleop: {scheduling}", flush=True)
+    print(f"teleop: {scenario.accelerometer.convention()}", flush=True)
 
     def run():
         teleop.station.epoch = time.time()
