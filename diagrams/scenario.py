@@ -35,13 +35,14 @@ class MountSpec:
     mount, a 6-DoF spring-damper between S and the load's frame (Drake's
     ``LinearBushingRollPitchYaw``; constants about and along S's axes at rest), as a tool
     on a wrist flange with an adapter plate is. The defaults put the paper's tool's first
-    modes, rocking about x and y, at 36–38 Hz ("tens of Hz", as tools on wrist flanges show;
-    the JR3 itself is stiffer), twist and axial near 90 Hz, sideways near 130 Hz, with 4–9 %
-    of critical damping (bolted joints); ``tests/test_sim_station.py`` checks the rocking mode
-    in the station against the modal analysis. Assumed values, not measured on a lab's tool."""
+    modes, rocking about x and y, at 49–50 Hz ("tens of Hz", as tools on wrist flanges show;
+    the JR3 itself is stiffer), twist at 90 Hz, the others at 126–144 Hz, with 4–9 % of
+    critical damping (bolted joints); ``tests/test_sim_station.py`` checks the rocking mode in
+    the station against the modal analysis. Assumed values, not measured on a lab's tool; a
+    softer mount (rocking at 37 Hz) makes the loop unstable in fig7 (README)."""
     rigid: bool = False
-    torque_stiffness: list[float] = dataclasses.field(default_factory=lambda: [1500.0, 1500.0, 1500.0])  # N·m/rad
-    torque_damping: list[float] = dataclasses.field(default_factory=lambda: [0.6, 0.6, 0.3])  # N·m·s/rad
+    torque_stiffness: list[float] = dataclasses.field(default_factory=lambda: [3000.0, 3000.0, 3000.0])  # N·m/rad
+    torque_damping: list[float] = dataclasses.field(default_factory=lambda: [0.85, 0.85, 0.4])  # N·m·s/rad
     force_stiffness: list[float] = dataclasses.field(default_factory=lambda: [1e6, 1e6, 1e6])  # N/m
     force_damping: list[float] = dataclasses.field(default_factory=lambda: [180.0, 180.0, 180.0])  # N·s/m
 
