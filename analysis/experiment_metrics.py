@@ -3,6 +3,8 @@
 ``runs`` maps σ to a run's log (keys as log.npz). The run with the largest σ
 stands for the measured signal (σ = 1 feeds back f − o), the one with the
 smallest for elimination (σ = 0). Forces are at the slave, in S, in N (N·m).
+``strokes`` are the operator's strokes as (start, end) in s
+(``operator_hand.stroke_windows``).
 """
 
 import numpy as np
@@ -26,7 +28,7 @@ def first_time(t, mask):
     return float(t[hits[0]]) if hits.size else None
 
 
-def experiment_metrics(experiment: str, runs: dict, force_scale: float) -> dict:
+def experiment_metrics(experiment: str, runs: dict, force_scale: float, strokes=()) -> dict:
     measured, eliminated = runs[max(runs)], runs[min(runs)]
     axis = plotted_axis(measured, experiment)
     unit = "Nm" if axis >= 3 else "N"
@@ -52,7 +54,23 @@ def experiment_metrics(experiment: str, runs: dict, force_scale: float) -> dict:
             detected = first_time(run["t"], np.abs(signal - signal[0]) > DETECTION_THRESHOLD_N)
             metrics[f"contact_detected_s_{name}"] = detected
             metrics[f"false_alarm_{name}"] = bool(detected is not None and onset is not None and detected < onset)
+        metrics["strokes"] = [stroke_metrics(runs, axis, start, end) for start, end in strokes]
     return metrics
+
+
+def stroke_metrics(runs: dict, axis: int, start: float, end: float) -> dict:
+    """One stroke [start, end) (s): the largest true contact force |f_c| (N) in any run, and
+    how far the plotted force of the measured (largest σ) and the eliminated (smallest σ)
+    feedback swings, peak to peak (N): a stroke without contact shows what the non-contact
+    force alone does to the measurement."""
+    window = {sigma: (run["t"] >= start) & (run["t"] < end) for sigma, run in runs.items()}
+
+    def swing(sigma):
+        return float(np.ptp(runs[sigma]["wrench_feedback"][window[sigma], axis]))
+
+    contact = [np.linalg.norm(run["wrench_contact_true"][window[sigma], :3], axis=1).max() for sigma, run in runs.items()]
+    return {"start_s": start, "end_s": end, "contact_peak_N": float(max(contact)),
+            "raw_swing_N": swing(max(runs)), "eliminated_swing_N": swing(min(runs))}
 
 
 GRASP_SETTLE_TOLERANCE = 0.02   # the object's mass in φ̂ within this share of the true one

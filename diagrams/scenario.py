@@ -97,6 +97,8 @@ class OperatorSpec:
     amplitude: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.03])  # m, in B
     frequency: float = 1.0                  # Hz
     rotation_amplitude: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])  # rad
+    # Each period of the reference is one stroke; stroke k is scaled by stroke_scales[k], the last repeating.
+    stroke_scales: list[float] = dataclasses.field(default_factory=lambda: [1.0])
     start_time: float = 0.2                 # s before the hand starts moving
 
 
@@ -198,6 +200,8 @@ class Scenario:
             need(getattr(op, name) >= 0, f"operator.{name}", "must be >= 0")
         need(len(op.amplitude) == 3, "operator.amplitude", "needs 3 numbers (m)")
         need(len(op.rotation_amplitude) == 3, "operator.rotation_amplitude", "needs 3 numbers (rad)")
+        need(len(op.stroke_scales) >= 1 and all(math.isfinite(x) and x >= 0 for x in op.stroke_scales),
+             "operator.stroke_scales", "needs at least one finite scale >= 0")
         need(math.isfinite(self.plant.time_step) and self.plant.time_step > 0, "plant.time_step",
              "must be finite and > 0 (s): the station's plants are discrete")
         need(self.plant.contact_model == "point", "plant.contact_model",

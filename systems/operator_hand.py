@@ -3,6 +3,8 @@ reference motion and so feels, and yields to, whatever the device renders."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from pydrake.common.cpp_param import List
 from pydrake.common.value import Value
@@ -12,14 +14,28 @@ from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 from pydrake.systems.framework import LeafSystem
 
 
-def smooth_sine_offset(t, start_time, frequency, amplitude):
-    """Reference offset A·(1 − cos 2πf(t − t0))/2 for t ≥ t0, else 0: starts at rest.
+def smooth_sine_offset(t, start_time, frequency, amplitude, stroke_scales=(1.0,)):
+    """Reference offset s_k·A·(1 − cos 2πf(t − t0))/2 for t ≥ t0, else 0: starts at rest.
+    Stroke k is the k-th period, [t0 + k/f, t0 + (k + 1)/f) (s); it is scaled by
+    ``stroke_scales[k]``, the last scale repeating. Each stroke starts and ends at rest
+    at the start offset, so the reference stays continuous in position and rate.
     Returns (offset, rate) with amplitude's shape."""
     amplitude = np.asarray(amplitude, dtype=float)
     if t < start_time:
         return np.zeros_like(amplitude), np.zeros_like(amplitude)
-    phase = 2 * np.pi * frequency * (t - start_time)
+    cycles = frequency * (t - start_time)
+    amplitude = amplitude * stroke_scales[min(int(cycles), len(stroke_scales) - 1)]
+    phase = 2 * np.pi * cycles
     return amplitude * 0.5 * (1 - np.cos(phase)), amplitude * np.pi * frequency * np.sin(phase)
+
+
+def stroke_windows(start_time, frequency, duration) -> list[tuple[float, float]]:
+    """The strokes of ``smooth_sine_offset`` that begin before ``duration`` (s), as
+    (start, end) in s: stroke k spans [t0 + k/f, t0 + (k + 1)/f)."""
+    if frequency <= 0:
+        return []
+    count = math.ceil((duration - start_time) * frequency)
+    return [(start_time + k / frequency, start_time + (k + 1) / frequency) for k in range(max(count, 0))]
 
 
 def hand_wrench(X_WE, V_WE, X_WE_ref, V_WE_ref, k, d, k_rot, d_rot):
@@ -38,7 +54,8 @@ class OperatorHand(LeafSystem):
     Input ``body_poses`` / ``body_spatial_velocities``: the master plant's ports.
     Output ``spatial_force``: [ExternallyAppliedSpatialForce] on the stylus, for the
     plant's ``applied_spatial_force`` port. Reference: the start pose X_WE0 moved by
-    smooth sines (``amplitude`` m in W, ``rotation_amplitude`` rad as roll-pitch-yaw).
+    smooth sines (``amplitude`` m in W, ``rotation_amplitude`` rad as roll-pitch-yaw),
+    stroke k scaled by ``stroke_scales[k]`` (``smooth_sine_offset``).
     """
 
     def __init__(self, stylus_body_index, X_WE0: RigidTransform, spec):
@@ -55,8 +72,8 @@ class OperatorHand(LeafSystem):
     def reference(self, t):
         """(X_WE_ref, V_WE_ref as [ω; v] in W) at time t."""
         s = self._spec
-        dp, dp_rate = smooth_sine_offset(t, s.start_time, s.frequency, s.amplitude)
-        drpy, drpy_rate = smooth_sine_offset(t, s.start_time, s.frequency, s.rotation_amplitude)
+        dp, dp_rate = smooth_sine_offset(t, s.start_time, s.frequency, s.amplitude, s.stroke_scales)
+        drpy, drpy_rate = smooth_sine_offset(t, s.start_time, s.frequency, s.rotation_amplitude, s.stroke_scales)
         R = RotationMatrix(RollPitchYaw(drpy)) @ self._X_WE0.rotation()
         X_ref = RigidTransform(R, self._X_WE0.translation() + dp)
         # For the small angles used, the roll-pitch-yaw rate is the angular velocity to first order.

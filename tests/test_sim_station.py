@@ -13,6 +13,7 @@ from heft.diagrams.plants import AddSlave
 from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.load_dynamics import InertialParameters, regressor
+from heft.systems.operator_hand import smooth_sine_offset, stroke_windows
 
 STATION_PORTS = {
     "inputs": {"master.torque_commanded", "slave.position_commanded"},
@@ -214,6 +215,25 @@ def test_operator_pulls_the_stylus_along_its_reference():
     for _ in range(2000):  # half a period: the reference is at its top, at rest
         run.step()
     assert stylus_height(run) - z0 == pytest.approx(0.02, abs=0.002)
+
+
+def test_each_stroke_has_its_own_depth_and_the_reference_stays_smooth():
+    """Stroke k of the reference reaches stroke_scales[k] of the amplitude (the last scale
+    repeating); position and rate are continuous where one stroke hands over to the next
+    (both strokes end and start at rest at the start pose)."""
+    amplitude, f, t0, scales = np.array([0.0, 0.0, -0.05]), 2.0, 0.1, [1.0, 0.75]
+    assert stroke_windows(t0, f, 1.6) == [(0.1, 0.6), (0.6, 1.1), (1.1, 1.6)]
+    for (start, end), scale in zip(stroke_windows(t0, f, 1.6), [1.0, 0.75, 0.75]):
+        offset, rate = smooth_sine_offset(0.5 * (start + end), t0, f, amplitude, scales)
+        np.testing.assert_allclose(offset, scale * amplitude, atol=1e-15)
+        np.testing.assert_allclose(rate, 0.0, atol=1e-15)
+    peak_rate = np.pi * f * 0.05
+    for boundary in (0.6, 1.1):
+        before = smooth_sine_offset(boundary - 1e-9, t0, f, amplitude, scales)
+        after = smooth_sine_offset(boundary, t0, f, amplitude, scales)
+        for a, b in zip(before, after):
+            np.testing.assert_allclose(a, b, atol=1e-7 * peak_rate)
+    assert not smooth_sine_offset(t0 - 1e-9, t0, f, amplitude, scales)[0].any()
 
 
 def test_operator_yields_to_a_rendered_force_by_its_stiffness():

@@ -21,6 +21,7 @@ from heft.diagrams.scenario import Scenario, layered, overrides_text
 from heft.diagrams.stations.sim_station import MakeSimStation, set_holding
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation
+from heft.systems.operator_hand import stroke_windows
 
 # Plant-truth logs, re-timed to the sensor sample they belong to (see run_teleop).
 SAMPLE_ALIGNED_TRUTH = ("wrench_contact_true", "wrench_noncontact_true", "accel_true", "omega_true", "gravity_S",
@@ -100,7 +101,9 @@ def simulate(scenario: Scenario, load: LoadEstimate, out_dir, sigmas, name: str,
         runs[sigma] = run_teleop(with_sigma(scenario, sigma), load, meshcat=meshcat)
         np.savez_compressed(out / f"log_sigma{sigma:g}.npz", **runs[sigma])
     np.savez_compressed(out / "log.npz", **runs[sigmas[0]])
-    metrics = experiment_metrics(scenario.experiment, runs, scenario.controller.feedback.force_scale)
+    operator = scenario.operator
+    metrics = experiment_metrics(scenario.experiment, runs, scenario.controller.feedback.force_scale,
+                                 stroke_windows(operator.start_time, operator.frequency, scenario.duration))
     metrics["realtime_factor"] = float(min(run["realtime_factor"] for run in runs.values()))
     if math.isfinite(scenario.load.grasp_at):
         metrics["grasp"] = {f"sigma{sigma:g}": grasp_metrics(run, scenario.load.grasp_at)

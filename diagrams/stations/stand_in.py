@@ -272,7 +272,8 @@ class _Master:
     def update(self, t: float) -> None:
         """Moves the joints to the operator's reference at time ``t`` (s)."""
         operator = self._operator
-        offset, self.velocity = smooth_sine_offset(t, operator.start_time, operator.frequency, self._amplitude)
+        offset, self.velocity = smooth_sine_offset(t, operator.start_time, operator.frequency, self._amplitude,
+                                                  operator.stroke_scales)
         self.position = self._initial + offset
 
 
