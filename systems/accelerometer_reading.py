@@ -60,6 +60,8 @@ def _transport(linear, alpha, omega, p, sign: float) -> None:
     """``linear`` (…, 3) += sign·(α × p + ω × (ω × p)), in place: the acceleration of the point p
     from that of the origin (sign 1) or back (sign −1). One sample in scalar arithmetic (it runs
     every tick of the real-time controller), a batch with numpy."""
+    if omega is None:
+        raise ValueError("a displaced accelerometer's reading moves to or from S only with ω (rad/s, in S)")
     if np.ndim(linear) > 1:
         linear += sign * (np.cross(alpha, p) + np.cross(omega, np.cross(omega, p)))
         return
@@ -85,11 +87,11 @@ def reading_from_motion(acceleration, gravity, omega=None,
     return reading
 
 
-def motion_from_reading(out: np.ndarray, reading, gravity, omega,
+def motion_from_reading(out: np.ndarray, reading, gravity, omega=None,
                         convention: AccelerometerConvention = AT_S) -> np.ndarray:
     """S's kinematic [a; α] into ``out``, (6,) or (N, 6), from the accelerometer's ``reading`` (same
     shape), the gravity g that goes with it into the dynamics and the angular velocity ω ((3,) or
-    (N, 3)), all in S; returns ``out``."""
+    (N, 3); only needed for a displaced accelerometer), all in S; returns ``out``."""
     out[...] = reading
     if convention.includes_gravity:
         out[..., :3] += gravity

@@ -50,7 +50,7 @@ def test_batches_convert_row_by_row():
     reading = reading_from_motion(motion, gravity)
     np.testing.assert_allclose(reading[:, :3], motion[:, :3] - gravity)
     np.testing.assert_array_equal(reading[:, 3:], motion[:, 3:])
-    np.testing.assert_allclose(motion_from_reading(np.empty((5, 6)), reading, gravity, None), motion, atol=1e-15)
+    np.testing.assert_allclose(motion_from_reading(np.empty((5, 6)), reading, gravity), motion, atol=1e-15)
 
 
 P_SA = (0.02, 0.01, -0.008)
@@ -84,3 +84,8 @@ def test_an_accelerometer_position_must_be_three_finite_numbers():
         AccelerometerConvention(True, (0.0, np.nan, 0.0))
     with pytest.raises(ValueError, match="p_SA"):
         AccelerometerConvention(True, (0.0, 0.0))
+
+
+def test_a_displaced_accelerometer_without_omega_is_refused():
+    with pytest.raises(ValueError, match="only with ω"):
+        motion_from_reading(np.empty(6), np.zeros(6), np.zeros(3), None, AccelerometerConvention(True, P_SA))

@@ -147,10 +147,9 @@ def _add_wrist_sensor(builder: DiagramBuilder, scenario: Scenario, plant: Multib
     builder.ExportOutput(ft.GetOutputPort("wrench_measured"), "ft.wrench_measured")
     builder.ExportOutput(accelerometer.GetOutputPort("acceleration_measured"), "ft.acceleration_measured")
 
-    L = parts.load_bodies[0].body_frame()  # at S when the load rests on its mount
-    phi = phi_about_S(plant, L, parts.load_bodies, _undeflected(plant, parts))
-    phi_gripper = (phi_about_S(plant, L, parts.gripper_bodies, _undeflected(plant, parts)) if parts.gripper_bodies
-                   else np.zeros(10))
+    L, undeflected = parts.load_bodies[0].body_frame(), _undeflected(plant, parts)  # L: at S on the mount at rest
+    phi = phi_about_S(plant, L, parts.load_bodies, undeflected)
+    phi_gripper = phi_about_S(plant, L, parts.gripper_bodies, undeflected) if parts.gripper_bodies else np.zeros(10)
     truth_phi = builder.AddNamedSystem("truth_phi", ConstantVectorSource(phi))  # set_holding changes it
     truth_phi_gripper = builder.AddSystem(ConstantVectorSource(phi_gripper))
     noncontact = builder.AddSystem(TrueNonContactWrench(parts.load_bodies[0].index(), parts.sensor_body.index(),
