@@ -5,7 +5,8 @@ signals in the sensor frame S; the wrench [f; τ] (N, N·m) is what the sensor e
 load; a, α, ω, g in m/s², rad/s², rad/s, m/s². The unknowns are θ = [offsets (6); φ (10)]
 (Eq. 7), with measured wrench = offsets + V(a, α, ω, g)·φ (Eqs. 8, 13), or φ alone.
 
-* ``batch_estimate``: OLS, WLS or TLS over a record → ``Estimate``.
+* ``batch_estimate``: OLS, WLS, TLS or errors-in-variables maximum likelihood over a record
+  → ``Estimate``.
 * ``RecursiveLeastSquares``, ``RecursiveInstrumentalVariables``,
   ``RecursiveTotalLeastSquares``: one sample per ``update``, cheap enough for a 2 kHz loop;
   each keeps its whole state in one flat vector (``state_vector``) so that a Drake system
@@ -47,7 +48,7 @@ from heft.systems.load_dynamics import (
     OFFSET_NAMES, PHI_NAMES, InertialParameters, inertia_entries, inertia_matrix, regressor)
 
 PARAMETER_NAMES = OFFSET_NAMES + PHI_NAMES
-METHODS = ("ols", "wls", "tls")
+METHODS = ("ols", "wls", "tls", "eiv_ml")
 # A parameter is identifiable iff its component in the unidentifiable subspace is below this.
 _COMPONENT_TOL = 1e-6
 # Forgetting drives the entries of unexcited directions towards zero and, in the end, into
@@ -56,6 +57,11 @@ _COMPONENT_TOL = 1e-6
 # at λ ≥ 0.5 none can decay from _FLUSH_BELOW to subnormal (1e-308) in between.
 _FLUSH_INTERVAL = 256
 _FLUSH_BELOW = 1e-200
+# method="eiv_ml" iterates until its Newton step would move the estimate by less than
+# √(this) standard deviations, at most this many times, halving a step at most this often.
+_EIV_ML_TOLERANCE = 1e-12
+_EIV_ML_MAX_ITERATIONS = 200
+_EIV_ML_MAX_HALVINGS = 40
 
 
 @dataclasses.dataclass
@@ -112,6 +118,22 @@ def wrench_motion_jacobian(phi) -> np.ndarray:
     a and α, so it does not depend on the motion."""
     phi = np.asarray(phi, dtype=float)
     return np.hstack(((_DV_DA @ phi).T, (_DV_DALPHA @ phi).T))
+
+
+_DJ_DPHI = np.array([wrench_motion_jacobian(e) for e in np.eye(10)])  # (10, 6, 6): J = Σ_j φ_j·_DJ_DPHI[j]
+
+
+def _motion_variances(noise: NoiseLevels) -> np.ndarray:
+    """Variances of the accelerometer's [a; α] per axis ((m/s²)², (rad/s²)²)."""
+    return np.repeat([noise.linear_acceleration ** 2, noise.angular_acceleration ** 2], 3)
+
+
+def equation_error_covariance(phi, noise: NoiseLevels) -> np.ndarray:
+    """Covariance (6, 6) of f − V(a, α, ω, g)·φ − o per sample when the wrench and the
+    accelerometer's a, α carry white noise: Σ_f + J Σ_x Jᵀ, J = ``wrench_motion_jacobian(phi)``
+    (N², N²·m, (N·m)²). The same for every sample: V is affine in a and α."""
+    J = wrench_motion_jacobian(phi)
+    return np.diag(1.0 / noise.wrench_weights()) + (J * _motion_variances(noise)) @ J.T
 
 
 def _noise_gram_terms(noise: NoiseLevels, weights: np.ndarray):
@@ -201,11 +223,12 @@ class _ScaledSVD:
     rank: int
 
     @classmethod
-    def of(cls, A: np.ndarray, rcond: float) -> "_ScaledSVD":
-        norms = np.linalg.norm(A, axis=0)
+    def of(cls, A: np.ndarray, rcond: float, norms: np.ndarray | None = None) -> "_ScaledSVD":
+        """``norms``: the column norms to scale by (default A's own)."""
+        norms = np.linalg.norm(A, axis=0) if norms is None else norms
         scale = 1.0 / np.where(norms > 0.0, norms, 1.0)
         U, s, Vt = np.linalg.svd(A * scale, full_matrices=False)
-        rank = int(np.count_nonzero(s > rcond * s[0])) if s[0] > 0.0 else 0
+        rank = int(np.count_nonzero(s > rcond * max(s[0], 1.0)))  # s[0] ≥ 1 for A's own norms
         return cls(scale, U[:, :rank], s, Vt, rank)
 
     @property
@@ -424,6 +447,20 @@ def batch_estimate(wrench, a, alpha, omega, g, method="ols", offsets=True, weigh
       to first order in the kinematic noise. Covariance: the asymptotic sandwich of ``_tls_covariance``
       (noise-corrected information VᵀWV − λN, λ the smallest squared singular value, per-axis
       equation-error variances, and the second-order term of the accelerations' noise).
+    * "eiv_ml": maximum likelihood of the errors-in-variables model: white noise on the wrench
+      and on the accelerometer's a and α (``noise``; ω must be exact), the true a, α unknown.
+      Eliminating them leaves the negative log-likelihood Σ_k r_kᵀ W(φ)⁻¹ r_k,
+      r_k = f_k − o − V_k φ, W = ``equation_error_covariance(φ, noise)``; the offsets'
+      minimiser is the mean of f_k − V_k φ. Its gradient vanishes where
+      (Σ_k V_kᵀW⁻¹V_k − Q(φ)) φ = Σ_k V_kᵀW⁻¹f_k (centred sums), Q_ji = tr(D_j Σ_x D_iᵀ M),
+      M = Σ_k W⁻¹r_k r_kᵀW⁻¹, D_j = ∂J/∂φ_j: the term of W's dependence on φ, which removes
+      the noise's share of the information. It is solved by that fixed point, started from
+      the TLS estimate (WLS's when a or α is exact; a few iterations); without Q (iterated generalised least squares)
+      the result would keep least squares' bias towards zero. With noise-free a, α it is
+      weighted least squares. Covariance: s²·(information − Q)⁻¹ on θ (the
+      errors-in-variables Cramér–Rao bound as the data estimate it), s² the minimised
+      negative log-likelihood per degree of freedom (≈ 1 when ``noise`` is right). Raises
+      ValueError when the motion excites φ less than the accelerometer's noise.
 
     ``rcond`` sets the identifiability tolerance (module docstring). Raises ValueError for
     shape mismatches, NaN/inf, fewer than p/6 + 1 samples, or an unknown method.
@@ -440,13 +477,16 @@ def batch_estimate(wrench, a, alpha, omega, g, method="ols", offsets=True, weigh
         raise ValueError(f"wrench has {n} sample(s); {p} unknowns need at least {p // 6 + 1} samples")
     if method == "tls":
         _require_kinematic_noise(noise, "method='tls'")
+    if method == "eiv_ml" and noise.angular_velocity > 0.0:
+        raise ValueError("method='eiv_ml' models noise on a and α only; noise.angular_velocity must be 0 "
+                         "(use method='tls' for a noisy ω)")
     V = regressor(a, alpha, omega, g)
     A = (_with_offsets(V) if offsets else V).reshape(-1, p)
     y = wrench.reshape(-1)
 
     if method == "ols":
         row_scale = np.ones(6)
-    elif method == "tls":
+    elif method in ("tls", "eiv_ml"):
         row_scale = np.sqrt(noise.wrench_weights())
     elif weights is not None:
         weights = np.asarray(weights, dtype=float)
@@ -466,6 +506,15 @@ def batch_estimate(wrench, a, alpha, omega, g, method="ols", offsets=True, weigh
         Aw = Aw.reshape(n, 6, p)
         covariance = _tls_covariance(np.einsum("nki,nkj->kij", Aw, Aw), error_variance, noise_axes, noise_v,
                                      phi, n, eigenvalue, svd.basis)
+    elif method == "eiv_ml":
+        svd = _ScaledSVD.of(A * np.tile(row_scale, n)[:, None], rcond)
+        if noise.linear_acceleration > 0.0 and noise.angular_acceleration > 0.0:
+            start = _total_least_squares(V, wrench, omega, offsets, noise, rcond)[0]
+        else:
+            start = _least_squares(A, y, row_scale, n, rcond).theta[-10:]
+        theta, information, objective = _errors_in_variables_ml(V, wrench, offsets, noise, rcond, start)
+        inverse = _restricted_inverse(information, svd.basis)
+        covariance = None if inverse is None else objective / max(6 * n - svd.rank, 1) * inverse
     else:
         fit = _least_squares(A, y, row_scale, n, rcond)
         theta, covariance, svd = fit.theta, fit.covariance, fit.svd
@@ -556,6 +605,80 @@ def _total_least_squares(V, wrench, omega, offsets, noise, rcond):
         raise ValueError("total least squares has no solution for these data (the smallest singular "
                          "vector has no wrench component); use method='ols' or 'wls'")
     return basis @ (-direction[:-1] / direction[-1]), noise_axes, noise_v, singular_values[-1] ** 2
+
+
+class _EivLikelihood:
+    """The concentrated negative log-likelihood of ``batch_estimate(method="eiv_ml")`` at one φ,
+    from the second moments (6, 11, 6, 11) of the samples' [V_k f_k] (centred when the offsets
+    are estimated): ``objective`` Σ_k r_kᵀW⁻¹r_k, ``W_inv``, ``information`` Σ V_kᵀW⁻¹V_k,
+    ``corrected`` = information − Q, and ``pull`` = Σ V_kᵀW⁻¹r_k + Qφ (minus half the gradient)."""
+
+    def __init__(self, moments: np.ndarray, phi: np.ndarray, noise: NoiseLevels):
+        self.phi = phi
+        self.W_inv = np.linalg.inv(equation_error_covariance(phi, noise))
+        v = np.append(-phi, 1.0)
+        scatter = np.einsum("aibj,i,j->ab", moments, v, v)                  # Σ_k r_k r_kᵀ
+        self.objective = float(np.sum(self.W_inv * scatter))
+        self.information = np.einsum("ab,aibj->ij", self.W_inv, moments[:, :10, :, :10])
+        Q = np.einsum("jab,b,icb,ca->ji", _DJ_DPHI, _motion_variances(noise), _DJ_DPHI,
+                      self.W_inv @ scatter @ self.W_inv)
+        self.corrected = self.information - Q
+        self.pull = np.einsum("ab,aibj,j->i", self.W_inv, moments[:, :10], v) + Q @ phi
+
+
+def _errors_in_variables_ml(V, wrench, offsets, noise, rcond, start):
+    """Maximum likelihood of θ under noise on the wrench and on a, α (see ``batch_estimate``),
+    iterated from φ = ``start``. Each step solves the fixed-point equation's linearisation,
+    (information − Q)·Δφ = pull, or, where information − Q is not positive definite (far from
+    the optimum, weak excitation), the preconditioned gradient step information·Δφ = pull;
+    both descend, and the step is halved until the likelihood does not fall. Returns (θ,
+    information of θ (p, p) with Q removed, minimised Σ_k r_kᵀ W⁻¹ r_k (dimensionless))."""
+    n = len(wrench)
+    X = np.concatenate((V, wrench[:, :, None]), axis=2)        # r_k = X_k·[−φ; 1]
+    row_scale = np.sqrt(noise.wrench_weights())[:, None]
+    norms = np.linalg.norm((V * row_scale).reshape(-1, 10), axis=0)
+    if offsets:
+        X = X - X.mean(axis=0)           # the offsets' ML value is the mean of r_k, whatever φ and W
+    moments = (X.reshape(n, 66).T @ X.reshape(n, 66)).reshape(6, 11, 6, 11)
+    # Columns scaled by their uncentred norms: a column that centring leaves in rounding is unexcited.
+    svd = _ScaledSVD.of((X[:, :, :10] * row_scale).reshape(-1, 10), rcond, norms)
+    if svd.rank == 0:
+        raise ValueError("the data excite none of phi's directions; nothing to estimate")
+    basis = svd.basis
+    z = np.linalg.lstsq(basis, start, rcond=None)[0]
+    here = _EivLikelihood(moments, basis @ z, noise)
+    for _ in range(_EIV_ML_MAX_ITERATIONS):
+        try:
+            factor, newton = scipy.linalg.cho_factor(basis.T @ here.corrected @ basis), True
+        except np.linalg.LinAlgError:
+            factor, newton = scipy.linalg.cho_factor(basis.T @ here.information @ basis), False
+        step = scipy.linalg.cho_solve(factor, basis.T @ here.pull)
+        decrement = step @ basis.T @ here.pull       # ≈ the distance to the optimum², in units of σ²
+        slack = _EIV_ML_TOLERANCE * max(here.objective, 6.0 * n)
+        if newton and decrement <= _EIV_ML_TOLERANCE * max(here.objective / (6.0 * n), 1.0):
+            break
+        for _ in range(_EIV_ML_MAX_HALVINGS):
+            trial = _EivLikelihood(moments, basis @ (z + step), noise)
+            if trial.objective <= here.objective + slack:
+                break
+            step /= 2.0
+        else:
+            raise ValueError("method='eiv_ml' found no descent: the motion excites phi too little against the "
+                             "accelerometer's noise; excite the load more or check the noise levels")
+        z, here = z + step, trial
+    else:
+        raise ValueError(f"method='eiv_ml' did not converge in {_EIV_ML_MAX_ITERATIONS} iterations: the motion "
+                         "excites phi too little against the accelerometer's noise; excite the load more or "
+                         "check the noise levels")
+    if not offsets:
+        return here.phi, here.corrected, here.objective
+    mean_v = V.mean(axis=0)
+    full = np.empty((16, 16))
+    full[:6, :6] = n * here.W_inv
+    full[:6, 6:] = n * here.W_inv @ mean_v
+    full[6:, :6] = full[:6, 6:].T
+    full[6:, 6:] = here.corrected + n * mean_v.T @ here.W_inv @ mean_v
+    return np.concatenate((np.mean(wrench - V @ here.phi, axis=0), here.phi)), full, here.objective
 
 
 # --- recursive estimation --------------------------------------------------------------
