@@ -12,8 +12,10 @@ seeded Gaussian noise of the sensor model; two noise models are run:
   the errors-in-variables model: with the true a, α as nuisance parameters the
   Fisher information of θ is Σ_k A_kᵀ (Σ_f + J Σ_x Jᵀ)⁻¹ A_k (the Schur
   complement, by Woodbury), J = ∂(V·φ)/∂[a; α] and Σ_x the accelerometer's
-  noise. The wrench-only bound is printed beside it: what the accelerometer's
-  noise costs at best.
+  noise (``equation_error_covariance``). The wrench-only bound is printed
+  beside it: what the accelerometer's noise costs at best. The
+  errors-in-variables maximum likelihood (``eiv_ml``) is the estimator meant to
+  reach it.
 """
 
 import functools
@@ -24,22 +26,22 @@ import numpy as np
 from heft.analysis.parallel import run_points
 from heft.systems.estimators import (
     METHODS, PARAMETER_NAMES, NoiseLevels, RecursiveInstrumentalVariables, RecursiveLeastSquares,
-    RecursiveTotalLeastSquares, batch_estimate, feed, wrench_motion_jacobian)
+    RecursiveTotalLeastSquares, batch_estimate, equation_error_covariance, feed)
 from heft.systems.load_dynamics import regressor_with_offsets
 
 RECURSIVE = {"rls": RecursiveLeastSquares, "riv": RecursiveInstrumentalVariables, "rtls": RecursiveTotalLeastSquares}
 SHOWN = ("fz_o", "m", "m*cz", "Ixx", "Izz")  # parameters printed in the table (all are in the JSON)
+TARGET_RATIO = 1.2  # σ/σ_CR an efficient estimator should stay within, per parameter
 
 
 def cramer_rao_bound(a, alpha, omega, g, noise: NoiseLevels, phi=None) -> np.ndarray:
     """(16, 16) covariance bound for θ = [offsets; φ]: white wrench noise only, or with ``phi``
     (the true φ) also the accelerometer's white noise on a and α (module docstring)."""
     V = regressor_with_offsets(a, alpha, omega, g)                      # (S, 6, 16)
-    covariance = np.diag(np.array([noise.force] * 3 + [noise.torque] * 3) ** 2)
-    if phi is not None:
-        J = wrench_motion_jacobian(phi)
-        motion = np.diag(np.array([noise.linear_acceleration] * 3 + [noise.angular_acceleration] * 3) ** 2)
-        covariance = covariance + J @ motion @ J.T
+    if phi is None:
+        covariance = np.diag(1.0 / noise.wrench_weights())
+    else:
+        covariance = equation_error_covariance(phi, noise)
     fisher = np.einsum("sip,ij,sjq->pq", V, np.linalg.inv(covariance), V)
     return np.linalg.inv(fisher)
 
@@ -125,3 +127,12 @@ def print_table(title: str, summary: dict):
             p = parameters[name]
             cells.append(f"{p['bias']:9.1e}/{p['std']:7.1e}/{p['crb_std']:7.1e} ({p['efficiency']:.2f})")
         print(f"{method:7s}" + "".join(f"{c:>30s}" for c in cells))
+
+
+def print_ratios(summary: dict, target: float):
+    """σ/σ_CR of every parameter per method, its largest, and whether that is within ``target``."""
+    print(f"{'σ/σ_CR':7s}" + "".join(f"{name:>7s}" for name in PARAMETER_NAMES) + f"{'max':>7s}")
+    for method, parameters in summary.items():
+        ratios = [parameters[name]["std"] / parameters[name]["crb_std"] for name in PARAMETER_NAMES]
+        verdict = "" if max(ratios) <= target else f"  > {target:g}"
+        print(f"{method:7s}" + "".join(f"{r:7.2f}" for r in ratios) + f"{max(ratios):7.2f}{verdict}")

@@ -70,6 +70,7 @@ def _bench_identify(args) -> int:
         kind = "errors-in-variables " if accelerometer_noise else ""
         bench.print_table(f"noise on {label}: bias / std / {kind}Cramér–Rao std (efficiency σ²_CR/MSE)",
                           results[label])
+        bench.print_ratios(results[label], bench.TARGET_RATIO)
     costs = bench.update_costs(exact_wrench, a, alpha, omega, g, noise)
     print("\ncost per sample (µs): " + ", ".join(f"{m} {1e6 * c:.1f}" for m, c in costs.items()))
     print(f"a recursive RTLS update costs {costs['rtls'] / costs['tls']:.0f}× a batch TLS solve's share per sample, "
@@ -99,7 +100,7 @@ def add_arguments(parser) -> None:
                                                          "Cramér–Rao bound, and update costs")
     identify_parser.add_argument("--runs", type=int, default=100, help="noise realisations per model (default 100)")
     identify_parser.add_argument("--seed", type=int, default=0)
-    identify_parser.add_argument("--methods", nargs="+", choices=("ols", "wls", "tls", "rls", "riv", "rtls"))
+    identify_parser.add_argument("--methods", nargs="+", choices=("ols", "wls", "tls", "eiv_ml", "rls", "riv", "rtls"))
     identify_parser.add_argument("--out", help="write every number as JSON here")
     identify_parser.add_argument("--workers", type=int, help="local worker processes (default: every core)")
     identify_parser.add_argument("--dask", metavar="ADDRESS", help="run on this Dask scheduler (tcp://host:port)")

@@ -16,7 +16,7 @@ def add_arguments(parser) -> None:
     add_set(parser)
     add_station(parser)
     parser.add_argument("--out", required=True, help="output folder")
-    parser.add_argument("--method", default="tls", choices=("ols", "wls", "tls", "rls", "riv", "rtls"),
+    parser.add_argument("--method", default="tls", choices=("ols", "wls", "tls", "eiv_ml", "rls", "riv", "rtls"),
                           help="the estimate written to estimate.yaml (all are reported; default tls)")
     parser.add_argument("--signals", default="accelerometer", choices=("accelerometer", "encoders"),
                           help="where a and α come from (ω and g always from the encoders)")
