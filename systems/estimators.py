@@ -32,7 +32,7 @@ An unidentifiable parameter keeps the minimum-norm value (batch, in the scaled c
 0 for a column that was never excited) or its last value (recursive), and gets infinite
 variance and NaN covariances: never a confident-looking number. This is a property of the
 regressor *as measured*: a column excited only by accelerometer noise counts as excited,
-and least squares then biases it towards zero (errors in variables: use TLS or RIV).
+and least squares then biases it towards zero (errors in variables: use TLS, RIV or eiv_ml).
 """
 
 import abc
@@ -453,14 +453,16 @@ def batch_estimate(wrench, a, alpha, omega, g, method="ols", offsets=True, weigh
       r_k = f_k − o − V_k φ, W = ``equation_error_covariance(φ, noise)``; the offsets'
       minimiser is the mean of f_k − V_k φ. Its gradient vanishes where
       (Σ_k V_kᵀW⁻¹V_k − Q(φ)) φ = Σ_k V_kᵀW⁻¹f_k (centred sums), Q_ji = tr(D_j Σ_x D_iᵀ M),
-      M = Σ_k W⁻¹r_k r_kᵀW⁻¹, D_j = ∂J/∂φ_j: the term of W's dependence on φ, which removes
-      the noise's share of the information. It is solved by that fixed point, started from
-      the TLS estimate (WLS's when a or α is exact; a few iterations); without Q (iterated generalised least squares)
-      the result would keep least squares' bias towards zero. With noise-free a, α it is
-      weighted least squares. Covariance: s²·(information − Q)⁻¹ on θ (the
-      errors-in-variables Cramér–Rao bound as the data estimate it), s² the minimised
-      negative log-likelihood per degree of freedom (≈ 1 when ``noise`` is right). Raises
-      ValueError when the motion excites φ less than the accelerometer's noise.
+      M = Σ_k W⁻¹r_k r_kᵀW⁻¹, D_j = ∂J/∂φ_j, Σ_x the accelerometer's noise covariance: the
+      term of W's dependence on φ, which removes the noise's share of the information.
+      Solved by that fixed point with safeguarded steps (``_errors_in_variables_ml``),
+      started from the TLS estimate (WLS's when a or α is exact); without Q (iterated
+      generalised least squares) the result would keep least squares' bias towards zero.
+      With noise-free a, α it is weighted least squares. Covariance: s²·(information − Q)⁻¹
+      on θ (the errors-in-variables Cramér–Rao bound as the data estimate it), s² the
+      minimised negative log-likelihood per degree of freedom (≈ 1 when ``noise`` is
+      right). Raises ValueError when the motion excites φ not at all, or too little against
+      the accelerometer's noise for the iteration to converge.
 
     ``rcond`` sets the identifiability tolerance (module docstring). Raises ValueError for
     shape mismatches, NaN/inf, fewer than p/6 + 1 samples, or an unknown method.
