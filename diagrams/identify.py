@@ -99,12 +99,16 @@ def noise_levels(scenario: Scenario) -> NoiseLevels:
 
 
 def estimate_all(wrench, signals, instruments, noise: NoiseLevels):
-    """Every method's estimate: {method: Estimate or recursive estimator}, and the recursive
-    ones' histories {method: (sample indices, θ (K, 16))}."""
+    """Every method's estimate: {method: Estimate or recursive estimator}, the recursive ones'
+    histories {method: (sample indices, θ (K, 16))}, and {method: why} for the batch methods that
+    refused the data (the others still estimate)."""
     a, alpha, omega, g = signals
-    results, histories = {}, {}
+    results, histories, failed = {}, {}, {}
     for method in METHODS:
-        results[method] = batch_estimate(wrench, a, alpha, omega, g, method=method, noise=noise)
+        try:
+            results[method] = batch_estimate(wrench, a, alpha, omega, g, method=method, noise=noise)
+        except ValueError as error:
+            failed[method] = str(error)
     recursive = {"rls": RecursiveLeastSquares(noise=noise), "riv": RecursiveInstrumentalVariables(noise=noise),
                  "rtls": RecursiveTotalLeastSquares(noise=noise)}
     progress = ProgressBar(len(wrench) * len(recursive), "recursive estimators")
@@ -117,7 +121,7 @@ def estimate_all(wrench, signals, instruments, noise: NoiseLevels):
                 progress.update(done * len(wrench) + taken)
         results[method], histories[method] = estimator, (np.array(steps), np.array(thetas))
     progress.close()
-    return results, histories
+    return results, histories, failed
 
 
 def residual_rms(result, signals, wrench) -> list[float]:
@@ -149,13 +153,15 @@ def identify(scenario: Scenario, out_dir, record, method: str = "tls", signals: 
     recording, extra = record(excitation.trajectory, duration)
     signal_set, instruments = kinematic_signals(scenario, recording, settings.base_frequency,
                                                 settings.harmonics, signals)
-    results, histories = estimate_all(recording.wrench, signal_set, instruments, noise_levels(scenario))
+    results, histories, failed = estimate_all(recording.wrench, signal_set, instruments, noise_levels(scenario))
+    for m, why in failed.items():
+        print(f"{m}: no estimate: {why}", flush=True)
     records = {m: estimate_record(r, m, signals, len(recording.t)) for m, r in results.items()}
     masses = [r["phi"][0] for r in records.values()]
     metrics = {"signals": signals, "samples": len(recording.t), "duration_s": duration,
                "excitation_condition_number": excitation.metrics.condition_number, "estimates": records,
                "residual_rms": {m: residual_rms(r, signal_set, recording.wrench) for m, r in results.items()},
-               "mass_spread_kg": float(np.ptp(masses)), **extra}
+               "mass_spread_kg": float(np.ptp(masses)), "failed": failed, **extra}
     print(f"{'method':8s}{'mass (kg)':>11s}{'σ (g)':>8s}{'COM (mm)':>26s}{'residual f (N)':>16s}{'τ (N·m)':>9s}")
     for m, r in records.items():
         com = 1e3 * np.asarray(r.get("com", [np.nan] * 3))
@@ -174,6 +180,9 @@ def identify(scenario: Scenario, out_dir, record, method: str = "tls", signals: 
             print(f"{m:8s}{1e3 * e['mass_kg']:10.2f}{1e3 * e['com_m']:10.3f}{100 * e['inertia_relative']:9.2f}"
                   f"{e['force_offsets_N']:15.3f}{e['torque_offsets_Nm']:10.4f}")
     metrics["wall_time_s"] = time.perf_counter() - started
-    write_load_estimate(out / "estimate.yaml", records[method])
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    if method in failed:
+        raise ValueError(f"the {method} estimate failed ({failed[method]}); the other methods' estimates are in "
+                         f"{out / 'metrics.json'}: identify again with --method one of {', '.join(records)}")
+    write_load_estimate(out / "estimate.yaml", records[method])
     return metrics

@@ -71,3 +71,24 @@ def test_bad_estimate_file_says_what_to_do(tmp_path):
 def test_unknown_method_is_rejected(tmp_path):
     with pytest.raises(ValueError, match="method must be one of"):
         identify(Scenario(), tmp_path, simulated_recorder(Scenario()), method="magic")
+
+
+def test_a_method_that_refuses_the_data_leaves_the_others_their_estimates():
+    """Motion far below the accelerometer's noise: eiv_ml refuses it by name, and every other
+    method still estimates (identification on hardware must not lose a recording to one method)."""
+    from test_estimators import smooth_record
+
+    from heft.diagrams.identify import estimate_all
+    from heft.systems.estimators import NoiseLevels
+    from heft.systems.load_dynamics import regressor
+
+    rng = np.random.default_rng(5)
+    phi, bias, (a, alpha, omega, g) = smooth_record(rng, 500)
+    a, alpha, omega = 0.01 * a, 0.01 * alpha, 0.01 * omega
+    noise = NoiseLevels()
+    wrench = regressor(a, alpha, omega, g) @ phi + bias + rng.normal(size=(500, 6)) * np.repeat([0.1, 0.005], 3)
+    measured = (a + rng.normal(scale=noise.linear_acceleration, size=a.shape),
+                alpha + rng.normal(scale=noise.angular_acceleration, size=alpha.shape), omega, g)
+    results, _, failed = estimate_all(wrench, measured, (a, alpha, omega, g), noise)
+    assert set(failed) == {"eiv_ml"} and "accelerometer's noise" in failed["eiv_ml"]
+    assert set(results) == set(ALL_METHODS) - {"eiv_ml"}
