@@ -2,13 +2,16 @@
 
 A python-lcm handler only appends the raw payload (bounded to the ``keep``
 newest), so no sample is lost to a queue that keeps the oldest and nothing is
-decoded that the receiver does not read. ``LcmBus.pump`` handles everything
-pending without blocking, once per controller tick.
+decoded that the receiver does not read. ``pump`` handles everything pending
+without blocking, once per controller tick; ``open_buses`` opens the two URLs of
+``LcmChannels``.
 """
 
 from __future__ import annotations
 
 import lcm
+
+from .channels import LcmChannels
 
 
 class LcmMailbox:
@@ -40,3 +43,11 @@ def pump(bus: lcm.LCM) -> int:
     while bus.handle_timeout(0) > 0:
         handled += 1
     return handled
+
+
+def open_buses(channels: LcmChannels) -> tuple[lcm.LCM, lcm.LCM]:
+    """(bus on ``channels.lcm_url``, bus on its command URL): one object when both URLs are the
+    same (``memq://`` is one process's own bus)."""
+    bus = lcm.LCM(channels.lcm_url)
+    command_url = channels.command_lcm_url()
+    return bus, (bus if command_url == channels.lcm_url else lcm.LCM(command_url))
