@@ -57,7 +57,7 @@ class HardwareStationParams:
 
 def rate_limit(previous: np.ndarray, target: np.ndarray, max_step: np.ndarray) -> np.ndarray:
     """``target`` approached from ``previous`` by at most ``max_step`` per joint (rad)."""
-    return previous + np.clip(target - previous, -max_step, max_step)
+    return previous + np.minimum(np.maximum(target - previous, -max_step), max_step)  # np.clip: 1 µs more
 
 
 class _JointStateReader:
