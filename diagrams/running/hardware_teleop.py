@@ -50,10 +50,12 @@ class HardwareTeleop:
 
     def __init__(self, scenario: Scenario, load: LoadEstimate, bus: lcm.LCM, channels: LcmChannels,
                  params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None):
-        self.station = HardwareStation(bus, channels, params, command_bus)
+        # The controller's models first (about a second): the station's subscriptions then
+        # start receiving only when the loop is about to pump them.
         self.controller = MakeRealtimeTeleopController(
             scenario.controller, load, scenario.robot,
             accelerometer_includes_gravity=scenario.accelerometer.includes_gravity)
+        self.station = HardwareStation(bus, channels, params, command_bus)
         self.load_commands = LoadCommandServer(bus, channels, self.controller, command_bus)
         self._zero = np.zeros(NUM_JOINTS)
         self._was_healthy = False
