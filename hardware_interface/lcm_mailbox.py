@@ -4,9 +4,9 @@ A python-lcm handler only appends the raw payload (bounded to the ``keep``
 newest), so no sample is lost to a queue that keeps the oldest and nothing is
 decoded that the receiver does not read. LCM's own queue per subscription
 (30 messages by default) discards the *newest* once full; the mailbox widens it
-to ``LCM_QUEUE`` so that a late pump still finds them. ``pump`` handles everything pending
-without blocking, once per controller tick; ``open_buses`` opens the two URLs of
-``LcmChannels``.
+to ``LCM_QUEUE`` so that a late pump still finds them. ``pump`` handles
+everything pending without blocking, once per controller tick; ``open_buses``
+opens the two URLs of ``LcmChannels``.
 """
 
 from __future__ import annotations
