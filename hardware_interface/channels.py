@@ -10,6 +10,21 @@ name says "iiwa".
 """
 
 import dataclasses
+import re
+
+DEFAULT_LCM_URL = "udpm://239.255.76.67:7667?ttl=0"
+"""UDP multicast that cannot leave the machine (ttl=0)."""
+
+
+def derived_command_url(lcm_url: str) -> str:
+    """The command URL that goes with ``lcm_url`` when none is given: on ``udpm://`` the same
+    group one port up (``udpm://G:P?opts`` → ``udpm://G:P+1?opts``, port 7667 when none is
+    written), so that no process hears the traffic it sends; any other URL (``memq://``) itself."""
+    match = re.fullmatch(r"udpm://([^:/?]*)(?::(\d+))?(\?.*)?", lcm_url)
+    if match is None:
+        return lcm_url
+    group, port, options = match.groups()
+    return f"udpm://{group}:{int(port or 7667) + 1}{options or ''}"
 
 
 @dataclasses.dataclass
@@ -24,10 +39,16 @@ class LcmChannel:
 class LcmChannels:
     """Every channel between heft and the lab; loadable with ``yaml_load_typed``.
 
-    ``lcm_url`` defaults to UDP multicast that cannot leave the machine (ttl=0).
+    Two LCM URLs, one per direction, so that no process receives what it publishes itself:
+    ``lcm_url`` carries what the lab's drivers and ``heft load`` send to the controller,
+    ``command_url`` what the controller sends back (``command_lcm_url``).
     """
 
-    lcm_url: str = "udpm://239.255.76.67:7667?ttl=0"
+    lcm_url: str = DEFAULT_LCM_URL
+    """Heard by the controller: master state, slave status, FT samples, load commands."""
+    command_url: str = ""
+    """Published by the controller: master and slave commands, load status; empty: derived from
+    ``lcm_url`` (``derived_command_url``: one port up)."""
     master_state: LcmChannel = dataclasses.field(
         default_factory=lambda: LcmChannel("HEFT_MASTER_STATE", 2000.0))
     """heft_haptic_state from the Phantom driver (haptic loop above 2 kHz)."""
@@ -49,3 +70,7 @@ class LcmChannels:
     load_status: LcmChannel = dataclasses.field(
         default_factory=lambda: LcmChannel("HEFT_LOAD_STATUS", 0.0))
     """heft_load_status from the controller, answering each command and each re-zero's end."""
+
+    def command_lcm_url(self) -> str:
+        """The URL of the controller's commands: ``command_url``, or derived from ``lcm_url``."""
+        return self.command_url or derived_command_url(self.lcm_url)

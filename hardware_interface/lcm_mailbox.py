@@ -2,13 +2,23 @@
 
 A python-lcm handler only appends the raw payload (bounded to the ``keep``
 newest), so no sample is lost to a queue that keeps the oldest and nothing is
-decoded that the receiver does not read. ``LcmBus.pump`` handles everything
-pending without blocking, once per controller tick.
+decoded that the receiver does not read. LCM's own queue per subscription
+(30 messages by default) discards the *newest* once full; the mailbox widens it
+to ``LCM_QUEUE`` so that a late pump still finds them. ``pump`` handles
+everything pending without blocking, once per controller tick; ``open_buses``
+opens the two URLs of ``LcmChannels``.
 """
 
 from __future__ import annotations
 
 import lcm
+
+from .channels import LcmChannels
+
+
+LCM_QUEUE = 1000
+"""Messages LCM holds per subscription between two pumps: 125 ms of FT samples at 8 kHz,
+0.5 s of a 2 kHz channel (with LCM's default of 30, a process paused for 15 ms lost commands)."""
 
 
 class LcmMailbox:
@@ -20,7 +30,7 @@ class LcmMailbox:
             raise ValueError(f"keep must be >= 1; got {keep}")
         self.channel, self.count = channel, 0
         self._keep, self._pending = keep, []
-        bus.subscribe(channel, self._on_message)
+        bus.subscribe(channel, self._on_message).set_queue_capacity(LCM_QUEUE)
 
     def _on_message(self, _channel: str, payload: bytes) -> None:
         self.count += 1
@@ -40,3 +50,11 @@ def pump(bus: lcm.LCM) -> int:
     while bus.handle_timeout(0) > 0:
         handled += 1
     return handled
+
+
+def open_buses(channels: LcmChannels) -> tuple[lcm.LCM, lcm.LCM]:
+    """(bus on ``channels.lcm_url``, bus on its command URL): one object when both URLs are the
+    same (``memq://`` is one process's own bus)."""
+    bus = lcm.LCM(channels.lcm_url)
+    command_url = channels.command_lcm_url()
+    return bus, (bus if command_url == channels.lcm_url else lcm.LCM(command_url))

@@ -18,7 +18,7 @@ import numpy as np
 from heft.systems.offset_tracking import COLLECTING, DONE, STATUS_TEXT
 
 from .channels import LcmChannels
-from .lcm_mailbox import LcmMailbox
+from .lcm_mailbox import LcmMailbox, open_buses
 from .lcmtypes import heft_load_command, heft_load_status
 
 ACTIONS = {"rezero": heft_load_command.REZERO, "tracking_on": heft_load_command.TRACKING_ON,
@@ -27,14 +27,16 @@ ACTIONS = {"rezero": heft_load_command.REZERO, "tracking_on": heft_load_command.
 
 
 class LoadCommandServer:
-    """Serves load commands to ``controller`` (a ``RealtimeTeleopController``) on ``bus``.
+    """Serves load commands to ``controller`` (a ``RealtimeTeleopController``) heard on ``bus``,
+    answered on ``command_bus`` (default ``bus``).
 
     ``serve(now_utime, healthy)`` once per tick: carries out every command that arrived and
     answers it; a re-zero is refused while the station is not healthy (the controller is
     not stepping). ``events`` lists what happened (utime, message) for the run's summary."""
 
-    def __init__(self, bus: lcm.LCM, channels: LcmChannels, controller):
-        self._bus, self._channel, self._controller = bus, channels.load_status.name, controller
+    def __init__(self, bus: lcm.LCM, channels: LcmChannels, controller, command_bus: lcm.LCM | None = None):
+        self._command_bus = bus if command_bus is None else command_bus
+        self._channel, self._controller = channels.load_status.name, controller
         self._mail = LcmMailbox(bus, channels.load_command.name, keep=16)
         self._waiting: list[int] = []  # utimes of the re-zero commands whose outcome is not yet told
         self._requests_seen = controller.rezero_requests_seen
@@ -86,18 +88,19 @@ class LoadCommandServer:
             now_utime, command_utime, accepted, message)
         status.rezero_status, status.tracking = controller.rezero_status, controller.tracking
         status.phi, status.offsets = controller.phi.tolist(), controller.offsets.tolist()
-        self._bus.publish(self._channel, status.encode())
+        self._command_bus.publish(self._channel, status.encode())
         self.events.append((now_utime, message))
 
 
-def send_load_command(lcm_url: str, channels: LcmChannels, action: str, phi=None, offsets=None,
+def send_load_command(channels: LcmChannels, action: str, phi=None, offsets=None,
                       timeout: float = 2.0) -> list[heft_load_status]:
     """Sends one ``action`` (a key of ``ACTIONS``; "new_estimate" with ``phi`` (10) and
-    ``offsets`` (6)) and returns the controller's answers: the first, and for a started
-    re-zero also its outcome. Raises TimeoutError if they do not come within ``timeout`` s."""
+    ``offsets`` (6)) on ``channels.lcm_url`` and returns the controller's answers (heard on its
+    command URL): the first, and for a started re-zero also its outcome. Raises TimeoutError if
+    they do not come within ``timeout`` s."""
     if action not in ACTIONS:
         raise ValueError(f"unknown action {action!r}; one of {', '.join(ACTIONS)}")
-    bus = lcm.LCM(lcm_url)
+    bus, answer_bus = open_buses(channels)
     command = heft_load_command()
     command.utime, command.action = round(time.time() * 1e6), ACTIONS[action]
     if action == "new_estimate":
@@ -110,7 +113,7 @@ def send_load_command(lcm_url: str, channels: LcmChannels, action: str, phi=None
         if status.command_utime == command.utime:
             answers.append(status)
 
-    bus.subscribe(channels.load_status.name, on_status)
+    answer_bus.subscribe(channels.load_status.name, on_status)
     bus.publish(channels.load_command.name, command.encode())
     expected = 2 if action == "rezero" else 1  # a started re-zero is answered again when it ends
     deadline = time.monotonic() + timeout
@@ -120,7 +123,7 @@ def send_load_command(lcm_url: str, channels: LcmChannels, action: str, phi=None
         remaining = deadline - time.monotonic()
         if remaining <= 0:
             raise TimeoutError(f"no answer from the controller on {channels.load_status.name} within {timeout} s: "
-                               f"is `heft teleop --hardware` running on {lcm_url}?" if not answers else
+                               f"is `heft teleop --hardware` running on {channels.lcm_url}?" if not answers else
                                f"the re-zero did not finish within {timeout} s")
-        if select.select([bus.fileno()], [], [], remaining)[0]:
-            bus.handle()
+        if select.select([answer_bus.fileno()], [], [], remaining)[0]:
+            answer_bus.handle()

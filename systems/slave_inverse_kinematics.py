@@ -30,7 +30,7 @@ def ik_step(kinematics: RxKinematics, target, q_last: np.ndarray, max_step: np.n
     if result is None or not result.reachable:
         return q_last, False, False
     step = result.q - q_last
-    limited = np.clip(step, -max_step, max_step)
+    limited = np.minimum(np.maximum(step, -max_step), max_step)  # np.clip's wrapper costs 1 µs more
     return q_last + limited, True, bool((limited != step).any())
 
 

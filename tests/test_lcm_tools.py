@@ -7,15 +7,17 @@ import numpy as np
 import pytest
 from heft.diagrams.commands.bench_lcm import step_latencies
 from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
+from heft.hardware_interface.channels import LcmChannels
 
 RECORD_AND_PUBLISH = """
 import sys, time, lcm
 from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
-url = "udpm://239.255.76.67:7667?ttl=0"
-bus = lcm.LCM(url)
-with LcmTrafficRecorder(url, sys.argv[1]):
-    for i in range(200):
-        bus.publish("HEFT_TEST", i.to_bytes(4, "little"))
+from heft.hardware_interface.channels import LcmChannels
+channels = LcmChannels()  # the drivers' URL and the controller's, one port up
+buses = [lcm.LCM(channels.lcm_url), lcm.LCM(channels.command_lcm_url())]
+with LcmTrafficRecorder(channels, sys.argv[1]):
+    for i in range(200):  # even numbers on one URL, odd ones on the other
+        buses[i % 2].publish("HEFT_TEST", i.to_bytes(4, "little"))
         time.sleep(0.0005)
     time.sleep(0.2)
 """
@@ -38,7 +40,7 @@ def test_step_latency_is_the_first_command_past_half_way():
 
 def test_recorder_refuses_memq():
     with pytest.raises(ValueError, match="udpm"):
-        LcmTrafficRecorder("memq://", "unused.lcmlog")
+        LcmTrafficRecorder(LcmChannels(lcm_url="memq://"), "unused.lcmlog")
 
 
 def test_recorder_writes_a_log_lcm_reads_back(netns, tmp_path):
@@ -49,8 +51,9 @@ def test_recorder_writes_a_log_lcm_reads_back(netns, tmp_path):
                    check=True, timeout=60)
     payloads = [int.from_bytes(event.data, "little") for event in lcm.EventLog(str(path), "r")
                 if event.channel == "HEFT_TEST"]
-    assert payloads == list(range(200))  # every message, in order
+    assert payloads == list(range(200))  # every message of both URLs, in order
     assert subprocess.run(["pgrep", "-f", str(path)], capture_output=True).returncode == 1, "logger left running"
+    assert [p.name for p in tmp_path.iterdir()] == [path.name], "the loggers' parts are merged and removed"
 
 
 PROBE_RECEIVER_CHECK = """

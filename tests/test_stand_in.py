@@ -415,7 +415,7 @@ def test_added_delay_holds_ft_samples_back():
 
 def test_run_stand_in_on_a_fake_clock(fake_clock):
     clock = fake_clock
-    summary = run_stand_in(quiet_scenario(), CHANNELS, "memq://", 0.05, clock=clock, sleep=clock.sleep)
+    summary = run_stand_in(quiet_scenario(), LcmChannels(lcm_url="memq://"), 0.05, clock=clock, sleep=clock.sleep)
     assert not summary["died"] and summary["duration_s"] == pytest.approx(0.05)
     assert summary["published"] == dict(zip(NAMES, (100, 100, 400)))
     for name, rate in zip(NAMES, (2000, 2000, 8000)):
@@ -425,7 +425,7 @@ def test_run_stand_in_on_a_fake_clock(fake_clock):
 
 def test_run_stand_in_returns_when_the_lab_dies(fake_clock):
     clock = fake_clock
-    summary = run_stand_in(quiet_scenario(), CHANNELS, "memq://", 0.05, FaultInjection(die_at_s=0.02),
+    summary = run_stand_in(quiet_scenario(), LcmChannels(lcm_url="memq://"), 0.05, FaultInjection(die_at_s=0.02),
                            clock=clock, sleep=clock.sleep)
     assert summary["died"] and summary["published"] == dict(zip(NAMES, (39, 39, 159)))
 

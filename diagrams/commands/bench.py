@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from heft.diagrams.commands.options import DEFAULT_LCM_URL
+from heft.diagrams.commands.options import add_lcm_urls, lcm_channels
 
 HELP = "benchmarks, each printed beside a reference measured in the same run"
 
@@ -84,7 +84,7 @@ def _bench_lcm(args) -> int:
     from heft.diagrams.commands.bench_lcm import run
 
     rates = [float(r) for r in args.rates.split(",")]
-    results = run(rates, args.duration, args.scenario, args.lcm_url)
+    results = run(rates, args.duration, args.scenario, lcm_channels(args))
     if args.out:
         Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
     return 0
@@ -110,7 +110,7 @@ def add_arguments(parser) -> None:
     lcm_parser.add_argument("--rates", default="2000,4000", help="controller rates to try (Hz, default 2000,4000)")
     lcm_parser.add_argument("--duration", type=float, default=5.0, help="controller seconds per rate (default 5)")
     lcm_parser.add_argument("--scenario", default="fig6", help="controller settings (default fig6)")
-    lcm_parser.add_argument("--lcm-url", default=DEFAULT_LCM_URL, help=f"LCM URL (default {DEFAULT_LCM_URL})")
+    add_lcm_urls(lcm_parser)
     lcm_parser.add_argument("--out", help="write every number as JSON here")
     lcm_parser.set_defaults(bench=_bench_lcm)
 

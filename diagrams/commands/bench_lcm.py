@@ -1,7 +1,8 @@
 """`heft bench lcm`: the controller's loop over real LCM between real processes.
 
-Two processes exchange the lab's messages over UDP multicast: ``heft teleop
---hardware`` (the controller diagram at the rate under test) and a *probe*
+Two processes exchange the lab's messages over UDP multicast (the drivers' on
+the LCM URL, the controller's on the command URL): ``heft teleop --hardware``
+(the controller at the rate under test) and a *probe*
 playing the three drivers at their nominal rates (master and slave state at
 2 kHz, wrist sensor at 8 kHz) with fixed joint positions. Every
 ``STEP_PERIOD`` s the probe steps the sensor's force by ``STEP_FORCE`` and
@@ -46,19 +47,18 @@ PROBE_LATE = 0.001
 """A step published this much (s) after it was due had the probe preempted around its publish."""
 
 
-def run_probe(lcm_url: str, duration: float, out: Path, master_q, slave_q) -> None:
-    """Plays the drivers on ``lcm_url`` from when the first master command arrives (at most 30 s
-    of waiting) until the commands stop for 1 s or ``duration`` s have passed, and writes
-    {step publish times, command receipt times and torques} to ``out``."""
+def run_probe(channels, duration: float, out: Path, master_q, slave_q) -> None:
+    """Plays the drivers on ``channels`` (``LcmChannels``: publishing on ``lcm_url``, hearing the
+    commands on the command URL) from when the first master command arrives (at most 30 s of
+    waiting) until the commands stop for 1 s or ``duration`` s have passed, and writes {step
+    publish times, command receipt times and torques} to ``out``."""
     import lcm
     from drake import lcmt_iiwa_status
 
-    from heft.hardware_interface.channels import LcmChannels
     from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_command, heft_haptic_state
 
-    channels = LcmChannels(lcm_url=lcm_url)
-    bus = lcm.LCM(lcm_url)
-    commands = _TimestampedReceiver(lcm_url, channels.master_command.name)
+    bus = lcm.LCM(channels.lcm_url)
+    commands = _TimestampedReceiver(channels.command_lcm_url(), channels.master_command.name)
     receipts, torques = [], []
     master = heft_haptic_state()
     master.num_joints, master.position, master.velocity = 6, list(master_q), [0.0] * 6
@@ -208,7 +208,12 @@ def _finish(processes: dict) -> None:
                                                                   for label, output in outputs.items()))
 
 
-def bench_rate(rate_hz: float, duration: float, lcm_url: str, scenario: str, folder: Path, prefix) -> dict:
+def _url_arguments(channels) -> list[str]:
+    """The command-line options that put a `heft` subcommand on ``channels``' two URLs."""
+    return ["--lcm-url", channels.lcm_url, "--command-url", channels.command_lcm_url()]
+
+
+def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder: Path, prefix) -> dict:
     """One controller rate: both processes, then the latency statistics and the controller's timing."""
     from heft.diagrams.scenario import resolve_scenario
 
@@ -217,11 +222,12 @@ def bench_rate(rate_hz: float, duration: float, lcm_url: str, scenario: str, fol
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONUNBUFFERED="1")
     python = [*prefix, sys.executable]
     teleop = subprocess.Popen(
-        [*python, "-m", "heft.diagrams.cli", "teleop", "--hardware", "--lcm-url", lcm_url, "--scenario", scenario,
+        [*python, "-m", "heft.diagrams.cli", "teleop", "--hardware", *_url_arguments(channels), "--scenario", scenario,
          "--rate", str(rate_hz), "--duration", str(duration + SETTLE), "--out", str(summary_path)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
     probe = subprocess.Popen(
-        [*python, "-m", "heft.diagrams.commands.bench_lcm", "--probe", lcm_url, str(20 * (duration + SETTLE)),
+        [*python, "-m", "heft.diagrams.commands.bench_lcm", "--probe", channels.lcm_url, channels.command_lcm_url(),
+         str(20 * (duration + SETTLE)),
          str(probe_path),
          json.dumps(loaded.master_initial_q), json.dumps(loaded.slave_initial_q)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
@@ -251,17 +257,17 @@ def bench_rate(rate_hz: float, duration: float, lcm_url: str, scenario: str, fol
     }
 
 
-def bench_stand_in(rate_hz: float, duration: float, lcm_url: str, scenario: str, folder: Path, prefix) -> dict:
+def bench_stand_in(rate_hz: float, duration: float, channels, scenario: str, folder: Path, prefix) -> dict:
     """The controller at ``rate_hz`` against ``heft stand-in`` for ``duration`` s of wall time:
     messages per wall second each way, as each side counted them."""
     teleop_path, stand_in_path = folder / "teleop_stand_in.json", folder / "stand_in.json"
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONUNBUFFERED="1")
     cli = [*prefix, sys.executable, "-m", "heft.diagrams.cli"]
     stand_in = subprocess.Popen(
-        [*cli, "stand-in", "--scenario", scenario, "--lcm-url", lcm_url, "--duration", str(duration + 2 * SETTLE),
+        [*cli, "stand-in", "--scenario", scenario, *_url_arguments(channels), "--duration", str(duration + 2 * SETTLE),
          "--out", str(stand_in_path)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
     teleop = subprocess.Popen(
-        [*cli, "teleop", "--hardware", "--lcm-url", lcm_url, "--scenario", scenario, "--rate", str(rate_hz),
+        [*cli, "teleop", "--hardware", *_url_arguments(channels), "--scenario", scenario, "--rate", str(rate_hz),
          "--duration", str(duration), "--out", str(teleop_path)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
     _finish({"teleop": (teleop, duration + 120), "stand-in": (stand_in, duration + 120)})
@@ -288,19 +294,20 @@ def _print_stand_in(result: dict) -> None:
           f"{controller['healthy_ticks']} of {controller['ticks']} ticks; {len(controller['faults'])} faults")
 
 
-def run(rates, duration: float, scenario: str, lcm_url: str) -> dict:
+def run(rates, duration: float, scenario: str, channels) -> dict:
     """Benchmarks every rate in ``rates`` (Hz) against the probe, then the first against the
     stand-in; prints tables; returns the numbers."""
     prefix, cleanup = _namespace()
     where = "a private network namespace" if prefix else "this host's network"
-    print(f"bench lcm: controller (heft teleop --hardware) and driver probe as two processes on {lcm_url}, in "
+    print(f"bench lcm: controller (heft teleop --hardware) and driver probe as two processes on {channels.lcm_url} "
+          f"(commands on {channels.command_lcm_url()}), in "
           f"{where}; {duration:g} s per rate, a {STEP_FORCE:g} N sensor step every {STEP_PERIOD:g} s", flush=True)
     results = []
     try:
         with tempfile.TemporaryDirectory() as folder:
             for rate in rates:
-                results.append(bench_rate(rate, duration, lcm_url, scenario, Path(folder), prefix))
-            stand_in = bench_stand_in(rates[0], duration, lcm_url, scenario, Path(folder), prefix)
+                results.append(bench_rate(rate, duration, channels, scenario, Path(folder), prefix))
+            stand_in = bench_stand_in(rates[0], duration, channels, scenario, Path(folder), prefix)
     finally:
         cleanup()
     print(f"{'rate (Hz)':>10s}{'sustained (Hz)':>16s}{'ratio':>7s}{'skipped':>9s}{'late max (ms)':>15s}"
@@ -326,7 +333,9 @@ def run(rates, duration: float, scenario: str, lcm_url: str) -> dict:
 
 if __name__ == "__main__":
     arguments = argparse.ArgumentParser(description="the driver probe of `heft bench lcm`")
-    arguments.add_argument("--probe", nargs=5, metavar=("URL", "DURATION", "OUT", "MASTER_Q", "SLAVE_Q"))
+    arguments.add_argument("--probe", nargs=6, metavar=("URL", "COMMAND_URL", "DURATION", "OUT", "MASTER_Q", "SLAVE_Q"))
     probe_args = arguments.parse_args().probe
-    run_probe(probe_args[0], float(probe_args[1]), Path(probe_args[2]), json.loads(probe_args[3]),
-              json.loads(probe_args[4]))
+    from heft.hardware_interface.channels import LcmChannels
+
+    run_probe(LcmChannels(lcm_url=probe_args[0], command_url=probe_args[1]), float(probe_args[2]),
+              Path(probe_args[3]), json.loads(probe_args[4]), json.loads(probe_args[5]))

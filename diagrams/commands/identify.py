@@ -5,7 +5,8 @@ from __future__ import annotations
 
 
 
-from heft.diagrams.commands.options import DEFAULT_LCM_URL, add_set, add_station, scenario_from, station_params
+from heft.diagrams.commands.options import (add_lcm_urls, add_set, add_station, lcm_channels, scenario_from,
+                                            station_params)
 
 HELP = ("identify the load's inertial parameters and the sensor "
        "offsets from an excitation motion (Sec. IV)")
@@ -25,7 +26,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--hardware", action="store_true",
                           help="excite the real arm over LCM (the scenario gives the robot, start pose and load "
                                "model's settings); the arm first moves slowly to the excitation's start")
-    parser.add_argument("--lcm-url", default=DEFAULT_LCM_URL, help=f"with --hardware (default {DEFAULT_LCM_URL})")
+    add_lcm_urls(parser, "with --hardware: ")
     parser.add_argument("--record", help="with --hardware: record the LCM traffic to this file (lcm-logger format)")
     parser.add_argument("--watchdog-timeout", type=float,
                           help="with --hardware: stale-channel timeout (s, default 0.02)")
@@ -42,7 +43,7 @@ def run(args) -> int:
     settings = ExcitationSettings.quick() if args.quick else ExcitationSettings()
     if args.hardware:
         from heft.diagrams.running.hardware_identify import hardware_recorder
-        recorder = hardware_recorder(scenario, args.lcm_url, args.record, station_params(args.watchdog_timeout),
+        recorder = hardware_recorder(scenario, lcm_channels(args), args.record, station_params(args.watchdog_timeout),
                                      args.rt_priority)
         wrote = f"estimate.yaml, metrics.json{f', {args.record}' if args.record else ''}"
     else:

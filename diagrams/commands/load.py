@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 
 
-from heft.diagrams.commands.options import DEFAULT_LCM_URL
+from heft.diagrams.commands.options import add_lcm_urls, lcm_channels
 
 HELP = ("re-zero the sensor, switch offset tracking or change the tool "
        "of a running `heft teleop --hardware`")
@@ -16,27 +16,26 @@ def add_arguments(parser) -> None:
                       help="measure the offsets now (hold the slave still, out of contact)")
     parser.add_argument("--tracking", choices=("on", "off"), help="slow offset tracking at rest")
     parser.add_argument("--estimate", help="a new tool's estimate.yaml from `heft identify`")
-    parser.add_argument("--lcm-url", default=DEFAULT_LCM_URL, help=f"LCM URL (default {DEFAULT_LCM_URL})")
+    add_lcm_urls(parser)
     parser.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for the answers (default 5)")
 
 
 def run(args) -> int:
     from heft.diagrams.load_estimate import read_load_estimate
-    from heft.hardware_interface.channels import LcmChannels
     from heft.hardware_interface.load_commands import send_load_command
 
     chosen = [name for name, given in (("rezero", args.rezero), ("tracking", args.tracking),
                                        ("estimate", args.estimate)) if given]
     if len(chosen) != 1:
         raise ValueError("give exactly one of --rezero, --tracking on|off, --estimate FILE")
-    channels = LcmChannels(lcm_url=args.lcm_url)
+    channels = lcm_channels(args)
     try:
         if args.estimate:
             load = read_load_estimate(args.estimate)
-            answers = send_load_command(args.lcm_url, channels, "new_estimate", load.phi, load.offsets, args.timeout)
+            answers = send_load_command(channels, "new_estimate", load.phi, load.offsets, args.timeout)
         else:
             action = "rezero" if args.rezero else f"tracking_{args.tracking}"
-            answers = send_load_command(args.lcm_url, channels, action, timeout=args.timeout)
+            answers = send_load_command(channels, action, timeout=args.timeout)
     except TimeoutError as error:
         print(f"heft load: {error}", file=sys.stderr)
         return 5

@@ -1,4 +1,4 @@
-"""Options several `heft` subcommands share: the LCM URL, ``--set`` and the scenario it makes,
+"""Options several `heft` subcommands share: the LCM URLs, ``--set`` and the scenario it makes,
 the hardware station's watchdog timeout."""
 
 from __future__ import annotations
@@ -6,10 +6,22 @@ from __future__ import annotations
 import argparse
 import math
 
-from heft.hardware_interface.channels import LcmChannels
+from heft.hardware_interface.channels import DEFAULT_LCM_URL, LcmChannels
 
-DEFAULT_LCM_URL = LcmChannels.lcm_url
-"""Multicast that cannot leave the machine (ttl=0); the lab's drivers use the same."""
+
+def add_lcm_urls(parser: argparse.ArgumentParser, when: str = "") -> None:
+    """``--lcm-url`` (what the drivers and ``heft load`` send to the controller) and
+    ``--command-url`` (what the controller sends back); ``when``: a note such as "with --hardware: "."""
+    parser.add_argument("--lcm-url", default=DEFAULT_LCM_URL,
+                        help=f"{when}LCM URL of the drivers' messages to the controller (default {DEFAULT_LCM_URL})")
+    parser.add_argument("--command-url", default="",
+                        help=f"{when}LCM URL of the controller's commands to the drivers (default: --lcm-url's "
+                             "group one port up; a memq:// URL itself)")
+
+
+def lcm_channels(args) -> LcmChannels:
+    """The ``LcmChannels`` of ``--lcm-url`` and ``--command-url``."""
+    return LcmChannels(lcm_url=args.lcm_url, command_url=args.command_url)
 
 
 def add_set(parser: argparse.ArgumentParser) -> None:

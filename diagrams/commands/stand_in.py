@@ -7,7 +7,7 @@ import math
 from pathlib import Path
 
 
-from heft.diagrams.commands.options import DEFAULT_LCM_URL, add_set, scenario_from
+from heft.diagrams.commands.options import add_lcm_urls, add_set, lcm_channels, scenario_from
 
 HELP = ("a lightweight lab behind the drivers' LCM channels, at real time")
 
@@ -15,7 +15,7 @@ HELP = ("a lightweight lab behind the drivers' LCM channels, at real time")
 def add_arguments(parser) -> None:
     parser.add_argument("--scenario", default="fig6", help="fig6 | fig7 | fig8 | path to a scenario YAML")
     add_set(parser)
-    parser.add_argument("--lcm-url", default=DEFAULT_LCM_URL, help=f"LCM URL (default {DEFAULT_LCM_URL})")
+    add_lcm_urls(parser)
     parser.add_argument("--duration", type=float, default=10.0, help="seconds (default 10)")
     parser.add_argument("--drop-rate", type=float, default=0.0, help="probability a loss starts at a message")
     parser.add_argument("--burst-loss", type=float, default=0.0, help="length of each loss (s; default 0: one)")
@@ -34,15 +34,15 @@ def add_arguments(parser) -> None:
 
 def run(args) -> int:
     from heft.diagrams.stations.stand_in import FaultInjection, run_stand_in
-    from heft.hardware_interface.channels import LcmChannels
 
     scenario = scenario_from(args)
     faults = FaultInjection(drop_rate=args.drop_rate, burst_loss_s=args.burst_loss, added_delay_s=args.added_delay,
                             nan_rate=args.nan_rate, saturate_at_s=args.saturate_at, die_at_s=args.die_at,
                             seed=args.seed, reorder_rate=args.reorder_rate)
-    channels = LcmChannels(lcm_url=args.lcm_url)
-    print(f"stand-in: {args.scenario} on {args.lcm_url} for {args.duration:g} s at real time", flush=True)
-    summary = run_stand_in(scenario, channels, args.lcm_url, args.duration, faults, args.clutch_at,
+    channels = lcm_channels(args)
+    print(f"stand-in: {args.scenario} on {channels.lcm_url} (commands on {channels.command_lcm_url()}) for "
+          f"{args.duration:g} s at real time", flush=True)
+    summary = run_stand_in(scenario, channels, args.duration, faults, args.clutch_at,
                            args.clutch_release_at)
     rates = "; ".join(f"{kind} Hz " + ", ".join(f"{name} {hz:.0f}" for name, hz in summary[f"{kind}_hz"].items())
                       for kind in ("published", "received"))

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from heft.diagrams.commands.options import DEFAULT_LCM_URL, add_set, scenario_from, station_params
+from heft.diagrams.commands.options import add_lcm_urls, add_set, lcm_channels, scenario_from, station_params
 
 HELP = ("the teleoperation controller on the lab's LCM channels")
 
@@ -17,7 +17,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--hardware", action="store_true", help="run against the lab's LCM channels (required)")
     parser.add_argument("--scenario", default="fig6", help="controller settings from this scenario (default fig6)")
     add_set(parser)
-    parser.add_argument("--lcm-url", default=DEFAULT_LCM_URL, help=f"LCM URL (default {DEFAULT_LCM_URL})")
+    add_lcm_urls(parser)
     parser.add_argument("--estimate", help="estimate.yaml from `heft identify` (default: φ̂ = 0)")
     parser.add_argument("--duration", type=float, default=10.0, help="seconds (default 10)")
     parser.add_argument("--out", help="also write the summary as JSON here")
@@ -44,8 +44,10 @@ def run(args) -> int:
     else:
         print("teleop: no load estimate given: φ̂ = 0, offsets 0 (nothing is eliminated)", flush=True)
         load = LoadEstimate(phi=np.zeros(10), offsets=np.zeros(6))
-    print(f"teleop: controller on {args.lcm_url} at {rate:g} Hz for {args.duration:g} s of wall time", flush=True)
-    summary = run_hardware_teleop(scenario, load, args.lcm_url, args.duration, rate, record=args.record,
+    channels = lcm_channels(args)
+    print(f"teleop: controller on {channels.lcm_url} (commands on {channels.command_lcm_url()}) at {rate:g} Hz for "
+          f"{args.duration:g} s of wall time", flush=True)
+    summary = run_hardware_teleop(scenario, load, channels, args.duration, rate, record=args.record,
                                   params=station_params(args.watchdog_timeout), priority=args.rt_priority)
     print(format_summary(summary), flush=True)
     if args.out:

@@ -14,6 +14,7 @@ wrench model per axis, and the spread between methods.
 
 from __future__ import annotations
 
+import contextlib
 
 import lcm
 import numpy as np
@@ -30,6 +31,7 @@ from heft.hardware_interface.hardware_station import (
     HardwareStation,
     HardwareStationParams,
 )
+from heft.hardware_interface.lcm_mailbox import open_buses
 from heft.systems.excitation_commander import ExcitationCommander, Phase
 
 
@@ -49,9 +51,9 @@ class HardwareIdentification:
     ``IdentificationAborted`` if the hardware is not healthy within ``WAIT_LIMIT`` s."""
 
     def __init__(self, trajectory, duration: float, period: float, bus: lcm.LCM, channels: LcmChannels,
-                 params: HardwareStationParams | None = None):
+                 params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None):
         params = params or HardwareStationParams()
-        self.station = HardwareStation(bus, channels, params)
+        self.station = HardwareStation(bus, channels, params, command_bus)
         self.commander = ExcitationCommander(trajectory, duration, params.slave_velocity_limits)
         self._zero = np.zeros(NUM_JOINTS)
         # Per excitation tick: time into the excitation (s), wrench (6), acceleration (6), q_S (6).
@@ -96,32 +98,30 @@ class HardwareIdentification:
         return Recording(t=t, wrench=resampled[:, :6], accel_measured=resampled[:, 6:12], q=resampled[:, 12:])
 
 
-def record_on_hardware(scenario: Scenario, trajectory, duration: float, lcm_url: str, record=None,
+def record_on_hardware(scenario: Scenario, trajectory, duration: float, channels: LcmChannels, record=None,
                        params: HardwareStationParams | None = None, priority: int = 50):
-    """Runs ``HardwareIdentification`` on ``lcm.LCM(lcm_url)`` in real time at the controller
-    rate (real-time ``priority``: ``claim_realtime``) until the excitation is done (or
-    aborted); returns (Recording, timing summary)."""
+    """Runs ``HardwareIdentification`` on ``channels``' two URLs (``open_buses``) in real time at
+    the controller rate (real-time ``priority``: ``claim_realtime``, as ``run_hardware_teleop``
+    does) until the excitation is done (or aborted); returns (Recording, timing summary)."""
     period = scenario.controller_period
-    run = HardwareIdentification(trajectory, duration, period, lcm.LCM(lcm_url), LcmChannels(lcm_url=lcm_url),
-                                 params)
-    print(f"identify: {claim_realtime(priority)}", flush=True)
     budget = WAIT_LIMIT + 60.0 + duration  # waiting, the slow approach and settling, the excitation
-    if record is None:
+    with contextlib.nullcontext() if record is None else LcmTrafficRecorder(channels, record):
+        print(f"identify: {claim_realtime(priority)}", flush=True)
+        bus, command_bus = open_buses(channels)
+        run = HardwareIdentification(trajectory, duration, period, bus, channels, params, command_bus)
         times = run_realtime(run.tick, period, budget)
-    else:
-        with LcmTrafficRecorder(lcm_url, record):
-            times = run_realtime(run.tick, period, budget)
     return run.recording(period), timing_summary(times)
 
 
-def hardware_recorder(scenario: Scenario, lcm_url: str, record=None, params: HardwareStationParams | None = None,
-                      priority: int = 50):
-    """The ``record`` of ``identify`` on the hardware at ``lcm_url`` (``record_on_hardware``); the
-    extra metrics are the LCM URL, the loop's timing and the traffic log's path."""
+def hardware_recorder(scenario: Scenario, channels: LcmChannels, record=None,
+                      params: HardwareStationParams | None = None, priority: int = 50):
+    """The ``record`` of ``identify`` on the hardware on ``channels`` (``record_on_hardware``); the
+    extra metrics are the LCM URLs, the loop's timing and the traffic log's path."""
     def run(trajectory, duration: float):
-        print(f"identify: excitation of {duration:g} s on {lcm_url}; the arm first moves slowly to its start",
-              flush=True)
-        recording, timing = record_on_hardware(scenario, trajectory, duration, lcm_url, record, params, priority)
+        print(f"identify: excitation of {duration:g} s on {channels.lcm_url} (commands on "
+              f"{channels.command_lcm_url()}); the arm first moves slowly to its start", flush=True)
+        recording, timing = record_on_hardware(scenario, trajectory, duration, channels, record, params, priority)
         print(format_timing(timing), flush=True)
-        return recording, {"lcm_url": lcm_url, "timing": timing, "lcm_log": None if record is None else str(record)}
+        return recording, {"lcm_url": channels.lcm_url, "command_url": channels.command_lcm_url(), "timing": timing,
+                           "lcm_log": None if record is None else str(record)}
     return run

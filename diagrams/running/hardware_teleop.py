@@ -21,6 +21,7 @@ force and torque, the largest slave command step, message rates and timing.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 
@@ -34,24 +35,28 @@ from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop import MakeRealtimeTeleopController
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import WATCHED_CHANNELS, HardwareStation, HardwareStationParams
+from heft.hardware_interface.lcm_mailbox import open_buses
 from heft.hardware_interface.load_commands import LoadCommandServer
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
 
 
 class HardwareTeleop:
-    """The controller closed around ``HardwareStation`` on ``bus`` (module docstring).
+    """The controller closed around ``HardwareStation``, hearing ``bus`` and publishing on
+    ``command_bus`` (default ``bus``; module docstring).
 
     ``tick(now, dt)`` runs one tick at ``now`` (s, monotonic) ``dt`` s after the last;
     ``summary(elapsed)`` reports the run so far."""
 
     def __init__(self, scenario: Scenario, load: LoadEstimate, bus: lcm.LCM, channels: LcmChannels,
-                 params: HardwareStationParams | None = None):
-        self.station = HardwareStation(bus, channels, params)
+                 params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None):
+        # The controller's models first (about a second): the station's subscriptions then
+        # start receiving only when the loop is about to pump them.
         self.controller = MakeRealtimeTeleopController(
             scenario.controller, load, scenario.robot,
             accelerometer=scenario.accelerometer.convention())
-        self.load_commands = LoadCommandServer(bus, channels, self.controller)
+        self.station = HardwareStation(bus, channels, params, command_bus)
+        self.load_commands = LoadCommandServer(bus, channels, self.controller, command_bus)
         self._zero = np.zeros(NUM_JOINTS)
         self._was_healthy = False
         self._last_position = None
@@ -137,26 +142,22 @@ class HardwareTeleop:
         }
 
 
-def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, lcm_url: str, duration: float, rate: float,
+def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, channels: LcmChannels, duration: float, rate: float,
                         record=None, params: HardwareStationParams | None = None, priority: int = 50) -> dict:
-    """Runs ``HardwareTeleop`` on ``lcm.LCM(lcm_url)`` at ``rate`` Hz for ``duration`` s of wall
-    time, with real-time ``priority`` (``claim_realtime``); returns its summary with ``timing``
-    (``timing_summary``), ``scheduling`` and ``lcm_log``.
+    """Runs ``HardwareTeleop`` on ``channels``' two URLs (``open_buses``) at ``rate`` Hz for
+    ``duration`` s of wall time, with real-time ``priority`` (``claim_realtime``: after the
+    recorder's loggers start, which keep normal scheduling, and before the buses open, so that
+    LCM's receive thread shares it); returns its summary with ``timing`` (``timing_summary``),
+    ``scheduling`` and ``lcm_log``.
     ``record``: a path to record the LCM traffic to (``lcm-logger`` format), or None."""
-    teleop = HardwareTeleop(scenario, load, lcm.LCM(lcm_url), LcmChannels(lcm_url=lcm_url), params)
-    scheduling = claim_realtime(priority)
-    print(f"teleop: {scheduling}", flush=True)
     print(f"teleop: {scenario.accelerometer.convention()}", flush=True)
-
-    def run():
+    with contextlib.nullcontext() if record is None else LcmTrafficRecorder(channels, record):
+        scheduling = claim_realtime(priority)
+        print(f"teleop: {scheduling}", flush=True)
+        bus, command_bus = open_buses(channels)
+        teleop = HardwareTeleop(scenario, load, bus, channels, params, command_bus)
         teleop.station.epoch = time.time()
-        return run_realtime(teleop.tick, 1.0 / rate, duration)
-
-    if record is None:
-        times = run()
-    else:
-        with LcmTrafficRecorder(lcm_url, record):
-            times = run()
+        times = run_realtime(teleop.tick, 1.0 / rate, duration)
     return {"duration": times.elapsed, "rate_hz": rate, **teleop.summary(times.elapsed), "scheduling": scheduling,
             "lcm_log": None if record is None else str(record), "timing": timing_summary(times)}
 

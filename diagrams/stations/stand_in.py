@@ -3,7 +3,8 @@ enough to keep real time on one core.
 
 ``StandIn`` publishes ``heft_haptic_state``, ``lcmt_iiwa_status`` (6 joints) and
 ``heft_ft_sample`` at the channels' nominal rates (2, 2 and 8 kHz by default) on
-a python-lcm bus and obeys ``heft_haptic_command`` and ``lcmt_iiwa_command``.
+a python-lcm bus and obeys ``heft_haptic_command`` and ``lcmt_iiwa_command`` from
+another (``LcmChannels``: the command URL).
 ``FaultInjection`` degrades what it publishes, so ``HardwareStation`` can be
 exercised against a misbehaving lab. ``run_stand_in`` runs it in wall-clock
 real time, as a separate process would.
@@ -69,7 +70,7 @@ from heft.diagrams.plants import MakeMasterPlant, MakeSlavePlant, phi_about_S
 from heft.diagrams.stations.sim_station import MASTER_ENCODER_COUNTS_PER_REV
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import CLUTCH_BUTTON
-from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
+from heft.hardware_interface.lcm_mailbox import LcmMailbox, open_buses, pump
 from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_command, heft_haptic_state
 from heft.systems.accelerometer_reading import reading_from_motion
 from heft.systems.drake_conventions import swap_halves
@@ -286,7 +287,8 @@ def _decode(message_type, payload: bytes):
 
 
 class StandIn:
-    """The lab's three drivers on ``bus`` (python ``lcm.LCM``); models in the module docstring.
+    """The lab's three drivers publishing on ``bus`` (python ``lcm.LCM``) and obeying the commands
+    on ``command_bus`` (default ``bus``); models in the module docstring.
 
     Readable: ``slave_position`` (6, rad, the arm's true joints), ``slave_command`` (6, rad,
     the last valid setpoint; ``slave_initial_q`` before the first), ``master_position``
@@ -298,11 +300,11 @@ class StandIn:
 
     def __init__(self, scenario: Scenario, bus: lcm.LCM, channels: LcmChannels = LcmChannels(),
                  faults: FaultInjection | None = None, clutch_at: float = 0.0,
-                 clutch_release_at: float = math.inf):
+                 clutch_release_at: float = math.inf, command_bus: lcm.LCM | None = None):
         scenario.validate()
         self._faults = faults = faults or FaultInjection()
         faults.validate()
-        self._bus = bus
+        self._command_bus = command_bus = bus if command_bus is None else command_bus
         self._clutch = (clutch_at, clutch_release_at)
         self._rates = (channels.master_state.rate, channels.slave_status.rate, channels.ft_sample.rate)
         self._ticks = [1, 1, 1]
@@ -310,8 +312,8 @@ class StandIn:
         self._outlets = [_Outlet(bus, channel.name, i, faults) for i, channel in
                          enumerate((channels.master_state, channels.slave_status, channels.ft_sample))]
         self._delayed = collections.deque()  # (release time (s), sample index, payload) of FT samples
-        self._haptic_commands = LcmMailbox(bus, channels.master_command.name, keep=64)
-        self._slave_commands = LcmMailbox(bus, channels.slave_command.name, keep=64)
+        self._haptic_commands = LcmMailbox(command_bus, channels.master_command.name, keep=64)
+        self._slave_commands = LcmMailbox(command_bus, channels.slave_command.name, keep=64)
 
         # Slave: the setpoint filter on the (2, 6) state [q; q̇], and S's motion.
         slave_period = 1.0 / channels.slave_status.rate
@@ -396,7 +398,7 @@ class StandIn:
 
     def _take_commands(self, now: float) -> None:
         """Applies the commands that arrived by ``now`` (s)."""
-        pump(self._bus)
+        pump(self._command_bus)
         for payload in self._slave_commands.take():
             msg = _decode(lcmt_iiwa_command, payload)
             if (msg is not None and msg.num_joints == NUM_JOINTS
@@ -479,23 +481,23 @@ class StandIn:
             outlet.send(tick, msg.encode())
 
 
-def run_stand_in(scenario: Scenario, channels: LcmChannels, lcm_url: str, duration: float,
+def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
                  faults: FaultInjection | None = None, clutch_at: float = 0.0, clutch_release_at: float = math.inf,
                  clock=time.perf_counter, sleep=time.sleep) -> dict:
-    """Runs ``StandIn`` on ``lcm.LCM(lcm_url)`` in real time on ``clock`` (s) for ``duration`` s
-    or until it dies, waiting between due messages: with the default ``sleep`` the wait is a
-    ``select`` on the bus that also ends when a command arrives; another ``sleep(seconds)``
-    (e.g. with a fake ``clock``) is called instead.
+    """Runs ``StandIn`` on ``channels``' two URLs (``open_buses``) in real time on ``clock`` (s)
+    for ``duration`` s or until it dies, waiting between due messages: with the default
+    ``sleep`` the wait is a ``select`` on the command bus that also ends when a command
+    arrives; another ``sleep(seconds)`` (e.g. with a fake ``clock``) is called instead.
 
     Returns {"duration_s": wall time run (s), "died", "published" / "received" (channel name →
     messages), "published_hz" / "received_hz" (channel name → messages per wall second),
     "max_lateness_ms": the latest a message was published after its nominal time, "cpu_s":
     this process's CPU time over the run}.
     """
-    bus = lcm.LCM(lcm_url)
-    lab = StandIn(scenario, bus, channels, faults, clutch_at, clutch_release_at)
+    bus, command_bus = open_buses(channels)
+    lab = StandIn(scenario, bus, channels, faults, clutch_at, clutch_release_at, command_bus)
     if sleep is time.sleep:
-        fd = bus.fileno()
+        fd = command_bus.fileno()
 
         def wait(seconds):
             select.select([fd], [], [], seconds)
