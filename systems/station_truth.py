@@ -35,6 +35,14 @@ class ReactionWrench(LeafSystem):
         output.SetFromVector(wrench_from_spatial_force(self._reactions.Eval(context)[self._joint]))
 
 
+def declare_body_motion_inputs(system: LeafSystem):
+    """Declares on ``system`` the inputs ``body_poses``, ``body_spatial_velocities`` and
+    ``body_spatial_accelerations`` (a MultibodyPlant's outputs of those names) and returns them."""
+    return (system.DeclareAbstractInputPort("body_poses", Value[List[RigidTransform]]()),
+            system.DeclareAbstractInputPort("body_spatial_velocities", Value[List[SpatialVelocity]]()),
+            system.DeclareAbstractInputPort("body_spatial_accelerations", Value[List[SpatialAcceleration]]()))
+
+
 def frame_motion(X_WB: RigidTransform, V_WB: SpatialVelocity, A_WB: SpatialAcceleration, p_BF, g_W):
     """(a, α, ω, g), each (3,), in F: the motion of a frame F fixed at ``p_BF`` (m) in body B with
     B's axes, from B's pose, spatial velocity and acceleration in W, and gravity g_W (m/s²)."""
@@ -61,10 +69,7 @@ class SensorFrameKinematics(LeafSystem):
         self._body = int(body_index)
         self._p_BS = np.asarray(p_BS, dtype=float)
         self._g_W = np.asarray(gravity_W, dtype=float)
-        self._poses = self.DeclareAbstractInputPort("body_poses", Value[List[RigidTransform]]())
-        self._velocities = self.DeclareAbstractInputPort("body_spatial_velocities", Value[List[SpatialVelocity]]())
-        self._accelerations = self.DeclareAbstractInputPort("body_spatial_accelerations",
-                                                            Value[List[SpatialAcceleration]]())
+        self._poses, self._velocities, self._accelerations = declare_body_motion_inputs(self)
         self._motion = self.DeclareCacheEntry(
             "motion", ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(12)), calc=self._calc_motion),
             prerequisites_of_calc={self._poses.ticket(), self._velocities.ticket(), self._accelerations.ticket()})
@@ -140,10 +145,7 @@ class TrueNonContactWrench(LeafSystem):
         self._load, self._sensor = int(load_body_index), int(sensor_body_index)
         self._p_BS = np.asarray(p_BS, dtype=float)
         self._g_W = np.asarray(gravity_W, dtype=float)
-        self._poses = self.DeclareAbstractInputPort("body_poses", Value[List[RigidTransform]]())
-        self._velocities = self.DeclareAbstractInputPort("body_spatial_velocities", Value[List[SpatialVelocity]]())
-        self._accelerations = self.DeclareAbstractInputPort("body_spatial_accelerations",
-                                                            Value[List[SpatialAcceleration]]())
+        self._poses, self._velocities, self._accelerations = declare_body_motion_inputs(self)
         self._phi = self.DeclareVectorInputPort("phi", 10)
         self._phi_gripper = self.DeclareVectorInputPort("phi_gripper", 10)
         self.DeclareVectorOutputPort("wrench", 6, lambda context, output: self._calc(context, output, False))

@@ -124,6 +124,13 @@ def _add_slave(builder: DiagramBuilder, scenario: Scenario):
     return plant, parts
 
 
+def _connect_body_motion(builder: DiagramBuilder, plant: MultibodyPlant, system) -> None:
+    """``plant``'s body poses, spatial velocities and accelerations into ``system``'s inputs of those
+    names (``station_truth.declare_body_motion_inputs``)."""
+    for name in ("body_poses", "body_spatial_velocities", "body_spatial_accelerations"):
+        builder.Connect(plant.GetOutputPort(name), system.GetInputPort(name))
+
+
 def _add_wrist_sensor(builder: DiagramBuilder, scenario: Scenario, plant: MultibodyPlant, parts: SlaveParts):
     """JR3 force-torque + accelerometer models on the plant's truth, and the truth itself."""
     p_BS = parts.S.GetFixedPoseInBodyFrame().translation()
@@ -131,10 +138,7 @@ def _add_wrist_sensor(builder: DiagramBuilder, scenario: Scenario, plant: Multib
     builder.Connect(plant.get_reaction_forces_output_port(), reaction.get_input_port())
     kinematics = builder.AddSystem(SensorFrameKinematics(parts.sensor_body.index(), p_BS, GRAVITY_W,
                                                          scenario.accelerometer.convention()))
-    builder.Connect(plant.get_body_poses_output_port(), kinematics.GetInputPort("body_poses"))
-    builder.Connect(plant.get_body_spatial_velocities_output_port(), kinematics.GetInputPort("body_spatial_velocities"))
-    builder.Connect(plant.get_body_spatial_accelerations_output_port(),
-                    kinematics.GetInputPort("body_spatial_accelerations"))
+    _connect_body_motion(builder, plant, kinematics)
     contact = builder.AddSystem(ContactWrenchAtSensor([b.index() for b in parts.load_bodies],
                                                       parts.sensor_body.index(), p_BS))
     builder.Connect(plant.get_contact_results_output_port(), contact.GetInputPort("contact_results"))
@@ -154,10 +158,7 @@ def _add_wrist_sensor(builder: DiagramBuilder, scenario: Scenario, plant: Multib
     truth_phi_gripper = builder.AddSystem(ConstantVectorSource(phi_gripper))
     noncontact = builder.AddSystem(TrueNonContactWrench(parts.load_bodies[0].index(), parts.sensor_body.index(),
                                                         p_BS, GRAVITY_W))
-    builder.Connect(plant.get_body_poses_output_port(), noncontact.GetInputPort("body_poses"))
-    builder.Connect(plant.get_body_spatial_velocities_output_port(), noncontact.GetInputPort("body_spatial_velocities"))
-    builder.Connect(plant.get_body_spatial_accelerations_output_port(),
-                    noncontact.GetInputPort("body_spatial_accelerations"))
+    _connect_body_motion(builder, plant, noncontact)
     builder.Connect(truth_phi.get_output_port(), noncontact.GetInputPort("phi"))
     builder.Connect(truth_phi_gripper.get_output_port(), noncontact.GetInputPort("phi_gripper"))
     for port, name in ((reaction.get_output_port(), "truth.wrench_sensor"),
