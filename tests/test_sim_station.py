@@ -298,6 +298,11 @@ def test_scenario_file_round_trip(tmp_path):
     ("slave_initial_q: [0, 1]\n", "slave_initial_q"),
     ("robot: kuka\n", "robot"),
     ("ft_sensor: {noise_rms: 0.1}\n", "ft_sensor.noise_rms"),
+    ("load: {mount: {torque_stiffness: [3000, 0, 3000]}}\n", "load.mount.torque_stiffness"),
+    ("load: {mount: {force_damping: [1, 1]}}\n", "load.mount.force_damping"),
+    ("accelerometer: {position: [0.1, 0.2]}\n", "accelerometer.position"),
+    ("ft_sensor: {lowpass_cutoff: 1500.0}\n", "ft_sensor"),
+    ("slave_velocity_filter: -1.0\n", "slave_velocity_filter"),
 ])
 def test_malformed_scenario_names_the_field(tmp_path, text, field):
     path = tmp_path / "bad.yaml"
