@@ -180,12 +180,12 @@ class Scenario:
         need(math.isinf(self.load.grasp_at) or (self.load.kind == "gripper_object" and self.load.grasp_at > 0),
              "load.grasp_at", "is a time > 0 (s) for a 'gripper_object' load only")
         mount = self.load.mount
-        for name in ("torque_stiffness", "force_stiffness"):
+        for name, unit in (("torque_stiffness", "N·m/rad"), ("force_stiffness", "N/m")):
             need(len(getattr(mount, name)) == 3 and min(getattr(mount, name)) > 0, f"load.mount.{name}",
-                 "needs 3 numbers > 0 (N·m/rad, N/m): set load.mount.rigid true for a rigid mount")
-        for name in ("torque_damping", "force_damping"):
+                 f"needs 3 numbers > 0 ({unit}): set load.mount.rigid true for a rigid mount")
+        for name, unit in (("torque_damping", "N·m·s/rad"), ("force_damping", "N·s/m")):
             need(len(getattr(mount, name)) == 3 and min(getattr(mount, name)) >= 0, f"load.mount.{name}",
-                 "needs 3 numbers >= 0 (N·m·s/rad, N·s/m)")
+                 f"needs 3 numbers >= 0 ({unit})")
         need(len(self.load.inertia_com) == 6, "load.inertia_com", "needs 6 numbers [Ixx, Ixy, Ixz, Iyy, Iyz, Izz]")
         need(self.environment.kind in ("sheet_spring", "none"), "environment.kind",
              f"must be 'sheet_spring' or 'none', not {self.environment.kind!r}")
