@@ -44,7 +44,7 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
-from scipy.signal import butter
+from scipy.signal import butter, lfilter, lfilter_zi
 
 from .accelerometer_reading import AccelerometerConvention
 
@@ -245,17 +245,14 @@ def lowpass_coefficients(cutoff: float, period: float) -> np.ndarray | None:
     return np.concatenate((b, a[1:]))
 
 
-def lowpass_step(coefficients: np.ndarray, state: np.ndarray, value: np.ndarray) -> np.ndarray:
-    """One sample of the filter (transposed direct form II) on each axis: returns the output
-    for ``value`` (6,) and advances ``state`` (2, 6) in place. A NaN state (a filter not started)
-    starts in the steady state of ``value``."""
-    b0, b1, b2, a1, a2 = coefficients
+def lowpass(coefficients: np.ndarray, state: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """The filter (transposed direct form II, ``scipy.signal.lfilter``) on ``values`` (count, 6),
+    one sample a row, each axis alone: returns the outputs and advances ``state`` (2, 6) in place.
+    A NaN state (a filter not started) starts in the steady state of the first row."""
+    b, a = coefficients[:3], np.concatenate(([1.0], coefficients[3:]))
     if np.isnan(state[0, 0]):
-        state[1] = (b2 - a2) * value
-        state[0] = (b1 - a1) * value + state[1]
-    out = b0 * value + state[0]
-    state[0] = b1 * value - a1 * out + state[1]
-    state[1] = b2 * value - a2 * out
+        state[:] = lfilter_zi(b, a)[:, np.newaxis] * values[0]
+    out, state[:] = lfilter(b, a, values, axis=0, zi=state)
     return out
 
 
@@ -288,8 +285,8 @@ def standard_normals(key: np.uint64, sample_index, size: int) -> np.ndarray:
 
 class SixAxisMeasurement:
     """The measurement model of the module docstring for one instrument, sampled every
-    ``period`` s, but for the low-pass filter L (the sampled systems below apply it; the
-    stand-in lab, sharing the rest, leaves it out): the settings ``params`` implies and the
+    ``period`` s, but for the low-pass filter L (``lowpass``, which the sampled systems below
+    and the stand-in lab apply at their own rates): the settings ``params`` implies and the
     arithmetic on them."""
 
     def __init__(self, params: SixAxisSensorParams, stream: int, period: float):
@@ -412,7 +409,7 @@ class _SampledSixAxisSensor(LeafSystem):
         value = self._input.Eval(context)
         if self._lowpass is not None:
             state = context.get_discrete_state(self._lowpass_state).get_value().reshape(2, NUM_AXES).copy()
-            value = lowpass_step(self._lowpass, state, value)
+            value = lowpass(self._lowpass, state, value[np.newaxis])[0]
             discrete_state.set_value(self._lowpass_state, state.ravel())
         value, saturated = self._model.measure(value + disturbance[0])
         discrete_state.set_value(self._measured, value)

@@ -251,7 +251,7 @@ def test_quantisation_error_is_at_most_half_a_step_and_on_the_grid():
 @pytest.mark.parametrize("axis,excess", [(2, 1.25), (4, -1.1)])
 def test_a_value_beyond_range_is_clipped_and_flagged_on_that_axis_only(axis, excess):
     sensor = ForceTorqueSensorModel(ForceTorqueSensorParams(
-        white_noise=False, offsets=False, quantization=False))
+        white_noise=False, offsets=False, quantization=False, lowpass_cutoff=0.0))
     true_value = 0.5 * FT_FULL_SCALE
     true_value[axis] = excess * FT_FULL_SCALE[axis]
     measured, _, saturated = take_one_sample(sensor, true_value)

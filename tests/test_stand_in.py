@@ -8,6 +8,7 @@ import math
 
 import lcm
 import numpy as np
+from scipy.signal import butter, lfilter, lfilter_zi
 import pytest
 from drake import lcmt_iiwa_command, lcmt_iiwa_status
 from heft.diagrams.cli import main
@@ -34,11 +35,12 @@ G_W = np.array([0.0, 0.0, -9.81])  # m/s², gravity in the world (R = W)
 
 
 def quiet_scenario() -> Scenario:
-    """Ideal wrist sensors and a still operator: what is published is the model's truth."""
+    """Ideal wrist sensors (no disturbances, no filter) and a still operator: what is published
+    is the model's truth."""
     scenario = Scenario()
     scenario.operator.amplitude = [0.0, 0.0, 0.0]
     for sensor in (scenario.ft_sensor, scenario.accelerometer):
-        sensor.noise = False
+        sensor.noise, sensor.lowpass_cutoff = False, 0.0
     return scenario
 
 
@@ -178,6 +180,25 @@ def test_sensor_acceleration_is_the_derivative_of_the_velocity_of_S(moving):
         peak = max(peak, np.abs(measured).max())
     assert peak > 100.0  # it really moved
     assert max(errors) < 0.01 * peak
+
+
+def test_the_sensors_filter_is_a_butterworth_on_the_published_samples(moving):
+    """With the JR3's 500 Hz filter on, the same motion publishes the unfiltered samples through a
+    second-order Butterworth at the 8 kHz sample rate (scipy's design and filter, started in steady
+    state): the wrench and the accelerometer alike."""
+    scenario = quiet_scenario()
+    scenario.ft_sensor.lowpass_cutoff = scenario.accelerometer.lowpass_cutoff = 500.0
+    lab = Lab(scenario)
+    lab.run(0.1)
+    lab.command_slave(np.asarray(lab.scenario.slave_initial_q) + DELTA)
+    lab.run(0.3)
+    b, a = butter(2, 500.0, fs=CHANNELS.ft_sample.rate)
+    for field in ("wrench", "acceleration"):
+        raw = np.array([getattr(m, field) for m in moving.messages(CHANNELS.ft_sample.name)])
+        filtered = np.array([getattr(m, field) for m in lab.messages(CHANNELS.ft_sample.name)])
+        expected, _ = lfilter(b, a, raw, axis=0, zi=lfilter_zi(b, a)[:, None] * raw[0])
+        assert np.abs(filtered - raw).max() > 1.0  # the filter mattered in this motion
+        np.testing.assert_allclose(filtered, expected, atol=1e-9 * np.abs(raw).max())
 
 
 def test_moving_wrench_is_v_phi_on_the_held_kinematics(moving):

@@ -24,9 +24,10 @@ Models (frames as DESIGN §4: W world = R slave base, B master base, S wrist sen
   ``accelerometer.position``, as in the simulated station.
 * JR3 driver: the wrench is the load's non-contact wrench V(a, α, ω, g)·φ (Eq. 5,
   ``load_dynamics.regressor``) with φ of the scenario's load as the simulated
-  station computes it, through ``sensor_models``' measurement model (offsets,
-  drift, noise, saturation, quantisation as the scenario's sensor parameters
-  enable them, sampled at the channel rate); the accelerometer likewise. The
+  station computes it, through ``sensor_models``' measurement model (the sensor's
+  low-pass filter, offsets, drift, noise, saturation, quantisation as the
+  scenario's sensor parameters enable them, sampled at the channel rate); the
+  accelerometer likewise. The
   kinematics are held (zero-order) between the slave's steps: each FT sample
   uses those of the latest slave step at or before its sample time.
   Published with the sensor's sign (the wrench the load exerts on the sensor).
@@ -83,6 +84,8 @@ from heft.systems.sensor_models import (
     NUM_AXES,
     SixAxisMeasurement,
     SixAxisSensorParams,
+    lowpass,
+    lowpass_coefficients,
     quantize,
 )
 from heft.systems.setpoint_filter import critically_damped_step_matrices
@@ -191,6 +194,8 @@ class _SixAxisSampler:
 
     def __init__(self, params: SixAxisSensorParams, stream: int, period: float):
         self._model, self._period = SixAxisMeasurement(params, stream, period), period
+        self._lowpass = lowpass_coefficients(params.lowpass_cutoff, period)  # the sensor's filter at this rate
+        self._lowpass_state = np.full((2, NUM_AXES), np.nan)
         self._walk = np.zeros(NUM_AXES)
         # Offsets and offsets + noise of samples start, start + 1, ...
         self._start, self._offsets, self._disturbance = 1, np.zeros((0, NUM_AXES)), np.zeros((0, NUM_AXES))
@@ -212,6 +217,8 @@ class _SixAxisSampler:
         while first + count > self._start + len(self._offsets):
             self._draw_block(first)
         rows = slice(first - self._start, first - self._start + count)
+        if self._lowpass is not None:
+            value = lowpass(self._lowpass, self._lowpass_state, np.broadcast_to(value, (count, NUM_AXES)))
         measured, saturated = self._model.measure(value + self._disturbance[rows])
         return measured, self._offsets[rows], saturated
 
