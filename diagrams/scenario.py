@@ -33,8 +33,8 @@ from heft.systems.sensor_models import AccelerometerParams, ForceTorqueSensorPar
 class MountSpec:
     """How the load hangs below the sensor: rigidly (the paper's model), or on a compliant
     mount, a 6-DoF spring-damper between S and the load's frame (Drake's
-    ``LinearBushingRollPitchYaw``; constants about and along S's axes at rest), as a tool
-    on a wrist flange with an adapter plate is. The defaults put the paper's tool's first
+    ``LinearBushingRollPitchYaw``; constants about and along S's axes at rest), as a tool on
+    a wrist flange with an adapter plate is. The defaults put the paper's tool's first
     modes, rocking about x and y, at 49–50 Hz ("tens of Hz", as tools on wrist flanges show;
     the JR3 itself is stiffer), twist at 90 Hz, the others at 126–144 Hz, with 4–9 % of
     critical damping (bolted joints); ``tests/test_sim_station.py`` checks the rocking mode in
@@ -45,6 +45,17 @@ class MountSpec:
     torque_damping: list[float] = dataclasses.field(default_factory=lambda: [0.85, 0.85, 0.4])  # N·m·s/rad
     force_stiffness: list[float] = dataclasses.field(default_factory=lambda: [1e6, 1e6, 1e6])  # N/m
     force_damping: list[float] = dataclasses.field(default_factory=lambda: [180.0, 180.0, 180.0])  # N·s/m
+
+    def validate(self) -> None:
+        """Raises ValueError naming the first field that is out of range (none when rigid)."""
+        if self.rigid:
+            return
+        for name, unit, positive in (("torque_stiffness", "N·m/rad", True), ("force_stiffness", "N/m", True),
+                                     ("torque_damping", "N·m·s/rad", False), ("force_damping", "N·s/m", False)):
+            value = getattr(self, name)
+            if len(value) != 3 or not all(math.isfinite(x) and (x > 0 if positive else x >= 0) for x in value):
+                raise ValueError(f"{name} needs 3 numbers {'> 0' if positive else '>= 0'} ({unit})"
+                                 + ("; set rigid true for a rigid mount" if positive else "") + f"; got {value}")
 
 
 @dataclasses.dataclass
@@ -179,13 +190,6 @@ class Scenario:
         need(len(self.load.com) == 3, "load.com", "needs 3 numbers (m)")
         need(math.isinf(self.load.grasp_at) or (self.load.kind == "gripper_object" and self.load.grasp_at > 0),
              "load.grasp_at", "is a time > 0 (s) for a 'gripper_object' load only")
-        mount = self.load.mount
-        for name, unit in (("torque_stiffness", "N·m/rad"), ("force_stiffness", "N/m")):
-            need(len(getattr(mount, name)) == 3 and min(getattr(mount, name)) > 0, f"load.mount.{name}",
-                 f"needs 3 numbers > 0 ({unit}): set load.mount.rigid true for a rigid mount")
-        for name, unit in (("torque_damping", "N·m·s/rad"), ("force_damping", "N·s/m")):
-            need(len(getattr(mount, name)) == 3 and min(getattr(mount, name)) >= 0, f"load.mount.{name}",
-                 f"needs 3 numbers >= 0 ({unit})")
         need(len(self.load.inertia_com) == 6, "load.inertia_com", "needs 6 numbers [Ixx, Ixy, Ixz, Iyy, Iyz, Izz]")
         need(self.environment.kind in ("sheet_spring", "none"), "environment.kind",
              f"must be 'sheet_spring' or 'none', not {self.environment.kind!r}")
@@ -216,12 +220,13 @@ class Scenario:
         need(self.duration > 0, "duration", "must be > 0 (s)")
         need(math.isfinite(self.slave_velocity_filter) and self.slave_velocity_filter >= 0, "slave_velocity_filter",
              "must be >= 0 (Hz; 0: the true velocity)")
-        need(len(self.accelerometer.position) == 3, "accelerometer.position", "needs 3 numbers (m, in S)")
-        for name in ("ft_sensor", "accelerometer"):
+        for name, params in (("ft_sensor", self.ft_sensor), ("accelerometer", self.accelerometer),
+                             ("load.mount", self.load.mount)):
             try:
-                getattr(self, name).validate()
-            except ValueError as error:
-                raise ValueError(f"scenario field '{name}': {error}") from None
+                params.validate()
+            except ValueError as error:  # its message starts with the field's name
+                field, _, what = str(error).partition(" ")
+                raise ValueError(f"scenario field '{name}.{field}' {what}") from None
         need(self.slave_setpoint_bandwidth > 0, "slave_setpoint_bandwidth", "must be > 0 (Hz)")
         need(math.isfinite(self.duration), "duration", "must be finite")
         return self

@@ -203,7 +203,8 @@ class AccelerometerParams(SixAxisSensorParams):
 
     def validate(self) -> None:
         super().validate()
-        self.convention()
+        if len(self.position) != 3 or not all(math.isfinite(x) for x in self.position):
+            raise ValueError(f"position needs 3 finite numbers (m, in S); got {self.position}")
 
     def convention(self) -> AccelerometerConvention:
         """What a reading means, for the consumers: gravity in it or not, and where it is taken."""

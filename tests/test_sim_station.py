@@ -301,7 +301,7 @@ def test_scenario_file_round_trip(tmp_path):
     ("load: {mount: {torque_stiffness: [3000, 0, 3000]}}\n", "load.mount.torque_stiffness"),
     ("load: {mount: {force_damping: [1, 1]}}\n", "load.mount.force_damping"),
     ("accelerometer: {position: [0.1, 0.2]}\n", "accelerometer.position"),
-    ("ft_sensor: {lowpass_cutoff: 1500.0}\n", "ft_sensor"),
+    ("ft_sensor: {lowpass_cutoff: 1500.0}\n", "ft_sensor.lowpass_cutoff"),
     ("slave_velocity_filter: -1.0\n", "slave_velocity_filter"),
 ])
 def test_malformed_scenario_names_the_field(tmp_path, text, field):
