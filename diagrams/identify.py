@@ -71,7 +71,7 @@ def kinematic_signals(scenario: Scenario, recording: Recording, base_frequency: 
                       source: str):
     """(a, α, ω, g) in S per sample for the estimators, and the encoder-derived set
     (the instruments of RIV). ``source``: "accelerometer" (its reading converted with the
-    encoders' g, ``accelerometer_reading``) or "encoders" for a and α."""
+    encoders' g and ω, ``accelerometer_reading``) or "encoders" for a and α."""
     period = recording.t[1] - recording.t[0]
     q, qd, qdd = differentiate_periodic(recording.q, period, base_frequency, harmonics)
     _, motion, _ = _slave_motion(scenario)

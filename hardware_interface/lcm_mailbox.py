@@ -55,6 +55,15 @@ def pump(bus: lcm.LCM) -> int:
 def open_buses(channels: LcmChannels) -> tuple[lcm.LCM, lcm.LCM]:
     """(bus on ``channels.lcm_url``, bus on its command URL): one object when both URLs are the
     same (``memq://`` is one process's own bus)."""
-    bus = lcm.LCM(channels.lcm_url)
     command_url = channels.command_lcm_url()
-    return bus, (bus if command_url == channels.lcm_url else lcm.LCM(command_url))
+    bus = _opened(channels.lcm_url, "--lcm-url")
+    return bus, (bus if command_url == channels.lcm_url else _opened(command_url, "--command-url"))
+
+
+def _opened(url: str, option: str) -> lcm.LCM:
+    """``lcm.LCM(url)``, or a ValueError that names the URL and the option that set it."""
+    try:
+        return lcm.LCM(url)
+    except RuntimeError as error:
+        raise ValueError(f"cannot open the LCM URL {url!r} ({error}): give {option} as udpm://GROUP:PORT?ttl=0 "
+                         "(a port up to 65534 for --lcm-url, whose command URL is one port up) or memq://") from None

@@ -35,7 +35,7 @@ set per sensor.
 
 Port conventions (DESIGN §4): the wrench is [f; τ] that the sensor exerts on
 the load, at S, expressed in S; the accelerometer's input is its ideal reading
-(``accelerometer_reading``: [a − g; α] of S, expressed in S). The sign flip of
+(``accelerometer_reading``: [a − g; α] of its point A, in S's axes). The sign flip of
 real sensors belongs to the hardware interface.
 """
 

@@ -138,3 +138,16 @@ def test_station_ideal_lays_the_ideal_station_under_the_commands_options():
     assert scenario.slave_velocity_filter == 50.0  # --set comes last
     realistic = scenario_from(argparse.Namespace(scenario="fig6", station=None, set=None))
     assert not realistic.load.mount.rigid and realistic.ft_sensor.lowpass_cutoff == 500.0
+
+
+def test_hardware_identification_refuses_a_simulated_station(tmp_path, capsys):
+    assert main(["identify", "--scenario", "fig6", "--out", str(tmp_path), "--hardware", "--station", "ideal"]) == 2
+    assert "accelerometer" in capsys.readouterr().err
+
+
+def test_an_lcm_url_that_cannot_open_names_its_option():
+    from heft.hardware_interface.channels import LcmChannels
+    from heft.hardware_interface.lcm_mailbox import open_buses
+
+    with pytest.raises(ValueError, match="--command-url"):
+        open_buses(LcmChannels(lcm_url="memq://", command_url="bogus://x"))

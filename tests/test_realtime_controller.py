@@ -64,8 +64,10 @@ def both_runs():
     period = PERIOD
     sequence = input_sequence(scenario, period)
 
+    accelerometer = scenario.accelerometer.convention()  # displaced from S: the transport runs in both
+    assert accelerometer.displaced
     diagram = MakeTeleopController(scenario.controller, load, scenario.robot, period, scenario.slave_initial_q,
-                                   accelerometer=AT_S)
+                                   accelerometer=accelerometer)
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()
     blocks = []
@@ -82,7 +84,7 @@ def both_runs():
             "master.torque_commanded", "slave.position_commanded", "log.pose_RS_desired", "log.passivity_energy",
             "log.passivity_damping", "log.scales", "log.offsets", "log.rezero_status")})
 
-    fused = MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, accelerometer=AT_S)
+    fused = MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, accelerometer=accelerometer)
     fused.start(sequence[0]["slave.position_measured"])
     steps = []
     for k, inputs in enumerate(sequence):

@@ -473,3 +473,24 @@ def test_the_load_rings_on_its_mount_at_the_mounts_rocking_mode():
     measured = frequencies[band][np.argmax(spectrum[band])]
     print(f"rocking mode: {measured:.1f} Hz in the station, {expected:.1f} Hz by modal analysis")
     assert measured == pytest.approx(expected, rel=0.03)
+
+
+def test_a_gripper_set_empty_at_the_start_starts_at_rest_on_its_mount():
+    """The station is built holding the object; a run that starts before the grasp takes the
+    object away at the start (``set_holding(..., at_start=True)``): the mount settles again to the
+    gripper's own sag, so at the start the sensor reads the gripper's weight alone (not the
+    spring force of the holding sag, the object's 4.9 N more). (The arm's servo then takes up
+    the weight its feed-forward expected, which moves it a little.)"""
+    from heft.diagrams.stations.sim_station import set_holding
+
+    scenario = layered(Scenario(), overrides_text({**NOISE_OFF, "environment.kind": "none",
+                                                   "load.kind": "gripper_object", "load.grasp_at": 1.0}))
+    station = MakeSimStation(scenario)
+    context = station.CreateDefaultContext()
+    station.GetInputPort("master.torque_commanded").FixValue(context, np.zeros(6))
+    station.GetInputPort("slave.position_commanded").FixValue(context, scenario.slave_initial_q)
+    set_holding(station, context, False, at_start=True)
+    gripper_mass = station.GetOutputPort("truth.phi_gripper").Eval(context)[0]
+    g_S = station.GetOutputPort("truth.gravity_S").Eval(context)
+    np.testing.assert_allclose(station.GetOutputPort("truth.wrench_sensor").Eval(context)[:3], -gripper_mass * g_S,
+                               atol=1e-6)

@@ -39,10 +39,14 @@ def run(args) -> int:
     from heft.diagrams.identify import identify
     from heft.systems.excitation import ExcitationSettings
 
+    if args.hardware and args.station:
+        raise ValueError("--station chooses the simulated station; on hardware describe the lab's sensor instead, "
+                         "e.g. --set '{accelerometer: {position: [0, 0, 0]}}' where its accelerometer sits (m, in S)")
     scenario = scenario_from(args)
     settings = ExcitationSettings.quick() if args.quick else ExcitationSettings()
     if args.hardware:
         from heft.diagrams.running.hardware_identify import hardware_recorder
+        print(f"identify: {scenario.accelerometer.convention()}", flush=True)
         recorder = hardware_recorder(scenario, lcm_channels(args), args.record, station_params(args.watchdog_timeout),
                                      args.rt_priority)
         wrote = f"estimate.yaml, metrics.json{f', {args.record}' if args.record else ''}"

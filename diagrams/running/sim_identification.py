@@ -36,7 +36,7 @@ def record_excitation(scenario: Scenario, trajectory, duration: float) -> Record
     simulator = Simulator(diagram)
     ApplySimulatorConfig(scenario.simulator, simulator)
     if math.isfinite(scenario.load.grasp_at):  # the gripper alone is identified, before any grasp
-        set_holding(station, simulator.get_mutable_context(), False)
+        set_holding(station, simulator.get_mutable_context(), False, at_start=True)
     simulator.Initialize()
     progress = ProgressBar(duration + period, "excitation")
     for t in np.arange(1, int(np.ceil((duration + period) / 0.1)) + 1) * 0.1:

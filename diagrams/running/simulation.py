@@ -58,7 +58,7 @@ def run_teleop(scenario: Scenario, load: LoadEstimate, label: str = "", meshcat=
     station = diagram.GetSubsystemByName("station")
     grasp_at = scenario.load.grasp_at
     if math.isfinite(grasp_at):
-        set_holding(station, context, False)
+        set_holding(station, context, False, at_start=True)
     simulator.Initialize()
     progress = ProgressBar(scenario.duration, label or f"σ = {sigma:g}", stream=io.StringIO() if quiet else sys.stderr)
     start = time.perf_counter()

@@ -252,16 +252,20 @@ def _add_master(builder: DiagramBuilder, scenario: Scenario):
     return master
 
 
-def set_holding(station, root_context, holding: bool) -> None:
+def set_holding(station, root_context, holding: bool, at_start: bool = False) -> None:
     """For a "gripper_object" load: whether the gripper holds the object in ``root_context`` (of
     the station or of a Diagram around it): the object's inertia, or none; the truth φ follows.
-    Before the grasp of ``load.grasp_at`` it holds nothing; a runner calls this at the start of
-    a run and at the grasp. The arm controller's gravity feed-forward keeps the holding payload
-    (a robot configured for the heavier load); before the grasp its servo takes up the rest."""
+    Before the grasp of ``load.grasp_at`` it holds nothing; a runner calls this ``at_start`` of a
+    run (a compliant mount then settles again to the load's sag, so the run does not begin by
+    ringing) and at the grasp (where the mount rings, as a real one does). The arm controller's
+    gravity feed-forward keeps the holding payload (a robot configured for the heavier load);
+    before the grasp its servo takes up the rest."""
     plant = station.GetSubsystemByName("slave_plant")
     plant_context = plant.GetMyMutableContextFromRoot(root_context)
     obj = plant.GetBodyByName("object")
     obj.SetSpatialInertiaInBodyFrame(plant_context, obj.default_spatial_inertia() if holding else SpatialInertia.Zero())
+    if at_start and plant.HasJointNamed("mount"):
+        settle_mount(plant, plant_context, plant.GetJointByName("mount"))
     gripper = plant.GetBodyByName("gripper")
     source = station.GetSubsystemByName("truth_phi")
     source.get_mutable_source_value(source.GetMyMutableContextFromRoot(root_context)).set_value(
@@ -276,7 +280,8 @@ def MakeSimStation(scenario: Scenario, meshcat=None):
     Outputs: ``master.position_measured``, ``master.velocity_estimated``,
     ``slave.position_measured``, ``slave.velocity_estimated`` (6 each, rad, rad/s),
     ``ft.wrench_measured`` ([f; τ] on the load at S in S), ``ft.acceleration_measured``
-    (the accelerometer's reading, ``accelerometer_reading``: [a − g; α] of S in S), and
+    (the accelerometer's reading, ``accelerometer_reading``: [a − g; α] of its point A, in S's
+    axes), and
     ``truth.*`` (see ``_add_wrist_sensor``; ``truth.acceleration`` is the kinematic [a; α]).
     """
     scenario.validate()

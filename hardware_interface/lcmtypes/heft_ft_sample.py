@@ -45,11 +45,13 @@ class heft_ft_sample(object):
 
         self.acceleration = [ 0.0 for dim0 in range(6) ]
         """
-        What the built-in accelerometer measures, expressed in S: the specific
-        force a - g of S's origin (m/s^2; hanging still it reads 9.81 m/s^2
-        pointing up, NOT zero), then S's angular acceleration alpha (rad/s^2).
-        A driver that already subtracts gravity must be declared as such in the
-        scenario (accelerometer.includes_gravity: false); see
+        What the built-in accelerometer measures, in S's axes: the specific
+        force a - g of its own point A (m/s^2; hanging still it reads 9.81 m/s^2
+        pointing up, NOT zero), then the sensor's angular acceleration alpha
+        (rad/s^2). Where A sits in S is the scenario's accelerometer.position
+        (p_SA, m; [0, 0, 0] for a driver that reports at S's origin); a driver
+        that already subtracts gravity is declared with
+        accelerometer.includes_gravity: false; see
         heft.systems.accelerometer_reading.
         LCM Type: double[6]
         """
