@@ -149,19 +149,26 @@ class TrueNonContactWrench(LeafSystem):
         self._poses, self._velocities, self._accelerations = declare_body_motion_inputs(self)
         self._phi = self.DeclareVectorInputPort("phi", 10)
         self._phi_gripper = self.DeclareVectorInputPort("phi_gripper", 10)
-        self.DeclareVectorOutputPort("wrench", 6, lambda context, output: self._calc(context, output, False))
-        self.DeclareVectorOutputPort("wrench_object", 6, lambda context, output: self._calc(context, output, True))
+        self._X_BS = RigidTransform(self._p_BS)
+        # Both wrenches at once (12): one evaluation of the load frame's motion per context change.
+        self._wrenches = self.DeclareCacheEntry(
+            "wrenches", ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(12)), calc=self._calc),
+            prerequisites_of_calc={self.all_input_ports_ticket()})
+        for name, part in (("wrench", slice(0, 6)), ("wrench_object", slice(6, 12))):
+            self.DeclareVectorOutputPort(name, 6, lambda context, output, part=part: output.SetFromVector(
+                self._wrenches.Eval(context)[part]), prerequisites_of_calc={self._wrenches.ticket()})
 
-    def _calc(self, context, output, object_share: bool):
+    def _calc(self, context, value):
         poses, load = self._poses.Eval(context), self._load
-        phi = self._phi.Eval(context)
-        if object_share:
-            phi_gripper = self._phi_gripper.Eval(context)
-            phi = phi - phi_gripper if np.any(phi_gripper) else np.zeros(10)
+        phi, phi_gripper = self._phi.Eval(context), self._phi_gripper.Eval(context)
+        phi_object = phi - phi_gripper if np.any(phi_gripper) else np.zeros(10)
         a, alpha, omega, g = frame_motion(poses[load], self._velocities.Eval(context)[load],
                                           self._accelerations.Eval(context)[load], np.zeros(3), self._g_W)
-        wrench_L = regressor(a, alpha, omega, g) @ phi
-        X_WS = poses[self._sensor] @ RigidTransform(self._p_BS)
-        X_SL = X_WS.InvertAndCompose(poses[load])
-        f_S = X_SL.rotation() @ wrench_L[:3]
-        output.SetFromVector(np.concatenate((f_S, X_SL.rotation() @ wrench_L[3:] + np.cross(X_SL.translation(), f_S))))
+        V = regressor(a, alpha, omega, g)
+        X_SL = (poses[self._sensor] @ self._X_BS).InvertAndCompose(poses[load])
+        R_SL, p_SL = X_SL.rotation().matrix(), X_SL.translation()
+        out = value.get_mutable_value()
+        for part, share in ((slice(0, 6), phi), (slice(6, 12), phi_object)):
+            wrench_L = V @ share
+            f_S = R_SL @ wrench_L[:3]
+            out[part] = np.concatenate((f_S, R_SL @ wrench_L[3:] + np.cross(p_SL, f_S)))
