@@ -1,7 +1,10 @@
 """Incremental encoders: joint angles quantised to whole counts."""
 
+import math
+
 import numpy as np
-from pydrake.systems.framework import LeafSystem
+from pydrake.systems.framework import DiagramBuilder, LeafSystem
+from pydrake.systems.primitives import DiscreteDerivative, LinearSystem
 
 
 class EncoderQuantizer(LeafSystem):
@@ -20,33 +23,21 @@ class EncoderQuantizer(LeafSystem):
         output.SetFromVector(np.round(q / self.step) * self.step)
 
 
-class EncoderVelocityEstimator(LeafSystem):
-    """A robot controller's joint velocity estimate from its encoders: every ``period`` s the
-    backward difference of input ``position`` (n, rad, encoder-quantised) through a first-order
-    low-pass of ``cutoff_hz`` (exact discretisation: v ← v + (1 − e^(−2π·f_c·T))·(Δq/T − v)).
-    Output ``velocity`` (n, rad/s) is state: no feedthrough. Starts at rest on the first input
-    (initialization event)."""
-
-    def __init__(self, size: int, period: float, cutoff_hz: float):
-        super().__init__()
-        if not (period > 0 and cutoff_hz > 0):
-            raise ValueError(f"period and cutoff_hz must be > 0; got {period}, {cutoff_hz}")
-        self._size, self._period = size, period
-        self._gain = 1.0 - np.exp(-2 * np.pi * cutoff_hz * period)
-        self._input = self.DeclareVectorInputPort("position", size)
-        self._velocity = self.DeclareDiscreteState(size)
-        self._last_position = self.DeclareDiscreteState(size)
-        self.DeclareInitializationDiscreteUpdateEvent(self._start)
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
-        self.DeclareStateOutputPort("velocity", self._velocity)
-
-    def _start(self, context, discrete_state):
-        discrete_state.set_value(self._velocity, np.zeros(self._size))
-        discrete_state.set_value(self._last_position, self._input.Eval(context))
-
-    def _update(self, context, discrete_state):
-        v = context.get_discrete_state(self._velocity).get_value()
-        last = context.get_discrete_state(self._last_position).get_value()
-        q = self._input.Eval(context)
-        discrete_state.set_value(self._velocity, v + self._gain * ((q - last) / self._period - v))
-        discrete_state.set_value(self._last_position, q)
+def AddEncoderVelocityEstimate(builder: DiagramBuilder, position, period: float, cutoff_hz: float):
+    """A robot controller's joint velocity estimate from its encoders, added to ``builder``:
+    every ``period`` s the backward difference of the output port ``position`` (n, rad,
+    encoder-quantised; Drake's ``DiscreteDerivative``, zero over its first two samples) through
+    a first-order low-pass of ``cutoff_hz`` (exact discretisation: v_k = v_{k−1} + (1 − e^(−2π·f_c·T))·
+    (Δq_k/T − v_{k−1}), a ``LinearSystem`` whose output takes this tick's difference). Returns the
+    velocity port (n, rad/s); no feedthrough from ``position``."""
+    if not (period > 0 and cutoff_hz > 0):
+        raise ValueError(f"period and cutoff_hz must be > 0; got {period}, {cutoff_hz}")
+    size = position.size()
+    keep = math.exp(-2 * math.pi * cutoff_hz * period)
+    derivative = builder.AddSystem(DiscreteDerivative(size, period))
+    identity = np.eye(size)
+    lowpass = builder.AddSystem(LinearSystem(keep * identity, (1 - keep) * identity, keep * identity,
+                                             (1 - keep) * identity, period))
+    builder.Connect(position, derivative.get_input_port())
+    builder.Connect(derivative.get_output_port(), lowpass.get_input_port())
+    return lowpass.get_output_port()

@@ -7,7 +7,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from heft.systems.encoders import EncoderQuantizer, EncoderVelocityEstimator
+from heft.systems.encoders import AddEncoderVelocityEstimate, EncoderQuantizer
 
 PERIOD, CUTOFF = 0.0005, 100.0
 STEP = 2 * np.pi / 2**20  # rad per count
@@ -19,15 +19,15 @@ def estimate(positions, times, samples):
     builder = DiagramBuilder()
     source = builder.AddSystem(TrajectorySource(PiecewisePolynomial.FirstOrderHold(times, positions)))
     encoders = builder.AddSystem(EncoderQuantizer(positions.shape[0], 2**20))
-    velocity = builder.AddSystem(EncoderVelocityEstimator(positions.shape[0], PERIOD, CUTOFF))
     builder.Connect(source.get_output_port(), encoders.get_input_port())
-    builder.Connect(encoders.get_output_port(), velocity.get_input_port())
-    simulator = Simulator(builder.Build())
-    context = velocity.GetMyContextFromRoot(simulator.get_context())
+    builder.ExportOutput(AddEncoderVelocityEstimate(builder, encoders.get_output_port(), PERIOD, CUTOFF), "velocity")
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    context = simulator.get_context()
     out = []
     for k in range(samples):
         simulator.AdvanceTo((k + 0.5) * PERIOD)
-        out.append(velocity.get_output_port().Eval(context).copy())
+        out.append(diagram.GetOutputPort("velocity").Eval(context).copy())
     return np.array(out)
 
 
@@ -49,5 +49,7 @@ def test_at_rest_the_estimate_is_exactly_zero():
 
 
 def test_bad_settings_are_refused():
+    builder = DiagramBuilder()
+    encoders = builder.AddSystem(EncoderQuantizer(6, 2**20))
     with pytest.raises(ValueError, match="cutoff_hz"):
-        EncoderVelocityEstimator(6, PERIOD, 0.0)
+        AddEncoderVelocityEstimate(builder, encoders.get_output_port(), PERIOD, 0.0)

@@ -22,7 +22,7 @@ from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, Satu
 from heft.diagrams.models import model_path
 from heft.diagrams.plants import MASTER_URDF, AddSlave, SlaveParts, phi_about_S
 from heft.diagrams.scenario import Scenario
-from heft.systems.encoders import EncoderQuantizer, EncoderVelocityEstimator
+from heft.systems.encoders import AddEncoderVelocityEstimate, EncoderQuantizer
 from heft.systems.gravity_compensation import GravityCompensation
 from heft.systems.load_dynamics import GRAVITY_W
 from heft.systems.operator_hand import OperatorHand
@@ -114,10 +114,8 @@ def _add_slave(builder: DiagramBuilder, scenario: Scenario):
     builder.Connect(state.get_output_port(0), encoders.get_input_port())
     builder.ExportOutput(encoders.get_output_port(), "slave.position_measured")
     if scenario.slave_velocity_filter > 0:
-        velocity = builder.AddNamedSystem("slave_velocity_estimator", EncoderVelocityEstimator(
-            6, scenario.plant.time_step, scenario.slave_velocity_filter))
-        builder.Connect(encoders.get_output_port(), velocity.get_input_port())
-        builder.ExportOutput(velocity.get_output_port(), "slave.velocity_estimated")
+        builder.ExportOutput(AddEncoderVelocityEstimate(builder, encoders.get_output_port(), scenario.plant.time_step,
+                                                        scenario.slave_velocity_filter), "slave.velocity_estimated")
     else:
         builder.ExportOutput(state.get_output_port(1), "slave.velocity_estimated")
     builder.ExportOutput(state.get_output_port(0), "truth.slave_position")
