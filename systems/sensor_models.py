@@ -203,8 +203,10 @@ class AccelerometerParams(SixAxisSensorParams):
 
     def validate(self) -> None:
         super().validate()
-        if len(self.position) != 3 or not all(math.isfinite(x) for x in self.position):
-            raise ValueError(f"position needs 3 finite numbers (m, in S); got {self.position}")
+        try:
+            self.convention()
+        except (ValueError, TypeError):
+            raise ValueError(f"position needs 3 finite numbers (m, in S); got {self.position}") from None
 
     def convention(self) -> AccelerometerConvention:
         """What a reading means, for the consumers: gravity in it or not, and where it is taken."""
