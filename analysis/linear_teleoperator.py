@@ -17,7 +17,8 @@ Controller (discrete, period T, each block a Drake discrete system):
 
     x_c = k_t x_m delayed by d_fwd + n ticks → setpoint filter (critically damped, exact ZOH
     discretisation of `heft.systems.setpoint_filter`) → [x_f, ẋ_f]
-    f_a = −k_f (γ c + σ n) delayed by d_fb + n ticks
+    f_a = −k_f (γ N(c) + σ n) delayed by d_fb + n ticks, N the mount notch of
+    `heft.systems.force_scaling` (identity without one)
 
 The plants step from kT with the controller outputs of the previous tick (both plants of
 the simulated station are discrete at the controller period and read their inputs before
@@ -47,6 +48,7 @@ from pathlib import Path
 from heft.analysis.plotting import plt
 import numpy as np
 from heft.analysis.stability import llewellyn_absolutely_stable
+from heft.systems.force_scaling import notch_coefficients
 from heft.systems.setpoint_filter import critically_damped_step_matrices
 from pydrake.autodiffutils import ExtractGradient, InitializeAutoDiff
 from pydrake.systems.analysis import DiscreteTimeApproximation
@@ -90,10 +92,13 @@ class LinearTeleoperatorParams:
     forward_delay_ticks: int = 2        # master sample → setpoint filter input (ticks)
     feedback_delay_ticks: int = 2       # sensor sample → actuator force (ticks, ≥ 1)
     communication_delay_ticks: int = 0  # n, added to each direction (ticks)
+    mount_notch: float = 0.0            # Hz, the notch the contact is fed back through (0: none)
+    mount_notch_quality: float = 0.7    # its Q
 
     def validate(self) -> LinearTeleoperatorParams:
         """Raises ValueError naming the first field out of range; returns self."""
-        positive = ("master_mass", "slave_mass", "slave_stiffness", "period", "setpoint_bandwidth")
+        positive = ("master_mass", "slave_mass", "slave_stiffness", "period", "setpoint_bandwidth",
+                    "mount_notch_quality")
         for name in positive:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
@@ -198,6 +203,22 @@ def _delay(builder, ticks: int, period: float):
                                           D=np.zeros((1, 1)), time_period=period))
 
 
+def _notch_on_contact(p: LinearTeleoperatorParams):
+    """[x_m, c, n] → [x_m, N(c), n], N the controller's mount notch (`notch_coefficients`) as a
+    discrete state-space system of its transposed direct form II (a pass-through without one)."""
+    coefficients = notch_coefficients(p.mount_notch, p.mount_notch_quality, p.period)
+    if coefficients is None:
+        return PassThrough(3)
+    b0, b1, b2, a1, a2 = coefficients[:5]
+    A = np.array([[-a1, 1.0], [-a2, 0.0]])
+    B = np.zeros((2, 3))
+    B[:, 1] = [b1 - a1 * b0, b2 - a2 * b0]
+    C = np.zeros((3, 2))
+    C[1, 0] = 1.0
+    D = np.diag([1.0, b0, 1.0])
+    return LinearSystem(A=A, B=B, C=C, D=D, time_period=p.period)
+
+
 def MakeController(params: LinearTeleoperatorParams):
     """The discrete controller (period T) as a Diagram: input ``measured`` [x_m, c, n],
     output ``command`` [f_a, x_f, ẋ_f]. No direct feedthrough."""
@@ -211,12 +232,13 @@ def MakeController(params: LinearTeleoperatorParams):
     A, B = critically_damped_step_matrices(p.setpoint_bandwidth, p.period)
     setpoint_filter = builder.AddNamedSystem("setpoint_filter", LinearSystem(
         A=A, B=B[:, None], C=np.eye(2), D=np.zeros((2, 1)), time_period=p.period))
+    notch = builder.AddNamedSystem("mount_notch", _notch_on_contact(p))
     force = builder.AddNamedSystem("force_feedback", MatrixGain(np.array([
         [0, -p.force_scale * p.gamma, -p.force_scale * p.sigma]])))
     feedback = _delay(builder, int(p.feedback_delay_ticks) + n, p.period)
     command = builder.AddNamedSystem("command", Multiplexer([1, 2]))
-    chain = ((measured, motion), (motion, forward), (forward, setpoint_filter), (measured, force),
-             (force, feedback))
+    chain = ((measured, motion), (motion, forward), (forward, setpoint_filter), (measured, notch),
+             (notch, force), (force, feedback))
     for source, sink in chain:
         builder.Connect(source.get_output_port(), sink.get_input_port())
     builder.Connect(feedback.get_output_port(), command.get_input_port(0))

@@ -50,17 +50,18 @@ def _slave_ik_model(robot: str) -> tuple[MultibodyPlant, RxKinematics, RigidTran
     return slave, kinematics, X_FS
 
 
-def MakeRealtimeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, *,
+def MakeRealtimeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, period: float, *,
                                  accelerometer: AccelerometerConvention) -> RealtimeTeleopController:
     """The controller of ``MakeTeleopController`` as one computation per tick, for the hardware's
-    real-time loop (``systems.realtime_controller``): same models, same parameters."""
+    real-time loop (``systems.realtime_controller``) at the nominal ``period`` (s): same models,
+    same parameters."""
     if spec.estimator.mode != "fixed":
         raise ValueError("controller.estimator.mode 'online' runs in simulation only so far; on hardware use "
                          "'fixed' and give a new tool's estimate with `heft load --estimate`")
     slave, kinematics, X_FS = _slave_ik_model(robot)
     return RealtimeTeleopController(MakeMasterPlant(), slave, f"{robot}_base", kinematics, X_FS, load.phi, load.offsets,
                                     spec.motion, spec.force, spec.feedback, spec.passivity, spec.offsets,
-                                    accelerometer)
+                                    accelerometer, period)
 
 
 def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, period: float, slave_initial_q, *,

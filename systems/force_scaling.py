@@ -17,6 +17,13 @@ so σ scales the apparent mass of the load (σ = 0 eliminates it, σ = 1 keeps
 it), γ scales the contact wrench, and with the split σ acts on the gripper and
 η on the gripped object. For σ = 0, γ = 1 the split law equals Eq. 14:
 f′ = f − o − V·φ_mod with φ_mod = φ_gr + (1 − η)·φ̂_obj.
+
+A load on a compliant mount (a tool on an adapter plate) rocks at the mount's first
+mode, tens of Hz, while the accelerometer in the sensor sees only S's motion: the
+rocking is missing from V·φ̂ and lands in c. Fed back, it closes a loop through the
+operator's hand and the arm that sustains the rocking. ``mount_notch`` then feeds
+back c through a notch at that mode (f′ = γ·N(c) + …, N a second-order notch);
+the ``wrench_contact`` output stays the c of Eq. 13.
 """
 
 import dataclasses
@@ -25,6 +32,7 @@ import math
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
+from scipy.signal import iirnotch, lfilter_zi
 
 from .accelerometer_reading import AT_S, AccelerometerConvention, motion_from_reading
 from .load_dynamics import regressor
@@ -54,9 +62,26 @@ class ForceScalingParams:
     """The gripper's φ (Eq. 6, about S's origin, in S) for the Eq. 14 split; None
     treats the whole load as one body."""
 
+    mount_notch: float = 0.0
+    """Centre (Hz) of the notch through which c is fed back (module docstring): the load's
+    first mode on its mount, from a tap test; 0: no notch (a rigid mount). Below the
+    controller's Nyquist frequency."""
+
+    mount_notch_quality: float = 0.7
+    """Q of that notch, its centre over its −3 dB width: low, so that one notch covers the
+    mode as it shifts with the load held and with the hand's and the arm's coupling."""
+
     fault_decay_time: float = 0.01
     """Time constant τ (s) with which f′ decays to zero while faulted, applied per
     tick as exp(−period/τ) from the last f′ in effect; 0 drops it to zero at once."""
+
+    def mount_notch_summary(self) -> str:
+        """One line on the notch for a lab's console: what is set and how to set it."""
+        if self.mount_notch == 0:
+            return "contact fed back without a mount notch (controller.force.mount_notch: 0, a rigid tool mount)"
+        return (f"contact fed back through a notch at {self.mount_notch:g} Hz, Q {self.mount_notch_quality:g} "
+                "(controller.force.mount_notch: the tool's rocking mode on its mount, the frequency it rings at "
+                "in the wrench when tapped; 0 for a rigid mount)")
 
     def validate(self) -> None:
         """Raises ValueError naming the first field that is out of range."""
@@ -70,6 +95,10 @@ class ForceScalingParams:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be finite and > 0; got {value}")
+        if not (math.isfinite(self.mount_notch) and self.mount_notch >= 0):
+            raise ValueError(f"mount_notch must be finite and >= 0 Hz (0: none); got {self.mount_notch}")
+        if not (math.isfinite(self.mount_notch_quality) and self.mount_notch_quality > 0):
+            raise ValueError(f"mount_notch_quality must be finite and > 0; got {self.mount_notch_quality}")
         if not (math.isfinite(self.fault_decay_time) and self.fault_decay_time >= 0):
             raise ValueError(
                 f"fault_decay_time must be finite and >= 0; got {self.fault_decay_time}")
@@ -117,40 +146,96 @@ def decay_factor(dt: float, fault_decay_time: float) -> float:
     return math.exp(-dt / fault_decay_time) if fault_decay_time > 0 else 0.0
 
 
-# Layout of an evaluation: f′, contact, non-contact, fault flag.
-FEEDBACK, CONTACT, NONCONTACT, FAULT = slice(0, 6), slice(6, 12), slice(12, 18), 18
-EVALUATION_SIZE = 19
+def notch_coefficients(frequency: float, quality: float, period: float) -> np.ndarray | None:
+    """(b0, b1, b2, a1, a2, z1, z2) of the second-order notch at ``frequency`` (Hz) of quality
+    ``quality`` at sample ``period`` (s) (``scipy.signal.iirnotch``; a0 = 1), with its state
+    (z1, z2) per unit input in the steady state; None for frequency 0."""
+    if frequency == 0:
+        return None
+    if not frequency < 0.5 / period:
+        raise ValueError(f"the mount notch at {frequency:g} Hz must lie below the controller's Nyquist "
+                         f"frequency {0.5 / period:g} Hz; lower it or set it to 0 (none)")
+    b, a = iirnotch(frequency, quality, fs=1.0 / period)
+    return np.concatenate((b, a[1:], lfilter_zi(b, a)))
+
+
+# Layout of an evaluation: f′, contact (Eq. 13), non-contact, fault flag, and the contact as fed
+# back (through the mount notch).
+FEEDBACK, CONTACT, NONCONTACT, FAULT, CONTACT_FED_BACK = (slice(0, 6), slice(6, 12), slice(12, 18), 18,
+                                                          slice(19, 25))
+EVALUATION_SIZE = 25
+# Layout of the memory: the f′ in effect during the last tick, the flag a non-finite request
+# raised, the mount notch's state (2 × 6, transposed direct form II; NaN: to start in the
+# steady state of the next contact wrench).
+LAST_FEEDBACK, REQUEST_FAULT, NOTCH_STATE = slice(0, 6), 6, slice(7, 19)
+MEMORY_SIZE = 19
+
+
+def initial_memory() -> np.ndarray:
+    """The memory of a block that has not ticked yet."""
+    memory = np.zeros(MEMORY_SIZE)
+    memory[NOTCH_STATE] = np.nan
+    return memory
+
+
+def notch_state(memory: np.ndarray, notch: np.ndarray, contact: np.ndarray) -> np.ndarray:
+    """The notch's state (2, 6), a view into ``memory``, first set to its steady state for
+    ``contact`` if the notch has not started."""
+    state = memory[NOTCH_STATE].reshape(2, 6)
+    if math.isnan(state[0, 0]):
+        np.outer(notch[5:], contact, out=state)
+    return state
 
 
 def evaluate(out: np.ndarray, wrench, reading, omega, gravity, phi, offsets, scales, memory,
-             decay: float, phi_gripper=None, accelerometer: AccelerometerConvention = AT_S) -> None:
-    """One evaluation of the block into ``out`` (19: f′, c, n, fault), as the
+             decay: float, phi_gripper=None, accelerometer: AccelerometerConvention = AT_S,
+             notch: np.ndarray | None = None) -> None:
+    """One evaluation of the block into ``out`` (``EVALUATION_SIZE``), as the
     ``ForceScalingElimination`` docstring describes: ``reading`` (6) is the accelerometer's
     (``accelerometer_reading``, ``accelerometer`` its convention), ``scales`` (3) are σ, γ,
-    η in effect, ``memory`` (7) the last f′ in effect and the request-fault flag, ``decay`` the
-    factor applied to that f′ while faulted (``decay_factor``)."""
-    if memory[6] == 0.0 and math.isfinite(sum(wrench.tolist()) + sum(reading.tolist()) + sum(omega.tolist())
-                                          + sum(gravity.tolist()) + sum(phi.tolist()) + sum(offsets.tolist())):
+    η in effect, ``memory`` (``MEMORY_SIZE``) the block's, ``decay`` the factor applied to the
+    last f′ while faulted (``decay_factor``), ``notch`` the mount notch (``notch_coefficients``)."""
+    if memory[REQUEST_FAULT] == 0.0 and math.isfinite(
+            sum(wrench.tolist()) + sum(reading.tolist()) + sum(omega.tolist()) + sum(gravity.tolist())
+            + sum(phi.tolist()) + sum(offsets.tolist())):
         sigma, gamma, eta = scales
         acceleration = motion_from_reading(np.empty(6), reading, gravity, omega, accelerometer)
         out[FEEDBACK], out[CONTACT], out[NONCONTACT] = scale_wrench(
             wrench, offsets, phi, acceleration, omega, gravity, sigma, gamma, eta, phi_gripper)
+        out[CONTACT_FED_BACK] = out[CONTACT]
+        if notch is not None:
+            z1 = memory[NOTCH_STATE][:6]
+            if math.isnan(z1[0]):  # not started: in the steady state of this c
+                z1 = notch[5] * out[CONTACT]
+            out[CONTACT_FED_BACK] = notch[0] * out[CONTACT] + z1
+            out[FEEDBACK] += gamma * (out[CONTACT_FED_BACK] - out[CONTACT])
         out[FAULT] = 0.0
         if math.isfinite(sum(out.tolist())):
             return
-    out[FEEDBACK] = decay * memory[:6]
+    out[FEEDBACK] = decay * memory[LAST_FEEDBACK]
     out[CONTACT] = 0.0
     out[NONCONTACT] = 0.0
     out[FAULT] = 1.0
+    out[CONTACT_FED_BACK] = 0.0
 
 
-def next_memory_and_scales(memory: np.ndarray, scales: np.ndarray, feedback, requested, max_step: float) -> None:
-    """The update after an evaluation, in place: ``memory`` ← [f′ in effect; 1 if the
-    ``requested`` (σ, γ, η) is non-finite]; a finite request moves ``scales`` toward its
-    clamped value by at most ``max_step`` each (``slew_rate``·dt)."""
-    memory[:6] = feedback
+def next_memory_and_scales(memory: np.ndarray, scales: np.ndarray, evaluation: np.ndarray, requested,
+                           max_step: float, notch: np.ndarray | None = None) -> None:
+    """The update after an ``evaluation``, in place: ``memory`` ← [f′ in effect; 1 if the
+    ``requested`` (σ, γ, η) is non-finite; the notch advanced by the evaluation's contact wrench,
+    or restarted after a fault]; a finite request moves ``scales`` toward its clamped value by at
+    most ``max_step`` each (``slew_rate``·dt)."""
+    memory[LAST_FEEDBACK] = evaluation[FEEDBACK]
+    if notch is not None:
+        if evaluation[FAULT] > 0.5:
+            memory[NOTCH_STATE] = np.nan
+        else:
+            x, y = evaluation[CONTACT], evaluation[CONTACT_FED_BACK]
+            state = notch_state(memory, notch, x)
+            state[0] = notch[1] * x - notch[3] * y + state[1]
+            state[1] = notch[2] * x - notch[4] * y
     request_ok = math.isfinite(sum(requested))
-    memory[6] = 0.0 if request_ok else 1.0
+    memory[REQUEST_FAULT] = 0.0 if request_ok else 1.0
     if request_ok:
         for i, target in enumerate(clamp_scales(*requested)):
             scales[i] = slew(float(scales[i]), target, max_step)
@@ -190,7 +275,7 @@ class ForceScalingElimination(LeafSystem):
     immediate zero because a step of several newtons at the stylus is a jolt
     the operator's hand turns into motion; decay rather than hold because a stale
     force rendered indefinitely is a phantom force. On recovery f′ returns to the
-    live value.
+    live value, the mount notch restarted in the steady state of the first live c.
     """
 
     def __init__(self, params: ForceScalingParams | None = None, period: float = DEFAULT_PERIOD,
@@ -205,6 +290,7 @@ class ForceScalingElimination(LeafSystem):
         self._phi_gripper = (None if params.phi_gripper is None
                              else np.array(params.phi_gripper, dtype=float))
         self._decay_per_tick = decay_factor(period, params.fault_decay_time)
+        self._notch = notch_coefficients(params.mount_notch, params.mount_notch_quality, period)
 
         self._signals = tuple(self.DeclareVectorInputPort(name, size) for name, size in (
             ("wrench", 6), ("acceleration", 6), ("omega", 3), ("gravity", 3), ("phi", 10),
@@ -213,9 +299,9 @@ class ForceScalingElimination(LeafSystem):
                                for name in ("sigma", "gamma", "eta"))
 
         self._scales = self.DeclareDiscreteState(np.array(self._defaults))
-        # The f′ in effect during the last tick (6; N, N·m) and a flag (1) raised by a
-        # non-finite request.
-        self._memory = self.DeclareDiscreteState(7)
+        # The f′ in effect during the last tick (6; N, N·m), a flag (1) raised by a
+        # non-finite request, the mount notch's state (12).
+        self._memory = self.DeclareDiscreteState(initial_memory())
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
 
         self._evaluation = self.DeclareCacheEntry(
@@ -239,13 +325,13 @@ class ForceScalingElimination(LeafSystem):
         evaluate(value.get_mutable_value(), wrench, acceleration, omega, gravity, phi, offsets,
                  context.get_discrete_state(self._scales).get_value(),
                  context.get_discrete_state(self._memory).get_value(), self._decay_per_tick, self._phi_gripper,
-                 self._accelerometer)
+                 self._accelerometer, self._notch)
 
     def _update(self, context, discrete_state):
         requested = [port.Eval(context)[0] if port.HasValue(context) else default
                      for port, default in zip(self._requests, self._defaults)]
         memory = context.get_discrete_state(self._memory).get_value().copy()
         scales = context.get_discrete_state(self._scales).get_value().copy()
-        next_memory_and_scales(memory, scales, self._evaluation.Eval(context)[FEEDBACK], requested, self._max_step)
+        next_memory_and_scales(memory, scales, self._evaluation.Eval(context), requested, self._max_step, self._notch)
         discrete_state.set_value(self._memory, memory)
         discrete_state.set_value(self._scales, scales)

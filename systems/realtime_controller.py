@@ -32,7 +32,9 @@ from heft.systems.force_scaling import (
     ForceScalingParams,
     decay_factor,
     evaluate,
+    initial_memory,
     next_memory_and_scales,
+    notch_coefficients,
 )
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, pose_and_jacobian
 from heft.systems.motion_scaling import IDENTITY_POSE, MotionScalingParams, motion_scaling_update
@@ -53,7 +55,8 @@ class RealtimeTeleopController:
     ``slave`` a finalized plant of arm + wrist sensor with frames ``base_frame`` (R) and
     ``S``; ``kinematics`` the arm's closed-form IK, ``X_FS`` the pose of S in the flange
     (the tool frame T of the motion mapping is S); ``phi`` (10) and ``offsets`` (6) the
-    load model φ̂ and [f_o; τ_o] (N, N·m). Every step brings its own ``dt``.
+    load model φ̂ and [f_o; τ_o] (N, N·m). Every step brings its own ``dt``; the mount notch
+    is designed for the nominal ``period`` (s).
 
     After ``step``: ``torque`` τ_M (6, N·m) and ``position`` q̄_S (6, rad), plus what the
     per-block Diagram logs: ``wrench_feedback``/``wrench_contact``/``wrench_noncontact``
@@ -68,7 +71,7 @@ class RealtimeTeleopController:
     def __init__(self, master: MultibodyPlant, slave: MultibodyPlant, base_frame: str, kinematics: RxKinematics,
                  X_FS: RigidTransform, phi, offsets, motion: MotionScalingParams, force: ForceScalingParams,
                  feedback: FeedbackMappingParams, passivity: PassivityParams, offsets_tracking: OffsetTrackingParams,
-                 accelerometer: AccelerometerConvention):
+                 accelerometer: AccelerometerConvention, period: float):
         for params in (motion, force, feedback, passivity, offsets_tracking):
             params.validate()
         phi, offsets = checked_load(phi, offsets)
@@ -85,6 +88,7 @@ class RealtimeTeleopController:
         self._offset_state = initial_state(offsets, offsets_tracking)
         self._offsets = self._offset_state[OFFSETS]  # a view: updated in place by offsets_update
         self._rezero_requests = 0
+        self._notch = notch_coefficients(force.mount_notch, force.mount_notch_quality, period)
         self._phi_gripper = None if force.phi_gripper is None else np.array(force.phi_gripper, dtype=float)
         self._motion, self._force, self._feedback = motion, force, feedback
         self._R_RB_motion = RotationMatrix(RollPitchYaw(motion.R_RB)).matrix()
@@ -112,7 +116,7 @@ class RealtimeTeleopController:
                                               IDENTITY_POSE, IDENTITY_POSE))
         self.position = np.clip(slave_position, self._kinematics.lower, self._kinematics.upper)
         self.reachable = True
-        self._force_memory = np.zeros(7)
+        self._force_memory = initial_memory()
         self.scales = np.array(self._requested, dtype=float)
         self.energy, self.damping = np.zeros(2), np.zeros(2)
         self.torque, self.master_wrench, self.applied_wrench = np.zeros(NUM_JOINTS), np.zeros(6), np.zeros(6)
@@ -150,9 +154,9 @@ class RealtimeTeleopController:
         evaluation = self._evaluation
         evaluate(evaluation, wrench, acceleration, omega_S, gravity_S, self._phi, self._offsets, self.scales,
                  self._force_memory, decay_factor(dt, force.fault_decay_time), self._phi_gripper,
-                 self._accelerometer)
-        next_memory_and_scales(self._force_memory, self.scales, evaluation[FEEDBACK], self._requested,
-                               force.slew_rate * dt)
+                 self._accelerometer, self._notch)
+        next_memory_and_scales(self._force_memory, self.scales, evaluation, self._requested,
+                               force.slew_rate * dt, self._notch)
         offsets_update(self._offset_state, evaluation[CONTACT], evaluation[FAULT] > 0.5, slave_velocity, dt,
                        self._offset_params, self._rezero_requests)
         feedback = self._feedback

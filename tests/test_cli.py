@@ -107,24 +107,30 @@ def test_eta_without_a_gripper_split_is_an_error_not_a_no_op(capsys):
 
 @pytest.mark.slow
 def test_simulate_grasp_keeps_eta_of_the_objects_weight(tmp_path):
-    """`heft simulate grasp --eta E --sigma 0` with the sensor model's noise: the gripper is
-    identified alone, the object is learned within 1.5 s of the grasp, and in the ideal station the
-    fed-back force, averaged over 10 ms, stays within 5 % of the object's weight of contact + η·(its
-    non-contact wrench) (per sample the sensors' noise, ≈ 0.26 N, is about 5 % of it). In the
-    realistic station the object is learned as well; the load rocking on its mount then adds about
-    1 N to the force (README)."""
-    for station, eta in (("ideal", 0.5), ("ideal", 0.0), ("ideal", 1.0), ("realistic", 0.5)):
-        out = tmp_path / f"{station}{eta:g}"
-        identified = tmp_path / f"{station}0.5" / "identify" / "estimate.yaml"
+    """`heft simulate grasp --eta E --sigma 0` with the sensor model's noise, in both stations:
+    the gripper is identified alone, the object is learned within 1.5 s of the grasp (mass within
+    2 %), and from then on the fed-back force, averaged over 10 ms, stays within 5 % of the
+    object's weight of contact + η·(its non-contact wrench) (per sample the sensors' noise,
+    ≈ 0.26 N, is about 5 % of it). In the realistic station this takes the default controller's
+    notch at the mount's rocking mode: without it the rocking, fed back as contact, sustains
+    itself through the hand and the arm and the force is off by about 15 % of the weight (README)."""
+    runs = [("ideal", 0.5, []), ("realistic", 0.5, []), ("realistic", 0.0, []), ("realistic", 1.0, []),
+            ("realistic", 0.5, ["--set", "{controller: {force: {mount_notch: 0}}}"])]
+    deviations = []
+    for station, eta, extra in runs:
+        out = tmp_path / f"{station}{eta:g}{len(extra)}"
+        identified = tmp_path / f"{station}0.50" / "identify" / "estimate.yaml"
         estimate = ["--estimate", str(identified)] if identified.exists() else []
         assert main(["simulate", "grasp", "--station", station, "--eta", str(eta), "--sigma", "0",
-                     "--out", str(out), *estimate]) == 0
+                     "--out", str(out), *estimate, *extra]) == 0
         grasp = json.loads((out / "metrics.json").read_text())["grasp"]["sigma0"]
         assert grasp["eta"] == eta
         assert grasp["object_mass_settled_after_s"] < 1.5
         assert abs(grasp["object_mass_hat_kg"] - grasp["object_mass_kg"]) < 0.02 * grasp["object_mass_kg"]
-        if station == "ideal":
-            assert grasp["force_deviation_smoothed_peak_of_weight"] < 0.05
+        deviations.append(grasp["force_deviation_smoothed_peak_of_weight"])
+    print("force deviation / object's weight:", ", ".join(f"{d:.3f}" for d in deviations))
+    assert max(deviations[:-1]) < 0.05
+    assert deviations[-1] > 0.08  # the notch is what keeps the realistic station within 5 %
 
 
 def test_station_ideal_lays_the_ideal_station_under_the_commands_options():

@@ -266,3 +266,82 @@ def test_non_finite_request_holds_the_scales_and_raises_fault(scene, run):
     assert fault.Eval(context)[0] == 1.0
     np.testing.assert_allclose(system.GetOutputPort("wrench_feedback").Eval(context),
                                np.exp(-PERIOD / DECAY_TIME) * feedback, rtol=1e-12)
+
+
+# --- the mount notch ---------------------------------------------------------------
+
+NOTCH_HZ, NOTCH_Q = 48.0, 0.7
+
+
+def contact_through_notch(contact, notch_hz=NOTCH_HZ, nan_ticks=()):
+    """Simulates the block with no load (φ = 0, no offsets: c = f) on the contact wrenches
+    ``contact`` (N × 6), σ = 0, γ = 1, and NaN wrenches at ``nan_ticks``: the logged
+    (wrench_feedback, wrench_contact, fault)."""
+    count = len(contact)
+    wrench = contact.copy()
+    wrench[list(nan_ticks)] = np.nan
+    sources = dict(wrench=wrench, acceleration=np.zeros((count, 6)), omega=np.zeros((count, 3)),
+                   gravity=np.tile([0.0, 0.0, -9.81], (count, 1)), phi=np.zeros((count, 10)),
+                   offsets=np.zeros((count, 6)))
+    builder = DiagramBuilder()
+    system = builder.AddSystem(ForceScalingElimination(ForceScalingParams(
+        sigma=0.0, mount_notch=notch_hz, mount_notch_quality=NOTCH_Q), PERIOD))
+    for name, values in sources.items():
+        builder.Connect(builder.AddSystem(hold_per_tick(values)).get_output_port(), system.GetInputPort(name))
+    loggers = [LogVectorOutput(system.GetOutputPort(port), builder, PERIOD)
+               for port in ("wrench_feedback", "wrench_contact", "fault")]
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    simulator.AdvanceTo((count - 1) * PERIOD)
+    return [logger.FindLog(simulator.get_context()).data().T for logger in loggers]
+
+
+def analog_notch_gain(frequency):
+    """|H(jω)| of the continuous notch (s² + ω₀²) / (s² + (ω₀/Q)·s + ω₀²), closed form."""
+    w, w0 = 2 * np.pi * frequency, 2 * np.pi * NOTCH_HZ
+    return abs(w0 ** 2 - w ** 2) / np.hypot(w0 ** 2 - w ** 2, w * w0 / NOTCH_Q)
+
+
+@pytest.mark.parametrize("frequency", [2.5, 15.0, NOTCH_HZ, 150.0])
+def test_the_contact_is_fed_back_through_a_notch_at_the_mounts_mode(frequency):
+    """A sinusoidal contact wrench comes back scaled by the notch's gain, the continuous
+    notch's closed form (the bilinear transform, prewarped at the centre, is exact there and
+    within 3 % up to 150 Hz); the wrench_contact output stays c (Eq. 13), unfiltered."""
+    ticks = np.arange(4000)
+    wave = np.sin(2 * np.pi * frequency * ticks * PERIOD)
+    contact = np.outer(wave, [3.0, -2.0, 1.0, 0.2, -0.1, 0.05])
+    feedback, logged_contact, _ = contact_through_notch(contact)
+    np.testing.assert_allclose(logged_contact, contact, atol=1e-12)
+    settled = ticks >= 2000  # the notch's transient has died out (time constant 2Q/ω₀ ≈ 5 ms)
+    gain = np.abs(feedback[settled]).max(axis=0) / np.abs(contact[settled]).max(axis=0)
+    expected = analog_notch_gain(frequency)
+    if frequency == NOTCH_HZ:
+        assert gain.max() < 1e-3
+    else:
+        np.testing.assert_allclose(gain, expected, rtol=0.03)
+        assert expected < 0.99 or frequency < 3  # each frequency tests something
+
+
+def test_the_notch_starts_and_restarts_after_a_fault_in_steady_state():
+    """A constant contact wrench passes unchanged from the first tick (the notch starts in its
+    steady state, no ringing); after a faulted sample it returns unchanged at once."""
+    contact = np.tile([4.0, 0.0, -1.0, 0.1, 0.0, 0.2], (200, 1))
+    contact[120:] *= 2.0  # a new constant after the fault
+    feedback, _, fault = contact_through_notch(contact, nan_ticks=range(100, 120))
+    live = fault[:, 0] == 0
+    np.testing.assert_allclose(feedback[live], contact[live], rtol=1e-9, atol=1e-12)
+    assert not live[100:120].any()
+
+
+def test_a_notch_at_or_above_nyquist_is_refused_with_what_to_do():
+    with pytest.raises(ValueError, match="Nyquist.*set it to 0"):
+        ForceScalingElimination(ForceScalingParams(mount_notch=1000.0), PERIOD)
+    for bad in (dict(mount_notch=-1.0), dict(mount_notch_quality=0.0)):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            ForceScalingElimination(dataclasses.replace(ForceScalingParams(), **bad))
+
+
+def test_the_notch_is_told_to_the_lab_with_how_to_set_it():
+    assert "48 Hz" in ForceScalingParams(mount_notch=48.0).mount_notch_summary()
+    assert "tapped" in ForceScalingParams(mount_notch=48.0).mount_notch_summary()
+    assert "without a mount notch" in ForceScalingParams().mount_notch_summary()

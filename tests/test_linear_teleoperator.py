@@ -11,6 +11,7 @@ import pytest
 from heft.analysis.linear_teleoperator import (
     LinearTeleoperatorParams,
     MakeClosedLoop,
+    MakeController,
     MakePhysics,
     TwoPort,
     linearize,
@@ -200,6 +201,26 @@ def test_sampled_virtual_wall_limit():
     expected = sampled_wall_limit(1.0, 10.0, 1e-3, 3) / (p.force_scale * p.translation_scale)
     assert predicted_stiffness_limit(p, hand=False, rel_tol=1e-4) == pytest.approx(expected, rel=0.01)
     assert expected < 0.2 * virtual_wall_stiffness_limit(10.0, 1e-3)   # the delay costs much of the width
+
+
+def test_the_controller_feeds_back_the_contact_through_the_mount_notch():
+    """With a mount notch the controller's transfer from c to f_a is the one without, times
+    the notch: the continuous notch's closed form (s² + ω₀²)/(s² + (ω₀/Q)s + ω₀²) to 3 % up to
+    150 Hz, zero at the centre; the non-contact path is untouched."""
+    def transfer(params, frequency, column):
+        system = linearize(MakeController(params))
+        z = np.exp(2j * np.pi * frequency * params.period)
+        H = system.C() @ np.linalg.solve(z * np.eye(system.A().shape[0]) - system.A(), system.B()) + system.D()
+        return H[0, column]
+
+    plain, notched = loop_params(), loop_params(mount_notch=48.0, mount_notch_quality=0.7)
+    w0 = 2 * np.pi * 48.0
+    for frequency in (2.5, 15.0, 48.0, 150.0):
+        w = 2 * np.pi * frequency
+        expected = abs(w0 ** 2 - w ** 2) / np.hypot(w0 ** 2 - w ** 2, w * w0 / 0.7)
+        ratio = transfer(notched, frequency, 1) / transfer(plain, frequency, 1)
+        assert abs(ratio) == pytest.approx(expected, rel=0.03, abs=1e-9)
+        assert transfer(notched, frequency, 2) == pytest.approx(transfer(plain, frequency, 2), rel=1e-9)
 
 
 # --- (d) the reduced model against the full simulated loop --------------------------------------

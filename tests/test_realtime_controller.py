@@ -66,6 +66,7 @@ def both_runs():
 
     accelerometer = scenario.accelerometer.convention()  # displaced from S: the transport runs in both
     assert accelerometer.displaced
+    assert scenario.controller.force.mount_notch > 0  # and so does the notch on the contact
     diagram = MakeTeleopController(scenario.controller, load, scenario.robot, period, scenario.slave_initial_q,
                                    accelerometer=accelerometer)
     simulator = Simulator(diagram)
@@ -84,7 +85,8 @@ def both_runs():
             "master.torque_commanded", "slave.position_commanded", "log.pose_RS_desired", "log.passivity_energy",
             "log.passivity_damping", "log.scales", "log.offsets", "log.rezero_status")})
 
-    fused = MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, accelerometer=accelerometer)
+    fused = MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, scenario.controller_period,
+                                         accelerometer=accelerometer)
     fused.start(sequence[0]["slave.position_measured"])
     steps = []
     for k, inputs in enumerate(sequence):
@@ -141,7 +143,8 @@ def test_the_sequence_exercises_contact_clutch_and_fault(both_runs):
 def test_step_before_start_is_refused():
     scenario = Scenario()
     load, _ = true_load(scenario)
-    fused = MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, accelerometer=AT_S)
+    fused = MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, scenario.controller_period,
+                                         accelerometer=AT_S)
     with pytest.raises(RuntimeError, match="start"):
         fused.step(5e-4, *([np.zeros(6)] * 6), True)
     with pytest.raises(ValueError, match="finite"):
@@ -153,4 +156,4 @@ def test_online_estimation_is_refused_on_hardware_with_what_to_do():
     scenario.controller.estimator.mode = "online"
     with pytest.raises(ValueError, match="heft load --estimate"):
         MakeRealtimeTeleopController(scenario.controller, true_load(scenario)[0], scenario.robot,
-                                     accelerometer=AT_S)
+                                     scenario.controller_period, accelerometer=AT_S)

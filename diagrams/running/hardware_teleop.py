@@ -53,7 +53,7 @@ class HardwareTeleop:
         # The controller's models first (about a second): the station's subscriptions then
         # start receiving only when the loop is about to pump them.
         self.controller = MakeRealtimeTeleopController(
-            scenario.controller, load, scenario.robot,
+            scenario.controller, load, scenario.robot, scenario.controller_period,
             accelerometer=scenario.accelerometer.convention())
         self.station = HardwareStation(bus, channels, params, command_bus)
         self.load_commands = LoadCommandServer(bus, channels, self.controller, command_bus)
@@ -151,6 +151,7 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, channels: LcmCha
     ``scheduling`` and ``lcm_log``.
     ``record``: a path to record the LCM traffic to (``lcm-logger`` format), or None."""
     print(f"teleop: {scenario.accelerometer.convention()}", flush=True)
+    print(f"teleop: {scenario.controller.force.mount_notch_summary()}", flush=True)
     with contextlib.nullcontext() if record is None else LcmTrafficRecorder(channels, record):
         scheduling = claim_realtime(priority)
         print(f"teleop: {scheduling}", flush=True)

@@ -18,8 +18,9 @@ the model sees what the simulation simulates):
   with K_p, K_d the station's PdControllerGains read back from its plant.
 - load_mass: the mass of the bodies welded below S, from the plant's spatial inertia.
 - hand_stiffness, hand_damping: ``scenario.operator`` (translational).
-- translation_scale, force_scale, sigma, gamma: ``scenario.controller`` (motion k_t,
-  feedback k_f, force σ, γ).
+- translation_scale, force_scale, sigma, gamma, mount_notch, mount_notch_quality:
+  ``scenario.controller`` (motion k_t, feedback k_f, force σ, γ and the notch on c). The
+  model has no compliant mount: the notch enters with its phase only.
 - environment_stiffness, environment_damping: ``scenario.environment`` (the sheet
   spring, in contact, even for a scenario whose environment is "none"; the ball-plate contact, 2·10⁵ N/m, is taken as rigid and the plate's mass,
   tens of grams against tens of kilograms of arm, as zero).
@@ -124,5 +125,6 @@ def linear_model_params(scenario: Scenario, environment_stiffness: float | None 
                                else float(environment_stiffness)),
         environment_damping=scenario.environment.damping, period=scenario.controller_period,
         setpoint_bandwidth=scenario.slave_setpoint_bandwidth, sigma=controller.force.sigma,
-        gamma=controller.force.gamma,
+        gamma=controller.force.gamma, mount_notch=controller.force.mount_notch,
+        mount_notch_quality=controller.force.mount_notch_quality,
         communication_delay_ticks=round(controller.delay / scenario.controller_period)).validate()
