@@ -413,6 +413,41 @@ def test_on_a_compliant_mount_the_sensor_reads_the_load_frames_dynamics_not_S(co
     assert worst_rigid_model > 0.5
 
 
+def test_on_a_compliant_mount_the_objects_share_is_its_own_dynamics():
+    """The gripper holding its object rocks on the mount: ``truth.wrench_noncontact_object`` is
+    the wrench the gripper exerts on the object (Drake's reaction at their weld) moved to S's
+    origin in S, while V·φ_object of S's own motion misses part of it."""
+    run = Run(layered(Scenario(), overrides_text({**NOISE_OFF, "environment.kind": "none",
+                                                  "load.kind": "gripper_object"})))
+    plant = run.station.GetSubsystemByName("slave_plant")
+    obj = plant.GetBodyByName("object")
+    (weld,) = [plant.get_joint(j) for j in plant.GetJointIndices()
+               if plant.get_joint(j).child_body() is obj]
+    S = plant.GetFrameByName("S")
+    phi_object = run.out("truth.phi") - run.out("truth.phi_gripper")
+    assert phi_object[0] > 0.4  # held: the object's 0.5 kg
+    q0 = np.array(run.scenario.slave_initial_q)
+    worst_truth, worst_rigid_model = 0.0, 0.0
+    for _ in range(600):
+        t = run.context.get_time()
+        run.command(q0 + 0.25 * (1 - np.cos(2 * np.pi * 2.0 * t)) * np.array([1, -1, 1, 1, 1, 1]))
+        context = plant.GetMyContextFromRoot(run.context)
+        F_Jc = plant.get_reaction_forces_output_port().Eval(context)[int(weld.index())]
+        X_SJc = plant.CalcRelativeTransform(context, S, weld.frame_on_child())
+        f = X_SJc.rotation() @ F_Jc.translational()
+        tau = X_SJc.rotation() @ F_Jc.rotational() + np.cross(X_SJc.translation(), f)
+        on_object = np.concatenate((f, tau))
+        worst_truth = max(worst_truth, np.abs(on_object - run.out("truth.wrench_noncontact_object")).max())
+        accel, omega, g = run.out("truth.acceleration"), run.out("truth.omega"), run.out("truth.gravity_S")
+        worst_rigid_model = max(worst_rigid_model, np.abs(
+            on_object - regressor(accel[:3], accel[3:], omega, g) @ phi_object)[:3].max())
+        run.advance()
+    print(f"object's share: truth within {worst_truth:.1e} N of Drake's reaction; V·φ_object of S's motion "
+          f"off by {worst_rigid_model:.2f} N")
+    assert worst_truth < 1e-6
+    assert worst_rigid_model > 0.5
+
+
 def test_the_accelerometer_sits_where_the_scenario_says():
     """The realistic station's accelerometer is displaced from S: its reading (its filter off) is
     the specific force of that point (Drake's S acceleration shifted there), and the conversion
