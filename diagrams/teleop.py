@@ -19,6 +19,7 @@ from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
 from heft.diagrams.scenario import ControllerSpec
 from heft.systems.accelerometer_reading import AccelerometerConvention, AccelerometerToMotion
 from heft.systems.estimator_gate import EstimatorGate
+from heft.systems.estimator_prefilter import EstimatorPrefilter
 from heft.systems.feedback_mapping import FeedbackMapping
 from heft.systems.load_estimator_system import LoadEstimatorSystem
 from heft.systems.force_scaling import ForceScalingElimination
@@ -74,7 +75,8 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     optional ``sigma``, ``gamma``, ``eta`` (1 each; unconnected → ``spec.force``'s values),
     ``rezero`` (1, a request counter: ``OffsetTracker``) and, with ``spec.estimator.mode``
     "online", ``estimator_reset`` (1, a request counter: a new load). φ̂ is ``load.phi`` or,
-    online, the load estimator's (Fig. 4; ``EstimatorGate`` decides which samples it takes).
+    online, the load estimator's (Fig. 4; ``EstimatorGate`` decides which samples it takes, after
+    ``EstimatorPrefilter``).
     Outputs: ``master.torque_commanded`` (6, N·m), ``slave.position_commanded`` (6, rad),
     and the ``CONTROLLER_LOG`` signals. The slave's tool frame T of the motion mapping is S.
     """
@@ -119,15 +121,23 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
         export_input("ft.wrench_measured", force.GetInputPort("wrench"))
         builder.Connect(force.GetOutputPort("wrench_contact"), unbiased.get_input_port(0))
         builder.Connect(force.GetOutputPort("wrench_noncontact"), unbiased.get_input_port(1))
-        builder.Connect(unbiased.get_output_port(), phi.GetInputPort("wrench"))
         export_input("ft.acceleration_measured", force.GetInputPort("acceleration"), to_motion.GetInputPort("reading"))
         export_input("estimator_reset", phi.GetInputPort("reset"), gate.GetInputPort("reset"))
         builder.Connect(slave_kinematics.GetOutputPort("gravity_S"), to_motion.GetInputPort("gravity"))
         builder.Connect(slave_kinematics.GetOutputPort("omega_S"), to_motion.GetInputPort("omega"))
-        for sink in (phi, gate):
-            builder.Connect(to_motion.GetOutputPort("acceleration"), sink.GetInputPort("acceleration"))
-            builder.Connect(slave_kinematics.GetOutputPort("omega_S"), sink.GetInputPort("omega"))
-        builder.Connect(slave_kinematics.GetOutputPort("gravity_S"), phi.GetInputPort("gravity"))
+        builder.Connect(to_motion.GetOutputPort("acceleration"), gate.GetInputPort("acceleration"))
+        builder.Connect(slave_kinematics.GetOutputPort("omega_S"), gate.GetInputPort("omega"))
+        estimator_inputs = {"wrench": unbiased.get_output_port(),
+                            "acceleration": to_motion.GetOutputPort("acceleration"),
+                            "omega": slave_kinematics.GetOutputPort("omega_S"),
+                            "gravity": slave_kinematics.GetOutputPort("gravity_S")}
+        if estimation.prefilter > 0:
+            prefilter = builder.AddNamedSystem("estimator_prefilter", EstimatorPrefilter(estimation.prefilter, period))
+            for name, source in estimator_inputs.items():
+                builder.Connect(source, prefilter.GetInputPort(name))
+            estimator_inputs = {name: prefilter.GetOutputPort(name) for name in estimator_inputs}
+        for name, source in estimator_inputs.items():
+            builder.Connect(source, phi.GetInputPort(name))
         builder.Connect(force.GetOutputPort("wrench_contact"), gate.GetInputPort("wrench_contact"))
         builder.Connect(force.GetOutputPort("fault"), gate.GetInputPort("fault"))
         builder.Connect(gate.GetOutputPort("enable"), phi.GetInputPort("enable"))

@@ -11,7 +11,10 @@ taken when
 * no contact: the eliminated wrench c (Eq. 13, from force scaling) is within
   ``contact_force``/``contact_torque``, except during ``learning_window`` s
   after a reset (a new load), when c holds the not yet learned load itself, and
-* force scaling is not faulted.
+* force scaling is not faulted, and
+* the estimator's prefilter (``EstimatorPrefilter``, cut-off ``prefilter``) has settled
+  since the last reset: for 1/``prefilter`` s after it, its output still mixes in the
+  old load.
 
 Units: m/s², rad/s², rad/s for the motion, N and N·m for the wrench; all in S.
 """
@@ -51,6 +54,11 @@ class EstimatorSpec:
     learning_window: float = 1.5
     """Time (s) after a reset during which contact is not judged (the new load is learned)."""
 
+    prefilter: float = 10.0
+    """Cut-off (Hz) of the low-pass on both sides of W = V·φ before the estimator
+    (``EstimatorPrefilter``): below the load's mount modes and above the operator's motion;
+    0: none. The gate judges the unfiltered samples."""
+
     def validate(self) -> None:
         if self.mode not in ESTIMATOR_MODES:
             raise ValueError(f"estimator mode must be one of {ESTIMATOR_MODES}; got {self.mode!r}")
@@ -60,7 +68,7 @@ class EstimatorSpec:
                              f"instruments, RTLS a prior mean); got {self.method!r}")
         if not 0.5 <= self.forgetting <= 1.0:
             raise ValueError(f"estimator forgetting must lie in [0.5, 1]; got {self.forgetting}")
-        for name in ("min_excitation", "contact_force", "contact_torque", "learning_window"):
+        for name in ("min_excitation", "contact_force", "contact_torque", "learning_window", "prefilter"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"estimator {name} must be finite and >= 0; got {value}")
@@ -77,6 +85,8 @@ def excitation(acceleration, omega) -> float:
 def gate_open(spec: EstimatorSpec, acceleration, omega, contact, fault: bool, since_reset: float) -> bool:
     """Whether this sample may update the estimator (module docstring); ``since_reset`` in s."""
     if fault or excitation(acceleration, omega) < spec.min_excitation:
+        return False
+    if spec.prefilter > 0 and since_reset < 1.0 / spec.prefilter:
         return False
     if since_reset < spec.learning_window:
         return True

@@ -249,9 +249,9 @@ def lowpass_coefficients(cutoff: float, period: float) -> np.ndarray | None:
 
 
 def lowpass(coefficients: np.ndarray, state: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """The filter (transposed direct form II, ``scipy.signal.lfilter``) on ``values`` (count, 6),
-    one sample a row, each axis alone: returns the outputs and advances ``state`` (2, 6) in place.
-    A NaN state (a filter not started) starts in the steady state of the first row."""
+    """The filter (transposed direct form II, ``scipy.signal.lfilter``) on ``values`` (count, n),
+    one sample a row, each column alone: returns the outputs and advances ``state`` (2, n) in
+    place. A NaN state (a filter not started) starts in the steady state of the first row."""
     b, a = coefficients[:3], np.concatenate(([1.0], coefficients[3:]))
     if np.isnan(state[0, 0]):
         state[:] = lfilter_zi(b, a)[:, np.newaxis] * values[0]
