@@ -1,6 +1,6 @@
 """The online estimator's gate: samples of exciting motion out of contact only, contact not
-judged right after a reset, none while the prefilter settles after it, and never a faulted sample; the excitation is the regressor's
-dynamic part, checked against Eq. 5's closed form."""
+judged right after a reset, none while the prefilter settles after it, and never a faulted
+sample; the excitation is the regressor's dynamic part, checked against Eq. 5's closed form."""
 
 import dataclasses
 
