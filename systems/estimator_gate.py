@@ -11,10 +11,7 @@ taken when
 * no contact: the eliminated wrench c (Eq. 13, from force scaling) is within
   ``contact_force``/``contact_torque``, except during ``learning_window`` s
   after a reset (a new load), when c holds the not yet learned load itself, and
-* force scaling is not faulted, and
-* the estimator's prefilter (``EstimatorPrefilter``, cut-off ``prefilter``) has settled
-  since the last reset: for 1/``prefilter`` s after it, its output still mixes in the
-  old load.
+* force scaling is not faulted.
 
 Units: m/s², rad/s², rad/s for the motion, N and N·m for the wrench; all in S.
 """
@@ -85,8 +82,6 @@ def excitation(acceleration, omega) -> float:
 def gate_open(spec: EstimatorSpec, acceleration, omega, contact, fault: bool, since_reset: float) -> bool:
     """Whether this sample may update the estimator (module docstring); ``since_reset`` in s."""
     if fault or excitation(acceleration, omega) < spec.min_excitation:
-        return False
-    if spec.prefilter > 0 and since_reset < 1.0 / spec.prefilter:
         return False
     if since_reset < spec.learning_window:
         return True
