@@ -273,16 +273,21 @@ SCENARIO_DIR = Path(__file__).resolve().parent / "scenarios"
 """The bundled scenarios (fig6, fig7, fig8, …)."""
 
 
-def resolve_scenario(name_or_path: str, overrides: str = "") -> Scenario:
-    """A bundled scenario by name or a YAML file by path, with the YAML text ``overrides``
-    (``layered``) laid over it."""
+def scenario_path(name_or_path: str) -> Path:
+    """The file of a bundled scenario by name, or ``name_or_path`` itself."""
     path = Path(name_or_path)
     if not path.suffix:
         path = SCENARIO_DIR / f"{name_or_path}.yaml"
         if not path.is_file():
             bundled = sorted(p.stem for p in SCENARIO_DIR.glob("*.yaml"))
             raise ValueError(f"no bundled scenario {name_or_path!r}; bundled: {', '.join(bundled)}")
-    scenario = load_scenario(path)
+    return path
+
+
+def resolve_scenario(name_or_path: str, overrides: str = "") -> Scenario:
+    """A bundled scenario by name or a YAML file by path, with the YAML text ``overrides``
+    (``layered``) laid over it."""
+    scenario = load_scenario(scenario_path(name_or_path))
     return layered(scenario, overrides) if overrides.strip() else scenario
 
 

@@ -159,3 +159,23 @@ def test_an_lcm_url_that_cannot_open_names_its_option():
 
     with pytest.raises(ValueError, match="--command-url"):
         open_buses(LcmChannels(lcm_url="memq://", command_url="bogus://x"))
+
+
+def test_on_hardware_the_lab_states_its_sensor_and_mount(tmp_path, capsys):
+    """The simulated lab's accelerometer position and mount notch are not silently taken for a real
+    lab's: without them `teleop --hardware` and `identify --hardware` refuse, naming each field and
+    how to find it; a scenario file or --set that states them passes."""
+    import argparse
+    from heft.diagrams.commands.options import require_lab_settings
+
+    assert main(["teleop", "--hardware", "--scenario", "fig6", "--duration", "0.1"]) == 2
+    error = capsys.readouterr().err
+    assert "accelerometer.position" in error and "controller.force.mount_notch" in error and "tapped" in error
+    assert main(["identify", "--hardware", "--scenario", "fig6", "--out", str(tmp_path),
+                 "--set", "{controller: {force: {mount_notch: 0}}}"]) == 2
+    error = capsys.readouterr().err
+    assert "accelerometer.position" in error and "mount_notch" not in error
+    lab = tmp_path / "lab.yaml"
+    lab.write_text("accelerometer: {position: [0.0, 0.0, 0.012]}\n")
+    require_lab_settings(argparse.Namespace(scenario=str(lab), set="{controller: {force: {mount_notch: 55}}}"),
+                         "accelerometer.position", "controller.force.mount_notch")

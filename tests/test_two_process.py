@@ -15,6 +15,8 @@ import time
 
 import lcm
 import pytest
+from heft.diagrams.commands.options import lab_settings_text
+from heft.diagrams.scenario import resolve_scenario
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import HardwareStationParams
 
@@ -23,6 +25,7 @@ pytestmark = pytest.mark.slow
 LCM_URL = "udpm://239.255.76.67:7667?ttl=0"
 STARTUP_TIMEOUT = 60.0
 RUN_TIMEOUT = 120.0
+STAND_IN_SENSOR = lab_settings_text(resolve_scenario("fig6"))  # the stand-in's sensor, stated as a lab states its own
 
 
 class _Process:
@@ -65,7 +68,7 @@ def _run(netns, folder, teleop_duration, stand_in_args, teleop_args=(), restart=
     JSON summary and the processes."""
     out = folder / "teleop.json"
     teleop = _Process(netns, folder, "teleop", "teleop", "--hardware", "--lcm-url", LCM_URL,
-                      "--duration", str(teleop_duration), "--out", str(out), *teleop_args)
+                      "--set", STAND_IN_SENSOR, "--duration", str(teleop_duration), "--out", str(out), *teleop_args)
     stand_ins = []
     try:
         teleop.wait_for("teleop: controller on")
@@ -146,7 +149,7 @@ def test_tool_change_and_rezero_reach_the_running_controller(netns, tmp_path):
     estimate.write_text(f"phi: {true.phi.tolist()}\noffsets: {true.offsets.tolist()}\n")
     out = tmp_path / "teleop.json"
     teleop = _Process(netns, tmp_path, "teleop", "teleop", "--hardware", "--lcm-url", LCM_URL, "--duration", "8",
-                      "--out", str(out))
+                      "--set", STAND_IN_SENSOR, "--out", str(out))
     processes = [teleop]
     try:
         teleop.wait_for("teleop: controller on")

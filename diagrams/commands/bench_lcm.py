@@ -215,6 +215,7 @@ def _url_arguments(channels) -> list[str]:
 
 def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder: Path, prefix) -> dict:
     """One controller rate: both processes, then the latency statistics and the controller's timing."""
+    from heft.diagrams.commands.options import lab_settings_text
     from heft.diagrams.scenario import resolve_scenario
 
     loaded = resolve_scenario(scenario)
@@ -223,7 +224,8 @@ def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder:
     python = [*prefix, sys.executable]
     teleop = subprocess.Popen(
         [*python, "-m", "heft.diagrams.cli", "teleop", "--hardware", *_url_arguments(channels), "--scenario", scenario,
-         "--rate", str(rate_hz), "--duration", str(duration + SETTLE), "--out", str(summary_path)],
+         "--set", lab_settings_text(loaded), "--rate", str(rate_hz), "--duration", str(duration + SETTLE),
+         "--out", str(summary_path)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
     probe = subprocess.Popen(
         [*python, "-m", "heft.diagrams.commands.bench_lcm", "--probe", channels.lcm_url, channels.command_lcm_url(),
@@ -260,6 +262,9 @@ def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder:
 def bench_stand_in(rate_hz: float, duration: float, channels, scenario: str, folder: Path, prefix) -> dict:
     """The controller at ``rate_hz`` against ``heft stand-in`` for ``duration`` s of wall time:
     messages per wall second each way, as each side counted them."""
+    from heft.diagrams.commands.options import lab_settings_text
+    from heft.diagrams.scenario import resolve_scenario
+
     teleop_path, stand_in_path = folder / "teleop_stand_in.json", folder / "stand_in.json"
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONUNBUFFERED="1")
     cli = [*prefix, sys.executable, "-m", "heft.diagrams.cli"]
@@ -267,7 +272,8 @@ def bench_stand_in(rate_hz: float, duration: float, channels, scenario: str, fol
         [*cli, "stand-in", "--scenario", scenario, *_url_arguments(channels), "--duration", str(duration + 2 * SETTLE),
          "--out", str(stand_in_path)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
     teleop = subprocess.Popen(
-        [*cli, "teleop", "--hardware", *_url_arguments(channels), "--scenario", scenario, "--rate", str(rate_hz),
+        [*cli, "teleop", "--hardware", *_url_arguments(channels), "--scenario", scenario,
+         "--set", lab_settings_text(resolve_scenario(scenario)), "--rate", str(rate_hz),
          "--duration", str(duration), "--out", str(teleop_path)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
     _finish({"teleop": (teleop, duration + 120), "stand-in": (stand_in, duration + 120)})

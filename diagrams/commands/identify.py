@@ -5,8 +5,8 @@ from __future__ import annotations
 
 
 
-from heft.diagrams.commands.options import (add_lcm_urls, add_set, add_station, lcm_channels, scenario_from,
-                                            station_params)
+from heft.diagrams.commands.options import (add_lcm_urls, add_set, add_station, lcm_channels, require_lab_settings,
+                                            scenario_from, station_params)
 
 HELP = ("identify the load's inertial parameters and the sensor "
        "offsets from an excitation motion (Sec. IV)")
@@ -42,6 +42,8 @@ def run(args) -> int:
     if args.hardware and args.station:
         raise ValueError("--station chooses the simulated station; on hardware describe the lab's sensor instead, "
                          "e.g. --set '{accelerometer: {position: [0, 0, 0]}}' where its accelerometer sits (m, in S)")
+    if args.hardware:
+        require_lab_settings(args, "accelerometer.position")
     scenario = scenario_from(args)
     settings = ExcitationSettings.quick() if args.quick else ExcitationSettings()
     if args.hardware:

@@ -4,7 +4,10 @@ the hardware station's watchdog timeout."""
 from __future__ import annotations
 
 import argparse
+import functools
 import math
+
+import yaml
 
 from heft.hardware_interface.channels import DEFAULT_LCM_URL, LcmChannels
 
@@ -46,6 +49,48 @@ def scenario_from(args, options: str = ""):
     if options:
         scenario = layered(scenario, options)
     return layered(scenario, args.set) if args.set else scenario
+
+
+LAB_SETTINGS = {
+    "accelerometer.position": ("where the sensor's accelerometer sits in S (m), from its manual; [0, 0, 0] if its "
+                               "driver reports the reading at S", [0.0, 0.0, 0.0]),
+    "controller.force.mount_notch": ("the tool's rocking mode on its mount (Hz): the frequency it rings at in the "
+                                     "wrench when tapped; 0 for a rigid mount", 0.0),
+}
+"""Fields whose defaults describe the simulated lab: how a real lab finds its value, and an example."""
+
+
+def _stated(text: str) -> set[str]:
+    """The dotted names of the leaves a scenario YAML ``text`` sets."""
+    def leaves(node, prefix):
+        if not isinstance(node, dict):
+            return {prefix}
+        return set().union(*(leaves(value, f"{prefix}.{key}" if prefix else str(key)) for key, value in node.items()))
+    tree = yaml.safe_load(text) or {}
+    return leaves(tree, "") if isinstance(tree, dict) and tree else set()
+
+
+def require_lab_settings(args, *fields: str) -> None:
+    """On hardware the ``LAB_SETTINGS`` ``fields`` must be stated, in the ``--scenario`` file or
+    ``--set``: their defaults are the simulated lab's. Raises ValueError naming what is missing,
+    how to find it, and how to give it."""
+    from heft.diagrams.scenario import overrides_text, scenario_path
+
+    stated = _stated(scenario_path(args.scenario).read_text()) | _stated(args.set or "")
+    missing = [name for name in fields if name not in stated]
+    if missing:
+        example = overrides_text({name: LAB_SETTINGS[name][1] for name in missing})
+        raise ValueError("on hardware, state " + "; and ".join(f"{name}: {LAB_SETTINGS[name][0]}" for name in missing)
+                         + f". Put them in the scenario file or give them with --set, e.g. --set '{example}' "
+                         "(otherwise the simulated lab's values would be used)")
+
+
+def lab_settings_text(scenario) -> str:
+    """``--set`` YAML stating ``scenario``'s own values of the ``LAB_SETTINGS``: for a stand-in lab,
+    whose sensor is the scenario's."""
+    from heft.diagrams.scenario import overrides_text
+
+    return overrides_text({name: functools.reduce(getattr, name.split("."), scenario) for name in LAB_SETTINGS})
 
 
 def station_params(timeout):

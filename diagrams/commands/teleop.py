@@ -8,7 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from heft.diagrams.commands.options import add_lcm_urls, add_set, lcm_channels, scenario_from, station_params
+from heft.diagrams.commands.options import (add_lcm_urls, add_set, lcm_channels, require_lab_settings, scenario_from,
+                                            station_params)
 
 HELP = ("the teleoperation controller on the lab's LCM channels")
 
@@ -34,6 +35,7 @@ def run(args) -> int:
 
     if not args.hardware:
         raise ValueError("only --hardware is supported here; use `heft simulate` for the simulated station")
+    require_lab_settings(args, "accelerometer.position", "controller.force.mount_notch")
     scenario = scenario_from(args)
     rate = 1.0 / scenario.controller_period if args.rate is None else args.rate
     if not (math.isfinite(rate) and rate > 0):
