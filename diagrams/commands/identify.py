@@ -42,9 +42,9 @@ def run(args) -> int:
     if args.hardware and args.station:
         raise ValueError("--station chooses the simulated station; on hardware describe the lab's sensor instead, "
                          "e.g. --set '{accelerometer: {position: [0, 0, 0]}}' where its accelerometer sits (m, in S)")
+    scenario = scenario_from(args)  # first: it names a malformed file or --set
     if args.hardware:
         require_lab_settings(args, "accelerometer.position")
-    scenario = scenario_from(args)
     settings = ExcitationSettings.quick() if args.quick else ExcitationSettings()
     if args.hardware:
         from heft.diagrams.running.hardware_identify import hardware_recorder

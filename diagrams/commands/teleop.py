@@ -35,8 +35,8 @@ def run(args) -> int:
 
     if not args.hardware:
         raise ValueError("only --hardware is supported here; use `heft simulate` for the simulated station")
+    scenario = scenario_from(args)  # first: it names a malformed file or --set
     require_lab_settings(args, "accelerometer.position", "controller.force.mount_notch")
-    scenario = scenario_from(args)
     rate = 1.0 / scenario.controller_period if args.rate is None else args.rate
     if not (math.isfinite(rate) and rate > 0):
         raise ValueError(f"--rate must be a positive number of Hz; got {rate}")
