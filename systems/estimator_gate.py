@@ -10,8 +10,10 @@ taken when
   ``estimators`` already holds; and
 * no contact: the eliminated wrench c (Eq. 13, from force scaling) is within
   ``contact_force``/``contact_torque``, except during ``learning_window`` s
-  after a reset (a new load), when c holds the not yet learned load itself, and
-* force scaling is not faulted.
+  after a reset (a new load), when c holds the not yet learned load itself,
+* force scaling is not faulted, and
+* no contact or fault for 2/``prefilter`` s before: the estimator's prefilter
+  (``EstimatorPrefilter``) still carries such a sample that long.
 
 Units: m/s², rad/s², rad/s for the motion, N and N·m for the wrench; all in S.
 """
@@ -79,14 +81,24 @@ def excitation(acceleration, omega) -> float:
     return float(np.linalg.norm(regressor(acceleration[:3], acceleration[3:], omega, _ZERO)))
 
 
-def gate_open(spec: EstimatorSpec, acceleration, omega, contact, fault: bool, since_reset: float) -> bool:
-    """Whether this sample may update the estimator (module docstring); ``since_reset`` in s."""
-    if fault or excitation(acceleration, omega) < spec.min_excitation:
-        return False
-    if since_reset < spec.learning_window:
+def spoiled(spec: EstimatorSpec, contact, fault: bool, since_reset: float) -> bool:
+    """Whether this sample holds a fault, or contact (judged only ``learning_window`` s after a
+    reset; ``since_reset`` in s): the estimator must not learn from it or its filtered echo."""
+    if fault:
         return True
+    if since_reset < spec.learning_window:
+        return False
     force, torque = wrench_norms(contact.tolist())
-    return force <= spec.contact_force and torque <= spec.contact_torque
+    return force > spec.contact_force or torque > spec.contact_torque
+
+
+def gate_open(spec: EstimatorSpec, acceleration, omega, contact, fault: bool, since_reset: float,
+              since_spoiled: float = math.inf) -> bool:
+    """Whether this sample may update the estimator (module docstring); ``since_reset`` and
+    ``since_spoiled`` (the time since the last ``spoiled`` sample) in s."""
+    hold = 2.0 / spec.prefilter if spec.prefilter > 0 else 0.0
+    return (not spoiled(spec, contact, fault, since_reset) and since_spoiled >= hold
+            and excitation(acceleration, omega) >= spec.min_excitation)
 
 
 class EstimatorGate(LeafSystem):
@@ -94,8 +106,8 @@ class EstimatorGate(LeafSystem):
 
     Inputs: ``acceleration`` (6, kinematic [a; α], ``AccelerometerToMotion``), ``omega`` (3),
     ``wrench_contact`` (6) and ``fault`` (1) from force scaling, ``reset`` (1, a request
-    counter, as the estimator's). State: the time since the last reset (s) and the counter
-    seen, advanced every ``period`` s.
+    counter, as the estimator's). State: the time since the last reset (s), the counter seen and
+    the time since the last spoiled sample (s), advanced every ``period`` s.
     """
 
     def __init__(self, spec: EstimatorSpec, period: float):
@@ -107,26 +119,32 @@ class EstimatorGate(LeafSystem):
         self._contact = self.DeclareVectorInputPort("wrench_contact", 6)
         self._fault = self.DeclareVectorInputPort("fault", 1)
         self._reset = self.DeclareVectorInputPort("reset", 1)
-        # Time since the last reset (s; the start counts as one) and the reset counter seen.
-        self._clock = self.DeclareDiscreteState(BasicVector([0.0, 0.0]))
+        # Time since the last reset (s; the start counts as one), the reset counter seen, and the
+        # time since the last spoiled sample (s; none yet).
+        self._clock = self.DeclareDiscreteState(BasicVector([0.0, 0.0, math.inf]))
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
         self.DeclareVectorOutputPort("enable", 1, self._calc_enable)
 
     def _requests(self, context) -> float:
         return self._reset.Eval(context)[0] if self._reset.HasValue(context) else 0.0
 
-    def _calc_enable(self, context, output):
-        since_reset, seen = context.get_discrete_state(self._clock).get_value()
-        if self._requests(context) > seen:
-            since_reset = 0.0
-        open_ = gate_open(self._spec, self._acceleration.Eval(context), self._omega.Eval(context),
-                          self._contact.Eval(context),
-                          self._fault.Eval(context)[0] > 0.5, since_reset)
-        output.SetAtIndex(0, 1.0 if open_ else 0.0)
-
-    def _update(self, context, discrete_state):
-        since_reset, seen = context.get_discrete_state(self._clock).get_value()
+    def _clocks(self, context):
+        """(since_reset, counter seen, since_spoiled) with this sample's reset request applied."""
+        since_reset, seen, since_spoiled = context.get_discrete_state(self._clock).get_value()
         requests = self._requests(context)
         if requests > seen:
             since_reset, seen = 0.0, requests
-        discrete_state.set_value(self._clock, [since_reset + self._period, seen])
+        return since_reset, seen, since_spoiled
+
+    def _calc_enable(self, context, output):
+        since_reset, _, since_spoiled = self._clocks(context)
+        open_ = gate_open(self._spec, self._acceleration.Eval(context), self._omega.Eval(context),
+                          self._contact.Eval(context), self._fault.Eval(context)[0] > 0.5, since_reset,
+                          since_spoiled)
+        output.SetAtIndex(0, 1.0 if open_ else 0.0)
+
+    def _update(self, context, discrete_state):
+        since_reset, seen, since_spoiled = self._clocks(context)
+        if spoiled(self._spec, self._contact.Eval(context), self._fault.Eval(context)[0] > 0.5, since_reset):
+            since_spoiled = 0.0
+        discrete_state.set_value(self._clock, [since_reset + self._period, seen, since_spoiled + self._period])

@@ -28,16 +28,16 @@ class EstimatorPrefilter(LeafSystem):
 
     Inputs and outputs (same names and units, in S): ``wrench`` (6), ``acceleration`` (6,
     kinematic [a; α]), ``omega`` (3), ``gravity`` (3). Each output holds the filter's value at
-    the last update (one tick late, like every input alike). The filter starts in the steady
-    state of its first sample; a sample with a NaN or inf puts NaN on every output for that
-    tick (the estimator skips it) and the filter restarts on the next finite sample."""
+    the last update, so every signal arrives one tick late. The filter starts in the steady
+    state of its first sample; a sample with a NaN or inf puts NaN on every output for the
+    next tick (the estimator skips it) and the filter restarts on the next finite sample."""
 
     def __init__(self, cutoff: float, period: float):
         super().__init__()
         period = require_period(period)
         if not (math.isfinite(cutoff) and 0 < cutoff < 0.5 / period):
-            raise ValueError(f"the estimator's prefilter cut-off must lie between 0 and the controller's Nyquist "
-                             f"frequency {0.5 / period:g} Hz; got {cutoff}")
+            raise ValueError(f"controller.estimator.prefilter must lie between 0 and the controller's Nyquist "
+                             f"frequency {0.5 / period:g} Hz (set 0 for no prefilter); got {cutoff}")
         self._coefficients = lowpass_coefficients(cutoff, period)
         self._inputs = [self.DeclareVectorInputPort(name, size) for name, size in SIGNALS]
         # The filtered values (NaN until the first update), then the filter's state (2 × width,

@@ -153,8 +153,8 @@ def notch_coefficients(frequency: float, quality: float, period: float) -> np.nd
     if frequency == 0:
         return None
     if not frequency < 0.5 / period:
-        raise ValueError(f"the mount notch at {frequency:g} Hz must lie below the controller's Nyquist "
-                         f"frequency {0.5 / period:g} Hz; lower it or set it to 0 (none)")
+        raise ValueError(f"controller.force.mount_notch ({frequency:g} Hz) must lie below the controller's "
+                         f"Nyquist frequency {0.5 / period:g} Hz; lower it or set it to 0 (none)")
     b, a = iirnotch(frequency, quality, fs=1.0 / period)
     return np.concatenate((b, a[1:], lfilter_zi(b, a)))
 

@@ -56,7 +56,7 @@ class RealtimeTeleopController:
     ``S``; ``kinematics`` the arm's closed-form IK, ``X_FS`` the pose of S in the flange
     (the tool frame T of the motion mapping is S); ``phi`` (10) and ``offsets`` (6) the
     load model φ̂ and [f_o; τ_o] (N, N·m). Every step brings its own ``dt``; the mount notch
-    is designed for the nominal ``period`` (s).
+    is designed for the nominal ``period`` (s), kept as ``period``.
 
     After ``step``: ``torque`` τ_M (6, N·m) and ``position`` q̄_S (6, rad), plus what the
     per-block Diagram logs: ``wrench_feedback``/``wrench_contact``/``wrench_noncontact``
@@ -88,6 +88,7 @@ class RealtimeTeleopController:
         self._offset_state = initial_state(offsets, offsets_tracking)
         self._offsets = self._offset_state[OFFSETS]  # a view: updated in place by offsets_update
         self._rezero_requests = 0
+        self.period = period
         self._notch = notch_coefficients(force.mount_notch, force.mount_notch_quality, period)
         self._phi_gripper = None if force.phi_gripper is None else np.array(force.phi_gripper, dtype=float)
         self._motion, self._force, self._feedback = motion, force, feedback

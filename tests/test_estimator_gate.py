@@ -1,13 +1,16 @@
 """The online estimator's gate: samples of exciting motion out of contact only, contact not
-judged right after a reset, and never a faulted sample; the excitation is the regressor's
-dynamic part, checked against Eq. 5's closed form."""
+judged right after a reset, never a faulted sample nor, while the prefilter still carries them,
+the samples after contact or a fault; the excitation is the regressor's dynamic part, checked
+against Eq. 5's closed form."""
 
 import dataclasses
 
 import numpy as np
 import pytest
 
-from heft.systems.estimator_gate import EstimatorSpec, excitation, gate_open
+from pydrake.systems.analysis import Simulator
+
+from heft.systems.estimator_gate import EstimatorGate, EstimatorSpec, excitation, gate_open
 
 SPEC = EstimatorSpec()
 MOVING = np.array([3.0, 0.0, 0.0, 0.0, 0.0, 0.0])  # m/s² along x, no rotation
@@ -32,6 +35,26 @@ def test_excitation_is_the_regressors_dynamic_part():
 ])
 def test_gate(acceleration, contact, fault, since_reset, expected):
     assert gate_open(SPEC, acceleration, np.zeros(3), contact, fault, since_reset) is expected
+
+
+def test_after_contact_the_gate_waits_for_the_prefilter_to_forget_it():
+    """The system: contact for 10 ticks, then free motion. The prefilter (10 Hz) still carries the
+    contact for 2/10 s, so the gate opens 0.2 s after the last contact sample, not before."""
+    spec = dataclasses.replace(SPEC, learning_window=0.0)
+    period = 0.0005
+    gate = EstimatorGate(spec, period)
+    context = gate.CreateDefaultContext()
+    for name, value in (("acceleration", MOVING), ("omega", np.zeros(3)), ("fault", [0.0]), ("reset", [0.0])):
+        gate.GetInputPort(name).FixValue(context, value)
+    simulator = Simulator(gate, context)
+    enabled = []
+    for k in range(600):
+        gate.GetInputPort("wrench_contact").FixValue(context, PUSHED if k < 10 else FREE)
+        enabled.append(gate.GetOutputPort("enable").Eval(context)[0])
+        simulator.AdvanceTo((k + 1) * period)
+    first_open = int(np.argmax(np.array(enabled) > 0.5))
+    assert not any(enabled[:first_open]) and all(enabled[first_open:])
+    assert (first_open - 9) * period == pytest.approx(2.0 / spec.prefilter, abs=1.5 * period)
 
 
 def test_bad_settings_are_named():

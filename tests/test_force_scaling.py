@@ -322,6 +322,18 @@ def test_the_contact_is_fed_back_through_a_notch_at_the_mounts_mode(frequency):
         assert expected < 0.99 or frequency < 3  # each frequency tests something
 
 
+def test_the_notch_is_scipys_notch_sample_by_sample():
+    """On a broadband contact wrench, f′ is scipy's ``lfilter`` of the same notch (phase included),
+    started in its steady state (``lfilter_zi``)."""
+    from scipy.signal import iirnotch, lfilter, lfilter_zi
+
+    contact = np.random.default_rng(3).normal(size=(600, 6)) * [3.0, 3.0, 3.0, 0.2, 0.2, 0.2]
+    feedback, _, _ = contact_through_notch(contact)
+    b, a = iirnotch(NOTCH_HZ, NOTCH_Q, fs=1.0 / PERIOD)
+    expected, _ = lfilter(b, a, contact, axis=0, zi=np.outer(lfilter_zi(b, a), contact[0]))
+    np.testing.assert_allclose(feedback, expected, rtol=1e-9, atol=1e-9)
+
+
 def test_the_notch_starts_and_restarts_after_a_fault_in_steady_state():
     """A constant contact wrench passes unchanged from the first tick (the notch starts in its
     steady state, no ringing); after a faulted sample it returns unchanged at once."""

@@ -261,3 +261,13 @@ def test_a_stalled_controller_cuts_forces_and_ramps_back():
     ramp = HardwareStationParams().watchdog.ramp_time
     gains = np.array(lab.gains[before:])
     np.testing.assert_allclose(gains, np.minimum(1.0, np.arange(len(gains)) * PERIOD / ramp), atol=1e-9)
+
+
+def test_the_controller_is_designed_for_the_rate_the_loop_runs_at():
+    """`--rate` sets the loop's period, and the mount notch is designed for it (at 4 kHz a notch
+    designed for the scenario's 2 kHz would sit at twice its frequency)."""
+    scenario = Scenario()
+    bus = lcm.LCM("memq://")
+    load = true_load(scenario)[0]
+    assert HardwareTeleop(scenario, load, bus, LcmChannels()).controller.period == scenario.controller_period
+    assert HardwareTeleop(scenario, load, bus, LcmChannels(), period=0.00025).controller.period == 0.00025

@@ -213,13 +213,18 @@ def test_the_controller_feeds_back_the_contact_through_the_mount_notch():
         H = system.C() @ np.linalg.solve(z * np.eye(system.A().shape[0]) - system.A(), system.B()) + system.D()
         return H[0, column]
 
+    from scipy.signal import freqz, iirnotch
+
     plain, notched = loop_params(), loop_params(mount_notch=48.0, mount_notch_quality=0.7)
     w0 = 2 * np.pi * 48.0
+    b, a = iirnotch(48.0, 0.7, fs=1.0 / plain.period)
     for frequency in (2.5, 15.0, 48.0, 150.0):
         w = 2 * np.pi * frequency
         expected = abs(w0 ** 2 - w ** 2) / np.hypot(w0 ** 2 - w ** 2, w * w0 / 0.7)
         ratio = transfer(notched, frequency, 1) / transfer(plain, frequency, 1)
         assert abs(ratio) == pytest.approx(expected, rel=0.03, abs=1e-9)
+        _, discrete = freqz(b, a, worN=[frequency], fs=1.0 / plain.period)
+        assert ratio == pytest.approx(discrete[0], rel=1e-9, abs=1e-12)  # phase included
         assert transfer(notched, frequency, 2) == pytest.approx(transfer(plain, frequency, 2), rel=1e-9)
 
 

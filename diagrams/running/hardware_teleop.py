@@ -45,15 +45,17 @@ class HardwareTeleop:
     """The controller closed around ``HardwareStation``, hearing ``bus`` and publishing on
     ``command_bus`` (default ``bus``; module docstring).
 
-    ``tick(now, dt)`` runs one tick at ``now`` (s, monotonic) ``dt`` s after the last;
-    ``summary(elapsed)`` reports the run so far."""
+    ``tick(now, dt)`` runs one tick at ``now`` (s, monotonic) ``dt`` s after the last, nominally
+    ``period`` s (default the scenario's ``controller_period``); ``summary(elapsed)`` reports the
+    run so far."""
 
     def __init__(self, scenario: Scenario, load: LoadEstimate, bus: lcm.LCM, channels: LcmChannels,
-                 params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None):
+                 params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None,
+                 period: float | None = None):
         # The controller's models first (about a second): the station's subscriptions then
         # start receiving only when the loop is about to pump them.
         self.controller = MakeRealtimeTeleopController(
-            scenario.controller, load, scenario.robot, scenario.controller_period,
+            scenario.controller, load, scenario.robot, period or scenario.controller_period,
             accelerometer=scenario.accelerometer.convention())
         self.station = HardwareStation(bus, channels, params, command_bus)
         self.load_commands = LoadCommandServer(bus, channels, self.controller, command_bus)
@@ -156,7 +158,7 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, channels: LcmCha
         scheduling = claim_realtime(priority)
         print(f"teleop: {scheduling}", flush=True)
         bus, command_bus = open_buses(channels)
-        teleop = HardwareTeleop(scenario, load, bus, channels, params, command_bus)
+        teleop = HardwareTeleop(scenario, load, bus, channels, params, command_bus, period=1.0 / rate)
         teleop.station.epoch = time.time()
         times = run_realtime(teleop.tick, 1.0 / rate, duration)
     return {"duration": times.elapsed, "rate_hz": rate, **teleop.summary(times.elapsed), "scheduling": scheduling,
