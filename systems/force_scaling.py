@@ -179,12 +179,10 @@ def initial_memory() -> np.ndarray:
 
 
 def notch_state(memory: np.ndarray, notch: np.ndarray, contact: np.ndarray) -> np.ndarray:
-    """The notch's state (2, 6), a view into ``memory``, first set to its steady state for
-    ``contact`` if the notch has not started."""
+    """The notch's state (2, 6) in ``memory`` (read only), or, if the notch has not started, its
+    steady state for ``contact``."""
     state = memory[NOTCH_STATE].reshape(2, 6)
-    if math.isnan(state[0, 0]):
-        np.outer(notch[5:], contact, out=state)
-    return state
+    return np.outer(notch[5:], contact) if math.isnan(state[0, 0]) else state
 
 
 def evaluate(out: np.ndarray, wrench, reading, omega, gravity, phi, offsets, scales, memory,
@@ -204,10 +202,7 @@ def evaluate(out: np.ndarray, wrench, reading, omega, gravity, phi, offsets, sca
             wrench, offsets, phi, acceleration, omega, gravity, sigma, gamma, eta, phi_gripper)
         out[CONTACT_FED_BACK] = out[CONTACT]
         if notch is not None:
-            z1 = memory[NOTCH_STATE][:6]
-            if math.isnan(z1[0]):  # not started: in the steady state of this c
-                z1 = notch[5] * out[CONTACT]
-            out[CONTACT_FED_BACK] = notch[0] * out[CONTACT] + z1
+            out[CONTACT_FED_BACK] = notch[0] * out[CONTACT] + notch_state(memory, notch, out[CONTACT])[0]
             out[FEEDBACK] += gamma * (out[CONTACT_FED_BACK] - out[CONTACT])
         out[FAULT] = 0.0
         if math.isfinite(sum(out.tolist())):
@@ -231,9 +226,8 @@ def next_memory_and_scales(memory: np.ndarray, scales: np.ndarray, evaluation: n
             memory[NOTCH_STATE] = np.nan
         else:
             x, y = evaluation[CONTACT], evaluation[CONTACT_FED_BACK]
-            state = notch_state(memory, notch, x)
-            state[0] = notch[1] * x - notch[3] * y + state[1]
-            state[1] = notch[2] * x - notch[4] * y
+            z2 = notch_state(memory, notch, x)[1]
+            memory[NOTCH_STATE] = np.concatenate((notch[1] * x - notch[3] * y + z2, notch[2] * x - notch[4] * y))
     request_ok = math.isfinite(sum(requested))
     memory[REQUEST_FAULT] = 0.0 if request_ok else 1.0
     if request_ok:
