@@ -39,8 +39,9 @@ def write_load_estimate(path, record: dict) -> None:
     Path(path).write_text(yaml.safe_dump(record, sort_keys=False))
 
 
-def read_load_estimate(path) -> LoadEstimate:
-    """φ̂ and offsets from an estimate.yaml written by ``heft identify``."""
+def read_load_estimate(path, wrench_full_scale=None) -> LoadEstimate:
+    """φ̂ and offsets from an estimate.yaml written by ``heft identify``, checked by
+    ``checked_load`` (against the sensor's range ``wrench_full_scale``, N, N·m, if given)."""
     path = Path(path)
     try:
         data = yaml.safe_load(path.read_text())
@@ -49,7 +50,7 @@ def read_load_estimate(path) -> LoadEstimate:
         raise ValueError(f"cannot read a load estimate from {path}: {error}; "
                          "write one with `heft identify --scenario FILE --out DIR`") from None
     try:
-        phi, offsets = checked_load(phi, offsets)
+        phi, offsets = checked_load(phi, offsets, wrench_full_scale)
     except ValueError as error:
         raise ValueError(f"{path}: {error}") from None
     return LoadEstimate(phi=phi, offsets=offsets)

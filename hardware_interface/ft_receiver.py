@@ -12,24 +12,28 @@ import math
 import numpy as np
 
 from .lcmtypes import heft_ft_sample
-from .message_order import restarted
+from .message_checks import RANGE_MARGIN, Rejections
+from .message_order import AHEAD, BEHIND, OUT_OF_ORDER, SourceClock
 
 
 class FtSampleReader:
     """Takes ``heft_ft_sample`` payloads and holds the newest good sample.
 
-    A sample is accepted when both ``sample_counter`` and ``utime`` exceed those of the
-    newest sample accepted at an earlier ``take``, or when ``utime`` is far older (the
-    driver restarted: ``message_order``); one with ``utime`` ≤ 0 is "no sample yet".
-    The same sample seen again changes nothing; any other sample that does not
-    advance both is dropped and counted (``dropped``). The flags describe the newest
-    accepted sample: if it is non-finite, saturated on any axis or flagged ``error``,
-    the newest good one before it in the same ``take`` is passed on, else ``wrench`` and
-    ``acceleration`` hold the last good sample. ``t_good`` is the station time (s) of
-    the last good sample (−inf before the first).
+    A sample is in order when it comes from the channel's source and is newer
+    (``message_order``: its ``utime`` on the source's clock, after the last accepted) and
+    its ``sample_counter`` exceeds the last accepted one's (one that goes back comes from
+    another publisher: ``discontinuous``); one with ``utime`` ≤ 0 is "no sample yet". A
+    sample is good if, besides, it is finite, within ``full_scale`` (12: the wrench's 6 in
+    N, N·m, then the acceleration's in m/s², rad/s², widened by ``RANGE_MARGIN``), not
+    saturated and not flagged ``error``. The flags describe the newest sample in order; if
+    it is not good, the newest good one before it in the same ``take`` is passed on, else
+    ``wrench`` and ``acceleration`` hold the last good sample. ``t_good`` is the station
+    time (s) of the last good sample (−inf before the first); ``rejections`` counts what was
+    refused and why (a saturated sample is a reading, held but not counted); a source
+    silent for ``silence`` s gives way to the next (``SourceClock``).
     """
 
-    def __init__(self):
+    def __init__(self, full_scale, silence: float):
         self.wrench = np.zeros(6)
         """[f; τ] the sensor exerts on the load, at S, in S (N, N·m)."""
         self.acceleration = np.zeros(6)
@@ -37,36 +41,63 @@ class FtSampleReader:
         force a − g and α (``accelerometer_reading`` converts it where g_S is known)."""
         self.t_good = -math.inf
         self.non_finite = self.saturated = self.error = False
-        self.dropped = 0
-        self._last = (-1, 0)   # accepted (counter, utime)
-        self._seen = (-1, 0)   # last (counter, utime) looked at
+        self.rejections = Rejections()
+        self.clock = SourceClock(silence)
+        self._range = (RANGE_MARGIN * np.asarray(full_scale, dtype=float)).tolist()
+        self._counter = -1  # the last accepted sample's counter
 
     def take(self, payloads, now: float) -> None:
         """Reads ``payloads`` (bytes, oldest first) at station time ``now`` (s), newest first:
-        the newest sample that is accepted and good is kept and older ones are not decoded."""
-        newest = None
+        the newest sample that is in order and good is kept and older ones are not decoded."""
+        rejections, clock, newest = self.rejections, self.clock, True
         for payload in reversed(payloads):
-            sample = heft_ft_sample.decode(payload)
-            key = (sample.sample_counter, sample.utime)
-            if sample.utime <= 0 or key == self._seen:
+            try:
+                sample = heft_ft_sample.decode(payload)
+            except Exception:  # whatever a malformed payload makes the generated decoder raise
+                rejections.add("undecodable")
                 continue
-            counter, utime = key
-            if (counter <= self._last[0] or utime <= self._last[1]) and not restarted(utime * 1e-6,
-                                                                                     self._last[1] * 1e-6):
-                self.dropped += 1
+            if sample.utime <= 0:
+                continue
+            stamp = sample.utime * 1e-6
+            order = clock.check(stamp, now)
+            if order == OUT_OF_ORDER:
+                rejections.add("out_of_order")
+                continue
+            if order in (AHEAD, BEHIND):
+                clock.foreign(stamp, now)
+                rejections.add("stamped_ahead" if order == AHEAD else "stamped_behind")
+                continue
+            if sample.sample_counter <= self._counter and not clock.starts_source(now):
+                clock.foreign(stamp, now)
+                rejections.add("discontinuous")
                 continue
             wrench, acceleration = sample.wrench, sample.acceleration
             non_finite = not math.isfinite(sum(wrench) + sum(acceleration))
-            if newest is None:
-                newest = key
+            if newest:
+                newest = False
                 self.non_finite, self.saturated, self.error = non_finite, sample.saturated != 0, bool(sample.error)
-            if non_finite or sample.saturated != 0 or sample.error:
+            if non_finite:
+                rejections.add("non_finite")
                 continue
-            self.t_good = now
+            if sample.error:
+                rejections.add("driver_error")
+                continue
+            if not self._within_range(wrench, acceleration):
+                rejections.add("out_of_range")
+                continue
+            if sample.saturated != 0:
+                continue
+            clock.accept(stamp, now)
+            self._counter, self.t_good = sample.sample_counter, now
             # The sign flip of DESIGN §4: sensor-on-load = −(load-on-sensor).
             for i in range(6):
                 self.wrench[i] = -wrench[i]
                 self.acceleration[i] = acceleration[i]
             break
-        if newest is not None:
-            self._last = self._seen = newest
+
+    def _within_range(self, wrench, acceleration) -> bool:
+        limits = self._range
+        for i in range(6):
+            if not (abs(wrench[i]) <= limits[i] and abs(acceleration[i]) <= limits[6 + i]):
+                return False
+        return True

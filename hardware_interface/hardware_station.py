@@ -5,16 +5,20 @@ DESIGN §3 (master and slave joint state, the wrist wrench and acceleration) plu
 the clutch button — and gates what goes back. Every age, timeout and rate limit
 is measured on the caller's clock (s, wall-clock, monotonic), never in ticks:
 
-- ``receive(now)`` pumps LCM once, takes the newest message of each channel (every
-  FT sample since the last tick), and runs the watchdog over the channels' ages and
-  the controller's own tick spacing (a stalled controller is a fault too).
+- ``receive(now)`` pumps LCM once, checks every message that arrived since the last
+  tick (``message_checks``: what fails is counted per channel and reason, never
+  raised, and never reaches the controller), keeps the newest accepted state of
+  each channel, and runs the watchdog over the channels' ages, the controller's own
+  tick spacing (a stalled controller is a fault too) and the channels' conflicts
+  (a second publisher on a channel, ``message_order``, is a fault until it stops).
 - ``send(now, torque, position)`` publishes (on the command bus) the master torque scaled by the
   watchdog's gain (zero and ``enable`` false while unhealthy or non-finite) and the
   slave command: none before the first slave status (there is nothing safe to
   command), the measured position until the station is first healthy, the measured
   position latched at a fault's onset while unhealthy, a restart from the measured
-  position on recovery (a restarted arm driver may report another one), and every
-  change limited to the joint speed limits × the time since the last send.
+  position on recovery (a restarted arm driver may report another one:
+  ``reanchored`` says so for that send), and every other change limited to the joint
+  speed limits × the time since the last send.
 """
 
 from __future__ import annotations
@@ -30,16 +34,23 @@ from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many 
 
 from .channels import LcmChannels
 from .ft_receiver import FtSampleReader
+from .joint_state_reader import JointStateReader, haptic_state_fields, iiwa_status_fields
 from .lcm_mailbox import LcmMailbox, pump
 from .lcmtypes import heft_haptic_command, heft_haptic_state
-from .message_order import stamp_accepted
+from .message_checks import DeviceLimits, JointRange
+from .message_order import SILENCE_PER_TIMEOUT
 from .watchdog import WatchdogParams, watchdog_step
 
 WATCHED_CHANNELS = ("master_state", "slave_status", "ft_sample")
-"""Channels the watchdog watches; channel i is bit i of the fault bitmask, bit 3 a stalled controller."""
+"""Channels the watchdog watches; channel i is bit i of the fault bitmask (stale), bit 3 a
+stalled controller, bit 4 + i a second publisher on channel i."""
 STALLED_BIT = 1 << len(WATCHED_CHANNELS)
+CONFLICT_BITS = ((1 << len(WATCHED_CHANNELS)) - 1) << (len(WATCHED_CHANNELS) + 1)
 FT_KEEP = 64
 """FT samples kept between two ticks (8 kHz sensor, a 2 kHz controller late by several ticks)."""
+JOINT_KEEP = 8
+"""Joint states kept between two ticks: the driver's newest and what another publisher
+interleaves with it, so that a second publisher is seen rather than hidden behind the last."""
 CLUTCH_BUTTON = 1
 """Bit of ``heft_haptic_state.buttons`` held while the operator couples master and slave."""
 
@@ -49,10 +60,6 @@ class HardwareStationParams:
     """Limits of the hardware station; loadable with ``yaml_load_typed``."""
 
     watchdog: WatchdogParams = dataclasses.field(default_factory=WatchdogParams)
-    slave_velocity_limits: list[float] = dataclasses.field(default_factory=lambda: [
-        4.118977034706618, 3.490658503988659, 4.991641660703783,
-        6.998770300497261, 5.585053606381854, 10.122909661567112])
-    """Joint speed limits of the slave (rad/s); the defaults are the RX90's (``rx90.urdf``)."""
 
 
 def rate_limit(previous: np.ndarray, target: np.ndarray, max_step: np.ndarray) -> np.ndarray:
@@ -60,29 +67,10 @@ def rate_limit(previous: np.ndarray, target: np.ndarray, max_step: np.ndarray) -
     return previous + np.minimum(np.maximum(target - previous, -max_step), max_step)  # np.clip: 1 µs more
 
 
-class _JointStateReader:
-    """The newest valid joint state of one driver: stamp advancing (or a restarted driver),
-    ``NUM_JOINTS`` joints, finite values, no driver error. ``t_good`` is the station time (s)
-    of the last accepted message (−inf before the first)."""
-
-    def __init__(self):
-        self.position, self.velocity = np.zeros(NUM_JOINTS), np.zeros(NUM_JOINTS)
-        self.t_good, self._stamp = -math.inf, 0.0
-
-    def accept(self, utime: int, num_joints: int, position, velocity, error: bool, now: float) -> bool:
-        stamp = utime * 1e-6
-        if (num_joints != NUM_JOINTS or error or not stamp_accepted(stamp, self._stamp)
-                or not math.isfinite(sum(position) + sum(velocity))):
-            return False
-        self._stamp, self.t_good = stamp, now
-        self.position[:] = position
-        self.velocity[:] = velocity
-        return True
-
-
 class HardwareStation:
     """The lab on ``bus`` (python-lcm, ``channels.lcm_url``), read by ``receive``, and on ``command_bus``
-    (``channels.command_lcm_url()``; default ``bus``), written by ``send`` (module docstring).
+    (``channels.command_lcm_url()``; default ``bus``), written by ``send`` (module docstring);
+    ``limits`` are what the devices can report and the slave's speed limits.
 
     Readings after ``receive`` (arrays updated in place): ``master_position``,
     ``master_velocity`` (rad, rad/s), ``clutch`` (the clutch button held),
@@ -90,19 +78,31 @@ class HardwareStation:
     exerts on the load, at S, in S; N, N·m), ``acceleration`` (the accelerometer's
     reading as the sensor reports it: ``accelerometer_reading``); ``ages`` (s, per
     ``WATCHED_CHANNELS``), ``healthy``, ``gain``,
-    ``fault`` (bitmask), ``slave_known`` (a slave status has arrived).
+    ``fault`` (bitmask), ``slave_known`` (a slave status has arrived), ``rejections`` and
+    ``conflicts`` per channel.
     """
 
-    def __init__(self, bus: lcm.LCM, channels: LcmChannels, params: HardwareStationParams | None = None,
-                 command_bus: lcm.LCM | None = None):
+    def __init__(self, bus: lcm.LCM, channels: LcmChannels, limits: DeviceLimits,
+                 params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None):
         params = params or HardwareStationParams()
         params.watchdog.validate()
         self._bus, self._channels, self._params = bus, channels, params
         self._command_bus = bus if command_bus is None else command_bus
-        self._limits = np.asarray(params.slave_velocity_limits, dtype=float)
-        self._mail = (LcmMailbox(bus, channels.master_state.name), LcmMailbox(bus, channels.slave_status.name),
+        self._limits = np.asarray(limits.slave_velocity, dtype=float)
+        self._mail = (LcmMailbox(bus, channels.master_state.name, keep=JOINT_KEEP),
+                      LcmMailbox(bus, channels.slave_status.name, keep=JOINT_KEEP),
                       LcmMailbox(bus, channels.ft_sample.name, keep=FT_KEEP))
-        self._master, self._slave, self._ft = _JointStateReader(), _JointStateReader(), FtSampleReader()
+        silence = SILENCE_PER_TIMEOUT * params.watchdog.timeout
+        self._master = JointStateReader(heft_haptic_state, haptic_state_fields,
+                                        JointRange(limits.master_lower, limits.master_upper, limits.master_velocity),
+                                        silence)
+        self._slave = JointStateReader(lcmt_iiwa_status, iiwa_status_fields,
+                                       JointRange(limits.slave_lower, limits.slave_upper, limits.slave_velocity),
+                                       silence)
+        self._ft = FtSampleReader(np.concatenate([limits.wrench_full_scale, limits.acceleration_full_scale]), silence)
+        self._readers = (self._master, self._slave, self._ft)
+        self.conflicts = 0
+        """Bit i set while channel i of ``WATCHED_CHANNELS`` has a second publisher."""
         self.master_position, self.master_velocity = self._master.position, self._master.velocity
         self.slave_position, self.slave_velocity = self._slave.position, self._slave.velocity
         self.wrench, self.acceleration = self._ft.wrench, self._ft.acceleration
@@ -122,6 +122,8 @@ class HardwareStation:
         """The master torque last published (N·m), zero while forces are off."""
         self.position_sent = None
         """The slave command last published (rad), None before the first."""
+        self.reanchored = False
+        """The last send set the slave command to the measured position (a start or a recovery)."""
         self.epoch = 0.0
         """Wall-clock time (s since the Unix epoch) at station time 0: published utimes are epoch + now."""
 
@@ -135,29 +137,33 @@ class HardwareStation:
         return {name: mailbox.count for name, mailbox in zip(WATCHED_CHANNELS, self._mail)}
 
     @property
-    def ft_dropped(self) -> int:
-        """FT samples dropped as duplicates or out of order so far."""
-        return self._ft.dropped
+    def rejections(self) -> dict[str, dict[str, int]]:
+        """Per watched channel, the messages rejected so far per reason (``message_checks.REASONS``)."""
+        return {name: reader.rejections.nonzero() for name, reader in zip(WATCHED_CHANNELS, self._readers)}
+
+    @property
+    def clocks(self) -> dict:
+        """Per watched channel, its source's ``SourceClock`` (offsets, restarts)."""
+        return {name: reader.clock for name, reader in zip(WATCHED_CHANNELS, self._readers)}
 
     def receive(self, now: float) -> None:
-        """Pumps LCM, takes every new message, updates the readings, ages and watchdog at ``now`` (s)."""
+        """Pumps LCM, checks every new message, updates the readings, ages and watchdog at ``now`` (s)."""
         pump(self._bus)
-        for payload in self._mail[0].take():
-            msg = heft_haptic_state.decode(payload)
-            if self._master.accept(msg.utime, msg.num_joints, msg.position, msg.velocity, msg.error, now):
-                self.clutch = bool(msg.buttons & CLUTCH_BUTTON)
-        for payload in self._mail[1].take():
-            msg = lcmt_iiwa_status.decode(payload)
-            self._slave.accept(msg.utime, msg.num_joints, msg.joint_position_measured,
-                               msg.joint_velocity_estimated, False, now)
-        self._ft.take(self._mail[2].take(), now)
+        mail, master, slave, ft = self._mail, self._master, self._slave, self._ft
+        master.take(mail[0].take(), now)
+        self.clutch = bool(master.buttons & CLUTCH_BUTTON)
+        slave.take(mail[1].take(), now)
+        ft.take(mail[2].take(), now)
         ages = self.ages
-        ages[0], ages[1], ages[2] = now - self._master.t_good, now - self._slave.t_good, now - self._ft.t_good
+        ages[0], ages[1], ages[2] = now - master.t_good, now - slave.t_good, now - ft.t_good
+        self.conflicts = (master.clock.conflict(now) | slave.clock.conflict(now) << 1
+                          | ft.clock.conflict(now) << 2)
         watchdog = self._params.watchdog
         spacing = 0.0 if self._last_tick is None else now - self._last_tick
         self._last_tick = now
         self.healthy, self.gain, self.fault = watchdog_step(
-            ages, self.gain, watchdog.timeout, spacing / watchdog.ramp_time, stalled=spacing > watchdog.timeout)
+            ages, self.gain, watchdog.timeout, spacing / watchdog.ramp_time, stalled=spacing > watchdog.timeout,
+            conflicts=self.conflicts)
 
     def send(self, now: float, torque, position) -> None:
         """Publishes the gated master ``torque`` (6, N·m) and slave ``position`` (6, rad, or None:
@@ -176,6 +182,7 @@ class HardwareStation:
             return
         measured, command = self.slave_position, self._position
         max_step = self._limits * dt
+        self.reanchored = not self._ever_healthy or (self.healthy and not self._was_healthy)
         if not self._ever_healthy:
             command[:] = self._hold[:] = measured
         elif self.healthy:

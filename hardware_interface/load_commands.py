@@ -9,12 +9,12 @@ publishes one when a re-zero finishes or is refused. ``send_load_command`` (in
 from __future__ import annotations
 
 import select
-import struct
 import time
 
 import lcm
 import numpy as np
 
+from heft.systems.load_dynamics import checked_load
 from heft.systems.offset_tracking import COLLECTING, DONE, STATUS_TEXT
 
 from .channels import LcmChannels
@@ -28,14 +28,18 @@ ACTIONS = {"rezero": heft_load_command.REZERO, "tracking_on": heft_load_command.
 
 class LoadCommandServer:
     """Serves load commands to ``controller`` (a ``RealtimeTeleopController``) heard on ``bus``,
-    answered on ``command_bus`` (default ``bus``).
+    answered on ``command_bus`` (default ``bus``); a new estimate must fit the sensor's range
+    ``wrench_full_scale`` ([f; τ], N, N·m) and be physical (``checked_load``), else it is
+    refused with the reason.
 
     ``serve(now_utime, healthy)`` once per tick: carries out every command that arrived and
     answers it; a re-zero is refused while the station is not healthy (the controller is
     not stepping). ``events`` lists what happened (utime, message) for the run's summary."""
 
-    def __init__(self, bus: lcm.LCM, channels: LcmChannels, controller, command_bus: lcm.LCM | None = None):
+    def __init__(self, bus: lcm.LCM, channels: LcmChannels, controller, wrench_full_scale,
+                 command_bus: lcm.LCM | None = None):
         self._command_bus = bus if command_bus is None else command_bus
+        self._full_scale = np.asarray(wrench_full_scale, dtype=float)
         self._channel, self._controller = channels.load_status.name, controller
         self._mail = LcmMailbox(bus, channels.load_command.name, keep=16)
         self._waiting: list[int] = []  # utimes of the re-zero commands whose outcome is not yet told
@@ -46,7 +50,7 @@ class LoadCommandServer:
         for payload in self._mail.take():
             try:
                 command = heft_load_command.decode(payload)
-            except (ValueError, struct.error):
+            except Exception:  # whatever a malformed payload makes the generated decoder raise
                 self._answer(now_utime, 0, False, "a message on the load command channel is not a heft_load_command")
                 continue
             accepted, message = self._apply(command, healthy)
@@ -74,7 +78,7 @@ class LoadCommandServer:
             return True, f"offset tracking {'on' if on else 'off'}"
         if command.action == heft_load_command.NEW_ESTIMATE:
             try:
-                controller.set_load(command.phi, command.offsets)
+                controller.set_load(*checked_load(command.phi, command.offsets, self._full_scale))
             except ValueError as error:
                 return False, f"new estimate refused: {error}"
             return True, f"new estimate in use: m = {controller.phi[0]:.4g} kg"

@@ -3,8 +3,9 @@
 
 A channel is stale when its age (s of the station's clock since its last good
 message; inf before the first) exceeds the timeout; the controller itself is
-stalled when its ticks are further apart than the timeout. While anything is
-stale or stalled the station is unhealthy and the command gain is 0; once all is
+stalled when its ticks are further apart than the timeout; a channel with a
+second publisher (``message_order``) is in conflict. While anything is stale,
+stalled or in conflict the station is unhealthy and the command gain is 0; once all is
 fresh again the gain ramps linearly back to 1 over ``ramp_time``, so commands
 never jump.
 """
@@ -31,13 +32,14 @@ class WatchdogParams:
 
 
 def watchdog_step(ages, gain: float, timeout: float, ramp_step: float,
-                  stalled: bool = False) -> tuple[bool, float, int]:
+                  stalled: bool = False, conflicts: int = 0) -> tuple[bool, float, int]:
     """One watchdog tick: (healthy, new gain, fault bitmask).
 
-    Bit i is set for stale channel i (``ages`` in s; inf or NaN: never received) and bit
-    ``len(ages)`` when the controller ``stalled``; ``ramp_step`` is the gain increase over
+    Bit i is set for stale channel i (``ages`` in s; inf or NaN: never received), bit
+    ``len(ages)`` when the controller ``stalled`` and bit ``len(ages) + 1 + i`` for channel i
+    in conflict (``conflicts``: bit i per channel); ``ramp_step`` is the gain increase over
     this tick (its duration / ramp time)."""
-    fault = 0
+    fault = conflicts << (len(ages) + 1)
     for i, age in enumerate(ages):
         if not age <= timeout:
             fault |= 1 << i

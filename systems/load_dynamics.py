@@ -269,13 +269,61 @@ class InertialParameters:
         return self
 
 
-def checked_load(phi, offsets) -> tuple[np.ndarray, np.ndarray]:
-    """(φ̂, offsets) as float arrays, or a ValueError unless φ̂ has 10 and the offsets 6 finite
-    entries: the one check of a load estimate, from a file or over LCM."""
+PSEUDO_INERTIA_TOLERANCE = 1e-2
+"""How far (× its trace) the pseudo-inertia's smallest eigenvalue may fall below zero in a load
+estimate: an identified thin rod's second moment across it (m·r²/4, 10⁻⁶ kg·m² for 0.1 kg at
+5 mm) sits within the estimation's noise, a negative or absurd mass far outside."""
+
+
+def pseudo_inertia(phi) -> np.ndarray:
+    """The 4×4 pseudo-inertia [[Σ, h], [hᵀ, m]] of φ (Eq. 6), Σ = ½tr(I_S)·E − I_S the second
+    moment of mass about S (kg·m²), h = m·c (kg·m): positive semidefinite for every physical body
+    (Wensing, Kim & Slotine, IEEE RA-L 2018)."""
+    phi = np.asarray(phi, dtype=float)
+    inertia = inertia_matrix(phi[4:])
+    pseudo = np.empty((4, 4))
+    pseudo[:3, :3] = 0.5 * np.trace(inertia) * np.eye(3) - inertia
+    pseudo[:3, 3] = pseudo[3, :3] = phi[1:4]
+    pseudo[3, 3] = phi[0]
+    return pseudo
+
+
+def checked_load(phi, offsets, wrench_full_scale=None) -> tuple[np.ndarray, np.ndarray]:
+    """(φ̂, offsets) as float arrays, or a ValueError naming every problem: the one check of a
+    load estimate, from a file or over LCM.
+
+    φ̂ needs 10 and the offsets 6 finite entries. φ̂ = 0 is "no load model" (nothing is
+    eliminated); any other φ̂ needs a positive mass and a positive semidefinite pseudo-inertia
+    (``pseudo_inertia``, within ``PSEUDO_INERTIA_TOLERANCE``). With ``wrench_full_scale`` (the
+    sensor's range [f; τ], N, N·m) the load's weight, its largest static moment |m·c|·|g| and
+    each offset must lie within it: the sensor could not have measured more."""
     phi, offsets = np.asarray(phi, dtype=float), np.asarray(offsets, dtype=float)
     if phi.shape != (10,) or offsets.shape != (6,) or not (np.isfinite(phi).all() and np.isfinite(offsets).all()):
         raise ValueError(f"a load estimate needs 10 finite φ entries (Eq. 6) and 6 finite offsets; "
                          f"got {phi.tolist()} and {offsets.tolist()}")
+    problems = []
+    if phi.any():
+        eigenvalues = np.linalg.eigvalsh(pseudo_inertia(phi))
+        if not phi[0] > 0:
+            problems.append(f"its mass {phi[0]:g} kg is not positive")
+        elif eigenvalues[0] < -PSEUDO_INERTIA_TOLERANCE * eigenvalues.sum():
+            problems.append(f"no body has these inertial parameters (the pseudo-inertia's eigenvalues are "
+                            f"{np.array2string(eigenvalues, precision=4)}, one well below zero)")
+    if wrench_full_scale is not None:
+        full_scale = np.asarray(wrench_full_scale, dtype=float)
+        gravity = math.hypot(*GRAVITY_W)
+        weight, moment = phi[0] * gravity, np.linalg.norm(phi[1:4]) * gravity
+        if weight > full_scale[:3].min():
+            problems.append(f"its weight {weight:.4g} N is beyond the sensor's range ({full_scale[:3].min():g} N)")
+        if moment > full_scale[3:].min():
+            problems.append(f"its static moment |m·c|·g = {moment:.4g} N·m is beyond the sensor's range "
+                            f"({full_scale[3:].min():g} N·m)")
+        beyond = [f"{OFFSET_NAMES[i]} = {offsets[i]:.4g}" for i in range(6) if abs(offsets[i]) > full_scale[i]]
+        if beyond:
+            problems.append(f"offsets beyond the sensor's range {full_scale.tolist()}: {', '.join(beyond)}")
+    if problems:
+        raise ValueError("the load estimate is refused: " + "; ".join(problems)
+                         + "; identify the load again (`heft identify`) or check what was sent")
     return phi, offsets
 
 

@@ -6,11 +6,18 @@ import math
 import numpy as np
 import pytest
 from heft.hardware_interface.ft_receiver import FtSampleReader
+from heft.hardware_interface.message_checks import RANGE_MARGIN
 from heft.hardware_interface.lcmtypes import heft_ft_sample
 from heft.hardware_interface.lcmtypes import regenerate as lcmtypes_regenerate
 
 RAW = np.array([1.0, -2.0, 3.0, 0.1, -0.2, 0.3])
 ACCEL = np.array([0.5, 0.0, -9.81, 0.01, 0.02, -0.03])
+FULL_SCALE = [200.0] * 3 + [12.0] * 3 + [100.0] * 3 + [1000.0] * 3  # the JR3's (sensor_models)
+SILENCE = 0.05
+
+
+def new_reader() -> FtSampleReader:
+    return FtSampleReader(FULL_SCALE, SILENCE)
 
 
 def sample(counter, utime, wrench=RAW, acceleration=ACCEL, saturated=0, error=False) -> bytes:
@@ -22,14 +29,14 @@ def sample(counter, utime, wrench=RAW, acceleration=ACCEL, saturated=0, error=Fa
 
 
 def test_nothing_before_the_first_sample():
-    reader = FtSampleReader()
+    reader = new_reader()
     reader.take([sample(0, 0)], now=1.0)  # utime 0: "no sample yet"
-    assert math.isinf(reader.t_good) and reader.dropped == 0
+    assert math.isinf(reader.t_good) and reader.rejections.total == 0
     np.testing.assert_array_equal(reader.wrench, np.zeros(6))
 
 
 def test_sign_flipped_to_sensor_on_load():
-    reader = FtSampleReader()
+    reader = new_reader()
     reader.take([sample(1, 1000)], now=0.25)
     np.testing.assert_array_equal(reader.wrench, -RAW)
     np.testing.assert_array_equal(reader.acceleration, ACCEL)
@@ -37,10 +44,10 @@ def test_sign_flipped_to_sensor_on_load():
 
 
 def test_all_samples_read_in_order_newest_kept():
-    reader = FtSampleReader()
+    reader = new_reader()
     reader.take([sample(k, 1000 + 125 * k, wrench=k * RAW) for k in range(1, 5)], now=0.1)
     np.testing.assert_array_equal(reader.wrench, -4 * RAW)
-    assert reader.dropped == 0
+    assert reader.rejections.total == 0
 
 
 @pytest.mark.parametrize(("flag", "bad"), [
@@ -51,7 +58,7 @@ def test_all_samples_read_in_order_newest_kept():
     ("error", {"error": True}),
 ])
 def test_bad_sample_held_and_flagged(flag, bad):
-    reader = FtSampleReader()
+    reader = new_reader()
     reader.take([sample(1, 1000)], now=0.1)
     reader.take([sample(2, 1125, **{"wrench": 5 * RAW, "acceleration": 5 * ACCEL, **bad})], now=0.2)
     np.testing.assert_array_equal(reader.wrench, -RAW)
@@ -63,35 +70,64 @@ def test_bad_sample_held_and_flagged(flag, bad):
 
 
 def test_a_bad_newest_sample_passes_on_the_good_one_before_it_and_says_why():
-    reader = FtSampleReader()
+    reader = new_reader()
     reader.take([sample(1, 1000, wrench=2 * RAW), sample(2, 1125, wrench=[np.nan] * 6)], now=0.1)
     np.testing.assert_array_equal(reader.wrench, -2 * RAW)
     assert reader.non_finite and reader.t_good == 0.1
 
 
-def test_duplicate_and_out_of_order_dropped():
-    reader = FtSampleReader()
+def test_duplicate_and_late_samples_dropped_a_counter_going_back_is_another_publisher():
+    reader = new_reader()
     reader.take([sample(5, 5000)], now=0.1)
     for late in (sample(5, 5000, wrench=7 * RAW),   # duplicate of the held sample
-                 sample(4, 6000, wrench=7 * RAW),   # counter went back
-                 sample(6, 4000, wrench=7 * RAW)):  # utime went back
+                 sample(6, 4000, wrench=7 * RAW),   # utime went back: a late packet
+                 sample(4, 6000, wrench=7 * RAW)):  # counter went back, utime forward: not this source
         reader.take([late], now=0.1)
     np.testing.assert_array_equal(reader.wrench, -RAW)
-    assert reader.dropped == 2
-    reader.take([sample(7, 7000, wrench=3 * RAW)], now=0.2)
+    assert reader.rejections.nonzero() == {"out_of_order": 2, "discontinuous": 1}
+    reader.take([sample(7, 7000, wrench=3 * RAW)], now=0.1)
     np.testing.assert_array_equal(reader.wrench, -3 * RAW)
-    assert reader.dropped == 2
+    assert reader.rejections.total == 3
 
 
 def test_restarted_sensor_driver_accepted():
-    """Counter and clock from zero again, far behind the last sample: a restart, not a late packet."""
-    reader = FtSampleReader()
+    """Counter and clock from zero again after the driver was silent: a new source, not a late packet."""
+    reader = new_reader()
     reader.take([sample(900, 2_000_000)], now=0.1)
-    reader.take([sample(1, 1000, wrench=4 * RAW)], now=0.2)
+    reader.take([sample(1, 1000, wrench=4 * RAW)], now=0.1 + 2 * SILENCE)
     np.testing.assert_array_equal(reader.wrench, -4 * RAW)
-    reader.take([sample(2, 2000, wrench=5 * RAW)], now=0.3)
+    reader.take([sample(2, 2000, wrench=5 * RAW)], now=0.1 + 2 * SILENCE + 0.001)
     np.testing.assert_array_equal(reader.wrench, -5 * RAW)
-    assert reader.dropped == 0
+    assert reader.rejections.total == 0 and reader.clock.restarts == 1
+
+
+T = 2_000_125  # µs: a driver running for 2 s
+
+
+@pytest.mark.parametrize(("reason", "payload"), [
+    ("undecodable", b"\x00" * 7),
+    ("undecodable", sample(2, T)[:-9]),                               # truncated
+    ("undecodable", bytes(range(256))),                                  # not this type
+    ("out_of_range", sample(2, T, wrench=[0, 0, 1.1 * 200, 0, 0, 0])),
+    ("out_of_range", sample(2, T, acceleration=[0, 0, 0, 0, 0, -1.1 * 1000])),
+    ("stamped_ahead", sample(2, T + 10_000_000)),                     # 10 s ahead of its source
+    ("stamped_behind", sample(2, T - 1_000_000)),                     # 1 s behind, the source alive
+    ("driver_error", sample(2, T, error=True)),
+])
+def test_bad_sample_rejected_counted_and_the_good_one_kept(reason, payload):
+    reader = new_reader()
+    reader.take([sample(1, T - 125)], now=1.0)
+    reader.take([sample(3, T + 125, wrench=2 * RAW), payload], now=1.0002)
+    np.testing.assert_array_equal(reader.wrench, -2 * RAW)
+    assert reader.rejections.nonzero() == {reason: 1} and reader.t_good == 1.0002
+
+
+def test_full_scale_reading_accepted():
+    """A saturating JR3 reads full scale: within the range (widened by RANGE_MARGIN), not rejected."""
+    reader = new_reader()
+    edge = [200.0, -200.0, 200.0 * RANGE_MARGIN, 12.0, -12.0, 0.0]
+    reader.take([sample(1, 1000, wrench=edge)], now=1.0)
+    np.testing.assert_array_equal(reader.wrench, -np.array(edge))
 
 
 def test_committed_lcm_types_are_regenerated_byte_for_byte(tmp_path):

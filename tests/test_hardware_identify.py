@@ -4,6 +4,7 @@ the stand-in over LCM (memq://) with the estimate checked against the station's 
 import lcm
 import numpy as np
 import pytest
+from heft.diagrams.device_limits import device_limits
 from heft.diagrams.running.hardware_identify import HardwareIdentification, IdentificationAborted
 from heft.diagrams.identify import design_excitation, identify
 from heft.diagrams.scenario import resolve_scenario
@@ -80,7 +81,7 @@ def run_in_process(scenario, trajectory, duration, faults=None):
     bus = lcm.LCM("memq://")
     stand_in = StandIn(scenario, bus, LcmChannels(), faults or FaultInjection())
     period, now = scenario.controller_period, 0.0
-    run = HardwareIdentification(trajectory, duration, period, bus, LcmChannels())
+    run = HardwareIdentification(trajectory, duration, period, bus, LcmChannels(), device_limits(scenario))
     done = False
     while not done:
         now += period

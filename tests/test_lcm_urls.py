@@ -7,6 +7,8 @@ import sys
 SEND_AND_LISTEN = """
 import sys, time
 import numpy as np
+from heft.diagrams.device_limits import device_limits
+from heft.diagrams.scenario import resolve_scenario
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import HardwareStation
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, open_buses, pump
@@ -14,7 +16,7 @@ from heft.hardware_interface.lcm_mailbox import LcmMailbox, open_buses, pump
 url = "udpm://239.255.76.67:7667?ttl=0"
 channels = LcmChannels(lcm_url=url, command_url=sys.argv[1])
 bus, command_bus = open_buses(channels)                # the controller's
-station = HardwareStation(bus, channels, command_bus=command_bus)
+station = HardwareStation(bus, channels, device_limits(resolve_scenario("fig6")), command_bus=command_bus)
 echo = LcmMailbox(bus, channels.master_command.name)   # what the controller's own receive socket gets
 _, driver_commands = open_buses(channels)              # the drivers'
 received = LcmMailbox(driver_commands, channels.master_command.name, keep=100)

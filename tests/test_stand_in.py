@@ -13,7 +13,7 @@ import pytest
 from drake import lcmt_iiwa_command, lcmt_iiwa_status
 from heft.diagrams.cli import main
 from heft.diagrams.models import model_path
-from heft.diagrams.scenario import Scenario
+from heft.diagrams.scenario import Scenario, resolve_scenario
 from heft.diagrams.plants import AddSlave
 from heft.diagrams.stations.stand_in import HAPTIC_WATCHDOG_S, FaultInjection, StandIn, _uniform, run_stand_in
 from heft.hardware_interface.channels import LcmChannels
@@ -32,6 +32,11 @@ TYPES = dict(zip(NAMES, (heft_haptic_state, lcmt_iiwa_status, heft_ft_sample)))
 DELTA = np.array([0.1, -0.1, 0.1, 0.2, -0.2, 0.3])
 G_W = np.array([0.0, 0.0, -9.81])  # m/s², gravity in the world (R = W)
 """A slave command step away from the start pose (rad)."""
+
+
+def reader_of(scenario: Scenario) -> FtSampleReader:
+    """The controller's reader of the scenario's sensor (its full scale; a source silent 50 ms gives way)."""
+    return FtSampleReader(scenario.ft_sensor.full_scale + scenario.accelerometer.full_scale, 0.05)
 
 
 def quiet_scenario() -> Scenario:
@@ -120,7 +125,7 @@ def test_still_tool_weighs_on_the_sensor_as_drake_says():
     lab = Lab(scenario)
     lab.run(0.05)
     samples = lab.payloads[CHANNELS.ft_sample.name]
-    reader = FtSampleReader()
+    reader = reader_of(scenario)
     reader.take(samples, 0.05)
     np.testing.assert_allclose(lab.stand_in.offsets, scenario.ft_sensor.initial_offsets)
 
@@ -387,7 +392,7 @@ def test_nan_samples():
     nan = np.array([np.isnan(m.wrench).all() for m in samples])
     assert len(samples) == 2000 and 0.2 < nan.mean() < 0.3
     assert np.isfinite([m.acceleration for m in samples]).all()
-    reader = FtSampleReader()
+    reader = reader_of(resolve_scenario("fig6"))
     reader.take([s.encode() for s in samples if np.isnan(s.wrench).all()][-1:], 0.25)
     assert reader.non_finite
 

@@ -42,7 +42,7 @@ def run(args) -> int:
         raise ValueError(f"--rate must be a positive number of Hz; got {rate}")
     estimate = args.estimate or scenario.controller.load_estimate
     if estimate:
-        load = read_load_estimate(estimate)
+        load = read_load_estimate(estimate, scenario.ft_sensor.full_scale)
     else:
         print("teleop: no load estimate given: φ̂ = 0, offsets 0 (nothing is eliminated)", flush=True)
         load = LoadEstimate(phi=np.zeros(10), offsets=np.zeros(6))
@@ -51,7 +51,7 @@ def run(args) -> int:
           f"{args.duration:g} s of wall time", flush=True)
     summary = run_hardware_teleop(scenario, load, channels, args.duration, rate, record=args.record,
                                   params=station_params(args.watchdog_timeout), priority=args.rt_priority)
-    print(format_summary(summary), flush=True)
+    print(format_summary(summary, channels.lcm_url), flush=True)
     if args.out:
         Path(args.out).write_text(json.dumps(summary, indent=2) + "\n")
     return 0

@@ -19,6 +19,7 @@ import contextlib
 import lcm
 import numpy as np
 
+from heft.diagrams.device_limits import device_limits
 from heft.diagrams.identify import Recording
 from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
 from heft.diagrams.running.realtime import (HardwareRunFailed, claim_realtime, format_timing, run_realtime,
@@ -32,6 +33,7 @@ from heft.hardware_interface.hardware_station import (
     HardwareStationParams,
 )
 from heft.hardware_interface.lcm_mailbox import open_buses
+from heft.hardware_interface.message_checks import DeviceLimits
 from heft.systems.excitation_commander import ExcitationCommander, Phase
 
 
@@ -51,10 +53,10 @@ class HardwareIdentification:
     ``IdentificationAborted`` if the hardware is not healthy within ``WAIT_LIMIT`` s."""
 
     def __init__(self, trajectory, duration: float, period: float, bus: lcm.LCM, channels: LcmChannels,
-                 params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None):
-        params = params or HardwareStationParams()
-        self.station = HardwareStation(bus, channels, params, command_bus)
-        self.commander = ExcitationCommander(trajectory, duration, params.slave_velocity_limits)
+                 limits: DeviceLimits, params: HardwareStationParams | None = None,
+                 command_bus: lcm.LCM | None = None):
+        self.station = HardwareStation(bus, channels, limits, params, command_bus)
+        self.commander = ExcitationCommander(trajectory, duration, limits.slave_velocity)
         self._zero = np.zeros(NUM_JOINTS)
         # Per excitation tick: time into the excitation (s), wrench (6), acceleration (6), q_S (6).
         self._rows = np.empty((int(duration / period) + 2, 19))
@@ -108,7 +110,8 @@ def record_on_hardware(scenario: Scenario, trajectory, duration: float, channels
     with contextlib.nullcontext() if record is None else LcmTrafficRecorder(channels, record):
         print(f"identify: {claim_realtime(priority)}", flush=True)
         bus, command_bus = open_buses(channels)
-        run = HardwareIdentification(trajectory, duration, period, bus, channels, params, command_bus)
+        run = HardwareIdentification(trajectory, duration, period, bus, channels, device_limits(scenario), params,
+                                     command_bus)
         times = run_realtime(run.tick, period, budget)
     return run.recording(period), timing_summary(times)
 

@@ -28,6 +28,7 @@ import time
 import lcm
 import numpy as np
 
+from heft.diagrams.device_limits import device_limits
 from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
 from heft.diagrams.running.realtime import claim_realtime, format_timing, run_realtime, timing_summary
 from heft.diagrams.scenario import Scenario
@@ -57,8 +58,10 @@ class HardwareTeleop:
         self.controller = MakeRealtimeTeleopController(
             scenario.controller, load, scenario.robot, period or scenario.controller_period,
             accelerometer=scenario.accelerometer.convention())
-        self.station = HardwareStation(bus, channels, params, command_bus)
-        self.load_commands = LoadCommandServer(bus, channels, self.controller, command_bus)
+        limits = device_limits(scenario)
+        self.station = HardwareStation(bus, channels, limits, params, command_bus)
+        self.load_commands = LoadCommandServer(bus, channels, self.controller, limits.wrench_full_scale, command_bus)
+        self._channel_names = [getattr(channels, name).name for name in WATCHED_CHANNELS]
         self._zero = np.zeros(NUM_JOINTS)
         self._was_healthy = False
         self._last_position = None
@@ -67,8 +70,11 @@ class HardwareTeleop:
         self.faults = []
         self.torque_finite = True
         self.torque_peak = self.stylus_force_peak = self.stylus_torque_peak = 0.0
-        self.max_slave_step = 0.0
+        self.max_slave_step = self.max_reanchor_step = 0.0
+        self.reanchors = 0
         self.master_commands = self.slave_commands = 0
+        self.conflicts = []
+        self._conflicts = 0
 
     def tick(self, now: float, dt: float) -> None:
         station, controller = self.station, self.controller
@@ -99,6 +105,8 @@ class HardwareTeleop:
         elif self._was_healthy:
             self.faults.append({"onset": now, "fault_bits": station.fault,
                                 "ages_ms": [round(1e3 * float(a), 3) for a in station.ages], "recovered": None})
+        if station.conflicts != self._conflicts:
+            self._observe_conflicts(now)
         torque = station.torque_sent.tolist()
         if not math.isfinite(sum(torque)):
             self.torque_finite = False
@@ -114,9 +122,31 @@ class HardwareTeleop:
             self.slave_commands += 1
             position = position.tolist()
             if self._last_position is not None:
-                self.max_slave_step = max(self.max_slave_step,
-                                          max(abs(a - b) for a, b in zip(position, self._last_position)))
+                step = max(abs(a - b) for a, b in zip(position, self._last_position))
+                if station.reanchored:  # the command set to where the arm is: a hold, not a move
+                    self.reanchors += 1
+                    self.max_reanchor_step = max(self.max_reanchor_step, step)
+                else:
+                    self.max_slave_step = max(self.max_slave_step, step)
             self._last_position = position
+
+    def _observe_conflicts(self, now: float) -> None:
+        """Opens an entry of ``conflicts`` for each channel whose second publisher was just found,
+        closes it when that channel's conflict has ended."""
+        station, clocks = self.station, list(self.station.clocks.values())
+        for i, name in enumerate(WATCHED_CHANNELS):
+            bit = 1 << i
+            if station.conflicts & bit and not self._conflicts & bit:
+                clock = clocks[i]
+                self.conflicts.append({"channel": self._channel_names[i], "onset": now, "ended": None,
+                                       "source_clock_offset_s": clock.offset,
+                                       "other_clock_offset_s": clock.foreign_offset})
+            elif self._conflicts & bit and not station.conflicts & bit:
+                for conflict in reversed(self.conflicts):
+                    if conflict["channel"] == self._channel_names[i]:
+                        conflict["ended"] = now
+                        break
+        self._conflicts = station.conflicts
 
     def summary(self, elapsed: float) -> dict:
         """The run so far (JSON-serialisable; times in s on the loop's clock, rates per wall second)."""
@@ -135,10 +165,13 @@ class HardwareTeleop:
             "stylus_force_peak": self.stylus_force_peak,
             "stylus_torque_peak": self.stylus_torque_peak,
             "max_slave_command_step": self.max_slave_step,
+            "slave_reanchors": {"count": self.reanchors, "max_step": self.max_reanchor_step},
+            "rejected": station.rejections,
+            "driver_restarts": {name: clock.restarts for name, clock in station.clocks.items()},
+            "second_publishers": self.conflicts,
             "sent_hz": {"master_command": self.master_commands / elapsed,
                         "slave_command": self.slave_commands / elapsed},
             "received_hz": {name: count / elapsed for name, count in station.received.items()},
-            "ft_dropped": station.ft_dropped,
             "load_events": [message for _, message in self.load_commands.events],
             "offsets_final": self.controller.offsets.tolist(),
         }
@@ -165,8 +198,8 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, channels: LcmCha
             "lcm_log": None if record is None else str(record), "timing": timing_summary(times)}
 
 
-def format_summary(summary: dict) -> str:
-    """The summary as a few human lines."""
+def format_summary(summary: dict, lcm_url: str) -> str:
+    """The summary as a few human lines; ``lcm_url`` is where the drivers publish."""
     faults = summary["faults"]
     fault_lines = "; ".join(
         f"at {f['onset']:.4f} s (bits {f['fault_bits']}, ages {f['ages_ms']} ms), "
@@ -174,14 +207,30 @@ def format_summary(summary: dict) -> str:
         for f in faults[:5]) + (f" … ({len(faults)} in all)" if len(faults) > 5 else "")
     received = ", ".join(f"{name} {hz:.0f}" for name, hz in summary["received_hz"].items())
     sent = ", ".join(f"{name} {hz:.0f}" for name, hz in summary["sent_hz"].items())
-    return "\n".join((
+    rejected = "; ".join(f"{name}: " + ", ".join(f"{count} {reason}" for reason, count in reasons.items())
+                         for name, reasons in summary["rejected"].items() if reasons)
+    reanchors = summary["slave_reanchors"]
+    lines = [
         f"ran {summary['duration']:.3g} s at {summary['rate_hz']:g} Hz: {summary['ticks']} ticks, healthy in "
         f"{summary['healthy_ticks']} (first at {summary['first_healthy']}); faults: {fault_lines or 'none'}; "
         f"final: healthy {summary['final_healthy']}, fault bits {summary['final_fault_bits']}",
-        f"messages per second: received {received}; sent {sent}; FT samples dropped {summary['ft_dropped']}",
+        f"messages per second: received {received}; sent {sent}",
+        f"messages rejected (none reached the controller): {rejected or 'none'}; driver restarts: "
+        + ", ".join(f"{name} {count}" for name, count in summary["driver_restarts"].items()),
         f"master command finite: {summary['master_torque_finite']}; peaks: {summary['master_torque_peak']:.3g} N·m "
         f"joint torque, {summary['stylus_force_peak']:.3g} N / {summary['stylus_torque_peak']:.3g} N·m on the "
-        f"stylus; largest slave command step {summary['max_slave_command_step']:.3g} rad",
+        f"stylus; largest slave command step {summary['max_slave_command_step']:.3g} rad (besides "
+        f"{reanchors['count']} start(s) from the measured position, up to {reanchors['max_step']:.3g} rad from the "
+        "last command)",
         f"load commands: {'; '.join(summary['load_events']) or 'none'}",
-        format_timing(summary["timing"]),
-    ))
+    ]
+    for conflict in summary["second_publishers"]:
+        ended = "still there at the end" if conflict["ended"] is None else f"gone at {conflict['ended']:.3f} s"
+        lines.append(
+            f"SECOND PUBLISHER on {conflict['channel']} from {conflict['onset']:.3f} s ({ended}): messages on a clock "
+            f"{conflict['other_clock_offset_s'] - conflict['source_clock_offset_s']:+.3f} s off the driver's, or "
+            "jumping back and forth; forces were off and the slave held meanwhile. Stop every other driver, "
+            f"stand-in or replay publishing to {lcm_url}: `ss -uap` on each machine of the network lists the "
+            "processes with a socket on its port, `lcm-logger` records who sends what")
+    lines.append(format_timing(summary["timing"]))
+    return "\n".join(lines)

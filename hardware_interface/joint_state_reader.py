@@ -1,0 +1,88 @@
+"""A joint-state driver's LCM messages (the Phantom's ``heft_haptic_state``, the arm's
+``lcmt_iiwa_status``) → the newest state the controller may use.
+
+Every message is checked (``message_checks``) and must come from the channel's one
+source (``message_order``); what fails is counted, never raised.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
+
+from .message_checks import JointRange, Rejections
+from .message_order import AHEAD, BEHIND, OUT_OF_ORDER, SourceClock
+
+
+def haptic_state_fields(msg) -> tuple:
+    """(utime, num_joints, position, velocity, error, buttons) of a ``heft_haptic_state``."""
+    return msg.utime, msg.num_joints, msg.position, msg.velocity, msg.error, msg.buttons
+
+
+def iiwa_status_fields(msg) -> tuple:
+    """(utime, num_joints, position, velocity, error, buttons) of an ``lcmt_iiwa_status``
+    (it carries no error flag and no buttons)."""
+    return msg.utime, msg.num_joints, msg.joint_position_measured, msg.joint_velocity_estimated, False, 0
+
+
+class JointStateReader:
+    """Takes one driver's payloads and holds its newest accepted state.
+
+    ``lcm_type`` decodes a payload and ``fields`` reads it (``haptic_state_fields``,
+    ``iiwa_status_fields``); ``joint_range`` is what the device can report; a source
+    silent for ``silence`` s gives way to the next (``SourceClock``). After ``take``:
+    ``position``, ``velocity`` (rad, rad/s; updated in place), ``buttons``, ``t_good`` (the
+    station time, s, of the last accepted message; −inf before the first), ``rejections``
+    and ``clock``."""
+
+    def __init__(self, lcm_type, fields, joint_range: JointRange, silence: float):
+        self._decode, self._fields, self._range = lcm_type.decode, fields, joint_range
+        self.position, self.velocity = np.zeros(NUM_JOINTS), np.zeros(NUM_JOINTS)
+        self.buttons = 0
+        self.t_good = -math.inf
+        self.rejections = Rejections()
+        self.clock = SourceClock(silence)
+        self._position = [0.0] * NUM_JOINTS  # the last accepted position, for the continuity check
+        self._stamp = 0.0
+
+    def take(self, payloads, now: float) -> None:
+        """Checks ``payloads`` (bytes, oldest first) read at station time ``now`` (s), in order."""
+        for payload in payloads:
+            reason = self._rejection(payload, now)
+            if reason is not None:
+                self.rejections.add(reason)
+
+    def _rejection(self, payload: bytes, now: float) -> str | None:
+        """Accepts ``payload`` and returns None, or returns why it is rejected."""
+        try:
+            utime, num_joints, position, velocity, error, buttons = self._fields(self._decode(payload))
+        except Exception:  # whatever a malformed payload makes the generated decoder raise
+            return "undecodable"
+        if num_joints != NUM_JOINTS or len(position) != NUM_JOINTS or len(velocity) != NUM_JOINTS:
+            return "joint_count"
+        if not math.isfinite(sum(position) + sum(velocity)):
+            return "non_finite"
+        if error:
+            return "driver_error"
+        if not self._range.contains(position, velocity):
+            return "out_of_range"
+        stamp, clock = utime * 1e-6, self.clock
+        order = clock.check(stamp, now)
+        if order == OUT_OF_ORDER:
+            return "out_of_order"
+        if order in (AHEAD, BEHIND):
+            clock.foreign(stamp, now)
+            return "stamped_ahead" if order == AHEAD else "stamped_behind"
+        if not clock.starts_source(now) and not self._range.continuous(self._position, position,
+                                                                        stamp - self._stamp):
+            clock.foreign(stamp, now)
+            return "discontinuous"
+        clock.accept(stamp, now)
+        self._stamp, self.t_good, self.buttons = stamp, now, buttons
+        self._position[:] = position
+        self.position[:] = position
+        self.velocity[:] = velocity
+        return None
