@@ -8,6 +8,7 @@ Sources of every number: the URDFs under ``diagrams/models`` (their own comments
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 from pydrake.multibody.parsing import Parser
@@ -15,8 +16,9 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import (LinearBushingRollPitchYaw, QuaternionFloatingJoint, RotationalInertia,
                                     SpatialInertia)
 
+from heft.diagrams import mount
 from heft.diagrams.models import model_path
-from heft.diagrams.scenario import Scenario
+from heft.diagrams.scenario import LoadSpec, MountSpec, Scenario
 from heft.systems.load_dynamics import GRAVITY_W, InertialParameters, inertia_entries, inertia_matrix
 from heft.systems.master_kinematics import master_plant
 
@@ -55,7 +57,7 @@ def AddArmWithSensor(plant: MultibodyPlant, robot: str):
     return arm, sensor_body, plant.GetFrameByName("S", sensor_instance)
 
 
-def _add_compliant_mount(plant: MultibodyPlant, S, load_body, spec):
+def _add_compliant_mount(plant: MultibodyPlant, S, load_body, spec: MountSpec):
     """The load on ``spec``'s spring-damper below S: a massless mount plate welded at S (its weld's
     reaction is then what the sensor measures), the load free on a floating joint from it, and
     the bushing between the two, both frames at S at rest. Returns (weld, floating joint)."""
@@ -68,31 +70,88 @@ def _add_compliant_mount(plant: MultibodyPlant, S, load_body, spec):
     return weld, joint
 
 
-def AddSlave(plant: MultibodyPlant, scenario: Scenario, mount_compliance: bool = False) -> SlaveParts:
-    """Adds the arm with its JR3 (``AddArmWithSensor``) and the scenario's load at S: welded, or on
-    the scenario's compliant mount (``MountSpec``) with ``mount_compliance`` (the simulated station's
-    physics; models of the load for control and analysis stay rigid)."""
-    arm, sensor_body, S = AddArmWithSensor(plant, scenario.robot)
+def _add_load(plant: MultibodyPlant, spec: LoadSpec) -> tuple[list, list]:
+    """Adds the load ``spec`` describes (frames at S once welded there); returns (its bodies, the
+    gripper's among them: none but for a "gripper_object")."""
     parser = Parser(plant)
     parser.SetAutoRenaming(True)
-    kind = scenario.load.kind
-    gripper_bodies = []
-    if kind == "tool":
+    if spec.kind == "tool":
         (instance,) = parser.AddModels(model_path("tool.urdf"))
-        load_bodies = [plant.GetBodyByName("tool", instance)]
-    elif kind == "gripper_object":
+        return [plant.GetBodyByName("tool", instance)], []
+    if spec.kind == "gripper_object":
         (instance,) = parser.AddModels(model_path("gripper_object.urdf"))
         gripper, obj = plant.GetBodyByName("gripper", instance), plant.GetBodyByName("object", instance)
         plant.WeldFrames(gripper.body_frame(), obj.body_frame())
-        load_bodies, gripper_bodies = [gripper, obj], [gripper]
-    else:
-        instance = plant.AddModelInstance("custom_load")
-        load_bodies = [plant.AddRigidBody("load", instance, _custom_load_inertia(scenario.load))]
+        return [gripper, obj], [gripper]
+    instance = plant.AddModelInstance("custom_load")
+    return [plant.AddRigidBody("load", instance, _custom_load_inertia(spec))], []
+
+
+def AddSlave(plant: MultibodyPlant, scenario: Scenario, mount_compliance: bool = False,
+             mount_constants: MountSpec | None = None) -> SlaveParts:
+    """Adds the arm with its JR3 (``AddArmWithSensor``) and the scenario's load at S: welded, or on
+    a compliant mount with ``mount_compliance`` (the simulated station's physics; models of the
+    load for control and analysis stay rigid) of ``mount_constants``, by default the scenario's
+    mount as the station builds it (``mount_for``)."""
+    arm, sensor_body, S = AddArmWithSensor(plant, scenario.robot)
+    load_bodies, gripper_bodies = _add_load(plant, scenario.load)
     if mount_compliance and not scenario.load.mount.rigid:
-        weld, mount = _add_compliant_mount(plant, S, load_bodies[0], scenario.load.mount)
+        weld, joint = _add_compliant_mount(plant, S, load_bodies[0], mount_constants or mount_for(scenario))
     else:
-        weld, mount = plant.WeldFrames(S, load_bodies[0].body_frame()), None
-    return SlaveParts(arm, sensor_body, S, load_bodies, weld, gripper_bodies, mount)
+        weld, joint = plant.WeldFrames(S, load_bodies[0].body_frame()), None
+    return SlaveParts(arm, sensor_body, S, load_bodies, weld, gripper_bodies, joint)
+
+
+def load_phi(spec: LoadSpec) -> np.ndarray:
+    """φ (Eq. 6) of the load ``spec`` describes, about S in S."""
+    plant = MultibodyPlant(time_step=0.0)
+    bodies, _ = _add_load(plant, spec)
+    plant.WeldFrames(plant.world_frame(), bodies[0].body_frame())
+    plant.Finalize()
+    return phi_about_S(plant, bodies[0].body_frame(), bodies)
+
+
+def mount_modes(scenario: Scenario, constants: MountSpec) -> mount.Modes:
+    """The modes of the scenario's load on a mount of ``constants`` with the arm beside it free, in
+    its start pose: the plant's mass matrix, the bushing's stiffness and damping at the mount's
+    coordinates (``diagrams/mount.py``: the modes the plant's step must integrate)."""
+    plant = MultibodyPlant(time_step=0.0)
+    parts = AddSlave(plant, scenario, mount_compliance=True, mount_constants=constants)
+    plant.Finalize()
+    context = plant.CreateDefaultContext()
+    plant.SetPositions(context, parts.arm, scenario.slave_initial_q)
+    M = plant.CalcMassMatrix(context)
+    K, C = np.zeros_like(M), np.zeros_like(M)
+    at = slice(parts.mount_joint.velocity_start(), parts.mount_joint.velocity_start() + 6)
+    K[at, at], C[at, at] = mount.stiffness(constants), mount.damping(constants)
+    return mount.modes(M, K, C)
+
+
+def mount_for(scenario: Scenario) -> MountSpec:
+    """The constants of the scenario's compliant mount as the station builds it: each one the
+    scenario states, the rest ``DEFAULT_MOUNT``'s sized for the load (``mount.sized_for_load``).
+    A mount stated in none of them is softened further where need be (``mount.softened``), until
+    the plant's step integrates its every mode; a stated mount the step cannot integrate is
+    refused (ValueError) with what to change."""
+    spec = scenario.load.mount
+    phi = load_phi(scenario.load)
+    constants = mount.sized_for_load(spec, phi, load_phi(LoadSpec(kind="tool")))
+    time_step = scenario.plant.time_step
+    found = mount_modes(scenario, constants)
+    share, worst = mount.step_usage(found, time_step)
+    if share <= mount.STEP_MARGIN:
+        return constants
+    if all(getattr(spec, name) is None for name in mount.CONSTANTS):
+        return mount.softened(constants, (mount.STEP_MARGIN / share) ** 2 * (1 - 1e-9))
+    frequency, zeta = found.frequencies[worst], found.damping_ratios[worst]
+    stated = ", ".join(f"{name}: {getattr(spec, name)}" for name in mount.CONSTANTS if getattr(spec, name) is not None)
+    raise ValueError(
+        f"the {phi[0]:.3g} kg load on its stated mount (load.mount {stated}) has a mode at {frequency:.0f} Hz "
+        f"({100 * zeta:.0f} % damped, with the arm's wrist), beyond the "
+        f"{mount.STEP_MARGIN * mount.step_bound_hz(zeta, time_step):.0f} Hz that the plant's step of "
+        f"{1e3 * time_step:g} ms integrates stably: soften the mount's stiffness (or leave its constants out to have "
+        f"the default sized for the load), make plant.time_step at most "
+        f"{1e3 * time_step * mount.STEP_MARGIN / share:.2g} ms, or set load.mount.rigid: true")
 
 
 def phi_about_S(plant: MultibodyPlant, S, bodies, context=None) -> np.ndarray:

@@ -34,28 +34,38 @@ class MountSpec:
     """How the load hangs below the sensor: rigidly (the paper's model), or on a compliant
     mount, a 6-DoF spring-damper between S and the load's frame (Drake's
     ``LinearBushingRollPitchYaw``; constants about and along S's axes at rest), as a tool on
-    a wrist flange with an adapter plate is. The defaults put the paper's tool's first
-    modes, rocking about x and y, at 49–50 Hz ("tens of Hz", as tools on wrist flanges show;
-    the JR3 itself is stiffer), twist at 90 Hz, the others at 126–144 Hz, with 4–9 % of
-    critical damping (bolted joints); ``tests/test_sim_station.py`` checks the rocking mode in
-    the station against the modal analysis. Assumed values, not measured on a lab's tool; a
-    softer mount (rocking at 37 Hz) makes the loop unstable in fig7 (README)."""
+    a wrist flange with an adapter plate is. A constant left out (null) is ``DEFAULT_MOUNT``'s,
+    sized for the load (``diagrams/mount.py``: a load lighter than the paper's tool about an axis
+    gets a proportionally softer mount there, so that it rocks where that tool does); a stated
+    one is kept as stated, and the station refuses a mount its plant step cannot integrate."""
     rigid: bool = False
-    torque_stiffness: list[float] = dataclasses.field(default_factory=lambda: [3000.0, 3000.0, 3000.0])  # N·m/rad
-    torque_damping: list[float] = dataclasses.field(default_factory=lambda: [0.85, 0.85, 0.4])  # N·m·s/rad
-    force_stiffness: list[float] = dataclasses.field(default_factory=lambda: [1e6, 1e6, 1e6])  # N/m
-    force_damping: list[float] = dataclasses.field(default_factory=lambda: [180.0, 180.0, 180.0])  # N·s/m
+    torque_stiffness: typing.Optional[list[float]] = None  # N·m/rad
+    torque_damping: typing.Optional[list[float]] = None  # N·m·s/rad
+    force_stiffness: typing.Optional[list[float]] = None  # N/m
+    force_damping: typing.Optional[list[float]] = None  # N·s/m
 
     def validate(self) -> None:
-        """Raises ValueError naming the first field that is out of range (none when rigid)."""
+        """Raises ValueError naming the first stated field that is out of range (none when rigid)."""
         if self.rigid:
             return
         for name, unit, positive in (("torque_stiffness", "N·m/rad", True), ("force_stiffness", "N/m", True),
                                      ("torque_damping", "N·m·s/rad", False), ("force_damping", "N·s/m", False)):
             value = getattr(self, name)
+            if value is None:
+                continue
             if len(value) != 3 or not all(math.isfinite(x) and (x > 0 if positive else x >= 0) for x in value):
                 raise ValueError(f"{name} needs 3 numbers {'> 0' if positive else '>= 0'} ({unit})"
                                  + ("; set rigid true for a rigid mount" if positive else "") + f"; got {value}")
+
+
+DEFAULT_MOUNT = MountSpec(torque_stiffness=[3000.0, 3000.0, 3000.0], torque_damping=[0.85, 0.85, 0.4],
+                          force_stiffness=[1e6, 1e6, 1e6], force_damping=[180.0, 180.0, 180.0])
+"""The paper's tool's mount: its first modes, rocking about x and y, at 49–50 Hz ("tens of Hz",
+as tools on wrist flanges show; the JR3 itself is stiffer), twist at 90 Hz, the others at
+126–144 Hz, with 4–9 % of critical damping (bolted joints); ``tests/test_sim_station.py``
+checks the rocking mode in the station against the modal analysis. Assumed values, not
+measured on a lab's tool; a softer mount (rocking at 37 Hz) makes the loop unstable in fig7
+without the controller's notch (README)."""
 
 
 MOUNT_ROCKING_HZ = 48.0

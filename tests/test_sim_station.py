@@ -9,7 +9,8 @@ from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.analysis import Simulator
 
 from heft.diagrams.scenario import IDEAL_STATION, NOISE_OFF, Scenario, layered, load_scenario, overrides_text
-from heft.diagrams.plants import AddSlave
+from heft.diagrams.mount import modes_on_fixed_sensor
+from heft.diagrams.plants import AddSlave, mount_for
 from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.load_dynamics import InertialParameters, regressor
@@ -472,20 +473,6 @@ def test_the_accelerometer_sits_where_the_scenario_says():
     assert peak > 0.01  # the displacement mattered (m/s²)
 
 
-def mount_modes(phi, mount):
-    """(frequencies (Hz), mode shapes [rotation; translation] as columns) of a load of
-    inertial parameters ``phi`` (Eq. 6, about S) on ``mount`` with S held fixed: the
-    generalized eigenproblem K·x = ω²·M·x of the bushing's stiffness and the load's spatial
-    inertia about S."""
-    m, h = phi[0], phi[1:4]
-    I = np.array([[phi[4], phi[5], phi[6]], [phi[5], phi[7], phi[8]], [phi[6], phi[8], phi[9]]])
-    hx = np.array([[0, -h[2], h[1]], [h[2], 0, -h[0]], [-h[1], h[0], 0]])
-    M = np.block([[I, hx], [hx.T, m * np.eye(3)]])  # [rotation; translation] about S
-    K = np.diag(mount.torque_stiffness + mount.force_stiffness)
-    eigenvalues, modes = np.linalg.eig(np.linalg.solve(M, K))
-    return np.sqrt(eigenvalues.real) / (2 * np.pi), modes
-
-
 @pytest.mark.parametrize("kind", ["tool", "gripper_object"])
 def test_the_default_mount_notch_sits_at_the_bundled_loads_rocking_modes(kind):
     """``MOUNT_ROCKING_HZ``, where the default controller notches the contact wrench, lies within
@@ -494,9 +481,9 @@ def test_the_default_mount_notch_sits_at_the_bundled_loads_rocking_modes(kind):
 
     scenario = layered(Scenario(), overrides_text({"load.kind": kind, "environment.kind": "none"}))
     station = MakeSimStation(scenario)
-    frequencies, _ = mount_modes(station.GetOutputPort("truth.phi").Eval(station.CreateDefaultContext()),
-                                 scenario.load.mount)
-    np.testing.assert_allclose(np.sort(frequencies)[:2], MOUNT_ROCKING_HZ, rtol=0.05)
+    found = modes_on_fixed_sensor(station.GetOutputPort("truth.phi").Eval(station.CreateDefaultContext()),
+                                  mount_for(scenario))
+    np.testing.assert_allclose(found.frequencies[:2], MOUNT_ROCKING_HZ, rtol=0.05)
 
 
 def test_the_load_rings_on_its_mount_at_the_mounts_rocking_mode():
@@ -508,9 +495,9 @@ def test_the_load_rings_on_its_mount_at_the_mounts_rocking_mode():
     scenario = layered(Scenario(), overrides_text({**NOISE_OFF, "environment.kind": "none",
                                                    "slave_servo_stiffness": stiff_servo}))
     run = Run(scenario)
-    frequencies, modes = mount_modes(run.out("truth.phi"), scenario.load.mount)
-    rocking_x = np.argmax(np.abs(modes[0]) / np.linalg.norm(modes, axis=0))
-    expected = frequencies[rocking_x]
+    found = modes_on_fixed_sensor(run.out("truth.phi"), mount_for(scenario))
+    rocking_x = np.argmax(np.abs(found.shapes[0]) / np.linalg.norm(found.shapes, axis=0))
+    expected = found.frequencies[rocking_x]
     assert 20 < expected < 100  # "tens of Hz"
 
     plant = run.station.GetSubsystemByName("slave_plant")

@@ -1,0 +1,119 @@
+"""The compliant tool mount: its constants for a load, its modes, and whether the plant's step
+integrates them.
+
+Drake's discrete plant integrates a force element such as the mount's bushing explicitly: its
+force at the start of a step sets the velocity at the end, which then moves the position
+(semi-implicit Euler). A mode of angular frequency ω and damping ratio ζ is stable only for
+ω·h < 2(√(1 + ζ²) − ζ) (h the step; the trace and determinant of the step's 2×2 map), and a
+mode beyond it makes the simulation diverge within milliseconds (Drake then reports a mass
+matrix "not positive-definite"). The modes that count are those of the load on the mount
+*with the arm's wrist free beside it* (the plant's mass matrix in the start pose, the
+bushing's stiffness and damping at the mount's coordinates): the light wrist (flange, JR3)
+ringing against a stiff mount sets the fastest of them, two to three times the fastest mode
+of the load on a fixed sensor.
+
+Measured in the station (h = 0.5 ms, a tap on the load, 0.3 s): every mount whose fastest
+mode was within that bound ran; beyond it one (a thin rod lying across S, all of its fastest
+mode in the load) diverged at 1.3 times the bound, while modes the wrist shares ran up to
+1.8 times it (the arm's servo, implicit in the plant, damps the wrist). ``STEP_MARGIN`` keeps
+every mode within 0.8 of the bound; the paper's tool's fastest, 363 Hz (15 % damped), uses 0.66.
+
+Why not integrate the mount implicitly (joints with the plant's implicit PD actuators)? That
+damps too: implicit Euler takes 1 − 1/√(1 + (ωh)²) of a 49 Hz mode's amplitude per 0.5 ms
+step, 7.6 % of critical damping on top of the mount's own 4 %, which would change what the
+paper's tool does on its mount (the dominant error of the realistic station, README). Sizing
+the mount to the load keeps the paper's tool exactly as it was and the rest within the step.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import scipy.linalg
+
+from heft.diagrams.scenario import DEFAULT_MOUNT, MountSpec
+from heft.systems.load_dynamics import inertia_matrix
+
+CONSTANTS = ("torque_stiffness", "torque_damping", "force_stiffness", "force_damping")
+STEP_MARGIN = 0.8
+"""The share of the step's stability bound a mount's mode may use (see the module's notes)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Modes:
+    """Undamped modes of a mount, slowest first: frequencies (Hz), their damping ratios (the
+    damping projected on each mode), and the mode shapes as columns (mass-normalized)."""
+    frequencies: np.ndarray
+    damping_ratios: np.ndarray
+    shapes: np.ndarray
+
+
+def stiffness(mount: MountSpec) -> np.ndarray:
+    """The bushing's stiffness at rest, [rotation; translation] about and along S's axes (6×6)."""
+    return np.diag(mount.torque_stiffness + mount.force_stiffness)
+
+
+def damping(mount: MountSpec) -> np.ndarray:
+    """The bushing's damping at rest, as ``stiffness`` (6×6)."""
+    return np.diag(mount.torque_damping + mount.force_damping)
+
+
+def modes(M: np.ndarray, K: np.ndarray, C: np.ndarray) -> Modes:
+    """The generalized eigenproblem K·x = ω²·M·x (M positive definite, K semi-definite); modes
+    of zero stiffness (free coordinates) left out."""
+    eigenvalues, shapes = scipy.linalg.eigh(K, M)
+    keep = eigenvalues > 1e-9 * eigenvalues.max()
+    omega, shapes = np.sqrt(eigenvalues[keep]), shapes[:, keep]
+    zeta = np.einsum("ik,ij,jk->k", shapes, C, shapes) / (2 * omega)
+    return Modes(omega / (2 * np.pi), zeta, shapes)
+
+
+def spatial_inertia_about_S(phi) -> np.ndarray:
+    """The load's spatial inertia about S's origin in S, [rotation; translation] (6×6), from φ (Eq. 6)."""
+    m, h = phi[0], np.asarray(phi[1:4])
+    hx = np.array([[0, -h[2], h[1]], [h[2], 0, -h[0]], [-h[1], h[0], 0]])
+    return np.block([[inertia_matrix(phi[4:]), hx], [hx.T, m * np.eye(3)]])
+
+
+def modes_on_fixed_sensor(phi, mount: MountSpec) -> Modes:
+    """The modes of a load of inertial parameters ``phi`` (about S) on ``mount``, S held fixed:
+    the rocking a tap test finds with the arm holding still."""
+    return modes(spatial_inertia_about_S(phi), stiffness(mount), damping(mount))
+
+
+def step_bound_hz(damping_ratio, time_step: float):
+    """The fastest mode (Hz) of that damping ratio the plant's step integrates stably."""
+    zeta = np.asarray(damping_ratio)
+    return (np.sqrt(1 + zeta ** 2) - zeta) / (np.pi * time_step)
+
+
+def step_usage(found: Modes, time_step: float) -> tuple[float, int]:
+    """(the largest share of its step bound any mode takes, that mode's index)."""
+    shares = found.frequencies / step_bound_hz(found.damping_ratios, time_step)
+    worst = int(np.argmax(shares))
+    return float(shares[worst]), worst
+
+
+def sized_for_load(spec: MountSpec, phi, phi_paper_tool) -> MountSpec:
+    """``spec`` with each constant it leaves out taken from ``DEFAULT_MOUNT`` and sized for the
+    load: on each axis where the load's inertia about S (``phi``; mass for the force constants)
+    is below the paper's tool's (``phi_paper_tool``), stiffness and damping shrink by that
+    ratio, which keeps the uncoupled modes' frequencies and damping ratios the paper's tool's;
+    where it is not, they stay the default's (stiffer would put the wrist beside a heavy tool
+    beyond the step), and the tool rocks lower, as a heavy tool on a given adapter does."""
+    diagonal = lambda p: np.array([p[4], p[7], p[9]])
+    torque = np.minimum(1.0, diagonal(phi) / diagonal(phi_paper_tool))
+    force = np.full(3, min(1.0, phi[0] / phi_paper_tool[0]))
+    ratios = {"torque_stiffness": torque, "torque_damping": torque, "force_stiffness": force, "force_damping": force}
+    return dataclasses.replace(spec, **{
+        name: (np.asarray(getattr(DEFAULT_MOUNT, name)) * ratios[name]).tolist()
+        for name in CONSTANTS if getattr(spec, name) is None})
+
+
+def softened(mount: MountSpec, factor: float) -> MountSpec:
+    """``mount`` with its stiffnesses times ``factor`` and its dampings times √factor: every mode
+    √factor as fast, with the same damping ratio."""
+    return dataclasses.replace(
+        mount, **{name: (np.asarray(getattr(mount, name)) * (factor if "stiffness" in name else np.sqrt(factor))
+                         ).tolist() for name in CONSTANTS})
