@@ -165,6 +165,11 @@ class HardwareStation:
             ages, self.gain, watchdog.timeout, spacing / watchdog.ramp_time, stalled=spacing > watchdog.timeout,
             conflicts=self.conflicts)
 
+    def stop(self, now: float) -> None:
+        """The run's last commands at ``now`` (s): forces off, the slave held where it is measured."""
+        self.healthy = False
+        self.send(now, np.zeros(NUM_JOINTS), None)
+
     def send(self, now: float, torque, position) -> None:
         """Publishes the gated master ``torque`` (6, N·m) and slave ``position`` (6, rad, or None:
         no command from the controller) at ``now`` (s)."""

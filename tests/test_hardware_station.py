@@ -23,6 +23,7 @@ from heft.hardware_interface.hardware_station import (
 )
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
 from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_command, heft_haptic_state
+from heft.hardware_interface.message_order import CONFLICT_CLEAR, CONFLICT_COUNT
 from heft.hardware_interface.watchdog import WatchdogParams, watchdog_step
 
 PERIOD = 0.0005
@@ -231,3 +232,115 @@ def test_published_utime_is_wall_clock():
     pump(rig.bus)
     assert heft_haptic_command.decode(bus_copy.take()[-1]).utime == round((1.7e9 + rig.now) * 1e6)
     assert math.isfinite(rig.station.ages.max())
+
+
+def haptic_state(utime, position, num_joints=6, velocity=None) -> bytes:
+    msg = heft_haptic_state()
+    msg.utime, msg.num_joints = utime, num_joints
+    msg.position, msg.velocity = list(position), list(velocity if velocity is not None else [0.0] * num_joints)
+    msg.torque_applied = [0.0] * num_joints
+    return msg.encode()
+
+
+def test_malformed_messages_are_counted_and_never_reach_the_controller():
+    """Between the drivers' own messages, every kind of broken one on every channel: the station
+    stays healthy, reads exactly the drivers' values, and counts each rejection by its reason."""
+    rig = Rig()
+    rig.run(0.05)
+    good = haptic_state(1, Q_MASTER)
+    ft = heft_ft_sample()
+    ft.utime, ft.sample_counter, ft.wrench, ft.acceleration = 1, 1, list(RAW), list(ACCEL)
+    lower, upper = LIMITS.master_lower, LIMITS.master_upper
+    hostile = {
+        CHANNELS.master_state.name: [
+            b"\x07" * 40, good[:-5], haptic_state(1, Q_MASTER[:3], num_joints=3),
+            haptic_state(1, [np.nan] + [0.0] * 5), haptic_state(1, upper + 1.0),
+            haptic_state(1, (lower + upper) / 2, velocity=[1e3] * 6)],
+        CHANNELS.slave_status.name: [bytes(range(200)), b""],
+        CHANNELS.ft_sample.name: [ft.encode()[:50], b"\xff" * 8],
+    }
+    for _ in range(20):
+        rig.now += PERIOD
+        rig.publish()
+        for channel, payloads in hostile.items():
+            for payload in payloads:
+                rig.bus.publish(channel, payload)
+        rig.tick()
+        assert rig.station.healthy
+        np.testing.assert_array_equal(rig.station.master_position, Q_MASTER)
+        np.testing.assert_array_equal(rig.station.slave_position, Q_SLAVE)
+        np.testing.assert_array_equal(rig.station.wrench, -RAW)
+    assert rig.station.rejections == {
+        "master_state": {"undecodable": 40, "joint_count": 20, "non_finite": 20, "out_of_range": 40},
+        "slave_status": {"undecodable": 40},
+        "ft_sample": {"undecodable": 40},
+    }
+    assert rig.enables[-1] and rig.station.conflicts == 0
+
+
+def test_a_second_publisher_is_a_fault_until_it_stops():
+    """A stand-in left running beside the master's driver, on its own clock, publishes plausible
+    states: within a few of its messages the station faults (forces off, the slave command held),
+    none of its states is ever read, and the station recovers once it has been quiet for
+    ``CONFLICT_CLEAR``."""
+    rig = Rig()
+    rig.run(0.3)
+    elsewhere = Q_MASTER + 0.3
+    before = len(rig.torques)
+    for k in range(200):  # 100 ms
+        rig.now += PERIOD
+        rig.publish()
+        if k % 4 == 0:  # 500 Hz, its clock started 7 s before the driver's
+            rig.bus.publish(CHANNELS.master_state.name, haptic_state(round(1e6 * (rig.now + 7.0)), elsewhere))
+        rig.tick()
+        np.testing.assert_array_equal(rig.station.master_position, Q_MASTER)
+    off = next(i for i, enable in enumerate(rig.enables[before:]) if not enable)
+    assert off <= 4 * CONFLICT_COUNT, "the fault comes within a few of the other publisher's messages"
+    assert rig.station.fault == 1 << 4 and rig.station.conflicts == 0b001
+    assert not np.any(rig.torques[before + off:])
+    assert rig.station.rejections["master_state"] == {"stamped_ahead": 50}
+    held = np.array(rig.positions[before + off:])
+    assert np.all(np.abs(np.diff(held, axis=0)) <= MAX_STEP + 1e-12)
+    last_foreign = rig.now - (199 % 4) * PERIOD
+    while not rig.station.healthy:
+        rig.run(PERIOD)
+    assert CONFLICT_CLEAR <= rig.now - last_foreign <= CONFLICT_CLEAR + 2 * PERIOD
+    rig.run(0.25)
+    assert rig.enables[-1] and rig.station.conflicts == 0
+
+
+def test_a_second_publisher_on_the_same_clock_shows_as_jumps():
+    """Another FT driver stamping on the same clock (two drivers on one sensor's time base) with
+    its own counter: its samples go back and forth against the driver's and are rejected; the
+    channel is in conflict."""
+    rig = Rig()
+    rig.run(0.1)
+    for _ in range(40):
+        rig.now += PERIOD
+        rig.publish()
+        msg = heft_ft_sample()
+        msg.utime, msg.sample_counter = round(1e6 * rig.now) + 2, 5  # the driver's counter is past 200
+        msg.wrench, msg.acceleration = list(5 * RAW), list(ACCEL)
+        rig.bus.publish(CHANNELS.ft_sample.name, msg.encode())
+        rig.tick()
+        np.testing.assert_array_equal(rig.station.wrench, -RAW)
+    assert rig.station.rejections["ft_sample"]["discontinuous"] >= 3
+    assert rig.station.conflicts == 0b100 and not rig.station.healthy
+
+
+def test_one_sample_stamped_in_the_future_changes_nothing():
+    """A single corrupted datagram stamped 10 s ahead: rejected, counted, and the driver's samples
+    that follow are read as before: no fault."""
+    rig = Rig()
+    rig.run(0.1)
+    before = len(rig.enables)
+    rig.now += PERIOD
+    rig.publish()
+    msg = heft_ft_sample()
+    msg.utime, msg.sample_counter = round(1e6 * (rig.now + 10.0)), 10**9
+    msg.wrench, msg.acceleration = list(5 * RAW), list(ACCEL)
+    rig.bus.publish(CHANNELS.ft_sample.name, msg.encode())  # newest: read first
+    rig.tick()
+    np.testing.assert_array_equal(rig.station.wrench, -RAW)
+    rig.run(0.05)
+    assert all(rig.enables[before:]) and rig.station.rejections["ft_sample"] == {"stamped_ahead": 1}

@@ -20,6 +20,7 @@ from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import HardwareStationParams
 from heft.hardware_interface.lcmtypes import heft_load_command, heft_load_status
 from heft.diagrams.load_estimate import LoadEstimate
+from heft.systems.load_dynamics import InertialParameters
 from heft.systems.offset_tracking import DONE, REFUSED_MOVING
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant, stylus_jacobian
 
@@ -190,6 +191,27 @@ def test_a_malformed_load_command_is_answered_and_the_loop_goes_on():
     lab.run(0.1)
     assert [a.accepted for a in lab.answers] == [False] and "not a heft_load_command" in lab.answers[0].message
     assert lab.teleop.station.healthy and not lab.teleop.faults
+
+
+@pytest.mark.parametrize(("phi_of", "offsets", "reason"), [
+    (lambda phi: np.r_[-5.0, phi[1:]], np.zeros(6), "mass -5 kg is not positive"),
+    (lambda phi: np.r_[1e12, phi[1:]], np.zeros(6), "weight 9.81e+12 N is beyond the sensor's range"),
+    (lambda phi: np.r_[phi[:4], -phi[4:]], np.zeros(6), "no body has these inertial parameters"),
+    (lambda phi: InertialParameters(10.0, np.array([0.23, 0.0, 0.05]), 0.01 * np.eye(3)).to_phi(), np.zeros(6),
+     "static moment |m·c|·g = 23.09 N·m is beyond the sensor's range"),  # 10 kg, its COM 0.23 m off-axis
+    (lambda phi: phi, np.array([0.0, 0.0, 500.0, 0.0, 0.0, 0.0]), "offsets beyond the sensor's range"),
+])
+def test_a_non_physical_estimate_over_lcm_is_refused_with_the_reason(phi_of, offsets, reason):
+    """What `heft load --estimate` could be made to send, or another process could: refused with the
+    reason, and the estimate in use stays."""
+    lab, true, _ = still_lab(lambda true: true)
+    lab.run(0.1)
+    send(lab, heft_load_command.NEW_ESTIMATE, phi_of(true.phi).tolist(), offsets.tolist())
+    lab.run(0.01)
+    (answer,) = lab.answers
+    assert not answer.accepted and reason in answer.message, answer.message
+    np.testing.assert_array_equal(answer.phi, true.phi)
+    np.testing.assert_array_equal(lab.teleop.controller.phi, true.phi)
 
 
 def test_with_the_clutch_held_the_slave_moves_by_the_scaled_stylus_motion():

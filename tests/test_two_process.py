@@ -3,20 +3,30 @@
 Both run inside a network namespace this test creates (only its own `lo`, with
 the multicast route on it) on ``udpm://239.255.76.67:7667?ttl=0``, so no packet
 can leave the machine (DESIGN §5). Needs root and `ip`; skipped otherwise.
-No assertion here depends on how fast the machine is: the rates and delays are
-printed, and measured by `heft bench lcm`.
+No assertion here depends on how fast the machine is: each process is waited for by
+what it prints when it is up ("stand-in: publishing", "teleop: running"), the controller
+runs until the test has seen what it needs and then stops it with SIGTERM (it stops as at
+the end of its duration: forces off, slave held, summary written); the rates and delays
+are printed, and measured by `heft bench lcm`.
 """
 
 import json
 import os
+import re
+import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import lcm
+import numpy as np
 import pytest
+import yaml
+from pydrake.multibody.tree import JacobianWrtVariable
 from heft.diagrams.commands.options import lab_settings_text
-from heft.diagrams.scenario import resolve_scenario
+from heft.diagrams.device_limits import device_limits
+from heft.diagrams.scenario import overrides_text, resolve_scenario
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import HardwareStationParams
 
@@ -25,18 +35,21 @@ pytestmark = pytest.mark.slow
 LCM_URL = "udpm://239.255.76.67:7667?ttl=0"
 STARTUP_TIMEOUT = 60.0
 RUN_TIMEOUT = 120.0
+FOREVER = "1000"
+"""--duration of a process that the test stops itself (s)."""
 STAND_IN_SENSOR = lab_settings_text(resolve_scenario("fig6"))  # the stand-in's sensor, stated as a lab states its own
 
 
 class _Process:
     """A `heft` subcommand inside the namespace; output to a file in ``folder``."""
 
-    def __init__(self, ns, folder, label, *args):
+    def __init__(self, ns, folder, label, *args, script=None):
         self.log = folder / f"{label}.log"
         env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONUNBUFFERED="1")
+        program = [script] if script else ["-m", "heft.diagrams.cli"]
         with open(self.log, "w") as out:
             self.popen = subprocess.Popen(
-                ["ip", "netns", "exec", ns, sys.executable, "-m", "heft.diagrams.cli", *args],
+                ["ip", "netns", "exec", ns, sys.executable, *program, *args],
                 stdout=out, stderr=subprocess.STDOUT, cwd=folder, env=env)
 
     def text(self) -> str:
@@ -52,6 +65,11 @@ class _Process:
     def wait(self, timeout: float = RUN_TIMEOUT) -> int:
         return self.popen.wait(timeout=timeout)
 
+    def finish(self) -> int:
+        """Asks it to stop (SIGTERM: `ip netns exec` passes it on) and waits for it."""
+        self.popen.send_signal(signal.SIGTERM)
+        return self.wait()
+
     def stop(self):
         if self.popen.poll() is None:
             self.popen.terminate()
@@ -62,37 +80,50 @@ class _Process:
                 self.popen.wait()
 
 
-def _run(netns, folder, teleop_duration, stand_in_args, teleop_args=(), restart=False):
-    """Starts the controller, then (once it is building) the stand-in — and, with
-    ``restart``, a second stand-in once the first has died; returns the controller's
-    JSON summary and the processes."""
-    out = folder / "teleop.json"
-    teleop = _Process(netns, folder, "teleop", "teleop", "--hardware", "--lcm-url", LCM_URL,
-                      "--set", STAND_IN_SENSOR, "--duration", str(teleop_duration), "--out", str(out), *teleop_args)
-    stand_ins = []
-    try:
-        teleop.wait_for("teleop: controller on")
-        stand_ins.append(_Process(netns, folder, "stand_in", "stand-in", "--scenario", "fig6", "--lcm-url",
-                                  LCM_URL, *stand_in_args))
-        if restart:
-            assert stand_ins[0].wait(timeout=RUN_TIMEOUT) == 0, stand_ins[0].text()
-            stand_ins.append(_Process(netns, folder, "stand_in_again", "stand-in", "--scenario", "fig6",
-                                      "--lcm-url", LCM_URL, "--duration", "1000"))
-        assert teleop.wait() == 0, teleop.text()
-        return json.loads(out.read_text()), teleop, stand_ins
-    finally:
-        for process in (teleop, *stand_ins):
+def _teleop(netns, folder, *args, label="teleop", settings=STAND_IN_SENSOR):
+    """The controller with ``settings`` (``--set``), running (its loop started) until the test
+    stops it; its summary goes to ``folder / f"{label}.json"``."""
+    teleop = _Process(netns, folder, label, "teleop", "--hardware", "--lcm-url", LCM_URL, "--set", settings,
+                      "--duration", FOREVER, "--out", str(folder / f"{label}.json"), *args)
+    teleop.wait_for("teleop: running")
+    return teleop
+
+
+def _stand_in(netns, folder, *args, label="stand_in"):
+    """The stand-in, publishing."""
+    stand_in = _Process(netns, folder, label, "stand-in", "--scenario", "fig6", "--lcm-url", LCM_URL, *args)
+    stand_in.wait_for("stand-in: publishing")
+    return stand_in
+
+
+def _summary(teleop, folder, label="teleop") -> dict:
+    """Stops the controller and returns its summary."""
+    assert teleop.finish() == 0, teleop.text()
+    print(teleop.text())
+    return json.loads((folder / f"{label}.json").read_text())
+
+
+def _stop_all(*processes):
+    for process in processes:
+        if process is not None:
             process.stop()
 
 
 def test_controller_runs_against_the_stand_in(netns, tmp_path):
     log = tmp_path / "traffic.lcmlog"
-    summary, teleop, _ = _run(netns, tmp_path, 3.0, ["--duration", "1000", "--clutch-at", "1.0"],
-                              ["--record", str(log)])
-    print(teleop.text())
+    stand_in = teleop = None
+    try:
+        stand_in = _stand_in(netns, tmp_path, "--duration", FOREVER, "--clutch-at", "1.0")
+        teleop = _teleop(netns, tmp_path, "--record", str(log))
+        time.sleep(3.0)
+        summary = _summary(teleop, tmp_path)
+    finally:
+        _stop_all(teleop, stand_in)
+    assert summary["stopped_by_signal"]
     assert summary["first_healthy"] is not None, "the watchdog never became healthy"
     assert summary["healthy_ticks"] > 0.5 * summary["ticks"], teleop.text()
     assert summary["master_torque_finite"]
+    assert not any(summary["rejected"].values()) and not summary["second_publishers"], summary["rejected"]
     # The recorded traffic is an LCM log with every channel of both sides.
     counts = {}
     for event in lcm.EventLog(str(log), "r"):
@@ -108,11 +139,16 @@ def test_controller_goes_safe_when_the_stand_in_dies(netns, tmp_path):
     and within the device's limits, and the forces go off when a channel's last message gets
     older than the watchdog's timeout (the age at that tick is printed; the watchdog's timing is
     checked on an explicit clock in test_hardware_teleop)."""
-    summary, teleop, (stand_in,) = _run(
-        netns, tmp_path, 6.0, ["--duration", "1000", "--die-at", "2.0", "--drop-rate", "0.05", "--nan-rate", "0.05",
-                               "--clutch-at", "0.5"])
-    print(teleop.text())
-    assert stand_in.wait(timeout=10) == 0 and "died" in stand_in.text(), stand_in.text()
+    stand_in = teleop = None
+    try:
+        teleop = _teleop(netns, tmp_path)
+        stand_in = _stand_in(netns, tmp_path, "--duration", FOREVER, "--die-at", "2.0", "--drop-rate", "0.05",
+                             "--nan-rate", "0.05", "--clutch-at", "0.5")
+        assert stand_in.wait(timeout=RUN_TIMEOUT) == 0 and "died" in stand_in.text(), stand_in.text()
+        time.sleep(0.5)
+        summary = _summary(teleop, tmp_path)
+    finally:
+        _stop_all(teleop, stand_in)
     assert summary["first_healthy"] is not None, "the watchdog never became healthy"
     assert summary["faults"] and summary["faults"][-1]["recovered"] is None, summary["faults"]
     assert summary["final_fault_bits"] == 0b111, "every channel of the dead lab should be stale"
@@ -123,51 +159,166 @@ def test_controller_goes_safe_when_the_stand_in_dies(netns, tmp_path):
 
 
 def test_restarted_stand_in_recovers_without_a_jump(netns, tmp_path):
-    """The stand-in dies and a new one starts from scratch (clocks and counters from zero): the
-    controller recovers, master torque ramps back in from zero and slave commands never step
-    faster than the joint speed limits allow."""
-    summary, teleop, _ = _run(netns, tmp_path, 8.0, ["--duration", "1000", "--die-at", "1.0"], restart=True)
-    print(teleop.text())
+    """The stand-in dies and a new one starts from scratch (clocks and counters from zero, the arm
+    where the first one started, not where it went): the controller recovers, master torque ramps
+    back in from zero, and apart from the restart itself, which sets the slave command to the
+    measured position (a hold where the arm is, counted apart), slave commands never step faster
+    than the joint speed limits allow."""
+    stand_ins, teleop = [], None
+    try:
+        teleop = _teleop(netns, tmp_path)
+        stand_ins.append(_stand_in(netns, tmp_path, "--duration", FOREVER, "--die-at", "1.0"))
+        assert stand_ins[0].wait(timeout=RUN_TIMEOUT) == 0, stand_ins[0].text()
+        stand_ins.append(_stand_in(netns, tmp_path, "--duration", FOREVER, label="stand_in_again"))
+        time.sleep(2.0)
+        summary = _summary(teleop, tmp_path)
+    finally:
+        _stop_all(teleop, *stand_ins)
     outages = [f for f in summary["faults"] if f["recovered"] is not None and f["recovered"] - f["onset"] > 0.1]
     assert outages, f"no recovered outage: {summary['faults']}"
     assert summary["final_healthy"], teleop.text()
-    params = HardwareStationParams()
+    assert summary["driver_restarts"]["slave_status"] >= 1, summary["driver_restarts"]
+    assert summary["slave_reanchors"]["count"] >= 2, summary["slave_reanchors"]  # the start, the restart
+    limits, params = device_limits(resolve_scenario("fig6")), HardwareStationParams()
     # A tick moves the command by at most the speed limit × its measured duration, which the
     # watchdog caps at its timeout (a longer gap is a stall: the command then holds).
-    assert summary["max_slave_command_step"] <= max(params.slave_velocity_limits) * params.watchdog.timeout
+    assert summary["max_slave_command_step"] <= max(limits.slave_velocity) * params.watchdog.timeout
 
 
 def test_tool_change_and_rezero_reach_the_running_controller(netns, tmp_path):
     """A third process, `heft load`, gives the running controller a new tool's estimate and then
     re-zeroes the offsets (the clutch never pressed, so the slave is still), each answered over
     LCM; the controller never restarts."""
-    from heft.diagrams.scenario import resolve_scenario
     from heft.diagrams.running.simulation import true_load
 
     true = true_load(resolve_scenario("fig6"))[0]
     estimate = tmp_path / "estimate.yaml"
     estimate.write_text(f"phi: {true.phi.tolist()}\noffsets: {true.offsets.tolist()}\n")
-    out = tmp_path / "teleop.json"
-    teleop = _Process(netns, tmp_path, "teleop", "teleop", "--hardware", "--lcm-url", LCM_URL, "--duration", "8",
-                      "--set", STAND_IN_SENSOR, "--out", str(out))
-    processes = [teleop]
+    stand_in = teleop = change = rezero = None
     try:
-        teleop.wait_for("teleop: controller on")
-        processes.append(_Process(netns, tmp_path, "stand_in", "stand-in", "--scenario", "fig6", "--lcm-url", LCM_URL,
-                                  "--duration", "1000", "--clutch-at", "1000"))  # the slave stays still
-        time.sleep(3.0)  # start-up of both and a healthy station
+        stand_in = _stand_in(netns, tmp_path, "--duration", FOREVER, "--clutch-at", FOREVER)  # the slave stays still
+        teleop = _teleop(netns, tmp_path)
+        time.sleep(1.0)  # the forces ramped in (0.2 s) and the slave at rest for a re-zero
         change = _Process(netns, tmp_path, "load_estimate", "load", "--lcm-url", LCM_URL, "--estimate", str(estimate))
-        processes.append(change)
         assert change.wait(timeout=30) == 0, change.text()
         assert "new estimate in use: m = 3.13 kg" in change.text(), change.text()
         rezero = _Process(netns, tmp_path, "load_rezero", "load", "--lcm-url", LCM_URL, "--rezero")
-        processes.append(rezero)
         assert rezero.wait(timeout=30) == 0, rezero.text()
         assert "re-zeroed" in rezero.text(), rezero.text()
         print(change.text(), rezero.text())
-        assert teleop.wait() == 0, teleop.text()
-        summary = json.loads(out.read_text())
-        assert summary["load_events"][0].startswith("new estimate in use") and "re-zeroed" in summary["load_events"][-1]
+        summary = _summary(teleop, tmp_path)
     finally:
-        for process in processes:
-            process.stop()
+        _stop_all(teleop, stand_in, change, rezero)
+    assert summary["load_events"][0].startswith("new estimate in use") and "re-zeroed" in summary["load_events"][-1]
+
+
+HOSTILE_SECONDS = 3.0
+
+
+def layered_dict(base: dict, over: dict) -> dict:
+    """``over`` laid over ``base``, nested dictionaries merged."""
+    merged = dict(base)
+    for key, value in over.items():
+        merged[key] = layered_dict(base[key], value) if isinstance(value, dict) and key in base else value
+    return merged
+
+
+WHOLE_WEIGHT = yaml.safe_dump(layered_dict(yaml.safe_load(STAND_IN_SENSOR),
+                                            yaml.safe_load(overrides_text({"controller.feedback.force_scale": 1.0}))),
+                               default_flow_style=True)
+"""The stand-in's sensor, and the load's weight fed back unscaled (30.7 N: the 8.5 N clamp acts)."""
+
+
+def _driver_states(log):
+    """(log times in µs, positions) of the master states the stand-in published, and the master
+    commands (log times, torques, enable) and slave commands (positions) the controller did,
+    and every load status it answered, from an LCM log."""
+    from drake import lcmt_iiwa_command
+    from heft.hardware_interface.lcmtypes import heft_haptic_command, heft_haptic_state, heft_load_status
+    from hostile_traffic import MARK
+
+    channels = LcmChannels()
+    states, commands, slave_commands, statuses = [], [], [], []
+    for event in lcm.EventLog(str(log), "r"):
+        if event.channel == channels.master_state.name:
+            try:
+                msg = heft_haptic_state.decode(event.data)
+            except Exception:  # the hostile process's garbage
+                continue
+            if not msg.buttons & MARK:
+                states.append((event.timestamp, np.array(msg.position)))
+        elif event.channel == channels.master_command.name:
+            msg = heft_haptic_command.decode(event.data)
+            commands.append((event.timestamp, np.array(msg.torque), msg.enable))
+        elif event.channel == channels.slave_command.name:
+            slave_commands.append(np.array(lcmt_iiwa_command.decode(event.data).joint_position))
+        elif event.channel == channels.load_status.name:
+            statuses.append(heft_load_status.decode(event.data))
+    return states, commands, slave_commands, statuses
+
+
+def test_hostile_traffic_never_reaches_the_motors(netns, tmp_path):
+    """A third process publishes malformed and hostile traffic on every channel for 3 s
+    (``hostile_traffic``) while the controller runs against the stand-in with the load's whole
+    weight fed back (force scale 1: the Phantom's 8.5 N clamp is active throughout). The
+    controller runs to its end; every command it sent is finite; the stylus force that its
+    torques render at the driver's own joint positions (read from the recording, the hostile
+    states left out, through Drake's Jacobian of the Phantom) stays within 8.5 N; no
+    non-physical estimate is ever in use; it is healthy and enabled again within 1 s after the
+    traffic stops; its summary counts what it rejected per channel."""
+    from heft.diagrams.plants import MakeMasterPlant
+    from heft.systems.load_dynamics import checked_load
+    from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
+
+    log = tmp_path / "traffic.lcmlog"
+    stand_in = teleop = hostile = None
+    try:
+        stand_in = _stand_in(netns, tmp_path, "--duration", FOREVER, "--clutch-at", "0.0")
+        teleop = _teleop(netns, tmp_path, "--record", str(log), settings=WHOLE_WEIGHT)
+        time.sleep(1.0)
+        hostile = _Process(netns, tmp_path, "hostile", LCM_URL, str(HOSTILE_SECONDS), "7",
+                           script=str(Path(__file__).with_name("hostile_traffic.py")))
+        hostile.wait_for("hostile: publishing")
+        assert hostile.wait(timeout=RUN_TIMEOUT) == 0, hostile.text()
+        stopped = float(re.search(r"stopped at ([0-9.]+)", hostile.text()).group(1))
+        time.sleep(1.5)
+        summary = _summary(teleop, tmp_path)
+    finally:
+        _stop_all(teleop, stand_in, hostile)
+    print(hostile.text())
+    rejected = summary["rejected"]
+    for channel in ("master_state", "slave_status", "ft_sample"):
+        assert sum(rejected[channel].values()) > 50, rejected
+    assert summary["second_publishers"], "the hostile states on the drivers' clocks went unnoticed"
+    refused = [event for event in summary["load_events"] if event.startswith("new estimate refused")]
+    assert refused and not any(event.startswith("new estimate in use") for event in summary["load_events"])
+
+    states, commands, slave_commands, statuses = _driver_states(log)
+    assert commands and all(np.isfinite(torque).all() for _, torque, _ in commands)
+    limits = device_limits(resolve_scenario("fig6"))
+    assert all(np.isfinite(q).all() and np.all(limits.slave_lower <= q) and np.all(q <= limits.slave_upper)
+               for q in slave_commands)
+    for status in statuses:
+        checked_load(status.phi, status.offsets, resolve_scenario("fig6").ft_sensor.full_scale)
+
+    plant = MakeMasterPlant()
+    context = plant.CreateDefaultContext()
+    B, E = plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME)
+    stamps = np.array([t for t, _ in states])
+    peak = 0.0
+    for t, torque, _ in commands:
+        k = np.searchsorted(stamps, t) - 1
+        if k < 0 or not torque.any():
+            continue
+        plant.SetPositions(context, states[k][1])
+        J = plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV, E, np.zeros(3), B, B)  # [ω; v]
+        wrench = np.linalg.solve(J.T, torque)  # τ = Jᵀ·[m; f]
+        peak = max(peak, np.linalg.norm(wrench[3:]))
+    print(f"stylus force peak at the driver's positions: {peak:.3f} N")
+    assert 5.0 < peak <= 8.5 * 1.01  # the clamp was reached, and held at the real positions
+
+    after = [(t, enable) for t, _, enable in commands if t >= stopped * 1e6]
+    enabled = next((t for t, enable in after if enable), None)
+    assert enabled is not None and enabled - stopped * 1e6 <= 1e6, "not enabled within 1 s of the traffic's end"
+    print(f"enabled {1e-3 * (enabled - stopped * 1e6):.1f} ms after the hostile traffic stopped")
+    assert summary["final_healthy"]

@@ -42,8 +42,8 @@ def run(args) -> int:
     channels = lcm_channels(args)
     print(f"stand-in: {args.scenario} on {channels.lcm_url} (commands on {channels.command_lcm_url()}) for "
           f"{args.duration:g} s at real time", flush=True)
-    summary = run_stand_in(scenario, channels, args.duration, faults, args.clutch_at,
-                           args.clutch_release_at)
+    summary = run_stand_in(scenario, channels, args.duration, faults, args.clutch_at, args.clutch_release_at,
+                           ready=lambda: print("stand-in: publishing", flush=True))
     rates = "; ".join(f"{kind} Hz " + ", ".join(f"{name} {hz:.0f}" for name, hz in summary[f"{kind}_hz"].items())
                       for kind in ("published", "received"))
     print(f"stand-in: stopped at t = {summary['duration_s']:.3f} s{' (died, as injected)' if summary['died'] else ''}"

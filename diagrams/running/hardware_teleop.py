@@ -21,6 +21,7 @@ force and torque, the largest slave command step, message rates and timing.
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import math
 import time
@@ -30,7 +31,8 @@ import numpy as np
 
 from heft.diagrams.device_limits import device_limits
 from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
-from heft.diagrams.running.realtime import claim_realtime, format_timing, run_realtime, timing_summary
+from heft.diagrams.running.realtime import (StopOnSignal, claim_realtime, format_timing, run_realtime,
+                                            timing_summary)
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop import MakeRealtimeTeleopController
@@ -134,7 +136,7 @@ class HardwareTeleop:
         """Opens an entry of ``conflicts`` for each channel whose second publisher was just found,
         closes it when that channel's conflict has ended."""
         station, clocks = self.station, list(self.station.clocks.values())
-        for i, name in enumerate(WATCHED_CHANNELS):
+        for i in range(len(WATCHED_CHANNELS)):
             bit = 1 << i
             if station.conflicts & bit and not self._conflicts & bit:
                 clock = clocks[i]
@@ -183,7 +185,9 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, channels: LcmCha
     ``duration`` s of wall time, with real-time ``priority`` (``claim_realtime``: after the
     recorder's loggers start, which keep normal scheduling, and before the buses open, so that
     LCM's receive thread shares it); returns its summary with ``timing`` (``timing_summary``),
-    ``scheduling`` and ``lcm_log``.
+    ``scheduling``, ``lcm_log`` and ``epoch`` (wall-clock s since the Unix epoch at the loop's
+    time 0). SIGINT (Ctrl-C) or SIGTERM end the run early as its duration does: the station's
+    last commands turn the forces off and hold the slave (``HardwareStation.stop``).
     ``record``: a path to record the LCM traffic to (``lcm-logger`` format), or None."""
     print(f"teleop: {scenario.accelerometer.convention()}", flush=True)
     print(f"teleop: {scenario.controller.force.mount_notch_summary()}", flush=True)
@@ -193,8 +197,13 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, channels: LcmCha
         bus, command_bus = open_buses(channels)
         teleop = HardwareTeleop(scenario, load, bus, channels, params, command_bus, period=1.0 / rate)
         teleop.station.epoch = time.time()
-        times = run_realtime(teleop.tick, 1.0 / rate, duration)
-    return {"duration": times.elapsed, "rate_hz": rate, **teleop.summary(times.elapsed), "scheduling": scheduling,
+        print("teleop: running (Ctrl-C stops with forces off and the slave held)", flush=True)
+        with StopOnSignal() as stop:
+            times = run_realtime(lambda now, dt: teleop.tick(now, dt) or stop.requested, 1.0 / rate, duration)
+        summary = teleop.summary(times.elapsed)
+        teleop.station.stop(times.elapsed)
+    return {"duration": times.elapsed, "rate_hz": rate, "epoch": teleop.station.epoch,
+            "stopped_by_signal": stop.requested, **summary, "scheduling": scheduling,
             "lcm_log": None if record is None else str(record), "timing": timing_summary(times)}
 
 
@@ -222,7 +231,9 @@ def format_summary(summary: dict, lcm_url: str) -> str:
         f"stylus; largest slave command step {summary['max_slave_command_step']:.3g} rad (besides "
         f"{reanchors['count']} start(s) from the measured position, up to {reanchors['max_step']:.3g} rad from the "
         "last command)",
-        f"load commands: {'; '.join(summary['load_events']) or 'none'}",
+        "load commands: " + ("; ".join(f"{count}× {event}" if count > 1 else event
+                                       for event, count in collections.Counter(summary["load_events"]).items())
+                             or "none"),
     ]
     for conflict in summary["second_publishers"]:
         ended = "still there at the end" if conflict["ended"] is None else f"gone at {conflict['ended']:.3f} s"

@@ -17,6 +17,7 @@ import dataclasses
 import gc
 import math
 import os
+import signal
 import time
 
 import numpy as np
@@ -83,6 +84,27 @@ def run_realtime(tick, period: float, duration: float, clock=time.perf_counter, 
         gc.enable()
         gc.collect()
     return TickTimes(wall[:ticks], cpu[:ticks], lateness[:ticks], skipped, clock() - start, period)
+
+
+class StopOnSignal:
+    """While entered, SIGINT (Ctrl-C) and SIGTERM set ``requested`` instead of ending the process,
+    so that a loop can stop between two ticks, leave the hardware safe and report."""
+
+    def __init__(self):
+        self.requested = False
+        self._previous = {}
+
+    def _handle(self, _signum, _frame) -> None:
+        self.requested = True
+
+    def __enter__(self) -> StopOnSignal:
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            self._previous[signum] = signal.signal(signum, self._handle)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for signum, handler in self._previous.items():
+            signal.signal(signum, handler)
 
 
 def claim_realtime(priority: int) -> str:

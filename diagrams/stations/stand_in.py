@@ -490,7 +490,7 @@ class StandIn:
 
 def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
                  faults: FaultInjection | None = None, clutch_at: float = 0.0, clutch_release_at: float = math.inf,
-                 clock=time.perf_counter, sleep=time.sleep) -> dict:
+                 clock=time.perf_counter, sleep=time.sleep, ready=None) -> dict:
     """Runs ``StandIn`` on ``channels``' two URLs (``open_buses``) in real time on ``clock`` (s)
     for ``duration`` s or until it dies, waiting between due messages: with the default
     ``sleep`` the wait is a ``select`` on the command bus that also ends when a command
@@ -499,10 +499,13 @@ def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
     Returns {"duration_s": wall time run (s), "died", "published" / "received" (channel name →
     messages), "published_hz" / "received_hz" (channel name → messages per wall second),
     "max_lateness_ms": the latest a message was published after its nominal time, "cpu_s":
-    this process's CPU time over the run}.
+    this process's CPU time over the run}. ``ready()``, if given, is called once the lab is
+    built, just before it starts publishing.
     """
     bus, command_bus = open_buses(channels)
     lab = StandIn(scenario, bus, channels, faults, clutch_at, clutch_release_at, command_bus)
+    if ready is not None:
+        ready()
     if sleep is time.sleep:
         fd = command_bus.fileno()
 
