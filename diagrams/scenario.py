@@ -69,10 +69,12 @@ without the controller's notch (README)."""
 
 
 MOUNT_ROCKING_HZ = 48.0
-"""The first modes of the bundled loads on the default ``MountSpec``, rocking about S's x and
-y, lie at 47.7–50.2 Hz by modal analysis (the gripper alone at 60 Hz); the default controller
-feeds back the contact wrench through a notch here (``ForceScalingParams.mount_notch``), as a
-lab would after a tap test. ``tests/test_sim_station.py`` checks the modes."""
+"""The first modes of the bundled loads on their mounts, rocking about S's x and y, lie at
+46.2–50.2 Hz by modal analysis (the gripper alone at 60 Hz), and those of custom loads
+lighter than the paper's tool near them, their mount sized for them (``diagrams/mount.py``);
+the default controller feeds back the contact wrench through a notch here
+(``ForceScalingParams.mount_notch``), as a lab would after a tap test.
+``tests/test_sim_station.py`` and ``tests/test_mount_sizing.py`` check the modes."""
 
 
 @dataclasses.dataclass
