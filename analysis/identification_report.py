@@ -1,8 +1,10 @@
-"""How good an inertial-parameter estimate is, against a known truth."""
+"""How good an inertial-parameter estimate is: against a known truth, and the fit's verdict as
+the report prints it."""
 
 from heft.analysis.plotting import plt
 import numpy as np
 
+from heft.analysis.fit_verdict import AXES
 from heft.systems.load_dynamics import inertia_matrix
 
 
@@ -38,3 +40,15 @@ def convergence_figure(histories: dict, sample_period: float, phi_true, offsets_
     figure.tight_layout()
     figure.savefig(path, dpi=120)
     plt.close(figure)
+
+
+def verdict_report(verdict: dict, method: str) -> str:
+    """The fit's verdict (``fit_verdict.fit_verdict``) for the printed report: per axis the
+    residual RMS against the noise floor, then the verdict in words."""
+    lines = [f"fit of {method}: residual RMS / noise floor per axis ([f] N, [τ] N·m)"]
+    for name, rms, floor, ratio in zip(AXES, verdict["residual_rms"], verdict["noise_floor"],
+                                       verdict["residual_ratio"]):
+        lines.append(f"  {name:3s}{rms:10.4f} /{floor:8.4f} = {ratio:5.2f}")
+    lines.append(f"{'fit ok' if verdict['ok'] else 'FIT NOT OK (' + ', '.join(verdict['causes']) + ')'}: "
+                 f"{verdict['message']}")
+    return "\n".join(lines)

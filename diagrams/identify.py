@@ -16,11 +16,13 @@ from pathlib import Path
 
 import numpy as np
 
-from heft.analysis.identification_report import convergence_figure, estimate_errors
+from heft.analysis.fit_verdict import FitEvidence, fit_verdict, noise_floor
+from heft.analysis.identification_report import convergence_figure, estimate_errors, verdict_report
 from heft.diagrams.running.progress import ProgressBar
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import MakeSlavePlant
 from heft.diagrams.load_estimate import estimate_record, write_load_estimate
+from heft.diagrams.models.make_tool_inertia import RX60, RX90
 from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.estimators import (
     METHODS, NoiseLevels, RecursiveInstrumentalVariables, RecursiveLeastSquares, RecursiveTotalLeastSquares,
@@ -39,6 +41,12 @@ EXCITATION_VELOCITY_FRACTION = 0.5
 EXCITATION_ACCELERATION = 10.0
 # Recursive estimates are sampled this often (samples) for the convergence plot.
 HISTORY_STRIDE = 200
+ARMS = {arm.name: arm for arm in (RX90, RX60)}
+
+
+class FitRefused(ValueError):
+    """The fit's verdict (``analysis.fit_verdict``) found it untrustworthy and it was not accepted:
+    estimate.yaml is not written."""
 
 
 @dataclasses.dataclass
@@ -124,21 +132,44 @@ def estimate_all(wrench, signals, instruments, noise: NoiseLevels):
     return results, histories, failed
 
 
-def residual_rms(result, signals, wrench) -> list[float]:
-    """RMS over samples of wrench − [E₆ V]·[offsets; φ] per axis ([f; τ]; N, N·m)."""
+def fit_residual(result, signals, wrench) -> np.ndarray:
+    """wrench − [E₆ V]·[offsets; φ] per sample ((S, 6), [f; τ]; N, N·m)."""
     theta = np.concatenate((np.asarray(result.offsets, dtype=float), np.asarray(result.phi, dtype=float)))
-    predicted = regressor_with_offsets(*signals) @ theta
-    return np.sqrt(np.mean((wrench - predicted) ** 2, axis=0)).tolist()
+    return wrench - regressor_with_offsets(*signals) @ theta
+
+
+def residual_rms(result, signals, wrench) -> list[float]:
+    """RMS over samples of ``fit_residual`` per axis ([f; τ]; N, N·m)."""
+    return np.sqrt(np.mean(fit_residual(result, signals, wrench) ** 2, axis=0)).tolist()
+
+
+def judge_fit(scenario: Scenario, recording: Recording, result, signal_set, signals: str, trajectory) -> dict:
+    """``fit_verdict`` of ``result``'s fit to ``recording``: its residual against the noise floor the
+    scenario's sensor model gives (the accelerometer's noise only when a and α come from it), the
+    readings against the sensors' full scale, the encoders against the excitation ``trajectory``
+    (what the slave was commanded, in simulation and on hardware), the mass against the arm's
+    payload."""
+    ft, accelerometer = scenario.ft_sensor, scenario.accelerometer
+    motion_rms = accelerometer.noise_rms if signals == "accelerometer" else np.zeros(6)
+    floor = noise_floor(result.phi, ft.noise_rms, motion_rms, accelerometer.position)
+    return fit_verdict(FitEvidence(
+        residual=fit_residual(result, signal_set, recording.wrench), noise_floor=floor,
+        sample_period=recording.t[1] - recording.t[0], wrench=recording.wrench, wrench_full_scale=ft.full_scale,
+        acceleration=recording.accel_measured, acceleration_full_scale=accelerometer.full_scale,
+        mass=float(result.phi[0]), payload_max=ARMS[scenario.robot].payload_max, robot=scenario.robot,
+        q_measured=recording.q, q_commanded=trajectory.position(recording.t)))
 
 
 def identify(scenario: Scenario, out_dir, record, method: str = "tls", signals: str = "accelerometer",
-             settings: ExcitationSettings | None = None, periods: int = 1) -> dict:
+             settings: ExcitationSettings | None = None, periods: int = 1, accept_fit: bool = False) -> dict:
     """Sec. IV in one path for simulation and hardware: designs the excitation, has ``record``
     run it (``record(trajectory, duration)`` → (Recording, extra metrics): the simulated
-    station's or the hardware's), estimates with every method and writes estimate.yaml
-    (``method``'s), metrics.json (every method's estimate, residual RMS and the spread of the
-    mass between methods) and, where the recording knows the truth (simulation), each method's
-    error and convergence.png. Returns the metrics."""
+    station's or the hardware's), estimates with every method, judges ``method``'s fit
+    (``judge_fit``) and writes metrics.json (every method's estimate, residual RMS and the
+    spread of the mass between methods, the verdict as "fit_verdict"; where the recording knows
+    the truth, in simulation, each method's error and convergence.png) and estimate.yaml
+    (``method``'s) if the fit is ok or ``accept_fit``; raises ``FitRefused`` otherwise. Returns
+    the metrics."""
     if method not in ALL_METHODS:
         raise ValueError(f"method must be one of {', '.join(ALL_METHODS)}; got {method!r}")
     settings = settings or ExcitationSettings()
@@ -179,10 +210,21 @@ def identify(scenario: Scenario, out_dir, record, method: str = "tls", signals: 
         for m, e in errors.items():
             print(f"{m:8s}{1e3 * e['mass_kg']:10.2f}{1e3 * e['com_m']:10.3f}{100 * e['inertia_relative']:9.2f}"
                   f"{e['force_offsets_N']:15.3f}{e['torque_offsets_Nm']:10.4f}")
+    if method not in failed:
+        verdict = judge_fit(scenario, recording, results[method], signal_set, signals, excitation.trajectory)
+        metrics["fit_verdict"] = verdict
+        print(verdict_report(verdict, method), flush=True)
     metrics["wall_time_s"] = time.perf_counter() - started
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     if method in failed:
         raise ValueError(f"the {method} estimate failed ({failed[method]}); the other methods' estimates are in "
                          f"{out / 'metrics.json'}: identify again with --method one of {', '.join(records)}")
-    write_load_estimate(out / "estimate.yaml", records[method])
+    if not (verdict["ok"] or accept_fit):
+        stale = out / "estimate.yaml"
+        removed = " (an earlier one there removed)" if stale.exists() else ""
+        stale.unlink(missing_ok=True)  # the folder describes this run: no controller loads an older estimate
+        raise FitRefused(f"{verdict['message']}. estimate.yaml was not written{removed}; the estimates and the "
+                         f"numbers behind this are in {out / 'metrics.json'}. To write it anyway, identify again "
+                         "with --accept-fit")
+    write_load_estimate(out / "estimate.yaml", records[method], verdict)
     return metrics

@@ -34,9 +34,12 @@ def estimate_record(result, method: str, signals: str, samples: int) -> dict:
     return record
 
 
-def write_load_estimate(path, record: dict) -> None:
-    """Writes an ``estimate_record`` to ``path`` (YAML)."""
-    Path(path).write_text(yaml.safe_dump(record, sort_keys=False))
+def write_load_estimate(path, record: dict, verdict: dict) -> None:
+    """Writes an ``estimate_record`` to ``path`` (YAML) with its fit's verdict
+    (``analysis.fit_verdict``): whether it was ok, its causes, and whether a fit that was not
+    ok was accepted (``heft identify --accept-fit``)."""
+    fit = {"ok": verdict["ok"], "accepted": not verdict["ok"], "causes": verdict["causes"]}
+    Path(path).write_text(yaml.safe_dump({**record, "fit": fit}, sort_keys=False))
 
 
 def read_load_estimate(path, wrench_full_scale=None) -> LoadEstimate:

@@ -6,11 +6,20 @@ import numpy as np
 import pytest
 import yaml
 
-from heft.diagrams.identify import ALL_METHODS, identify
+from heft.diagrams.identify import ALL_METHODS, FitRefused, identify
 from heft.diagrams.running.sim_identification import simulated_recorder
 from heft.diagrams.scenario import IDEAL_STATION, NOISE_OFF, Scenario, layered, overrides_text
 from heft.diagrams.load_estimate import read_load_estimate
 from heft.systems.excitation import ExcitationSettings
+
+
+# A 10 kg steel bar, 460 × 60 × 46 mm, lying across the sensor's axis from 0.23 m out: its
+# static moment, 10 kg × 9.81 m/s² × 0.23 m = 22.6 N·m, is beyond the JR3's 12 N·m.
+BAR = (10.0, 0.46, 0.06, 0.046)  # kg, m along x, y, z
+HEAVY_OFF_AXIS_TOOL = {"load.kind": "custom", "load.mass": BAR[0], "load.com": [0.23, 0.0, 0.05],
+                       "load.inertia_com": [BAR[0] / 12 * (BAR[2] ** 2 + BAR[3] ** 2), 0.0, 0.0,
+                                            BAR[0] / 12 * (BAR[1] ** 2 + BAR[3] ** 2), 0.0,
+                                            BAR[0] / 12 * (BAR[1] ** 2 + BAR[2] ** 2)]}
 
 
 def short_excitation() -> ExcitationSettings:
@@ -46,6 +55,9 @@ def test_estimate_file_is_what_the_controller_loads(identified):
     assert record["method"] == "tls" and record["signals"] == "accelerometer"
     assert all(record["identifiable"]) and not record["physical_violations"]
     assert record["mass"] == pytest.approx(3.13, abs=0.005)
+    assert record["fit"] == {"ok": True, "accepted": False, "causes": []}
+    verdict = metrics["fit_verdict"]
+    assert max(verdict["residual_ratio"]) < 1.1 and verdict["saturated_samples"] == 0
     load = read_load_estimate(out / "estimate.yaml")
     np.testing.assert_allclose(load.phi, record["phi"])
     assert json.loads((out / "metrics.json").read_text())["samples"] == 4000
@@ -92,3 +104,31 @@ def test_a_method_that_refuses_the_data_leaves_the_others_their_estimates():
     results, _, failed = estimate_all(wrench, measured, (a, alpha, omega, g), noise)
     assert set(failed) == {"eiv_ml"} and "accelerometer's noise" in failed["eiv_ml"]
     assert set(results) == set(ALL_METHODS) - {"eiv_ml"}
+
+
+@pytest.mark.slow
+def test_a_tool_that_saturates_the_sensor_is_refused_unless_accepted(tmp_path):
+    """One recording of the heavy off-axis tool, identified twice: refused, with the saturation
+    named and an earlier estimate.yaml removed; then written with accept_fit (--accept-fit)."""
+    scenario = layered(Scenario(), overrides_text({**IDEAL_STATION, **HEAVY_OFF_AXIS_TOOL}))
+    recordings = []
+
+    def record_once(trajectory, duration):
+        if not recordings:
+            recordings.append(simulated_recorder(scenario)(trajectory, duration))
+        return recordings[0]
+
+    (tmp_path / "estimate.yaml").write_text("an earlier run's estimate\n")
+    with pytest.raises(FitRefused, match="full scale") as refused:
+        identify(scenario, tmp_path, record_once, settings=short_excitation())
+    assert "--accept-fit" in str(refused.value) and "earlier one there removed" in str(refused.value)
+    assert not (tmp_path / "estimate.yaml").exists()
+    verdict = json.loads((tmp_path / "metrics.json").read_text())["fit_verdict"]
+    assert not verdict["ok"] and "saturation" in verdict["causes"] and verdict["saturated_samples"] > 0
+    assert max(verdict["peak_share_of_full_scale"]["wrench"][3:]) == pytest.approx(1.0)  # clipped at 12 N·m
+    assert max(verdict["residual_ratio"]) > 3
+
+    metrics = identify(scenario, tmp_path, record_once, settings=short_excitation(), accept_fit=True)
+    record = yaml.safe_load((tmp_path / "estimate.yaml").read_text())
+    assert record["fit"] == {"ok": False, "accepted": True, "causes": metrics["fit_verdict"]["causes"]}
+    assert record["phi"] == metrics["estimates"]["tls"]["phi"]

@@ -3,8 +3,6 @@ in simulation or on the hardware."""
 
 from __future__ import annotations
 
-
-
 from heft.diagrams.commands.options import (add_lcm_urls, add_set, add_station, lcm_channels, require_lab_settings,
                                             scenario_from, station_params)
 
@@ -23,6 +21,10 @@ def add_arguments(parser) -> None:
                           help="where a and α come from (ω and g always from the encoders)")
     parser.add_argument("--periods", type=int, default=1, help="excitation periods recorded (default 1)")
     parser.add_argument("--quick", action="store_true", help="a short, quickly optimised excitation")
+    parser.add_argument("--accept-fit", action="store_true",
+                        help="write estimate.yaml even if the fit's verdict finds it untrustworthy (the residual "
+                             "above the sensor's noise, saturated readings, the arm not following, a load beyond "
+                             "the arm's payload); without it such an estimate is refused with the verdict's reasons")
     parser.add_argument("--hardware", action="store_true",
                           help="excite the real arm over LCM (the scenario gives the robot, start pose and load "
                                "model's settings); the arm first moves slowly to the excitation's start")
@@ -58,6 +60,6 @@ def run(args) -> int:
             raise ValueError("--record records LCM traffic: it needs --hardware")
         recorder, wrote = simulated_recorder(scenario), "estimate.yaml, metrics.json, convergence.png"
     identify(scenario, args.out, recorder, method=args.method, signals=args.signals, settings=settings,
-             periods=args.periods)
+             periods=args.periods, accept_fit=args.accept_fit)
     print(f"wrote {args.out}/{wrote}")
     return 0
