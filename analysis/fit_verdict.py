@@ -41,7 +41,8 @@ power (a Fourier excitation over whole periods has none elsewhere)."""
 
 MOUNT_SEARCH_HZ = (20.0, 100.0)
 """Where a compliant mount's rocking mode is looked for: tools on wrist flanges rock at tens of
-Hz (the bundled loads at 48–50 Hz on the default mount, a soft mount at 37 Hz)."""
+Hz (on the simulated station's mount the bundled loads at 46–50 Hz, heavier or far-reaching
+tools at 22–36 Hz)."""
 
 MOUNT_HALF_WIDTH_HZ = 10.0
 """Half width of the window about a candidate mode that its rocking's power is summed over."""
