@@ -76,7 +76,8 @@ class FitEvidence:
     RMS (``noise_floor``); ``wrench`` and ``acceleration`` (S, 6): the readings as the sensor
     reports them, with their ``*_full_scale`` (6; the accelerometer's may be None);
     ``q_measured``, ``q_commanded`` (S, n) rad or None; ``mass`` (kg) the estimate's;
-    ``payload_max`` (kg) the arm's, ``robot`` its name."""
+    ``payload_max`` (kg) the arm's, ``robot`` its name; ``other_methods``: {method: its fit's
+    largest residual / noise floor} for the other estimators' fits to the same recording."""
     residual: np.ndarray
     noise_floor: np.ndarray
     sample_period: float
@@ -89,6 +90,7 @@ class FitEvidence:
     robot: str
     q_measured: np.ndarray | None = None
     q_commanded: np.ndarray | None = None
+    other_methods: dict = dataclasses.field(default_factory=dict)
 
 
 def _saturation(evidence: FitEvidence) -> tuple[int, list[str], dict]:
@@ -146,9 +148,10 @@ def _mount_mode(frequencies, excess) -> tuple[float, float]:
 
 def fit_verdict(evidence: FitEvidence) -> dict:
     """{"ok", "causes" (codes: "saturation", "payload", "not_following", "compliant_mount",
-    "unmodelled_dynamics"), "message", and the numbers behind them}. The fit is ok when the
-    residual is within RESIDUAL_RATIO_LIMIT of the noise floor on every axis and none of the
-    other causes is found."""
+    "estimator", "unmodelled_dynamics"), "message", and the numbers behind them}. The fit is ok
+    when the residual is within RESIDUAL_RATIO_LIMIT of the noise floor on every axis and none of
+    the other causes is found. A residual too large that no other cause explains is the
+    estimator's when another method's fit to the same recording stays within the limit."""
     residual = np.asarray(evidence.residual, dtype=float)
     floor = np.asarray(evidence.noise_floor, dtype=float)
     if floor.shape != (6,) or not (np.isfinite(floor).all() and (floor > 0).all()):
@@ -160,7 +163,8 @@ def fit_verdict(evidence: FitEvidence) -> dict:
     numbers = {"residual_rms": rms.tolist(), "noise_floor": floor.tolist(), "residual_ratio": ratio.tolist(),
                "residual_ratio_limit": RESIDUAL_RATIO_LIMIT, "saturated_samples": saturated,
                "samples": len(residual), "saturated_axes": saturated_axes, "peak_share_of_full_scale": peaks,
-               "mass_kg": float(evidence.mass), "payload_max_kg": float(evidence.payload_max)}
+               "mass_kg": float(evidence.mass), "payload_max_kg": float(evidence.payload_max),
+               "other_methods_ratio": dict(evidence.other_methods)}
     causes, words = [], []
     if saturated:
         causes.append("saturation")
@@ -190,6 +194,8 @@ def fit_verdict(evidence: FitEvidence) -> dict:
         mode, share = _mount_mode(frequencies, excess)
         low = float(excess[frequencies < LOW_FREQUENCY_HZ].sum() / excess.sum())
         numbers.update(mount_mode_hz=mode, mount_window_share=share, low_frequency_share=low)
+        within = sorted(((m, r) for m, r in evidence.other_methods.items() if r <= RESIDUAL_RATIO_LIMIT),
+                        key=lambda item: item[1])
         worst = int(np.argmax(ratio))
         residual_words = (f"the residual is {ratio[worst]:.1f}× the sensor's noise on {AXES[worst]} "
                           f"({', '.join(AXES[i] for i in bad_axes)} above {RESIDUAL_RATIO_LIMIT:g}×)")
@@ -199,6 +205,12 @@ def fit_verdict(evidence: FitEvidence) -> dict:
                          f"of a peak at {mode:.0f} Hz: the load rocks on its mount there, which the rigid-body "
                          "model cannot describe. Stiffen or tighten the tool's mount, or excite more gently (in "
                          "teleoperation controller.force.mount_notch belongs at that frequency)")
+        elif not causes and within:
+            causes.append("estimator")
+            best, best_ratio = within[0]
+            words.append(f"{residual_words}, while {best}'s fit to the same recording stays within it "
+                         f"({best_ratio:.2f}×): this estimator, not the load model, misses here. Identify with "
+                         f"--method {best}")
         elif not causes:
             causes.append("unmodelled_dynamics")
             words.append(f"{residual_words}, {100 * low:.0f} % of the excess below {LOW_FREQUENCY_HZ:g} Hz where the "

@@ -143,21 +143,28 @@ def residual_rms(result, signals, wrench) -> list[float]:
     return np.sqrt(np.mean(fit_residual(result, signals, wrench) ** 2, axis=0)).tolist()
 
 
-def judge_fit(scenario: Scenario, recording: Recording, result, signal_set, signals: str, trajectory) -> dict:
-    """``fit_verdict`` of ``result``'s fit to ``recording``: its residual against the noise floor the
-    scenario's sensor model gives (the accelerometer's noise only when a and α come from it), the
-    readings against the sensors' full scale, the encoders against the excitation ``trajectory``
-    (what the slave was commanded, in simulation and on hardware), the mass against the arm's
-    payload."""
+def judge_fit(scenario: Scenario, recording: Recording, results: dict, method: str, signal_set, signals: str,
+              trajectory) -> dict:
+    """``fit_verdict`` of ``results[method]``'s fit to ``recording``: its residual against the noise
+    floor the scenario's sensor model gives (the accelerometer's noise only when a and α come from
+    it), beside the other methods' fits; the readings against the sensors' full scale, the
+    encoders against the excitation ``trajectory`` (what the slave was commanded, in simulation
+    and on hardware), the mass against the arm's payload."""
     ft, accelerometer = scenario.ft_sensor, scenario.accelerometer
     motion_rms = accelerometer.noise_rms if signals == "accelerometer" else np.zeros(6)
-    floor = noise_floor(result.phi, ft.noise_rms, motion_rms, accelerometer.position)
+
+    def floor(result):
+        return noise_floor(result.phi, ft.noise_rms, motion_rms, accelerometer.position)
+
+    others = {m: float(np.max(residual_rms(r, signal_set, recording.wrench) / floor(r)))
+              for m, r in results.items() if m != method}
+    result = results[method]
     return fit_verdict(FitEvidence(
-        residual=fit_residual(result, signal_set, recording.wrench), noise_floor=floor,
+        residual=fit_residual(result, signal_set, recording.wrench), noise_floor=floor(result),
         sample_period=recording.t[1] - recording.t[0], wrench=recording.wrench, wrench_full_scale=ft.full_scale,
         acceleration=recording.accel_measured, acceleration_full_scale=accelerometer.full_scale,
         mass=float(result.phi[0]), payload_max=ARMS[scenario.robot].payload_max, robot=scenario.robot,
-        q_measured=recording.q, q_commanded=trajectory.position(recording.t)))
+        q_measured=recording.q, q_commanded=trajectory.position(recording.t), other_methods=others))
 
 
 def identify(scenario: Scenario, out_dir, record, method: str = "tls", signals: str = "accelerometer",
@@ -211,7 +218,7 @@ def identify(scenario: Scenario, out_dir, record, method: str = "tls", signals: 
             print(f"{m:8s}{1e3 * e['mass_kg']:10.2f}{1e3 * e['com_m']:10.3f}{100 * e['inertia_relative']:9.2f}"
                   f"{e['force_offsets_N']:15.3f}{e['torque_offsets_Nm']:10.4f}")
     if method not in failed:
-        verdict = judge_fit(scenario, recording, results[method], signal_set, signals, excitation.trajectory)
+        verdict = judge_fit(scenario, recording, results, method, signal_set, signals, excitation.trajectory)
         metrics["fit_verdict"] = verdict
         print(verdict_report(verdict, method), flush=True)
     metrics["wall_time_s"] = time.perf_counter() - started

@@ -42,7 +42,7 @@ def test_noise_floor_is_the_sensors_noise_through_the_regressor():
     """Monte Carlo: wrench and accelerometer noise, the reading moved to S from a displaced
     accelerometer as identification does, the fit at the true φ."""
     rng = np.random.default_rng(2)
-    n = 200_000
+    n = 100_000
     a, alpha, omega = rng.normal(size=(n, 3)), 3 * rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
     g = np.tile([0.0, 0.0, -9.81], (n, 1))
     wrench_rms, acceleration_rms = np.array([0.1, 0.1, 0.1, 0.005, 0.005, 0.005]), np.array([0.05] * 3 + [0.5] * 3)
@@ -85,6 +85,14 @@ def test_a_residual_that_moves_with_the_arm_is_unmodelled_dynamics():
     verdict = fit_verdict(evidence(white() + pull))
     assert not verdict["ok"] and verdict["causes"] == ["unmodelled_dynamics"]
     assert verdict["low_frequency_share"] > 0.95 and "fz" in verdict["message"]
+
+
+def test_a_residual_another_method_does_not_leave_is_the_estimators():
+    pull = np.zeros((SAMPLES, 6))
+    pull[:, 4] = 0.03 * np.sin(2 * np.pi * 0.2 * T)
+    verdict = fit_verdict(evidence(white() + pull, other_methods={"ols": 1.6, "tls": 1.06, "wls": 1.2}))
+    assert verdict["causes"] == ["estimator"] and "--method tls" in verdict["message"]
+    assert fit_verdict(evidence(white() + pull, other_methods={"ols": 1.6}))["causes"] == ["unmodelled_dynamics"]
 
 
 def test_broadband_excess_is_not_blamed_on_the_mount():
