@@ -14,7 +14,7 @@ from drake import lcmt_iiwa_command, lcmt_iiwa_status
 from heft.diagrams.cli import main
 from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario, resolve_scenario
-from heft.diagrams.plants import AddSlave
+from heft.diagrams.plants import AddArmWithSensor, AddSlave
 from heft.diagrams.stations.stand_in import HAPTIC_WATCHDOG_S, FaultInjection, StandIn, _uniform, run_stand_in
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.ft_receiver import FtSampleReader
@@ -25,6 +25,7 @@ from heft.systems.load_dynamics import noncontact_wrench
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant
 from heft.systems.operator_hand import smooth_sine_offset
 from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import JacobianWrtVariable
 
 CHANNELS = LcmChannels()
 NAMES = (CHANNELS.master_state.name, CHANNELS.slave_status.name, CHANNELS.ft_sample.name)
@@ -175,8 +176,9 @@ def test_sensor_acceleration_is_the_derivative_of_the_velocity_of_S(moving):
 
     errors, peak = [], 0.0
     for before, now, after in zip(statuses, statuses[1:], statuses[2:]):
-        if now.utime < 102_000:  # the filter's acceleration steps when the command arrives at 0.1 s
-            continue
+        if now.utime < 102_000 or before.joint_position_ipo != before.joint_position_commanded:
+            continue  # the filter's acceleration steps with its input: the command at 0.1 s, then the setpoint
+            # that approaches it at the speed limits (joint_position_ipo) one status step at a time
         R_WS, _, _ = velocity(now)
         (_, w0, v0), (_, w1, v1) = velocity(before), velocity(after)
         expected = np.concatenate((R_WS.T @ ((v1 - v0) / (2 * period) - G_W), R_WS.T @ (w1 - w0) / (2 * period)))
@@ -255,6 +257,21 @@ def test_slave_holds_until_commanded_then_settles_on_the_setpoint(moving):
     np.testing.assert_allclose(moving.stand_in.slave_position, q0 + DELTA, atol=1e-9)
 
 
+def test_a_command_that_jumps_is_followed_within_the_speed_limits():
+    """The arm's controller limits its joints' speed: a command 0.5 rad away (a stand-in that ran
+    late, a re-anchored controller) is approached at most at the URDF's speed limits."""
+    lab = Lab()
+    lab.run(0.02)
+    lab.command_slave(np.asarray(lab.scenario.slave_initial_q) + 0.5)
+    lab.run(0.5)
+    velocities = np.array([m.joint_velocity_estimated for m in lab.messages(CHANNELS.slave_status.name)])
+    plant = MultibodyPlant(0.0)
+    AddArmWithSensor(plant, lab.scenario.robot)
+    plant.Finalize()
+    limits = plant.GetVelocityUpperLimits()
+    assert np.all(np.abs(velocities) <= limits + 1e-9) and np.any(np.abs(velocities) > 0.9 * limits)
+
+
 def test_malformed_slave_commands_keep_the_last_setpoint():
     lab = Lab()
     q0 = np.asarray(lab.scenario.slave_initial_q)
@@ -298,6 +315,30 @@ def test_master_follows_the_operator_reference():
     offset, _ = smooth_sine_offset(t[-1], op.start_time, op.frequency, op.amplitude)
     assert np.linalg.norm(offset) > 0.5 * np.linalg.norm(op.amplitude)
     np.testing.assert_allclose(stylus(q[-1]) - stylus(q[0]), offset, atol=0.1 * np.linalg.norm(op.amplitude))
+
+
+def test_the_driver_judges_the_rendered_force_at_its_own_positions():
+    """A torque clamped to 8.5 N at a position the driver published renders 8.5 N; one computed
+    at a position it never reported (0.3 rad off: another publisher's) renders something else,
+    by Drake's Jacobian of the Phantom."""
+    lab = Lab()
+    lab.run(0.05)
+    plant = master_plant(model_path("phantom_premium_6dof.urdf"))
+    context = plant.CreateDefaultContext()
+    B, E = plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME)
+
+    def torque_for(position, force):
+        plant.SetPositions(context, position)
+        J = plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV, E, np.zeros(3), B, B)  # [ω; v]
+        return J.T @ np.concatenate((np.zeros(3), force))
+
+    published = lab.messages(CHANNELS.master_state.name)[-3].position
+    lab.command_master(torque_for(published, [0.0, 0.0, -8.5]))
+    lab.run(0.051)
+    assert lab.stand_in.stylus_force_peak == pytest.approx(8.5, rel=1e-9)
+    lab.command_master(torque_for(np.asarray(published) + 0.3, [0.0, 0.0, -8.5]))
+    lab.run(0.052)
+    assert abs(lab.stand_in.stylus_force_peak - 8.5) > 0.1
 
 
 def test_haptic_driver_applies_only_valid_commands_and_times_out():

@@ -23,7 +23,6 @@ import lcm
 import numpy as np
 import pytest
 import yaml
-from pydrake.multibody.tree import JacobianWrtVariable
 from heft.diagrams.commands.options import lab_settings_text
 from heft.diagrams.device_limits import device_limits
 from heft.diagrams.scenario import overrides_text, resolve_scenario
@@ -229,32 +228,23 @@ WHOLE_WEIGHT = yaml.safe_dump(layered_dict(yaml.safe_load(STAND_IN_SENSOR),
 """The stand-in's sensor, and the load's weight fed back unscaled (30.7 N: the 8.5 N clamp acts)."""
 
 
-def _driver_states(log):
-    """(log times in µs, positions) of the master states the stand-in published, and the master
-    commands (log times, torques, enable) and slave commands (positions) the controller did,
-    and every load status it answered, from an LCM log."""
+def _controller_traffic(log):
+    """From an LCM log: the master commands the controller sent, as (wall-clock µs of their tick,
+    torques, enable), its slave commands' positions and every load status it answered."""
     from drake import lcmt_iiwa_command
-    from heft.hardware_interface.lcmtypes import heft_haptic_command, heft_haptic_state, heft_load_status
-    from hostile_traffic import MARK
+    from heft.hardware_interface.lcmtypes import heft_haptic_command, heft_load_status
 
     channels = LcmChannels()
-    states, commands, slave_commands, statuses = [], [], [], []
+    commands, slave_commands, statuses = [], [], []
     for event in lcm.EventLog(str(log), "r"):
-        if event.channel == channels.master_state.name:
-            try:
-                msg = heft_haptic_state.decode(event.data)
-            except Exception:  # the hostile process's garbage
-                continue
-            if not msg.buttons & MARK:
-                states.append((event.timestamp, np.array(msg.position)))
-        elif event.channel == channels.master_command.name:
+        if event.channel == channels.master_command.name:
             msg = heft_haptic_command.decode(event.data)
-            commands.append((event.timestamp, np.array(msg.torque), msg.enable))
+            commands.append((msg.utime, np.array(msg.torque), msg.enable))
         elif event.channel == channels.slave_command.name:
             slave_commands.append(np.array(lcmt_iiwa_command.decode(event.data).joint_position))
         elif event.channel == channels.load_status.name:
             statuses.append(heft_load_status.decode(event.data))
-    return states, commands, slave_commands, statuses
+    return commands, slave_commands, statuses
 
 
 def test_hostile_traffic_never_reaches_the_motors(netns, tmp_path):
@@ -262,18 +252,18 @@ def test_hostile_traffic_never_reaches_the_motors(netns, tmp_path):
     (``hostile_traffic``) while the controller runs against the stand-in with the load's whole
     weight fed back (force scale 1: the Phantom's 8.5 N clamp is active throughout). The
     controller runs to its end; every command it sent is finite; the stylus force that its
-    torques render at the driver's own joint positions (read from the recording, the hostile
-    states left out, through Drake's Jacobian of the Phantom) stays within 8.5 N; no
+    torques render at the driver's own joint positions (measured by the Phantom driver at each
+    command's arrival, at the positions it published within the controller's watchdog timeout:
+    ``StandIn.stylus_force_peak``) stays within 8.5 N; no
     non-physical estimate is ever in use; it is healthy and enabled again within 1 s after the
     traffic stops; its summary counts what it rejected per channel."""
-    from heft.diagrams.plants import MakeMasterPlant
     from heft.systems.load_dynamics import checked_load
-    from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 
     log = tmp_path / "traffic.lcmlog"
     stand_in = teleop = hostile = None
     try:
-        stand_in = _stand_in(netns, tmp_path, "--duration", FOREVER, "--clutch-at", "0.0")
+        stand_in = _stand_in(netns, tmp_path, "--duration", FOREVER, "--clutch-at", "0.0",
+                             "--out", str(tmp_path / "stand_in.json"))
         teleop = _teleop(netns, tmp_path, "--record", str(log), settings=WHOLE_WEIGHT)
         time.sleep(1.0)
         hostile = _Process(netns, tmp_path, "hostile", LCM_URL, str(HOSTILE_SECONDS), "7",
@@ -283,6 +273,7 @@ def test_hostile_traffic_never_reaches_the_motors(netns, tmp_path):
         stopped = float(re.search(r"stopped at ([0-9.]+)", hostile.text()).group(1))
         time.sleep(1.5)
         summary = _summary(teleop, tmp_path)
+        assert stand_in.finish() == 0, stand_in.text()
     finally:
         _stop_all(teleop, stand_in, hostile)
     print(hostile.text())
@@ -293,7 +284,7 @@ def test_hostile_traffic_never_reaches_the_motors(netns, tmp_path):
     refused = [event for event in summary["load_events"] if event.startswith("new estimate refused")]
     assert refused and not any(event.startswith("new estimate in use") for event in summary["load_events"])
 
-    states, commands, slave_commands, statuses = _driver_states(log)
+    commands, slave_commands, statuses = _controller_traffic(log)
     assert commands and all(np.isfinite(torque).all() for _, torque, _ in commands)
     limits = device_limits(resolve_scenario("fig6"))
     assert all(np.isfinite(q).all() and np.all(limits.slave_lower <= q) and np.all(q <= limits.slave_upper)
@@ -301,25 +292,14 @@ def test_hostile_traffic_never_reaches_the_motors(netns, tmp_path):
     for status in statuses:
         checked_load(status.phi, status.offsets, resolve_scenario("fig6").ft_sensor.full_scale)
 
-    plant = MakeMasterPlant()
-    context = plant.CreateDefaultContext()
-    B, E = plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME)
-    stamps = np.array([t for t, _ in states])
-    peak = 0.0
-    for t, torque, _ in commands:
-        k = np.searchsorted(stamps, t) - 1
-        if k < 0 or not torque.any():
-            continue
-        plant.SetPositions(context, states[k][1])
-        J = plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV, E, np.zeros(3), B, B)  # [ω; v]
-        wrench = np.linalg.solve(J.T, torque)  # τ = Jᵀ·[m; f]
-        peak = max(peak, np.linalg.norm(wrench[3:]))
-    print(f"stylus force peak at the driver's positions: {peak:.3f} N")
-    assert 5.0 < peak <= 8.5 * 1.01  # the clamp was reached, and held at the real positions
+    peak = json.loads((tmp_path / "stand_in.json").read_text())["stylus_force_peak"]
+    print(f"largest stylus force the driver rendered at its own joint positions: {peak:.4f} N")
+    assert 5.0 < peak <= 8.5 * (1 + 1e-9)  # the clamp was reached, and held at the driver's positions
 
     after = [(t, enable) for t, _, enable in commands if t >= stopped * 1e6]
     enabled = next((t for t, enable in after if enable), None)
     assert enabled is not None and enabled - stopped * 1e6 <= 1e6, "not enabled within 1 s of the traffic's end"
     print(f"enabled {1e-3 * (enabled - stopped * 1e6):.1f} ms after the hostile traffic stopped")
     settled = [enable for t, enable in after if t >= enabled]
-    assert sum(settled) > 0.5 * len(settled), "mostly faulted after the traffic stopped"  # stalls of a busy machine aside
+    # Mostly enabled since (a busy machine's stalls fault single ticks).
+    assert sum(settled) > 0.5 * len(settled), "mostly faulted after the traffic stopped"

@@ -33,6 +33,7 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
+    from heft.diagrams.running.realtime import StopOnSignal
     from heft.diagrams.stations.stand_in import FaultInjection, run_stand_in
 
     scenario = scenario_from(args)
@@ -42,12 +43,16 @@ def run(args) -> int:
     channels = lcm_channels(args)
     print(f"stand-in: {args.scenario} on {channels.lcm_url} (commands on {channels.command_lcm_url()}) for "
           f"{args.duration:g} s at real time", flush=True)
-    summary = run_stand_in(scenario, channels, args.duration, faults, args.clutch_at, args.clutch_release_at,
-                           ready=lambda: print("stand-in: publishing", flush=True))
+    with StopOnSignal() as stop:
+        summary = run_stand_in(scenario, channels, args.duration, faults, args.clutch_at, args.clutch_release_at,
+                               ready=lambda epoch: print(f"stand-in: publishing; its stamps count from {epoch:.6f} s "
+                                                         "(wall clock, since the Unix epoch)", flush=True),
+                               stop=lambda: stop.requested)
     rates = "; ".join(f"{kind} Hz " + ", ".join(f"{name} {hz:.0f}" for name, hz in summary[f"{kind}_hz"].items())
                       for kind in ("published", "received"))
     print(f"stand-in: stopped at t = {summary['duration_s']:.3f} s{' (died, as injected)' if summary['died'] else ''}"
-          f"; {rates}; CPU {summary['cpu_s']:.2f} s; max lateness {summary['max_lateness_ms']:.2f} ms", flush=True)
+          f"; {rates}; CPU {summary['cpu_s']:.2f} s; max lateness {summary['max_lateness_ms']:.2f} ms; largest force "
+          f"rendered on the stylus {summary['stylus_force_peak']:.4g} N", flush=True)
     if args.out:
         Path(args.out).write_text(json.dumps(summary, indent=2) + "\n")
     return 0

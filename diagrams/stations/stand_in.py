@@ -11,8 +11,10 @@ real time, as a separate process would.
 
 Models (frames as DESIGN §4: W world = R slave base, B master base, S wrist sensor):
 
-* Slave (arm driver): the joints follow the last valid command through the
-  robot controller's critically damped setpoint filter
+* Slave (arm driver): the joints follow the last valid command, approached no
+  faster than the arm's joint speed limits (its controller's own limit: a command
+  that jumps, as after a late or stalled stand-in, is not a jump of the arm), through
+  the robot controller's critically damped setpoint filter
   (``critically_damped_step_matrices``, ``Scenario.slave_setpoint_bandwidth``),
   stepped exactly at the status rate; an ideal servo: the measured position is
   the filter's (encoder-quantised), the estimated velocity the filter's.
@@ -67,7 +69,7 @@ from drake import lcmt_iiwa_command, lcmt_iiwa_status
 from pydrake.multibody.tree import JacobianWrtVariable
 
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.plants import MakeMasterPlant, MakeSlavePlant, phi_about_S
+from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant, MakeSlavePlant, phi_about_S
 from heft.diagrams.stations.sim_station import MASTER_ENCODER_COUNTS_PER_REV
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import CLUTCH_BUTTON
@@ -94,6 +96,9 @@ from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many 
 """Joints of the master and of the slave."""
 HAPTIC_WATCHDOG_S = 0.02
 """The Phantom driver zeroes its torque this long (s) after the last valid command."""
+RENDERED_WITHIN_S = 0.02
+"""The controller computes its torques at a master position it read at most its watchdog's
+timeout (20 ms) ago; the Phantom driver judges the force they render at those it published."""
 _MASK64 = (1 << 64) - 1
 _MASTER, _SLAVE, _FT = range(3)
 """Channel indices; channel i loses messages on random stream i and reorders them on 4 + i."""
@@ -266,16 +271,23 @@ class _Master:
     Jacobian at its start pose: q = q₀ + J_M(q₀)⁻¹·[Δp; Δrpy](t), q̇ = its derivative."""
 
     def __init__(self, scenario: Scenario):
-        plant = MakeMasterPlant()
+        plant = self._plant = MakeMasterPlant()
         self.effort_limits = np.array([plant.get_joint_actuator(i).effort_limit()
                                        for i in plant.GetJointActuatorIndices()])
         self._initial = np.array(scenario.master_initial_q, dtype=float)
-        _, J = pose_and_jacobian(plant, plant.CreateDefaultContext(), plant.GetFrameByName(BASE_FRAME),
-                                 plant.GetFrameByName(STYLUS_FRAME), self._initial)
+        self._context, self._B, self._E = (plant.CreateDefaultContext(), plant.GetFrameByName(BASE_FRAME),
+                                           plant.GetFrameByName(STYLUS_FRAME))
+        _, J = pose_and_jacobian(plant, self._context, self._B, self._E, self._initial)
         operator = self._operator = scenario.operator
         # The reference's offset is amplitude × one shape in time, so the joints' is J⁻¹·amplitude × it.
         self._amplitude = np.linalg.solve(J, np.concatenate((operator.amplitude, operator.rotation_amplitude)))
         self.position, self.velocity = self._initial.copy(), np.zeros(NUM_JOINTS)
+
+    def stylus_force(self, torque, position) -> float:
+        """|f| (N) of the wrench that joint ``torque`` (N·m) renders on the hand at joint
+        ``position`` (rad): τ = J_Mᵀ·[f; τ_E]."""
+        _, J = pose_and_jacobian(self._plant, self._context, self._B, self._E, position)
+        return float(np.linalg.norm(np.linalg.solve(J.T, torque)[:3]))
 
     def update(self, t: float) -> None:
         """Moves the joints to the operator's reference at time ``t`` (s)."""
@@ -300,8 +312,9 @@ class StandIn:
     Readable: ``slave_position`` (6, rad, the arm's true joints), ``slave_command`` (6, rad,
     the last valid setpoint; ``slave_initial_q`` before the first), ``master_position``
     (6, rad, true joints), ``master_torque`` (6, N·m, the torque the haptic driver applies
-    now), ``published`` / ``received`` (channel name → messages), ``phi_true`` (10, the
-    load's φ about S in S, Eq. 6), ``offsets`` (6, N, N·m: the FT offsets in the latest
+    now), ``stylus_force_peak`` (N, the largest force a command's torque rendered on the hand,
+    ``_observe_stylus_force``), ``published`` / ``received`` (channel name → messages),
+    ``phi_true`` (10, the load's φ about S in S, Eq. 6), ``offsets`` (6, N, N·m: the FT offsets in the latest
     sample, heft's sign), ``next_due`` (s, the nominal time of the next message).
     """
 
@@ -329,7 +342,13 @@ class StandIn:
         self._w = 2 * math.pi * scenario.slave_setpoint_bandwidth  # rad/s, the filter's ω
         self._slave = np.zeros((2, NUM_JOINTS))
         self._slave[0] = scenario.slave_initial_q
+        self.stylus_force_peak = 0.0
+        self._published_master = collections.deque(
+            maxlen=round(RENDERED_WITHIN_S * channels.master_state.rate))  # positions (rad), newest last
         self.slave_command = np.array(scenario.slave_initial_q, dtype=float)
+        self._setpoint = self.slave_command.copy()  # the command approached at the speed limits
+        arm, _ = MakeArmPlant(scenario.robot)
+        self._max_setpoint_step = arm.GetVelocityUpperLimits() * slave_period  # rad per status step
         self._slave_step = 2 * math.pi / scenario.encoder_counts_per_rev  # rad per encoder count
         self._sensor_frame = _SensorFrame(scenario)
         self._sensor_frame.update(self._slave[0], self._slave[1], np.zeros(NUM_JOINTS))
@@ -418,15 +437,27 @@ class StandIn:
                 limits = self._master.effort_limits
                 self._torque_commanded = np.clip(msg.torque, -limits, limits)
                 self._torque_until = now + HAPTIC_WATCHDOG_S
+                self._observe_stylus_force(self._torque_commanded)
             else:
                 self._torque_until = -math.inf
+
+    def _observe_stylus_force(self, torque) -> None:
+        """Raises ``stylus_force_peak`` to the force ``torque`` renders at the master's present
+        position, or, if the stylus has moved on since the controller read it, at the closest of
+        the positions this driver published within ``RENDERED_WITHIN_S``."""
+        master = self._master
+        force = master.stylus_force(torque, master.position) if torque.any() else 0.0
+        if force > self.stylus_force_peak:
+            force = min([force] + [master.stylus_force(torque, q) for q in self._published_master])
+            self.stylus_force_peak = max(self.stylus_force_peak, force)
 
     def _applied_torque(self, t: float) -> np.ndarray:
         """The torque (N·m) the haptic driver applies at ``t`` (s)."""
         return self._torque_commanded if t < self._torque_until else np.zeros(NUM_JOINTS)
 
     def _slave_tick(self, tick: int, t: float) -> None:
-        x, u, w = self._slave, self.slave_command, self._w
+        x, u, w = self._slave, self._setpoint, self._w
+        u += np.minimum(np.maximum(self.slave_command - u, -self._max_setpoint_step), self._max_setpoint_step)
         x[:] = self._A @ x + self._B * u
         q, qd = x
         self._sensor_frame.update(q, qd, w * w * (u - q) - 2 * w * qd)  # q̈ of the filter's ODE
@@ -437,7 +468,7 @@ class StandIn:
         msg.utime = round(t * 1e6)
         msg.joint_position_measured = quantize(q, self._slave_step).tolist()
         msg.joint_velocity_estimated = qd.tolist()
-        msg.joint_position_commanded = msg.joint_position_ipo = u.tolist()
+        msg.joint_position_commanded, msg.joint_position_ipo = self.slave_command.tolist(), u.tolist()
         outlet.send(tick, msg.encode())
 
     def _master_tick(self, tick: int, t: float) -> None:
@@ -449,6 +480,7 @@ class StandIn:
         msg = self._messages[_MASTER]
         msg.utime = round(t * 1e6)
         msg.position = quantize(master.position, self._master_step).tolist()
+        self._published_master.append(msg.position)
         msg.velocity = master.velocity.tolist()
         msg.torque_applied = self._applied_torque(t).tolist()
         msg.buttons = CLUTCH_BUTTON if self._clutch[0] <= t < self._clutch[1] else 0
@@ -490,7 +522,7 @@ class StandIn:
 
 def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
                  faults: FaultInjection | None = None, clutch_at: float = 0.0, clutch_release_at: float = math.inf,
-                 clock=time.perf_counter, sleep=time.sleep, ready=None) -> dict:
+                 clock=time.perf_counter, sleep=time.sleep, ready=None, stop=None) -> dict:
     """Runs ``StandIn`` on ``channels``' two URLs (``open_buses``) in real time on ``clock`` (s)
     for ``duration`` s or until it dies, waiting between due messages: with the default
     ``sleep`` the wait is a ``select`` on the command bus that also ends when a command
@@ -499,13 +531,13 @@ def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
     Returns {"duration_s": wall time run (s), "died", "published" / "received" (channel name →
     messages), "published_hz" / "received_hz" (channel name → messages per wall second),
     "max_lateness_ms": the latest a message was published after its nominal time, "cpu_s":
-    this process's CPU time over the run}. ``ready()``, if given, is called once the lab is
-    built, just before it starts publishing.
+    this process's CPU time over the run, "stylus_force_peak": ``StandIn.stylus_force_peak``}.
+    ``ready(epoch)``, if given, is called once the lab is built, as it starts publishing, with
+    the wall-clock time (s since the Unix epoch) of its clock's zero, the time its ``utime``
+    stamps count from; ``stop()``, if given, ends the run early once it returns True.
     """
     bus, command_bus = open_buses(channels)
     lab = StandIn(scenario, bus, channels, faults, clutch_at, clutch_release_at, command_bus)
-    if ready is not None:
-        ready()
     if sleep is time.sleep:
         fd = command_bus.fileno()
 
@@ -514,12 +546,14 @@ def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
     else:
         wait = sleep
     lateness, alive = 0.0, True
-    cpu_start, start = time.process_time(), clock()
+    cpu_start, start, epoch = time.process_time(), clock(), time.time()
+    if ready is not None:
+        ready(epoch)
     now = 0.0
     while True:
         lateness = max(lateness, now - lab.next_due)
         alive = lab.step(now)
-        if not alive or now >= duration - _DUE_SLACK:
+        if not alive or now >= duration - _DUE_SLACK or (stop is not None and stop()):
             break
         pause = min(lab.next_due, duration) - (clock() - start)
         if pause > _DUE_SLACK:
@@ -530,4 +564,5 @@ def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
     return {"duration_s": now, "died": not alive, "published": published, "received": received,
             "published_hz": {name: count / elapsed for name, count in published.items()},
             "received_hz": {name: count / elapsed for name, count in received.items()},
-            "max_lateness_ms": 1e3 * lateness, "cpu_s": time.process_time() - cpu_start}
+            "max_lateness_ms": 1e3 * lateness, "cpu_s": time.process_time() - cpu_start,
+            "stylus_force_peak": lab.stylus_force_peak}
