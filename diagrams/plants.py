@@ -8,7 +8,6 @@ Sources of every number: the URDFs under ``diagrams/models`` (their own comments
 from __future__ import annotations
 
 import dataclasses
-import functools
 
 import numpy as np
 from pydrake.multibody.parsing import Parser

@@ -11,7 +11,7 @@ load; a, α, ω, g in m/s², rad/s², rad/s, m/s². The unknowns are θ = [offse
   ``RecursiveTotalLeastSquares``: one sample per ``update``, cheap enough for a 2 kHz loop;
   each keeps its whole state in one flat vector (``state_vector``) so that a Drake system
   can hold it as discrete state.
-* ``pseudo_inertia``, ``project_to_physical``: physical consistency (Wensing et al. 2017).
+* ``project_to_physical``: physical consistency (Wensing et al. 2017; ``load_dynamics.pseudo_inertia``).
 
 Identifiability. A parameter is identifiable iff its unit vector lies in the row space of the
 data: its component in the span of the unidentifiable directions is at most 1e-6. Which
@@ -45,7 +45,7 @@ import scipy.linalg
 from scipy.linalg import block_diag, lapack, solve_triangular
 
 from heft.systems.load_dynamics import (
-    OFFSET_NAMES, PHI_NAMES, InertialParameters, inertia_entries, inertia_matrix, regressor)
+    OFFSET_NAMES, PHI_NAMES, InertialParameters, inertia_entries, pseudo_inertia, regressor)
 
 PARAMETER_NAMES = OFFSET_NAMES + PHI_NAMES
 METHODS = ("ols", "wls", "tls", "eiv_ml")
@@ -298,23 +298,6 @@ def _mask_unidentifiable(covariance: np.ndarray | None, identifiable: np.ndarray
 
 
 # --- physical consistency ----------------------------------------------------------
-
-def pseudo_inertia(phi) -> np.ndarray:
-    """The 4×4 pseudo-inertia J = ∫ [r; 1][r; 1]ᵀ dm = [[Σ, h], [hᵀ, m]] of φ (Eq. 6), with
-    h = m·c (kg·m) and Σ = ∫ r rᵀ dm = ½ tr(I)·E − I (kg·m²) from the inertia I about S's
-    origin (I = tr(Σ)E − Σ). φ is the inertia of some mass distribution iff J ⪰ 0 and of a
-    body with positive-definite inertia iff J ≻ 0 (Wensing, Kim & Slotine, "Linear matrix
-    inequalities for physically consistent inertial parameter identification", IEEE RA-L 2017)."""
-    phi = np.asarray(phi, dtype=float)
-    if phi.shape != (10,):
-        raise ValueError(f"phi must have shape (10,); got {phi.shape}")
-    inertia = inertia_matrix(phi[4:])
-    J = np.empty((4, 4))
-    J[:3, :3] = 0.5 * np.trace(inertia) * np.eye(3) - inertia
-    J[:3, 3] = J[3, :3] = phi[1:4]
-    J[3, 3] = phi[0]
-    return J
-
 
 def phi_from_pseudo_inertia(J) -> np.ndarray:
     """The inverse of ``pseudo_inertia``."""

@@ -276,16 +276,20 @@ estimate: an identified thin rod's second moment across it (m·r²/4, 10⁻⁶ k
 
 
 def pseudo_inertia(phi) -> np.ndarray:
-    """The 4×4 pseudo-inertia [[Σ, h], [hᵀ, m]] of φ (Eq. 6), Σ = ½tr(I_S)·E − I_S the second
-    moment of mass about S (kg·m²), h = m·c (kg·m): positive semidefinite for every physical body
-    (Wensing, Kim & Slotine, IEEE RA-L 2018)."""
+    """The 4×4 pseudo-inertia J = ∫ [r; 1][r; 1]ᵀ dm = [[Σ, h], [hᵀ, m]] of φ (Eq. 6), with
+    h = m·c (kg·m) and Σ = ∫ r rᵀ dm = ½ tr(I)·E − I (kg·m²) from the inertia I about S's
+    origin (I = tr(Σ)E − Σ). φ is the inertia of some mass distribution iff J ⪰ 0 and of a
+    body with positive-definite inertia iff J ≻ 0 (Wensing, Kim & Slotine, "Linear matrix
+    inequalities for physically consistent inertial parameter identification", IEEE RA-L 2017)."""
     phi = np.asarray(phi, dtype=float)
+    if phi.shape != (10,):
+        raise ValueError(f"phi must have shape (10,); got {phi.shape}")
     inertia = inertia_matrix(phi[4:])
-    pseudo = np.empty((4, 4))
-    pseudo[:3, :3] = 0.5 * np.trace(inertia) * np.eye(3) - inertia
-    pseudo[:3, 3] = pseudo[3, :3] = phi[1:4]
-    pseudo[3, 3] = phi[0]
-    return pseudo
+    J = np.empty((4, 4))
+    J[:3, :3] = 0.5 * np.trace(inertia) * np.eye(3) - inertia
+    J[:3, 3] = J[3, :3] = phi[1:4]
+    J[3, 3] = phi[0]
+    return J
 
 
 def checked_load(phi, offsets, wrench_full_scale=None) -> tuple[np.ndarray, np.ndarray]:

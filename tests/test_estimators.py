@@ -11,9 +11,8 @@ from heft.analysis.bench_identify import cramer_rao_bound
 from heft.diagrams.stations.load_on_sensor import simulate_random_motion
 from heft.systems.estimators import (
     PARAMETER_NAMES, NoiseLevels, RecursiveInstrumentalVariables, RecursiveLeastSquares,
-    RecursiveTotalLeastSquares, batch_estimate, phi_from_pseudo_inertia, project_to_physical,
-    pseudo_inertia, stack)
-from heft.systems.load_dynamics import PHI_NAMES, InertialParameters, regressor
+    RecursiveTotalLeastSquares, batch_estimate, phi_from_pseudo_inertia, project_to_physical, stack)
+from heft.systems.load_dynamics import PHI_NAMES, InertialParameters, pseudo_inertia, regressor
 
 RECURSIVE = (RecursiveLeastSquares, RecursiveInstrumentalVariables, RecursiveTotalLeastSquares)
 WRENCH_NOISE = np.repeat([0.1, 0.005], 3)  # N, N·m: DESIGN §6

@@ -10,7 +10,7 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, TrajectorySource
 
-from heft.diagrams.identify import Recording, identify
+from heft.diagrams.identify import FitRefused, Recording, identify
 from heft.diagrams.load_estimate import LoadEstimate, read_load_estimate
 from heft.diagrams.running.progress import ProgressBar
 from heft.diagrams.scenario import Scenario
@@ -62,6 +62,11 @@ def simulated_recorder(scenario: Scenario):
 
 
 def identify_in_simulation(scenario: Scenario, out_dir, settings: ExcitationSettings | None = None) -> LoadEstimate:
-    """Identifies the scenario's load in simulation (default method) and returns the estimate."""
-    identify(scenario, out_dir, simulated_recorder(scenario), settings=settings)
+    """Identifies the scenario's load in simulation (default method) and returns the estimate;
+    a fit ``identify`` refuses is a ``FitRefused`` that says how to go on with it anyway."""
+    try:
+        identify(scenario, out_dir, simulated_recorder(scenario), settings=settings)
+    except FitRefused as refused:
+        raise FitRefused(f"{refused} (`heft identify --scenario FILE --out {out_dir}`), then give its estimate "
+                         f"with --estimate {Path(out_dir) / 'estimate.yaml'}") from None
     return read_load_estimate(Path(out_dir) / "estimate.yaml")
