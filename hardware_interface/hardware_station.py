@@ -43,9 +43,9 @@ from .watchdog import WatchdogParams, watchdog_step
 
 WATCHED_CHANNELS = ("master_state", "slave_status", "ft_sample")
 """Channels the watchdog watches; channel i is bit i of the fault bitmask (stale), bit 3 a
-stalled controller, bit 4 + i a second publisher on channel i."""
+stalled controller, bit 4 + i channel i's source in doubt (a second publisher, or a new
+source on probation: ``message_order``)."""
 STALLED_BIT = 1 << len(WATCHED_CHANNELS)
-CONFLICT_BITS = ((1 << len(WATCHED_CHANNELS)) - 1) << (len(WATCHED_CHANNELS) + 1)
 FT_KEEP = 64
 """FT samples kept between two ticks (8 kHz sensor, a 2 kHz controller late by several ticks)."""
 JOINT_KEEP = 8
@@ -142,6 +142,12 @@ class HardwareStation:
         return {name: reader.rejections.nonzero() for name, reader in zip(WATCHED_CHANNELS, self._readers)}
 
     @property
+    def unread(self) -> dict[str, int]:
+        """Per watched channel, the messages pushed out of its mailbox by newer ones before a tick
+        read them (more arrived between two ticks than it keeps: a stalled controller, or a flood)."""
+        return {name: mailbox.pushed_out for name, mailbox in zip(WATCHED_CHANNELS, self._mail)}
+
+    @property
     def clocks(self) -> dict:
         """Per watched channel, its source's ``SourceClock`` (offsets, restarts)."""
         return {name: reader.clock for name, reader in zip(WATCHED_CHANNELS, self._readers)}
@@ -158,15 +164,19 @@ class HardwareStation:
         ages[0], ages[1], ages[2] = now - master.t_good, now - slave.t_good, now - ft.t_good
         self.conflicts = (master.clock.conflict(now) | slave.clock.conflict(now) << 1
                           | ft.clock.conflict(now) << 2)
+        doubts = self.conflicts | (master.clock.on_probation(now) | slave.clock.on_probation(now) << 1
+                                   | ft.clock.on_probation(now) << 2)
         watchdog = self._params.watchdog
         spacing = 0.0 if self._last_tick is None else now - self._last_tick
         self._last_tick = now
         self.healthy, self.gain, self.fault = watchdog_step(
             ages, self.gain, watchdog.timeout, spacing / watchdog.ramp_time, stalled=spacing > watchdog.timeout,
-            conflicts=self.conflicts)
+            conflicts=doubts)
 
     def stop(self, now: float) -> None:
-        """The run's last commands at ``now`` (s): forces off, the slave held where it is measured."""
+        """The run's last commands at ``now`` (s): forces off, and the slave command one
+        rate-limited step towards a hold (the position measured now, or at the fault's onset if
+        the station is already unhealthy)."""
         self.healthy = False
         self.send(now, np.zeros(NUM_JOINTS), None)
 

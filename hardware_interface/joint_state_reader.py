@@ -1,8 +1,9 @@
 """A joint-state driver's LCM messages (the Phantom's ``heft_haptic_state``, the arm's
 ``lcmt_iiwa_status``) → the newest state the controller may use.
 
-Every message is checked (``message_checks``) and must come from the channel's one
-source (``message_order``); what fails is counted, never raised.
+Every message is checked (``message_checks``): its structure, then whether it comes
+from the channel's one source (``message_order``), then its values; what fails is
+counted, never raised.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import numpy as np
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
 from .message_checks import JointRange, Rejections
-from .message_order import AHEAD, BEHIND, OUT_OF_ORDER, SourceClock
+from .message_order import AHEAD, BEHIND, LATE_TOLERANCE, OUT_OF_ORDER, SourceClock
 
 
 def haptic_state_fields(msg) -> tuple:
@@ -63,12 +64,6 @@ class JointStateReader:
             return "undecodable"
         if num_joints != NUM_JOINTS or len(position) != NUM_JOINTS or len(velocity) != NUM_JOINTS:
             return "joint_count"
-        if not math.isfinite(sum(position) + sum(velocity)):
-            return "non_finite"
-        if error:
-            return "driver_error"
-        if not self._range.contains(position, velocity):
-            return "out_of_range"
         stamp, clock = utime * 1e-6, self.clock
         order = clock.check(stamp, now)
         if order == OUT_OF_ORDER:
@@ -76,8 +71,16 @@ class JointStateReader:
         if order in (AHEAD, BEHIND):
             clock.foreign(stamp, now)
             return "stamped_ahead" if order == AHEAD else "stamped_behind"
-        if not clock.starts_source(now) and not self._range.continuous(self._position, position,
-                                                                        stamp - self._stamp):
+        if not math.isfinite(sum(position) + sum(velocity)):
+            return "non_finite"
+        if error:
+            return "driver_error"
+        if not self._range.contains(position, velocity):
+            return "out_of_range"
+        # The joints may have moved for as long as the stamps say, but not longer than the station
+        # saw pass (a publisher leading the driver's clock gains no time to jump by).
+        elapsed = min(stamp - self._stamp, clock.since_last(now) + LATE_TOLERANCE)
+        if not clock.starts_source(now) and not self._range.continuous(self._position, position, elapsed):
             clock.foreign(stamp, now)
             return "discontinuous"
         clock.accept(stamp, now)

@@ -23,12 +23,13 @@ LCM_QUEUE = 1000
 
 class LcmMailbox:
     """Subscribes to ``channel`` on ``bus``; ``take()`` returns the payloads (bytes, oldest
-    first, at most ``keep``) that arrived since the last ``take()``; ``count`` counts all."""
+    first, at most ``keep``) that arrived since the last ``take()``; ``count`` counts all,
+    ``pushed_out`` those that newer ones pushed out unread."""
 
     def __init__(self, bus: lcm.LCM, channel: str, keep: int = 1):
         if keep < 1:
             raise ValueError(f"keep must be >= 1; got {keep}")
-        self.channel, self.count = channel, 0
+        self.channel, self.count, self.pushed_out = channel, 0, 0
         self._keep, self._pending = keep, []
         bus.subscribe(channel, self._on_message).set_queue_capacity(LCM_QUEUE)
 
@@ -37,6 +38,7 @@ class LcmMailbox:
         self._pending.append(payload)
         if len(self._pending) > self._keep:
             del self._pending[0]
+            self.pushed_out += 1
 
     def take(self) -> list[bytes]:
         """The payloads since the last call, oldest first (empty if none)."""
@@ -45,10 +47,16 @@ class LcmMailbox:
 
 
 def pump(bus: lcm.LCM) -> int:
-    """Handles every message already waiting on ``bus`` without blocking; returns how many."""
+    """Handles every message already waiting on ``bus`` without blocking; returns how many. A
+    failed wait (python-lcm's OSError: a signal interrupting it, such as the Ctrl-C that stops a
+    run) ends this pump, not the caller: the next one tries again, and a bus that stays broken
+    leaves its channels stale, which the watchdog answers."""
     handled = 0
-    while bus.handle_timeout(0) > 0:
-        handled += 1
+    try:
+        while bus.handle_timeout(0) > 0:
+            handled += 1
+    except OSError:
+        pass
     return handled
 
 

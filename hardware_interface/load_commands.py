@@ -26,6 +26,10 @@ ACTIONS = {"rezero": heft_load_command.REZERO, "tracking_on": heft_load_command.
 """The actions by name (``heft load``'s)."""
 
 
+MAX_EVENTS = 1000
+"""Load commands a run's summary lists at most."""
+
+
 class LoadCommandServer:
     """Serves load commands to ``controller`` (a ``RealtimeTeleopController``) heard on ``bus``,
     answered on ``command_bus`` (default ``bus``); a new estimate must fit the sensor's range
@@ -34,7 +38,8 @@ class LoadCommandServer:
 
     ``serve(now_utime, healthy)`` once per tick: carries out every command that arrived and
     answers it; a re-zero is refused while the station is not healthy (the controller is
-    not stepping). ``events`` lists what happened (utime, message) for the run's summary."""
+    not stepping). ``events`` lists what happened (utime, message) for the run's summary, the
+    first ``MAX_EVENTS`` of them (a flood of commands grows nothing further)."""
 
     def __init__(self, bus: lcm.LCM, channels: LcmChannels, controller, wrench_full_scale,
                  command_bus: lcm.LCM | None = None):
@@ -93,7 +98,8 @@ class LoadCommandServer:
         status.rezero_status, status.tracking = controller.rezero_status, controller.tracking
         status.phi, status.offsets = controller.phi.tolist(), controller.offsets.tolist()
         self._command_bus.publish(self._channel, status.encode())
-        self.events.append((now_utime, message))
+        if len(self.events) < MAX_EVENTS:
+            self.events.append((now_utime, message))
 
 
 def send_load_command(channels: LcmChannels, action: str, phi=None, offsets=None,

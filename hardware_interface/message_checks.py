@@ -21,8 +21,7 @@ REASONS = ("undecodable", "joint_count", "non_finite", "out_of_range", "stamped_
 inf; carried a value beyond ``DeviceLimits``; was stamped ahead of or behind its channel's
 source (``message_order``); jumped from the source's last message faster than the device
 moves, or its sample counter went back; was a duplicate or a late packet; its driver
-flagged an error. The first seven are counted as hostile or broken traffic, the last two
-are a lab's ordinary life (UDP, a driver's own fault)."""
+flagged an error."""
 
 POSITION_MARGIN = 0.1
 """rad beyond a joint's limits that its encoder may still report (overshoot onto the stops)."""
@@ -54,7 +53,7 @@ class DeviceLimits:
 
 class JointRange:
     """The positions and velocities one device's driver may report (``DeviceLimits`` widened by
-    the margins above); ``step_allowed(dt)`` the largest move per joint over ``dt`` s of stamps."""
+    the margins above), and how far its joints may move between two messages (``continuous``)."""
 
     def __init__(self, lower, upper, velocity):
         self.lower = (np.asarray(lower, dtype=float) - POSITION_MARGIN).tolist()
@@ -70,7 +69,7 @@ class JointRange:
         return True
 
     def continuous(self, previous, position, dt: float) -> bool:
-        """True if no joint moved from ``previous`` to ``position`` faster than its speed limit
+        """True if no joint moved from ``previous`` to ``position`` further than its speed limit
         allows over ``dt`` s (plus ``JUMP_MARGIN``)."""
         for a, b, speed in zip(previous, position, self.speed):
             if abs(b - a) > speed * dt + JUMP_MARGIN:

@@ -3,9 +3,10 @@
 
 A channel is stale when its age (s of the station's clock since its last good
 message; inf before the first) exceeds the timeout; the controller itself is
-stalled when its ticks are further apart than the timeout; a channel with a
-second publisher (``message_order``) is in conflict. While anything is stale,
-stalled or in conflict the station is unhealthy and the command gain is 0; once all is
+stalled when its ticks are further apart than the timeout; a channel whose
+source is in doubt (a second publisher, a new source on probation:
+``message_order``) is a fault too. While anything is stale, stalled or in doubt
+the station is unhealthy and the command gain is 0; once all is
 fresh again the gain ramps linearly back to 1 over ``ramp_time``, so commands
 never jump.
 """
@@ -37,7 +38,7 @@ def watchdog_step(ages, gain: float, timeout: float, ramp_step: float,
 
     Bit i is set for stale channel i (``ages`` in s; inf or NaN: never received), bit
     ``len(ages)`` when the controller ``stalled`` and bit ``len(ages) + 1 + i`` for channel i
-    in conflict (``conflicts``: bit i per channel); ``ramp_step`` is the gain increase over
+    whose source is in doubt (``conflicts``: bit i per channel); ``ramp_step`` is the gain increase over
     this tick (its duration / ramp time)."""
     fault = conflicts << (len(ages) + 1)
     for i, age in enumerate(ages):

@@ -23,7 +23,7 @@ from heft.hardware_interface.hardware_station import (
 )
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
 from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_command, heft_haptic_state
-from heft.hardware_interface.message_order import CONFLICT_CLEAR, CONFLICT_COUNT
+from heft.hardware_interface.message_order import CONFLICT_CLEAR, CONFLICT_COUNT, PROBATION, SILENCE_PER_TIMEOUT
 from heft.hardware_interface.watchdog import WatchdogParams, watchdog_step
 
 PERIOD = 0.0005
@@ -174,22 +174,29 @@ def test_stalled_controller_is_a_fault_in_wall_time():
 
 
 def test_restarted_drivers_recover_without_a_jump():
-    """Every driver dies for 50 ms and comes back with its clock and counter from zero, the arm
-    elsewhere: the slave command restarts from the new measured position, moves within the
-    speed limits, and the master torque ramps in from zero."""
+    """Every driver dies for longer than a source may be silent and comes back with its clock
+    and counter from zero, the arm elsewhere: each channel has a new source, on probation
+    before the station is healthy again; then the slave command restarts from the new measured
+    position, moves within the speed limits, and the master torque ramps in from zero to full."""
     rig = Rig()
     rig.run(0.6)
-    rig.now += 0.05  # longer than a source may be silent (message_order): the next clock is a new source
+    rig.now += SILENCE_PER_TIMEOUT * TIMEOUT + PERIOD
     rig.tick()
     rig.driver_start, rig.counter = rig.now, 0
     q_elsewhere = Q_SLAVE + 0.2
-    before = len(rig.positions)
-    rig.run(0.3, q_slave=q_elsewhere)
+    before, back = len(rig.positions), rig.now
+    rig.run(PROBATION + 0.3, q_slave=q_elsewhere)
+    assert {name: clock.restarts for name, clock in rig.station.clocks.items()} == dict.fromkeys(
+        ("master_state", "slave_status", "ft_sample"), 1)
+    enabled = [i for i, enable in enumerate(rig.enables[before:]) if enable]
+    assert enabled and PROBATION <= enabled[0] * PERIOD <= PROBATION + 2 * PERIOD, back
     positions = np.array(rig.positions[before:])
     restart = next(i for i, q in enumerate(positions) if np.all(np.abs(q - q_elsewhere) <= MAX_STEP + 1e-12))
+    assert restart == enabled[0]
     assert np.all(np.abs(np.diff(positions[restart:], axis=0)) <= MAX_STEP + 1e-12)
     ratio = np.array(rig.torques[before:])[:, 0] / TORQUE[0]
-    assert ratio[0] <= RAMP_STEP + 1e-12 and np.diff(ratio).max() <= RAMP_STEP + 1e-12
+    assert ratio[restart] <= RAMP_STEP + 1e-12 and np.diff(ratio).max() <= RAMP_STEP + 1e-12
+    assert ratio[-1] == pytest.approx(1.0) and rig.station.conflicts == 0
 
 
 def test_non_finite_commands_never_published():
@@ -243,25 +250,27 @@ def haptic_state(utime, position, num_joints=6, velocity=None) -> bytes:
 
 
 def test_malformed_messages_are_counted_and_never_reach_the_controller():
-    """Between the drivers' own messages, every kind of broken one on every channel: the station
-    stays healthy, reads exactly the drivers' values, and counts each rejection by its reason."""
+    """Between the drivers' own messages, every kind of broken one on every channel, those that
+    decode stamped on the drivers' clock (corrupted by the driver or the network, not another
+    publisher): the station stays healthy, reads exactly the drivers' values, and counts each
+    rejection by its reason."""
     rig = Rig()
     rig.run(0.05)
-    good = haptic_state(1, Q_MASTER)
     ft = heft_ft_sample()
     ft.utime, ft.sample_counter, ft.wrench, ft.acceleration = 1, 1, list(RAW), list(ACCEL)
     lower, upper = LIMITS.master_lower, LIMITS.master_upper
-    hostile = {
-        CHANNELS.master_state.name: [
-            b"\x07" * 40, good[:-5], haptic_state(1, Q_MASTER[:3], num_joints=3),
-            haptic_state(1, [np.nan] + [0.0] * 5), haptic_state(1, upper + 1.0),
-            haptic_state(1, (lower + upper) / 2, velocity=[1e3] * 6)],
-        CHANNELS.slave_status.name: [bytes(range(200)), b""],
-        CHANNELS.ft_sample.name: [ft.encode()[:50], b"\xff" * 8],
-    }
     for _ in range(20):
         rig.now += PERIOD
         rig.publish()
+        stamp = round(1e6 * (rig.now - rig.driver_start)) + 2  # just after the driver's own
+        hostile = {
+            CHANNELS.master_state.name: [
+                b"\x07" * 40, haptic_state(stamp, Q_MASTER)[:-5], haptic_state(stamp, Q_MASTER[:3], num_joints=3),
+                haptic_state(stamp, [np.nan] + [0.0] * 5), haptic_state(stamp, upper + 1.0),
+                haptic_state(stamp, (lower + upper) / 2, velocity=[1e3] * 6)],
+            CHANNELS.slave_status.name: [bytes(range(200)), b""],
+            CHANNELS.ft_sample.name: [ft.encode()[:50], b"\xff" * 8],
+        }
         for channel, payloads in hostile.items():
             for payload in payloads:
                 rig.bus.publish(channel, payload)
@@ -344,3 +353,48 @@ def test_one_sample_stamped_in_the_future_changes_nothing():
     np.testing.assert_array_equal(rig.station.wrench, -RAW)
     rig.run(0.05)
     assert all(rig.enables[before:]) and rig.station.rejections["ft_sample"] == {"stamped_ahead": 1}
+
+
+def test_a_publisher_just_ahead_of_the_drivers_clock_is_never_read():
+    """Another publisher stamps 0.2 s ahead of the master driver (within the clock tolerance)
+    with the stylus 0.3 rad elsewhere: the joints could not have moved so far in the time the
+    station saw pass, so none of its states is read, and the channel is in conflict."""
+    rig = Rig()
+    rig.run(0.3)
+    for _ in range(20):
+        rig.now += PERIOD
+        rig.publish()
+        stamp = round(1e6 * (rig.now - rig.driver_start + 0.2))
+        rig.bus.publish(CHANNELS.master_state.name, haptic_state(stamp, Q_MASTER + 0.3))
+        rig.tick()
+        np.testing.assert_array_equal(rig.station.master_position, Q_MASTER)
+    assert rig.station.rejections["master_state"] == {"discontinuous": 20}
+    assert rig.station.conflicts == 0b001 and not rig.station.healthy
+
+
+def test_a_source_that_takes_over_a_silent_channel_is_on_probation():
+    """The arm driver falls silent; another process's slave state, on its own clock and 0.4 rad
+    elsewhere, becomes the channel's new source, but on probation: the station stays unhealthy,
+    and when the driver speaks again the channel is in conflict. The slave command never heads
+    for the other process's position."""
+    rig = Rig()
+    rig.run(0.3)
+    rig.run(SILENCE_PER_TIMEOUT * TIMEOUT + PERIOD, publish=("master", "ft"))
+    before = len(rig.positions)
+    for k in range(600):  # 0.3 s; the driver back after 20 ms
+        rig.now += PERIOD
+        rig.publish() if k >= 40 else rig.publish(("master", "ft"))
+        status = lcmt_iiwa_status()
+        status.utime, status.num_joints = round(1e6 * (rig.now + 30.0)), 6
+        status.joint_position_measured = list(Q_SLAVE + 0.4)
+        for field in ("joint_velocity_estimated", "joint_position_commanded", "joint_position_ipo",
+                      "joint_torque_measured", "joint_torque_commanded", "joint_torque_external"):
+            setattr(status, field, [0.0] * 6)
+        rig.bus.publish(CHANNELS.slave_status.name, status.encode())
+        rig.tick()
+        assert not rig.station.healthy
+    assert rig.station.clocks["slave_status"].restarts == 1 and rig.station.conflicts == 0b010
+    commands = np.array(rig.positions[before - 1:])
+    steps = np.diff(commands, axis=0)
+    assert np.all(np.abs(steps) <= MAX_STEP + 1e-12) and np.all(steps * (Q_SLAVE - commands[:-1]) >= 0)
+    np.testing.assert_allclose(commands[-1], Q_SLAVE)  # held where the driver last reported the arm

@@ -22,8 +22,8 @@ import numpy as np
 from heft.diagrams.device_limits import device_limits
 from heft.diagrams.identify import Recording
 from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
-from heft.diagrams.running.realtime import (HardwareRunFailed, claim_realtime, format_timing, run_realtime,
-                                            timing_summary)
+from heft.diagrams.running.realtime import (HardwareRunFailed, StopOnSignal, claim_realtime, format_timing,
+                                            run_realtime, timing_summary)
 from heft.diagrams.scenario import Scenario
 from heft.systems.slave_kinematics import NUM_JOINTS
 from heft.hardware_interface.channels import LcmChannels
@@ -58,12 +58,15 @@ class HardwareIdentification:
         self.station = HardwareStation(bus, channels, limits, params, command_bus)
         self.commander = ExcitationCommander(trajectory, duration, limits.slave_velocity)
         self._zero = np.zeros(NUM_JOINTS)
+        self.now = 0.0
+        """The last tick's time (s)."""
         # Per excitation tick: time into the excitation (s), wrench (6), acceleration (6), q_S (6).
         self._rows = np.empty((int(duration / period) + 2, 19))
         self._count = 0
         self.abort_reason = None
 
     def tick(self, now: float, dt: float) -> bool:
+        self.now = now
         station, commander = self.station, self.commander
         station.receive(now)
         commander.step(now, station.healthy, station.slave_position)
@@ -112,7 +115,13 @@ def record_on_hardware(scenario: Scenario, trajectory, duration: float, channels
         bus, command_bus = open_buses(channels)
         run = HardwareIdentification(trajectory, duration, period, bus, channels, device_limits(scenario), params,
                                      command_bus)
-        times = run_realtime(run.tick, period, budget)
+        with StopOnSignal() as stop:
+            try:
+                times = run_realtime(lambda now, dt: run.tick(now, dt) or stop.requested, period, budget)
+            finally:
+                run.station.stop(run.now)
+        if stop.requested:
+            raise HardwareRunFailed("stopped by a signal before the excitation completed; forces off, the arm held")
     return run.recording(period), timing_summary(times)
 
 

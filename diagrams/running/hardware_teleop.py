@@ -65,6 +65,8 @@ class HardwareTeleop:
         self.load_commands = LoadCommandServer(bus, channels, self.controller, limits.wrench_full_scale, command_bus)
         self._channel_names = [getattr(channels, name).name for name in WATCHED_CHANNELS]
         self._zero = np.zeros(NUM_JOINTS)
+        self.now = 0.0
+        """The last tick's time (s)."""
         self._was_healthy = False
         self._last_position = None
         self.ticks = self.healthy_ticks = 0
@@ -79,6 +81,7 @@ class HardwareTeleop:
         self._conflicts = 0
 
     def tick(self, now: float, dt: float) -> None:
+        self.now = now
         station, controller = self.station, self.controller
         station.receive(now)
         healthy = station.healthy
@@ -169,6 +172,7 @@ class HardwareTeleop:
             "max_slave_command_step": self.max_slave_step,
             "slave_reanchors": {"count": self.reanchors, "max_step": self.max_reanchor_step},
             "rejected": station.rejections,
+            "unread": station.unread,
             "driver_restarts": {name: clock.restarts for name, clock in station.clocks.items()},
             "second_publishers": self.conflicts,
             "sent_hz": {"master_command": self.master_commands / elapsed,
@@ -197,11 +201,13 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, channels: LcmCha
         bus, command_bus = open_buses(channels)
         teleop = HardwareTeleop(scenario, load, bus, channels, params, command_bus, period=1.0 / rate)
         teleop.station.epoch = time.time()
-        print("teleop: running (Ctrl-C stops with forces off and the slave held)", flush=True)
         with StopOnSignal() as stop:
-            times = run_realtime(lambda now, dt: teleop.tick(now, dt) or stop.requested, 1.0 / rate, duration)
-        summary = teleop.summary(times.elapsed)
-        teleop.station.stop(times.elapsed)
+            print("teleop: running (Ctrl-C stops with forces off and the slave held)", flush=True)
+            try:
+                times = run_realtime(lambda now, dt: teleop.tick(now, dt) or stop.requested, 1.0 / rate, duration)
+                summary = teleop.summary(times.elapsed)
+            finally:
+                teleop.station.stop(teleop.now)
     return {"duration": times.elapsed, "rate_hz": rate, "epoch": teleop.station.epoch,
             "stopped_by_signal": stop.requested, **summary, "scheduling": scheduling,
             "lcm_log": None if record is None else str(record), "timing": timing_summary(times)}
@@ -224,8 +230,9 @@ def format_summary(summary: dict, lcm_url: str) -> str:
         f"{summary['healthy_ticks']} (first at {summary['first_healthy']}); faults: {fault_lines or 'none'}; "
         f"final: healthy {summary['final_healthy']}, fault bits {summary['final_fault_bits']}",
         f"messages per second: received {received}; sent {sent}",
-        f"messages rejected (none reached the controller): {rejected or 'none'}; driver restarts: "
-        + ", ".join(f"{name} {count}" for name, count in summary["driver_restarts"].items()),
+        f"messages rejected (none reached the controller): {rejected or 'none'}; pushed out unread by newer "
+        "ones: " + ", ".join(f"{name} {count}" for name, count in summary["unread"].items())
+        + "; driver restarts: " + ", ".join(f"{name} {count}" for name, count in summary["driver_restarts"].items()),
         f"master command finite: {summary['master_torque_finite']}; peaks: {summary['master_torque_peak']:.3g} N·m "
         f"joint torque, {summary['stylus_force_peak']:.3g} N / {summary['stylus_torque_peak']:.3g} N·m on the "
         f"stylus; largest slave command step {summary['max_slave_command_step']:.3g} rad (besides "
