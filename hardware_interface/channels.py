@@ -41,7 +41,7 @@ class LcmChannels:
 
     Two LCM URLs, one per direction, so that no process receives what it publishes itself:
     ``lcm_url`` carries what the lab's drivers and ``heft load`` send to the controller,
-    ``command_url`` what the controller sends back (``command_lcm_url``).
+    ``command_url`` what the controller sends back (``command_lcm_url``): commands, answers, status.
     """
 
     lcm_url: str = DEFAULT_LCM_URL
@@ -70,6 +70,9 @@ class LcmChannels:
     load_status: LcmChannel = dataclasses.field(
         default_factory=lambda: LcmChannel("HEFT_LOAD_STATUS", 0.0))
     """heft_load_status from the controller, answering each command and each re-zero's end."""
+    station_status: LcmChannel = dataclasses.field(
+        default_factory=lambda: LcmChannel("HEFT_STATION_STATUS", 10.0))
+    """heft_station_status from the controller: health and the messages it rejected, and at a run's end."""
 
     def command_lcm_url(self) -> str:
         """The URL of the controller's commands: ``command_url``, or derived from ``lcm_url``."""

@@ -36,8 +36,8 @@ from .channels import LcmChannels
 from .ft_receiver import FtSampleReader
 from .joint_state_reader import JointStateReader, haptic_state_fields, iiwa_status_fields
 from .lcm_mailbox import LcmMailbox, pump
-from .lcmtypes import heft_haptic_command, heft_haptic_state
-from .message_checks import DeviceLimits, JointRange
+from .lcmtypes import heft_haptic_command, heft_haptic_state, heft_station_status
+from .message_checks import REASONS, DeviceLimits, JointRange
 from .message_order import SILENCE_PER_TIMEOUT
 from .watchdog import WatchdogParams, watchdog_step
 
@@ -118,6 +118,10 @@ class HardwareStation:
         self._master_msg.num_joints = NUM_JOINTS
         self._slave_msg = lcmt_iiwa_command()
         self._slave_msg.num_joints = NUM_JOINTS
+        status = self._status_msg = heft_station_status()
+        status.num_channels, status.num_reasons = len(WATCHED_CHANNELS), len(REASONS)
+        status.channels, status.reasons = list(WATCHED_CHANNELS), list(REASONS)
+        self._next_status = 0.0
         self.torque_sent = np.zeros(NUM_JOINTS)
         """The master torque last published (N·m), zero while forces are off."""
         self.position_sent = None
@@ -172,6 +176,23 @@ class HardwareStation:
         self.healthy, self.gain, self.fault = watchdog_step(
             ages, self.gain, watchdog.timeout, spacing / watchdog.ramp_time, stalled=spacing > watchdog.timeout,
             conflicts=doubts)
+
+    def publish_status(self, now: float, force: bool = False) -> None:
+        """Publishes ``heft_station_status`` (health, per channel the messages received, unread,
+        rejected per reason, restarts, second publishers) at ``now`` (s) if its channel's period
+        has passed since the last, or if ``force``."""
+        if not (force or now >= self._next_status):
+            return
+        self._next_status = now + 1.0 / self._channels.station_status.rate
+        msg = self._status_msg
+        msg.utime = round((self.epoch + now) * 1e6)
+        msg.healthy, msg.fault, msg.gain = self.healthy, self.fault, self.gain
+        msg.received = [mailbox.count for mailbox in self._mail]
+        msg.unread = [mailbox.pushed_out for mailbox in self._mail]
+        msg.rejected = [[reader.rejections.counts[reason] for reason in REASONS] for reader in self._readers]
+        msg.restarts = [reader.clock.restarts for reader in self._readers]
+        msg.second_publisher = [bool(self.conflicts & (1 << i)) for i in range(len(WATCHED_CHANNELS))]
+        self._command_bus.publish(self._channels.station_status.name, msg.encode())
 
     def stop(self, now: float) -> None:
         """The run's last commands at ``now`` (s): forces off, and the slave command one

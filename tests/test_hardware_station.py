@@ -22,7 +22,8 @@ from heft.hardware_interface.hardware_station import (
     rate_limit,
 )
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
-from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_command, heft_haptic_state
+from heft.hardware_interface.lcmtypes import (heft_ft_sample, heft_haptic_command, heft_haptic_state,
+                                              heft_station_status)
 from heft.hardware_interface.message_order import CONFLICT_CLEAR, CONFLICT_COUNT, PROBATION, SILENCE_PER_TIMEOUT
 from heft.hardware_interface.watchdog import WatchdogParams, watchdog_step
 
@@ -285,6 +286,15 @@ def test_malformed_messages_are_counted_and_never_reach_the_controller():
         "ft_sample": {"undecodable": 40},
     }
     assert rig.enables[-1] and rig.station.conflicts == 0
+    # The same counts go out on the status channel, for a recording to keep.
+    statuses = LcmMailbox(rig.bus, CHANNELS.station_status.name)
+    rig.station.publish_status(rig.now, force=True)
+    pump(rig.bus)
+    status = heft_station_status.decode(statuses.take()[-1])
+    assert status.healthy and list(status.channels) == ["master_state", "slave_status", "ft_sample"]
+    assert {channel: {reason: count for reason, count in zip(status.reasons, row) if count}
+            for channel, row in zip(status.channels, status.rejected)} == rig.station.rejections
+    assert list(status.received) == [rig.station.received[name] for name in status.channels]
 
 
 def test_a_second_publisher_is_a_fault_until_it_stops():

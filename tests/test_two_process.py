@@ -230,12 +230,13 @@ WHOLE_WEIGHT = yaml.safe_dump(layered_dict(yaml.safe_load(STAND_IN_SENSOR),
 
 def _controller_traffic(log):
     """From an LCM log: the master commands the controller sent, as (wall-clock µs of their tick,
-    torques, enable), its slave commands' positions and every load status it answered."""
+    torques, enable), its slave commands' positions, every load status it answered and every
+    station status it published."""
     from drake import lcmt_iiwa_command
-    from heft.hardware_interface.lcmtypes import heft_haptic_command, heft_load_status
+    from heft.hardware_interface.lcmtypes import heft_haptic_command, heft_load_status, heft_station_status
 
     channels = LcmChannels()
-    commands, slave_commands, statuses = [], [], []
+    commands, slave_commands, statuses, station = [], [], [], []
     for event in lcm.EventLog(str(log), "r"):
         if event.channel == channels.master_command.name:
             msg = heft_haptic_command.decode(event.data)
@@ -244,7 +245,9 @@ def _controller_traffic(log):
             slave_commands.append(np.array(lcmt_iiwa_command.decode(event.data).joint_position))
         elif event.channel == channels.load_status.name:
             statuses.append(heft_load_status.decode(event.data))
-    return commands, slave_commands, statuses
+        elif event.channel == channels.station_status.name:
+            station.append(heft_station_status.decode(event.data))
+    return commands, slave_commands, statuses, station
 
 
 def test_hostile_traffic_never_reaches_the_motors(netns, tmp_path):
@@ -284,7 +287,13 @@ def test_hostile_traffic_never_reaches_the_motors(netns, tmp_path):
     refused = [event for event in summary["load_events"] if event.startswith("new estimate refused")]
     assert refused and not any(event.startswith("new estimate in use") for event in summary["load_events"])
 
-    commands, slave_commands, statuses = _controller_traffic(log)
+    commands, slave_commands, statuses, station = _controller_traffic(log)
+    # The recording keeps what was rejected: the controller's last status, as its summary says,
+    # and second publishers flagged while the traffic lasted.
+    last = station[-1]
+    assert {channel: {reason: count for reason, count in zip(last.reasons, row) if count}
+            for channel, row in zip(last.channels, last.rejected)} == rejected
+    assert any(any(status.second_publisher) for status in station if status.utime < stopped * 1e6)
     assert commands and all(np.isfinite(torque).all() for _, torque, _ in commands)
     limits = device_limits(resolve_scenario("fig6"))
     assert all(np.isfinite(q).all() and np.all(limits.slave_lower <= q) and np.all(q <= limits.slave_upper)

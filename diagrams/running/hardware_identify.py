@@ -71,6 +71,7 @@ class HardwareIdentification:
         station.receive(now)
         commander.step(now, station.healthy, station.slave_position)
         station.send(now, self._zero, commander.command)
+        station.publish_status(now)
         phase = commander.phase
         if phase == Phase.EXCITING:
             row = self._rows[self._count]  # one row per grid point at most: the buffer holds them all
@@ -120,6 +121,7 @@ def record_on_hardware(scenario: Scenario, trajectory, duration: float, channels
                 times = run_realtime(lambda now, dt: run.tick(now, dt) or stop.requested, period, budget)
             finally:
                 run.station.stop(run.now)
+                run.station.publish_status(run.now, force=True)
         if stop.requested:
             raise HardwareRunFailed("stopped by a signal before the excitation completed; forces off, the arm held")
     return run.recording(period), timing_summary(times)

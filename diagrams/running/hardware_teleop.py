@@ -94,6 +94,7 @@ class HardwareTeleop:
         else:
             station.send(now, self._zero, None)
         self.load_commands.serve(round((station.epoch + now) * 1e6), healthy)
+        station.publish_status(now)
         self._observe(now, healthy)
         self._was_healthy = healthy
 
@@ -208,6 +209,7 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, channels: LcmCha
                 summary = teleop.summary(times.elapsed)
             finally:
                 teleop.station.stop(teleop.now)
+                teleop.station.publish_status(teleop.now, force=True)
     return {"duration": times.elapsed, "rate_hz": rate, "epoch": teleop.station.epoch,
             "stopped_by_signal": stop.requested, **summary, "scheduling": scheduling,
             "lcm_log": None if record is None else str(record), "timing": timing_summary(times)}

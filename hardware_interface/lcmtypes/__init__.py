@@ -9,3 +9,4 @@ from .heft_haptic_command import heft_haptic_command as heft_haptic_command
 from .heft_haptic_state import heft_haptic_state as heft_haptic_state
 from .heft_load_command import heft_load_command as heft_load_command
 from .heft_load_status import heft_load_status as heft_load_status
+from .heft_station_status import heft_station_status as heft_station_status
