@@ -260,8 +260,8 @@ def test_hostile_traffic_never_reaches_the_motors(netns, tmp_path):
     weight fed back (force scale 1: the Phantom's 8.5 N clamp is active throughout). The
     controller runs to its end; every command it sent is finite; the stylus force that its
     torques render at the driver's own joint positions (measured by the Phantom driver at each
-    command's arrival, at the positions it published within the controller's watchdog timeout:
-    ``StandIn.stylus_force_peak``) stays within 8.5 N; no
+    command's arrival, at the positions it published within the time a state may take to
+    reach the controller and be read: ``StandIn.stylus_force_peak``) stays within 8.5 N; no
     non-physical estimate is ever in use; it is healthy and enabled again within 1 s after the
     traffic stops; its summary counts what it rejected per channel."""
     from heft.systems.load_dynamics import checked_load

@@ -96,9 +96,11 @@ from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many 
 """Joints of the master and of the slave."""
 HAPTIC_WATCHDOG_S = 0.02
 """The Phantom driver zeroes its torque this long (s) after the last valid command."""
-RENDERED_WITHIN_S = 0.02
-"""The controller computes its torques at a master position it read at most its watchdog's
-timeout (20 ms) ago; the Phantom driver judges the force they render at those it published."""
+RENDERED_WITHIN_S = 0.1
+"""How long before a command (s) the position it was computed at may have been published: the
+controller reads a state at most its watchdog's timeout (20 ms) after it arrived, and on a busy
+machine the arrival itself lagged the publish by up to 50 ms. The Phantom driver judges the force
+a command renders at the positions it published within this window."""
 _MASK64 = (1 << 64) - 1
 _MASTER, _SLAVE, _FT = range(3)
 """Channel indices; channel i loses messages on random stream i and reorders them on 4 + i."""
@@ -443,13 +445,18 @@ class StandIn:
 
     def _observe_stylus_force(self, torque) -> None:
         """Raises ``stylus_force_peak`` to the force ``torque`` renders at the master's present
-        position, or, if the stylus has moved on since the controller read it, at the closest of
-        the positions this driver published within ``RENDERED_WITHIN_S``."""
-        master = self._master
+        position or, if the stylus has moved on since the controller read it, at the least of the
+        positions this driver published within ``RENDERED_WITHIN_S`` (newest first, stopping at
+        one that raises nothing)."""
+        master, peak = self._master, self.stylus_force_peak
         force = master.stylus_force(torque, master.position) if torque.any() else 0.0
-        if force > self.stylus_force_peak:
-            force = min([force] + [master.stylus_force(torque, q) for q in self._published_master])
-            self.stylus_force_peak = max(self.stylus_force_peak, force)
+        if force <= peak:
+            return
+        for position in reversed(self._published_master):
+            force = min(force, master.stylus_force(torque, position))
+            if force <= peak:
+                return
+        self.stylus_force_peak = force
 
     def _applied_torque(self, t: float) -> np.ndarray:
         """The torque (N·m) the haptic driver applies at ``t`` (s)."""
