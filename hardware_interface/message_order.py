@@ -28,9 +28,11 @@ from __future__ import annotations
 
 import math
 
-CLOCK_TOLERANCE = 0.25
+CLOCK_TOLERANCE = 1.0
 """How far (s) a message's clock offset may stray from its source's: more than the stalls of a
-loaded machine on either side (tens of ms), far less than the clocks of two processes differ."""
+loaded machine on either side (a driver starved of CPU for a few tenths of a second, then
+publishing its backlog, stamps that far ahead of where it left off); less than the clocks of two
+processes started by hand differ. Publishers closer than that show as late or discontinuous."""
 LATE_TOLERANCE = 0.005
 """How far (s) behind the source's newest stamp a UDP packet may arrive late; one further behind
 is another clock's (a publisher leading the driver's clock by less than ``CLOCK_TOLERANCE``
