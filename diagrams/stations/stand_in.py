@@ -97,10 +97,11 @@ from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many 
 HAPTIC_WATCHDOG_S = 0.02
 """The Phantom driver zeroes its torque this long (s) after the last valid command."""
 RENDERED_WITHIN_S = 0.1
-"""How long before a command (s) the position it was computed at may have been published: the
-controller reads a state at most its watchdog's timeout (20 ms) after it arrived, and on a busy
-machine the arrival itself lagged the publish by up to 50 ms. The Phantom driver judges the force
-a command renders at the positions it published within this window."""
+"""How long before a command arrives (s, the stand-in's clock) the position it was computed at may
+have been published: the controller reads a state at most its watchdog's timeout (20 ms) after it
+arrived, and on a busy machine the arrival itself lagged the publish by up to 50 ms. The Phantom
+driver judges the force a command renders at the positions it published within this window (a
+stand-in running late publishes its backlog at once: then all of it)."""
 _MASK64 = (1 << 64) - 1
 _MASTER, _SLAVE, _FT = range(3)
 """Channel indices; channel i loses messages on random stream i and reorders them on 4 + i."""
@@ -345,8 +346,8 @@ class StandIn:
         self._slave = np.zeros((2, NUM_JOINTS))
         self._slave[0] = scenario.slave_initial_q
         self.stylus_force_peak = 0.0
-        self._published_master = collections.deque(
-            maxlen=round(RENDERED_WITHIN_S * channels.master_state.rate))  # positions (rad), newest last
+        self._published_master = collections.deque()  # (time published (s), position (rad)), newest last
+        self._now = 0.0  # the lab's time at the step under way (s)
         self.slave_command = np.array(scenario.slave_initial_q, dtype=float)
         self._setpoint = self.slave_command.copy()  # the command approached at the speed limits
         arm, _ = MakeArmPlant(scenario.robot)
@@ -404,6 +405,7 @@ class StandIn:
         time is ≤ ``now``, oldest first (catching up when called late). Returns False once
         the lab has died (``faults.die_at_s``)."""
         die_at = self._faults.die_at_s
+        self._now = now
         self._take_commands(now)
         due, handlers = self._due, (self._master_tick, self._slave_tick, self._ft_tick)
         end = now + _DUE_SLACK
@@ -448,11 +450,11 @@ class StandIn:
         position or, if the stylus has moved on since the controller read it, at the least of the
         positions this driver published within ``RENDERED_WITHIN_S`` (newest first, stopping at
         one that raises nothing)."""
-        master, peak = self._master, self.stylus_force_peak
+        master, peak, published = self._master, self.stylus_force_peak, self._published_master
         force = master.stylus_force(torque, master.position) if torque.any() else 0.0
         if force <= peak:
             return
-        for position in reversed(self._published_master):
+        for _, position in reversed(published):
             force = min(force, master.stylus_force(torque, position))
             if force <= peak:
                 return
@@ -487,7 +489,10 @@ class StandIn:
         msg = self._messages[_MASTER]
         msg.utime = round(t * 1e6)
         msg.position = quantize(master.position, self._master_step).tolist()
-        self._published_master.append(msg.position)
+        published = self._published_master
+        published.append((self._now, msg.position))
+        while published[0][0] < self._now - RENDERED_WITHIN_S:
+            published.popleft()
         msg.velocity = master.velocity.tolist()
         msg.torque_applied = self._applied_torque(t).tolist()
         msg.buttons = CLUTCH_BUTTON if self._clutch[0] <= t < self._clutch[1] else 0
