@@ -4,7 +4,8 @@ there; the noise floor against a Monte Carlo of the sensors' noise through the r
 import numpy as np
 import pytest
 
-from heft.analysis.fit_verdict import (MOUNT_SHARE, NEAR_FULL_SCALE, RESIDUAL_RATIO_LIMIT, OFF_COMMAND_LIMIT, FitEvidence,
+from heft.analysis.fit_verdict import (MOUNT_SHARE, NEAR_FULL_SCALE, RESIDUAL_RATIO_LIMIT, OFF_COMMAND_LIMIT,
+                                       FitEvidence,
                                        fit_verdict, noise_floor)
 from heft.systems.accelerometer_reading import AccelerometerConvention, motion_from_reading, reading_from_motion
 from heft.systems.load_dynamics import regressor
@@ -112,7 +113,8 @@ def test_readings_at_full_scale_are_saturation():
     assert verdict["peak_share_of_full_scale"]["wrench"][4] == 1.0
     accelerometer = np.zeros((SAMPLES, 6))
     accelerometer[::100, 0] = 99.0  # spikes at 99 of 100 m/s²
-    verdict = fit_verdict(evidence(white(), acceleration=accelerometer, acceleration_full_scale=[100.0] * 3 + [1e3] * 3))
+    verdict = fit_verdict(evidence(white(), acceleration=accelerometer,
+                                   acceleration_full_scale=[100.0] * 3 + [1e3] * 3))
     assert verdict["causes"] == ["saturation"] and verdict["saturated_axes"] == ["ax"]
     assert verdict["saturated_samples"] == SAMPLES // 100
 
