@@ -1,7 +1,8 @@
 """LCM channel names and nominal rates of the lab hardware (DESIGN §5, §6).
 
-Message types: the master uses ``heft_haptic_state`` / ``heft_haptic_command``
-and the wrist sensor ``heft_ft_sample`` (``heft.hardware_interface.lcmtypes``).
+Message types: the master uses ``heft_haptic_state`` / ``heft_haptic_command``,
+the wrist sensor ``heft_ft_sample`` and the gripper ``heft_gripper_state``
+(``heft.hardware_interface.lcmtypes``).
 The slave arm reuses Drake's ``lcmt_iiwa_status`` / ``lcmt_iiwa_command``:
 their arrays are sized by ``num_joints`` (6 for the RX90/RX60), they carry
 measured and commanded position, estimated velocity and torques, and Drake's
@@ -64,6 +65,9 @@ class LcmChannels:
     ft_sample: LcmChannel = dataclasses.field(
         default_factory=lambda: LcmChannel("HEFT_FT_SAMPLE", 8000.0))
     """heft_ft_sample from the JR3 driver (the paper samples up to 8 kHz)."""
+    gripper_state: LcmChannel = dataclasses.field(
+        default_factory=lambda: LcmChannel("HEFT_GRIPPER_STATE", 100.0))
+    """heft_gripper_state from the gripper driver on the slave's flange."""
     load_command: LcmChannel = dataclasses.field(
         default_factory=lambda: LcmChannel("HEFT_LOAD_COMMAND", 0.0))
     """heft_load_command from the operator (``heft load``); sent on request (rate 0)."""
