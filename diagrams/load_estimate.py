@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from heft.systems.accelerometer_calibration import AccelerometerCalibration
 from heft.systems.load_dynamics import InertialParameters, checked_load, inertia_entries
 
 
@@ -57,3 +58,16 @@ def read_load_estimate(path, wrench_full_scale=None) -> LoadEstimate:
     except ValueError as error:
         raise ValueError(f"{path}: {error}") from None
     return LoadEstimate(phi=phi, offsets=offsets)
+
+
+def read_accelerometer_calibration(path) -> AccelerometerCalibration | None:
+    """The accelerometer's calibration an estimate.yaml carries (its optional ``accelerometer`` section:
+    R_SA, bias, scale, unit; ``accelerometer_calibration``), or None if it has none."""
+    path = Path(path)
+    try:
+        section = (yaml.safe_load(path.read_text()) or {}).get("accelerometer")
+        return None if section is None else AccelerometerCalibration(
+            np.asarray(section["R_SA"], dtype=float), np.asarray(section["bias"], dtype=float),
+            float(section.get("scale", 1.0)), section.get("unit", "m/s^2"))
+    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError, AttributeError) as error:
+        raise ValueError(f"{path}: cannot read the accelerometer's calibration: {error}") from None
