@@ -92,3 +92,27 @@ orientation:
     return t_w, truth
 
 
+
+
+def write_example(folder) -> None:
+    """docs/example_recording: the recording of ``write_recording`` with sensor offsets, a contact and the
+    JR3's noise, its clock offset left to estimate, and an estimate.yaml holding the paper's tool as the
+    bundled scenarios model it (what `heft identify` would find) and those offsets."""
+    import yaml
+    from drake_motion import PAPER_TOOL
+
+    offsets = [1.5, -2.0, 3.0, 0.1, -0.05, 0.02]
+    write_recording(folder, sensor_offsets=offsets, contact=True, noise=0.1, name="recording.yaml")
+    (folder / "estimate.yaml").write_text(
+        "# The paper's tool (diagrams/models/tool.urdf) and the sensor's offsets on the load's sign:\n"
+        "# what `heft identify` writes (phi: Eq. 6, kg, kg·m, kg·m² about S; offsets: N, N·m).\n"
+        + yaml.safe_dump({"phi": [round(x, 9) for x in PAPER_TOOL.to_phi().tolist()], "offsets": offsets}))
+
+
+if __name__ == "__main__":  # python tests/recording_layouts.py docs/example_recording
+    import sys
+    from pathlib import Path
+
+    target = Path(sys.argv[1])
+    target.mkdir(parents=True, exist_ok=True)
+    write_example(target)
