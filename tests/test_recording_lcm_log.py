@@ -47,7 +47,7 @@ def _sensor_truth(plant, S, context, q, v, vdot, load_plant):
     return wrench, load_plant.motion_in_S(free_q, free_v, free_vdot)
 
 
-def write_log(path, duration=2.0, ft_rate=1000.0, joint_rate=250.0):
+def write_log(path, duration=1.2, ft_rate=1000.0, joint_rate=250.0):
     plant, S = MakeArmPlant("rx90")
     context = plant.CreateDefaultContext()
     load_plant = LoadOnSensorPlant(PAPER_TOOL)
@@ -94,7 +94,7 @@ orientation: {{robot: rx90, time: {{offset: 4.0}}}}
                  "--out", str(tmp_path / "out")])
     assert code == 0
     metrics = json.loads((tmp_path / "out" / "metrics.json").read_text())
-    assert "2000 FT samples, 500 joint states" in metrics["choices"]["lcm_log"]
+    assert "1200 FT samples, 300 joint states" in metrics["choices"]["lcm_log"]
     assert "'stamped at or before the last': 2" in metrics["choices"]["lcm_log"]
     assert "'error flag': 1" in metrics["choices"]["lcm_log"]
     assert metrics["intervals"] == []
