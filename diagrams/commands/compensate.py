@@ -28,6 +28,18 @@ def add_arguments(parser) -> None:
                         help="largest clock offset (s) searched either way (default 0.05)")
 
 
+def _return_freed_arrays_to_the_system() -> None:
+    """glibc raises its mmap threshold each time a large block is freed, after which the chunks' arrays
+    come from the heap and fragment it: fixed at 256 kB, a freed chunk goes back to the system (peak
+    memory of a 5 min, 8 kHz recording 291 → 262 MB). Elsewhere than glibc, nothing is done."""
+    import ctypes
+
+    try:
+        ctypes.CDLL("libc.so.6").mallopt(-3, 256 * 1024)  # M_MMAP_THRESHOLD
+    except (OSError, AttributeError):
+        pass
+
+
 def run(args) -> int:
     from heft.analysis.clock_offsets import estimate_clock_offsets
     from heft.analysis.compensation import compensate, compensation_figure
@@ -35,6 +47,7 @@ def run(args) -> int:
     from heft.diagrams.load_estimate import read_load_estimate
     from heft.diagrams.recordings import open_recording
 
+    _return_freed_arrays_to_the_system()
     estimate = read_load_estimate(args.estimate)
     source = open_recording(args.recording, args.estimate)
     recording = source.recording
