@@ -72,8 +72,10 @@ class ColumnFile:
     def _batches(self):
         """pyarrow record batches of the needed columns, as float64."""
         names = self.columns + ([self.clock.column] if self.clock.column else [])
-        if self.parquet:
-            yield from pq.ParquetFile(self.path).iter_batches(batch_size=PARQUET_BATCH_ROWS, columns=names)
+        if self.parquet:  # without pre-buffering and threads: else pyarrow reads the whole file ahead
+            batches = pq.ParquetFile(self.path, pre_buffer=False).iter_batches(
+                batch_size=PARQUET_BATCH_ROWS, columns=names, use_threads=False)
+            yield from batches
             return
         types = {name: pa.float64() for name in names}
         # A Python file object: given a path, pyarrow reads the whole file ahead of the batches asked for.
