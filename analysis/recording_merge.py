@@ -124,7 +124,8 @@ class _Window:
             self.values = values if self.values is None else np.concatenate((self.values, values))
         keep = max(int(np.searchsorted(self.t, lo - self.margin)) - 1, 0)
         self.t, self.values = self.t[keep:], self.values[keep:]
-        return self.t, self.values
+        end = int(np.searchsorted(self.t, hi + self.margin)) + 1  # only these: a chunk of the file holds far more
+        return self.t[:end], self.values[:end]
 
 
 class RecordingSource:

@@ -8,6 +8,8 @@ acceleration in the world, expressed in S (rad/s, rad/s²), as ``load_dynamics``
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -97,26 +99,29 @@ def savitzky_golay(x: np.ndarray, period: float, window: float, order: int, deri
     n = len(x)
     if samples > n:
         raise ValueError(f"{n} samples are too few for a {samples}-sample Savitzky–Golay window")
+    centre, first, last = _savitzky_golay_weights(samples, order, deriv, float(period))
     half = samples // 2
-    offsets = np.arange(-half, half + 1) * period
-    fit = np.linalg.pinv(offsets[:, None] ** np.arange(order + 1))  # polynomial coefficients from a window
-    weights = _derivative_row(fit, deriv, 0.0)
     out = np.empty_like(x, dtype=float)
-    windows = np.lib.stride_tricks.sliding_window_view(x, samples, axis=0)  # (N − 2·half, k, samples)
-    out[half:n - half] = windows @ weights
-    edge = np.arange(-half, 0) * period
-    ends = (x[:samples], x[n - samples:])
-    for rows, data, at in ((slice(0, half), ends[0], edge), (slice(n - half, n), ends[1], -edge[::-1])):
-        out[rows] = np.stack([_derivative_row(fit, deriv, u) for u in at]) @ data
+    out[half:n - half] = np.lib.stride_tricks.sliding_window_view(x, samples, axis=0) @ centre
+    out[:half] = first @ x[:samples]
+    out[n - half:] = last @ x[n - samples:]
     return out
 
 
-def _derivative_row(fit: np.ndarray, deriv: int, u: float) -> np.ndarray:
-    """Weights over a window's samples giving the ``deriv``-th derivative, at ``u`` s from its centre,
-    of the polynomial ``fit`` (its pseudo-inverse design matrix) fits to them."""
-    powers = np.arange(fit.shape[0])
+@functools.lru_cache(maxsize=32)
+def _savitzky_golay_weights(samples: int, order: int, deriv: int, period: float):
+    """Weights over a window's samples for the ``deriv``-th derivative of its least-squares polynomial:
+    at the centre (samples,), at the first half window's samples (half, samples) and at the last's."""
+    half = samples // 2
+    offsets = np.arange(-half, half + 1) * period
+    fit = np.linalg.pinv(offsets[:, None] ** np.arange(order + 1))  # polynomial coefficients from a window
+    powers = np.arange(order + 1)
     factors = np.array([np.prod(np.arange(p - deriv + 1, p + 1)) if p >= deriv else 0.0 for p in powers])
-    return (factors * np.where(powers >= deriv, u ** np.maximum(powers - deriv, 0), 0.0)) @ fit
+
+    def rows(at):
+        u = np.asarray(at, dtype=float)[:, None]
+        return (factors * np.where(powers >= deriv, u ** np.maximum(powers - deriv, 0), 0.0)) @ fit
+    return rows([0.0])[0], rows(offsets[:half]), rows(offsets[half + 1:])
 
 
 def window_samples(period: float, window: float, order: int) -> int:
