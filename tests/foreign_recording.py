@@ -168,11 +168,30 @@ def _orientation_columns(orientation: str, q, R_WS):
     raise ValueError(f"orientation must be rotation_matrix or joint_positions; got {orientation!r}")
 
 
-def export_run(recording: Recording, scenario: Scenario, folder, orientation: str = "rotation_matrix") -> Path:
-    """Writes the run's three streams (module docstring) and their recording YAML to ``folder``;
-    returns the YAML's path."""
+def export_recording(folder, scenario: Scenario, run: Recording | None = None, poses: StaticPoses | None = None,
+                     orientation: str = "rotation_matrix") -> Path:
+    """Writes the lab's files for ``run`` (its three streams, module docstring) and ``poses`` (one row
+    each: the averaged wrench on the sensor's sign, the accelerometer in g in its own axes, the
+    orientation) to ``folder``, and the recording YAML (issue 24's format) that names them: what the
+    lab states about its instruments (the accelerometer's unit and position; its orientation, bias and
+    clock offset left to estimate). Returns the YAML's path."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
+    accelerometer = {"unit": "g", "includes_gravity": True, "R_SA": "estimate",
+                     "p_SA": [float(x) for x in scenario.accelerometer.position], "bias": "estimate"}
+    document = {"wrench": {"exerted_on": "sensor"}, "accelerometer": accelerometer}
+    if run is not None:
+        document.update(_export_streams(run, scenario, folder, orientation))
+        document["accelerometer"] = {**document["accelerometer"], **accelerometer}
+    if poses is not None:
+        document["static_poses"] = _export_poses(poses, folder, orientation, scenario.robot)
+    document["gravity_W"] = [0.0, 0.0, -9.81]
+    path = folder / "recording.yaml"
+    path.write_text(yaml.safe_dump(document, sort_keys=False))
+    return path
+
+
+def _export_streams(recording: Recording, scenario: Scenario, folder: Path, orientation: str) -> dict:
     t, end = recording.t, recording.t[-1]
 
     def resample(values, times):
@@ -193,50 +212,27 @@ def export_run(recording: Recording, scenario: Scenario, folder, orientation: st
 
     stride = int(round(1.0 / (ORIENTATION_RATE * (t[1] - t[0]))))
     q = recording.q[::stride]
-    t_pose = t[::stride]
     names, columns, formats = _orientation_columns(orientation, q, sensor_orientations(scenario, q))
-    _write_csv(folder / "robot.csv", ["time_us"] + names, [_stamps_us(t_pose)] + columns, ["{:d}"] + formats)
-    return _write_recording_yaml(folder / "recording.yaml", scenario, orientation, names, {
-        "wrench": {"file": "ft.csv", "time": {"column": "stamp_us", "unit": "us"},
-                   "columns": ["Fx", "Fy", "Fz", "Tx", "Ty", "Tz"], "exerted_on": "sensor"},
-        "accelerometer": {"file": "imu.csv", "time": {"column": "imu_time_us", "unit": "us"},
-                          "columns": ["acc_x_g", "acc_y_g", "acc_z_g"]},
-        "orientation": {"file": "robot.csv", "time": {"column": "time_us", "unit": "us"}}})
+    _write_csv(folder / "robot.csv", ["time_us"] + names, [_stamps_us(t[::stride])] + columns, ["{:d}"] + formats)
+    pose = {"file": "robot.csv", "time": {"column": "time_us", "unit": "us"}, "kind": orientation, "columns": names}
+    if orientation == "joint_positions":
+        pose["robot"] = scenario.robot
+    return {"wrench": {"file": "ft.csv", "time": {"column": "stamp_us", "unit": "us"},
+                       "columns": ["Fx", "Fy", "Fz", "Tx", "Ty", "Tz"], "exerted_on": "sensor"},
+            "accelerometer": {"file": "imu.csv", "time": {"column": "imu_time_us", "unit": "us", "offset": "estimate"},
+                              "columns": ["acc_x_g", "acc_y_g", "acc_z_g"]},
+            "orientation": pose}
 
 
-def export_static_poses(poses: StaticPoses, scenario: Scenario, folder, orientation: str = "rotation_matrix") -> Path:
-    """Writes the static poses (one row each: the averaged wrench on the sensor's sign, the
-    accelerometer in g in its own axes, the orientation) and their recording YAML; returns its path."""
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
+def _export_poses(poses: StaticPoses, folder: Path, orientation: str, robot: str) -> dict:
     fx, fy, fz, tx, ty, tz = (-poses.wrench).T
     reading = to_lab_accelerometer(poses.accelerometer)
     names, columns, formats = _orientation_columns(orientation, poses.q, poses.R_WS)
     _write_csv(folder / "poses.csv", ["pose", "Tx", "Ty", "Tz", "Fx", "Fy", "Fz", "ax_g", "ay_g", "az_g"] + names,
                [np.arange(1, len(fx) + 1), tx, ty, tz, fx, fy, fz, *reading.T, *columns],
                ["{:d}"] + ["{:.6f}"] * 6 + ["{:.7f}"] * 3 + formats)
-    return _write_recording_yaml(folder / "poses.yaml", scenario, orientation, names, {
-        "static_poses": {"file": "poses.csv", "wrench": ["Fx", "Fy", "Fz", "Tx", "Ty", "Tz"],
-                         "accelerometer": ["ax_g", "ay_g", "az_g"]}})
-
-
-def _write_recording_yaml(path: Path, scenario: Scenario, orientation: str, names: list[str], sections: dict) -> Path:
-    """The recording YAML (issue 24's format) for the lab's files: what the lab states about its
-    instruments (the accelerometer's unit and position; its orientation and bias left to estimate)."""
-    accelerometer = {"unit": "g", "includes_gravity": True, "R_SA": "estimate",
-                     "p_SA": [float(x) for x in scenario.accelerometer.position], "bias": "estimate"}
-    pose = {"kind": orientation, "columns": names}
+    section = {"file": "poses.csv", "wrench": ["Fx", "Fy", "Fz", "Tx", "Ty", "Tz"],
+               "accelerometer": ["ax_g", "ay_g", "az_g"], "orientation": names, "orientation_kind": orientation}
     if orientation == "joint_positions":
-        pose["robot"] = scenario.robot
-    document = {}
-    if "wrench" in sections:
-        document["wrench"] = sections["wrench"]
-        document["accelerometer"] = {**sections["accelerometer"], **accelerometer}
-        document["orientation"] = {**sections["orientation"], **pose}
-    else:
-        document["wrench"] = {"exerted_on": "sensor"}
-        document["accelerometer"] = accelerometer
-        document["static_poses"] = {**sections["static_poses"], "orientation": pose}
-    document["gravity_W"] = [0.0, 0.0, -9.81]
-    path.write_text(yaml.safe_dump(document, sort_keys=False))
-    return path
+        section["robot"] = robot
+    return section
