@@ -27,7 +27,7 @@ from heft.diagrams.identify import ALL_METHODS, ARMS, FitRefused, estimate_all, 
 from heft.diagrams.load_estimate import estimate_record, write_load_estimate
 from heft.diagrams.recording_kinematics import joint_orientation
 from heft.diagrams.scenario import Scenario
-from heft.systems.estimators import NoiseLevels, batch_estimate
+from heft.systems.estimators import PARAMETER_NAMES, NoiseLevels, batch_estimate
 from heft.systems.static_calibration import STATIC_NAMES, StaticCalibration, calibrate_static, point_mass_phi
 
 SIGNALS = "recording"
@@ -127,6 +127,11 @@ def _stream_fit(recording, source: RecordingSource, scenario: Scenario, method: 
         com = 1e3 * np.asarray(r.get("com", [np.nan] * 3))
         print(f"{m:8s}{r['phi'][0]:11.4f}   [{com[0]:7.2f} {com[1]:7.2f} {com[2]:7.2f}]   "
               f"[{r['phi'][4]:.5f} {r['phi'][7]:.5f} {r['phi'][9]:.5f}]")
+    unidentified = [n for n, ok in zip(PARAMETER_NAMES, records.get(method, {}).get("identifiable", [])) if not ok]
+    metrics["unidentifiable"] = unidentified
+    if unidentified:
+        print(f"not identifiable from this motion ({method}): {', '.join(unidentified)}: the recording does not "
+              "excite them (rotation about several axes is needed for the inertia)", flush=True)
     estimate_history_figure(histories, period, out / "convergence.png")
     if method in failed:
         raise ValueError(f"the {method} estimate failed ({failed[method]}); the other methods' estimates are in "

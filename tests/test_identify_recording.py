@@ -83,6 +83,16 @@ def test_poses_turned_about_gravity_only_say_what_to_add(tmp_path):
         identify_recording(path, tmp_path / "out", Scenario())
 
 
+def test_an_accelerometer_left_to_estimate_needs_static_poses(tmp_path):
+    path = tmp_path / "run.yaml"
+    path.write_text(yaml.safe_dump({
+        "wrench": {"file": "ft.csv", "time": {"column": "t", "unit": "s"}},
+        "accelerometer": {"file": "imu.csv", "time": {"column": "t", "unit": "s"}, "R_SA": "estimate"},
+        "orientation": {"file": "pose.csv", "time": {"column": "t", "unit": "s"}}}))
+    with pytest.raises(ValueError, match="R_SA or bias is 'estimate', which needs static_poses"):
+        identify_recording(path, tmp_path / "out", Scenario())
+
+
 def test_recording_options_of_an_excitation_are_refused(tmp_path, capsys):
     path = write_static_poses(tmp_path, random_gravity(6))
     assert main(["identify", "--recording", str(path), "--out", str(tmp_path), "--hardware"]) == 2
