@@ -5,8 +5,9 @@ For a candidate offset the streams are merged onto the wrench's stamps (``record
 and the cost is Σ over the six axes of var(f − V·φ̂) / var(f): the variance, so that the sensor's
 constant offsets (unknown while identifying) do not matter, and per axis relative, so that forces
 and torques weigh alike. Each stream's offset is found on a grid over ±``search`` s, refined on a
-grid 20 times finer around the best and by a parabola through the finest grid's three best points;
-with several streams, two rounds of one stream at a time. A φ̂ is needed: ``heft compensate`` takes
+grid 20 times finer around the best and by a parabola through the finest grid's three best points.
+Then the samples near contact (``contact_free``) are left out and the search runs again, two more
+rounds of one stream at a time. A φ̂ is needed: ``heft compensate`` takes
 the estimate's, identification may alternate (identify with an offset, estimate the offset, …).
 """
 
@@ -42,11 +43,33 @@ class OffsetFit:
                 "cost_min": float(min(self.costs)), "cost_max": float(max(self.costs))}
 
 
-def residual_cost(recording, t, wrench, data: StreamData, offsets: dict, phi) -> float:
-    """Σ_axes var(f − V·φ̂)/var(f) with the streams merged at ``offsets``."""
-    merged = merge(recording, t, wrench, data, offsets)
-    residual = wrench - merged.noncontact(phi)
+def residuals(recording, t, wrench, data: StreamData, offsets: dict, phi) -> np.ndarray:
+    """f − V·φ̂ (N, 6) with the streams merged at ``offsets``."""
+    return wrench - merge(recording, t, wrench, data, offsets).noncontact(phi)
+
+
+def residual_cost(recording, t, wrench, data: StreamData, offsets: dict, phi, keep=None) -> float:
+    """Σ_axes var(f − V·φ̂)/var(f) over the samples ``keep`` (all if None)."""
+    residual = residuals(recording, t, wrench, data, offsets, phi)
+    if keep is not None:
+        residual, wrench = residual[keep], wrench[keep]
     return float(np.sum(residual.var(axis=0) / np.maximum(wrench.var(axis=0), 1e-12)))
+
+
+def contact_free(t: np.ndarray, residual: np.ndarray, guard: float) -> np.ndarray:
+    """The samples at least ``guard`` s from any whose force residual |f − V·φ̂ − mean| lies beyond its
+    median + 6 robust standard deviations (1.4826 × MAD): contact, which no clock offset explains."""
+    force = np.linalg.norm(residual[:, :3] - residual[:, :3].mean(axis=0), axis=1)
+    median = np.median(force)
+    outside = force > median + 6.0 * 1.4826 * np.median(np.abs(force - median))
+    if not outside.any():
+        return np.ones(len(t), dtype=bool)
+    near = np.zeros(len(t), dtype=bool)
+    edges = t[outside]
+    left = np.searchsorted(edges, t - guard)
+    right = np.searchsorted(edges, t + guard, side="right")
+    near |= right > left
+    return ~near
 
 
 def estimate_clock_offsets(source: RecordingSource, phi, streams=None, window: tuple[float, float] | None = None,
@@ -68,19 +91,23 @@ def estimate_clock_offsets(source: RecordingSource, phi, streams=None, window: t
     rows = max(1, int(round((hi - lo) / source.period("wrench"))))
     stride = max(1, rows // max_samples)
     t, wrench, data = source.snapshot((lo, hi), offsets, margin=search + 0.01, stride=stride)
-    fits = {}
-    for _ in range(ROUNDS if len(streams) > 1 else 1):
+    fits, keep = {}, None
+    for round_ in range(ROUNDS + 1):
         for name in streams:
-            fits[name] = _search(source.recording, t, wrench, data, offsets, name, phi, search)
+            fits[name] = _search(source.recording, t, wrench, data, offsets, name, phi, search, keep)
             offsets[name] = fits[name].offset
+        if round_ == 0:  # leave out contact (and what the filters smear of it) from then on
+            keep = contact_free(t, residuals(source.recording, t, wrench, data, offsets, phi), 2 * search)
+            if keep.sum() < 0.2 * len(t):
+                keep = None
     return fits
 
 
-def _search(recording, t, wrench, data, offsets, name, phi, search) -> OffsetFit:
+def _search(recording, t, wrench, data, offsets, name, phi, search, keep) -> OffsetFit:
     centre = offsets[name]
 
     def cost(value):
-        return residual_cost(recording, t, wrench, data, {**offsets, name: value}, phi)
+        return residual_cost(recording, t, wrench, data, {**offsets, name: value}, phi, keep)
 
     step = search / COARSE_STEPS
     grid = centre + step * np.arange(-COARSE_STEPS, COARSE_STEPS + 1)

@@ -75,15 +75,17 @@ class ColumnFile:
             yield from pq.ParquetFile(self.path).iter_batches(batch_size=PARQUET_BATCH_ROWS, columns=names)
             return
         types = {name: pa.float64() for name in names}
-        reader = pa_csv.open_csv(
-            self.path, read_options=pa_csv.ReadOptions(block_size=CSV_BLOCK_BYTES, use_threads=False),
-            convert_options=pa_csv.ConvertOptions(include_columns=names, column_types=types,
-                                                  strings_can_be_null=False))
-        while True:
-            try:
-                yield reader.read_next_batch()
-            except StopIteration:
-                return
+        # A Python file object: given a path, pyarrow reads the whole file ahead of the batches asked for.
+        with open(self.path, "rb") as f:
+            reader = pa_csv.open_csv(
+                f, read_options=pa_csv.ReadOptions(block_size=CSV_BLOCK_BYTES, use_threads=False),
+                convert_options=pa_csv.ConvertOptions(include_columns=names, column_types=types,
+                                                      strings_can_be_null=False))
+            while True:
+                try:
+                    yield reader.read_next_batch()
+                except StopIteration:
+                    return
 
     def chunks(self):
         """(t (n,) s, values (n, k), first row) per chunk, every row checked; rows are 1-based."""

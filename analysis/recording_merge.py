@@ -284,6 +284,18 @@ class RecordingSource:
     def _wrench_on_load(self, values: np.ndarray) -> np.ndarray:
         return -values if self.recording.wrench.exerted_on == "sensor" else values
 
+    def check_rows(self) -> dict:
+        """Reads every row of every stream through the checks (numbers, NaN, time order, rotations)
+        without computing anything: a bad row raises its one-line error here. Returns {stream: rows}."""
+        rows = {}
+        for name, file in self.files.items():
+            rows[name] = 0
+            for _, values, first_row in file.chunks():
+                if name == "orientation" and self.recording.orientation.kind != "joint_positions":
+                    self._orientation_quaternions(values, first_row)  # joint angles are any finite numbers
+                rows[name] += len(values)
+        return rows
+
     # --- merged samples ---------------------------------------------------------------------
     def chunks(self, offsets: dict | None = None, t_range: tuple[float, float] | None = None, stride: int = 1):
         """MergedSamples per chunk of the wrench file, inside the streams' common interval (and

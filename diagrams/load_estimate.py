@@ -73,3 +73,8 @@ def read_load_estimate(path, wrench_full_scale=None) -> LoadEstimate:
     except (ValueError, TypeError) as error:
         raise ValueError(f"{path}: {error}") from None
     return LoadEstimate(phi=phi, offsets=offsets, accelerometer=calibration)
+
+
+def read_accelerometer_calibration(path) -> AccelerometerCalibration | None:
+    """The accelerometer's calibration an estimate.yaml carries (``read_load_estimate``), or None."""
+    return read_load_estimate(path).accelerometer

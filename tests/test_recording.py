@@ -2,84 +2,20 @@
 own motion and wrench, the clock offset found, chunked reading equal to whole, and the rotation math
 against Drake's."""
 
-import csv
-
 import numpy as np
 import pytest
-from drake_motion import PAPER_TOOL, SmoothMotion
+from drake_motion import PAPER_TOOL
 from pydrake.math import RotationMatrix
 from pydrake.trajectories import PiecewiseQuaternionSlerp
 from scipy.spatial.transform import Rotation
+
+from recording_layouts import EPOCH_US, LATE, write_recording
 
 from heft.analysis import column_files
 from heft.analysis.clock_offsets import estimate_clock_offsets
 from heft.analysis.recording import load_recording
 from heft.analysis.recording_merge import RecordingSource
-from heft.systems.accelerometer_reading import AccelerometerConvention, reading_from_motion
 from heft.systems.rotation_sampling import body_angular_velocity, continuous, rotate_into_body, slerp
-
-EPOCH_US = 1_700_000_000_000_000  # stamps on a wall clock, as drivers write them
-R_SA = Rotation.from_rotvec([0.3, -0.5, 0.7]).as_matrix()  # not about one axis
-P_SA = np.array([0.02, 0.01, -0.008])
-BIAS_G = np.array([0.0, 0.08, 0.0])
-LATE = 0.006  # the accelerometer's stamps run 6 ms late
-DURATION = 3.0
-
-
-def _write(path, header, rows):
-    with open(path, "w", newline="") as f:
-        writer = csv.writer(f)
-        writer.writerow(header)
-        writer.writerows(rows)
-
-
-def write_recording(folder, orientation="rotation_matrix", accel_offset="estimate"):
-    """A 3 s recording of Drake's motion of the paper's tool: the wrench at 700 Hz on the sensor's sign with
-    µs stamps (and a status column heft does not read), the accelerometer at 250 Hz in g, rotated by R_SA,
-    biased and stamped 6 ms late, the orientation at 100 Hz. Returns the truth at the wrench's stamps."""
-    motion = SmoothMotion()
-    t_w = np.arange(0, DURATION, 1 / 700)
-    truth = motion.truth(t_w)
-    _write(folder / "ft.csv", ["stamp_us", "Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "status"],
-           [[EPOCH_US + int(round(1e6 * t))] + [f"{-x:.6f}" for x in w] + [0] for t, w in zip(t_w, truth["wrench"])])
-    t_a = np.arange(0, DURATION, 1 / 250)
-    at_a = motion.truth(t_a)
-    specific = reading_from_motion(np.hstack((at_a["a"], at_a["alpha"])), at_a["g"], at_a["omega"],
-                                   AccelerometerConvention(True, tuple(P_SA)))[:, :3]
-    raw = specific @ R_SA / 9.80665 + BIAS_G
-    _write(folder / "imu.csv", ["time", "ax", "ay", "az"],
-           [[EPOCH_US + int(round(1e6 * (t + LATE)))] + [f"{x:.7f}" for x in r] for t, r in zip(t_a, raw)])
-    t_p = np.arange(0, DURATION, 1 / 100)
-    R = motion.truth(t_p)["R_WS"]
-    if orientation == "rotation_matrix":
-        names, values = [f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)], R.reshape(-1, 9)
-    else:
-        names, values = ["qx", "qy", "qz", "qw"], Rotation.from_matrix(R).as_quat()
-    _write(folder / "pose.csv", ["t_ms"] + names,
-           [[f"{1e3 * t:.3f}"] + [f"{x:.8f}" for x in v] for t, v in zip(t_p, values)])
-    offset = accel_offset if isinstance(accel_offset, str) else float(accel_offset)
-    (folder / "rec.yaml").write_text(f"""
-wrench:
-  file: ft.csv
-  time: {{column: stamp_us, unit: us}}
-  columns: [Fx, Fy, Fz, Tx, Ty, Tz]
-  exerted_on: sensor
-accelerometer:
-  file: imu.csv
-  time: {{column: time, unit: us, offset: {offset}}}
-  columns: [ax, ay, az]
-  unit: g
-  R_SA: {R_SA.tolist()}
-  p_SA: {P_SA.tolist()}
-  bias: {BIAS_G.tolist()}
-orientation:
-  file: pose.csv
-  time: {{column: t_ms, unit: ms, offset: {-EPOCH_US * 1e-6}}}
-  kind: {orientation}
-  columns: {names}
-""")
-    return t_w, truth
-
 
 @pytest.fixture(scope="module")
 def foreign(tmp_path_factory):
