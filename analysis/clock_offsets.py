@@ -6,8 +6,8 @@ and the cost is Σ over the six axes of var(f − V·φ̂) / var(f): the varianc
 constant offsets (unknown while identifying) do not matter, and per axis relative, so that forces
 and torques weigh alike. Each stream's offset is found on a grid over ±``search`` s, refined on a
 grid 20 times finer around the best and by a parabola through the finest grid's three best points.
-Then the samples near contact (``contact_free``) are left out and the search runs again, two more
-rounds of one stream at a time. A φ̂ is needed: ``heft compensate`` takes
+Then the samples near contact (``contact_free``) are left out and the search runs again (with
+several streams, two more rounds of one stream at a time). A φ̂ is needed: ``heft compensate`` takes
 the estimate's, identification may alternate (identify with an offset, estimate the offset, …).
 """
 
@@ -17,7 +17,7 @@ import dataclasses
 
 import numpy as np
 
-from heft.analysis.recording_merge import RecordingSource, StreamData, merge
+from heft.analysis.recording_merge import RecordingSource, StreamData, merge, rotation_terms
 
 COARSE_STEPS = 25
 """Grid points on each side of the stated offset at the coarse stage."""
@@ -43,14 +43,21 @@ class OffsetFit:
                 "cost_min": float(min(self.costs)), "cost_max": float(max(self.costs))}
 
 
-def residuals(recording, t, wrench, data: StreamData, offsets: dict, phi) -> np.ndarray:
-    """f − V·φ̂ (N, 6) with the streams merged at ``offsets``."""
-    return wrench - merge(recording, t, wrench, data, offsets).noncontact(phi)
+def residuals(recording, t, wrench, data: StreamData, offsets: dict, phi, rotations=None) -> np.ndarray:
+    """f − V·φ̂ (N, 6) with the streams merged at ``offsets``. ``rotations``: a dict caching
+    ``rotation_terms`` by the rotation streams' offsets (the accelerometer's search leaves them alone)."""
+    rotation = None
+    if rotations is not None:
+        key = (offsets.get("orientation"), offsets.get("angular_velocity"))
+        if key not in rotations:
+            rotations[key] = rotation_terms(recording, t, data, offsets)
+        rotation = rotations[key]
+    return wrench - merge(recording, t, wrench, data, offsets, rotation).noncontact(phi)
 
 
-def residual_cost(recording, t, wrench, data: StreamData, offsets: dict, phi, keep=None) -> float:
+def residual_cost(recording, t, wrench, data: StreamData, offsets: dict, phi, keep=None, rotations=None) -> float:
     """Σ_axes var(f − V·φ̂)/var(f) over the samples ``keep`` (all if None)."""
-    residual = residuals(recording, t, wrench, data, offsets, phi)
+    residual = residuals(recording, t, wrench, data, offsets, phi, rotations)
     if keep is not None:
         residual, wrench = residual[keep], wrench[keep]
     return float(np.sum(residual.var(axis=0) / np.maximum(wrench.var(axis=0), 1e-12)))
@@ -91,10 +98,10 @@ def estimate_clock_offsets(source: RecordingSource, phi, streams=None, window: t
     rows = max(1, int(round((hi - lo) / source.period("wrench"))))
     stride = max(1, rows // max_samples)
     t, wrench, data = source.snapshot((lo, hi), offsets, margin=search + 0.01, stride=stride)
-    fits, keep = {}, None
-    for round_ in range(ROUNDS + 1):
+    fits, keep, rotations = {}, None, {}
+    for round_ in range(1 + (ROUNDS if len(streams) > 1 else 1)):
         for name in streams:
-            fits[name] = _search(source.recording, t, wrench, data, offsets, name, phi, search, keep)
+            fits[name] = _search(source.recording, t, wrench, data, offsets, name, phi, search, keep, rotations)
             offsets[name] = fits[name].offset
         if round_ == 0:  # leave out contact (and what the filters smear of it) from then on
             keep = contact_free(t, residuals(source.recording, t, wrench, data, offsets, phi), 2 * search)
@@ -103,11 +110,11 @@ def estimate_clock_offsets(source: RecordingSource, phi, streams=None, window: t
     return fits
 
 
-def _search(recording, t, wrench, data, offsets, name, phi, search, keep) -> OffsetFit:
+def _search(recording, t, wrench, data, offsets, name, phi, search, keep, rotations) -> OffsetFit:
     centre = offsets[name]
 
     def cost(value):
-        return residual_cost(recording, t, wrench, data, {**offsets, name: value}, phi, keep)
+        return residual_cost(recording, t, wrench, data, {**offsets, name: value}, phi, keep, rotations)
 
     step = search / COARSE_STEPS
     grid = centre + step * np.arange(-COARSE_STEPS, COARSE_STEPS + 1)

@@ -140,6 +140,8 @@ class Recording:
     gravity_W: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, -9.81])
     static_poses: StaticPoses | None = None
     lcm_log: str | None = None
+    """A log of `heft … --hardware --record`: the wrench, the accelerometer and the joint angles from heft's
+    channels (``diagrams.recordings``); stream entries then give settings only (p_SA, robot, offsets)."""
     folder: str = "."
     source: str = "recording"
 
@@ -220,6 +222,10 @@ def _first_problem(recording: Recording) -> str | None:
     if recording.wrench is None and recording.static_poses is None and recording.lcm_log is None:
         return "a recording needs a wrench stream, static_poses or an lcm_log"
     for name, stream in recording.streams().items():
+        if recording.lcm_log is not None:
+            if stream.file:
+                return f"{name}.file cannot be given with lcm_log: the log holds the streams"
+            continue  # the stream's settings only; its file and clock come from the log
         if not stream.file:
             return f"{name}.file is missing: name the stream's CSV or Parquet file (relative to this YAML file)"
         problem = _clock_problem(name, stream.time, name == "wrench")

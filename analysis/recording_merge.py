@@ -57,10 +57,9 @@ class StreamData:
     periods: dict
 
 
-def merge(recording: Recording, t: np.ndarray, wrench_on_load: np.ndarray, data: StreamData,
-          offsets: dict) -> MergedSamples:
-    """The streams of ``data`` at the wrench stamps ``t`` (inside their spans), each moved onto the
-    wrench's clock by its offset (s, ``offsets[name]``: a stamp s is s − offset there)."""
+def rotation_terms(recording: Recording, t: np.ndarray, data: StreamData, offsets: dict):
+    """(g, ω, α or None) in S at the wrench stamps ``t``: g from the orientation (zeros without one), ω
+    recorded or from the orientation, α from ω's derivative unless the accelerometer measures it (None)."""
     rows, diff = data.rows, recording.differentiation
     g = np.zeros((len(t), 3))
     if "orientation" in rows:
@@ -68,23 +67,29 @@ def merge(recording: Recording, t: np.ndarray, wrench_on_load: np.ndarray, data:
         t_o = t_o - offsets["orientation"]
         g = rotate_into_body(slerp(t_o, q_o, t), recording.gravity_W)
     if "angular_velocity" in rows:
-        t_w, w = rows["angular_velocity"]
-        t_w = t_w - offsets["angular_velocity"]
+        t_w, raw = rows["angular_velocity"]
+        t_w, period = t_w - offsets["angular_velocity"], data.periods["angular_velocity"]
+        omega = _interpolate(t, t_w, raw)
     else:
-        t_w, w = body_angular_velocity(t_o, q_o)
-        w = savitzky_golay(w, data.periods["orientation"], diff.window, diff.order)
-    omega = _interpolate(t, t_w, w)
-    t_a, acc = rows["accelerometer"]
+        (t_w, raw), period = body_angular_velocity(t_o, q_o), data.periods["orientation"]
+        omega = _interpolate(t, t_w, savitzky_golay(raw, period, diff.window, diff.order))
+    alpha = None
+    if rows["accelerometer"][1].shape[1] == 3:
+        alpha = _interpolate(t, t_w, savitzky_golay(raw, period, diff.window, diff.order, deriv=1))
+    return g, omega, alpha
+
+
+def merge(recording: Recording, t: np.ndarray, wrench_on_load: np.ndarray, data: StreamData,
+          offsets: dict, rotation=None) -> MergedSamples:
+    """The streams of ``data`` at the wrench stamps ``t`` (inside their spans), each moved onto the
+    wrench's clock by its offset (s, ``offsets[name]``: a stamp s is s − offset there). ``rotation``:
+    ``rotation_terms`` at the same stamps and offsets, if already computed."""
+    g, omega, alpha = rotation if rotation is not None else rotation_terms(recording, t, data, offsets)
+    t_a, acc = data.rows["accelerometer"]
     t_a = t_a - offsets["accelerometer"]
     reading = np.empty((len(t), 6))
     reading[:, :3] = _interpolate(t, t_a, acc[:, :3])
-    if acc.shape[1] == 6:
-        reading[:, 3:] = _interpolate(t, t_a, acc[:, 3:])
-    else:
-        source = "angular_velocity" if "angular_velocity" in rows else "orientation"
-        raw_w = rows[source][1] if source == "angular_velocity" else body_angular_velocity(t_o, q_o)[1]
-        reading[:, 3:] = _interpolate(t, t_w, savitzky_golay(raw_w, data.periods[source], diff.window, diff.order,
-                                                             deriv=1))
+    reading[:, 3:] = _interpolate(t, t_a, acc[:, 3:]) if alpha is None else alpha
     spec = recording.accelerometer
     convention = AccelerometerConvention(spec.includes_gravity, tuple(spec.p_SA))
     motion = motion_from_reading(reading, reading, g, omega, convention)

@@ -9,7 +9,6 @@ acceleration in the world, expressed in S (rad/s, rad/s²), as ``load_dynamics``
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import savgol_filter
 from scipy.spatial.transform import Rotation
 
 ROTATION_TOLERANCE = 1e-3
@@ -89,13 +88,35 @@ def body_angular_velocity(t: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.
 
 
 def savitzky_golay(x: np.ndarray, period: float, window: float, order: int, deriv: int = 0) -> np.ndarray:
-    """x (N, k) sampled every ``period`` s (nearly), smoothed (deriv 0) or differentiated (deriv 1) by a
-    Savitzky–Golay filter: a least-squares polynomial of ``order`` over ``window`` seconds centred on
-    each sample (the ends fitted by one polynomial); ``window_samples`` says how many samples."""
+    """x (N, k) sampled every ``period`` s (nearly), smoothed (deriv 0) or differentiated (deriv 1, per s)
+    by a Savitzky–Golay filter: the least-squares polynomial of ``order`` over ``window`` seconds
+    centred on each sample, evaluated there; the first and last half windows from the polynomial of
+    the first and last full window (scipy's ``savgol_filter`` with mode "interp"; written out here so
+    that a recording's commands need not import scipy.signal, seconds of start-up)."""
     samples = window_samples(period, window, order)
-    if samples > len(x):
-        raise ValueError(f"{len(x)} samples are too few for a {samples}-sample Savitzky–Golay window")
-    return savgol_filter(x, samples, order, deriv=deriv, delta=period, axis=0, mode="interp")
+    n = len(x)
+    if samples > n:
+        raise ValueError(f"{n} samples are too few for a {samples}-sample Savitzky–Golay window")
+    half = samples // 2
+    offsets = np.arange(-half, half + 1) * period
+    fit = np.linalg.pinv(offsets[:, None] ** np.arange(order + 1))  # polynomial coefficients from a window
+    weights = _derivative_row(fit, deriv, 0.0)
+    out = np.empty_like(x, dtype=float)
+    windows = np.lib.stride_tricks.sliding_window_view(x, samples, axis=0)  # (N − 2·half, k, samples)
+    out[half:n - half] = windows @ weights
+    edge = np.arange(-half, 0) * period
+    ends = (x[:samples], x[n - samples:])
+    for rows, data, at in ((slice(0, half), ends[0], edge), (slice(n - half, n), ends[1], -edge[::-1])):
+        out[rows] = np.stack([_derivative_row(fit, deriv, u) for u in at]) @ data
+    return out
+
+
+def _derivative_row(fit: np.ndarray, deriv: int, u: float) -> np.ndarray:
+    """Weights over a window's samples giving the ``deriv``-th derivative, at ``u`` s from its centre,
+    of the polynomial ``fit`` (its pseudo-inverse design matrix) fits to them."""
+    powers = np.arange(fit.shape[0])
+    factors = np.array([np.prod(np.arange(p - deriv + 1, p + 1)) if p >= deriv else 0.0 for p in powers])
+    return (factors * np.where(powers >= deriv, u ** np.maximum(powers - deriv, 0), 0.0)) @ fit
 
 
 def window_samples(period: float, window: float, order: int) -> int:

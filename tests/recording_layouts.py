@@ -21,6 +21,17 @@ CONTACT_S = (1.2, 1.5)
 CONTACT_PEAK = np.array([2.0, -1.0, 15.0, 0.3, 0.2, 0.0])
 
 
+_TRUTH = {}
+
+
+def _truth(rate: float) -> tuple:
+    """(t, Drake's truth) of the motion sampled at ``rate`` over DURATION, computed once per process."""
+    if rate not in _TRUTH:
+        t = np.arange(0, DURATION, 1 / rate)
+        _TRUTH[rate] = t, SmoothMotion().truth(t)
+    return _TRUTH[rate]
+
+
 def _write(path, header, rows):
     with open(path, "w", newline="") as f:
         writer = csv.writer(f)
@@ -43,9 +54,7 @@ def write_recording(folder, orientation="rotation_matrix", accel_offset="estimat
     with ``contact``, ``contact_pulse``, and Gaussian noise of ``noise`` N (a twentieth of it on the
     torques); the accelerometer at 250 Hz in g, rotated by R_SA, biased and stamped 6 ms late; the
     orientation at 100 Hz. Returns the wrench's stamps (s from the start) and Drake's truth at them."""
-    motion = SmoothMotion()
-    t_w = np.arange(0, DURATION, 1 / 700)
-    truth = motion.truth(t_w)
+    t_w, truth = _truth(700.0)
     on_load = truth["wrench"] + (0.0 if sensor_offsets is None else np.asarray(sensor_offsets))
     if contact:
         on_load = on_load + contact_pulse(t_w)
@@ -53,15 +62,14 @@ def write_recording(folder, orientation="rotation_matrix", accel_offset="estimat
         on_load = on_load + np.random.default_rng(5).normal(size=on_load.shape) * noise * np.repeat([1, 0.05], 3)
     _write(folder / "ft.csv", ["stamp_us", "Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "status"],
            [[EPOCH_US + int(round(1e6 * t))] + [f"{-x:.6f}" for x in w] + [0] for t, w in zip(t_w, on_load)])
-    t_a = np.arange(0, DURATION, 1 / 250)
-    at_a = motion.truth(t_a)
+    t_a, at_a = _truth(250.0)
     specific = reading_from_motion(np.hstack((at_a["a"], at_a["alpha"])), at_a["g"], at_a["omega"],
                                    AccelerometerConvention(True, tuple(P_SA)))[:, :3]
     raw = specific @ R_SA / 9.80665 + BIAS_G
     _write(folder / "imu.csv", ["time", "ax", "ay", "az"],
            [[EPOCH_US + int(round(1e6 * (t + LATE)))] + [f"{x:.7f}" for x in r] for t, r in zip(t_a, raw)])
-    t_p = np.arange(0, DURATION, 1 / 100)
-    R = motion.truth(t_p)["R_WS"]
+    t_p, at_p = _truth(100.0)
+    R = at_p["R_WS"]
     if orientation == "rotation_matrix":
         names, values = [f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)], R.reshape(-1, 9)
     else:
@@ -92,3 +100,27 @@ orientation:
     return t_w, truth
 
 
+
+
+def write_example(folder) -> None:
+    """docs/example_recording: the recording of ``write_recording`` with sensor offsets, a contact and the
+    JR3's noise, its clock offset left to estimate, and an estimate.yaml holding the paper's tool as the
+    bundled scenarios model it (what `heft identify` would find) and those offsets."""
+    import yaml
+    from drake_motion import PAPER_TOOL
+
+    offsets = [1.5, -2.0, 3.0, 0.1, -0.05, 0.02]
+    write_recording(folder, sensor_offsets=offsets, contact=True, noise=0.1, name="recording.yaml")
+    (folder / "estimate.yaml").write_text(
+        "# The paper's tool (diagrams/models/tool.urdf) and the sensor's offsets on the load's sign:\n"
+        "# what `heft identify` writes (phi: Eq. 6, kg, kg·m, kg·m² about S; offsets: N, N·m).\n"
+        + yaml.safe_dump({"phi": [round(x, 9) for x in PAPER_TOOL.to_phi().tolist()], "offsets": offsets}))
+
+
+if __name__ == "__main__":  # python tests/recording_layouts.py docs/example_recording
+    import sys
+    from pathlib import Path
+
+    target = Path(sys.argv[1])
+    target.mkdir(parents=True, exist_ok=True)
+    write_example(target)

@@ -15,7 +15,8 @@ from heft.analysis import column_files
 from heft.analysis.clock_offsets import estimate_clock_offsets
 from heft.analysis.recording import load_recording
 from heft.analysis.recording_merge import RecordingSource
-from heft.systems.rotation_sampling import body_angular_velocity, continuous, rotate_into_body, slerp
+from heft.systems.rotation_sampling import (
+    body_angular_velocity, continuous, rotate_into_body, savitzky_golay, slerp, window_samples)
 
 @pytest.fixture(scope="module")
 def foreign(tmp_path_factory):
@@ -92,3 +93,14 @@ def test_slerp_and_angular_velocity_agree_with_drakes_quaternion_trajectory():
     for k, tm in enumerate(t_mid):
         omega_W = reference.angular_velocity(tm)  # constant between samples, in the world
         np.testing.assert_allclose(omega_S[k], R[k].T @ omega_W, atol=1e-9)
+
+
+@pytest.mark.parametrize("order", [2, 3])
+@pytest.mark.parametrize("deriv", [0, 1])
+def test_savitzky_golay_is_scipys(order, deriv):
+    from scipy.signal import savgol_filter
+
+    x = np.cumsum(np.random.default_rng(order).normal(size=(60, 3)), axis=0)
+    samples = window_samples(0.004, 0.05, order)
+    expected = savgol_filter(x, samples, order, deriv=deriv, delta=0.004, axis=0, mode="interp")
+    np.testing.assert_allclose(savitzky_golay(x, 0.004, 0.05, order, deriv), expected, atol=1e-9 * np.abs(x).max())

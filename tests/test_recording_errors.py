@@ -151,3 +151,29 @@ def test_a_missing_file_and_an_unknown_field(tmp_path):
     path.write_text(path.read_text() + "sample_rate: 5\n")
     with pytest.raises(ValueError, match="rec.yaml.*sample_rate"):
         load_recording(path)
+
+
+def test_static_poses_give_gravity_in_S_and_the_loads_sign(tmp_path):
+    from scipy.spatial.transform import Rotation
+
+    from heft.analysis.static_pose_table import read_static_poses
+
+    rotations = Rotation.random(5, random_state=2)
+    rows = [[f"{x:.9f}" for x in (*w, *a, *q)] for w, a, q in
+            zip(np.arange(30.0).reshape(5, 6), np.arange(15.0).reshape(5, 3), rotations.as_quat())]
+    (tmp_path / "poses.csv").write_text("\n".join([",".join(
+        ["Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "ax", "ay", "az", "qx", "qy", "qz", "qw"])] + [",".join(r) for r in rows]))
+    (tmp_path / "rec.yaml").write_text("""
+static_poses: {file: poses.csv, wrench: [Fx, Fy, Fz, Tx, Ty, Tz], accelerometer: [ax, ay, az],
+               orientation: [qx, qy, qz, qw], orientation_kind: quaternion_xyzw}
+""")
+    table = read_static_poses(load_recording(tmp_path / "rec.yaml"))
+    np.testing.assert_allclose(table.wrench, -np.arange(30.0).reshape(5, 6))  # sensor's sign by default
+    np.testing.assert_allclose(table.accelerometer, np.arange(15.0).reshape(5, 3))
+    np.testing.assert_allclose(table.gravity_S, rotations.inv().apply([0.0, 0.0, -9.81]), atol=1e-8)
+    rows[3][10] = "0.9"
+    (tmp_path / "poses.csv").write_text("\n".join([(tmp_path / "poses.csv").read_text().splitlines()[0]]
+                                                   + [",".join(r) for r in rows]))
+    with pytest.raises(RecordingError) as error:
+        read_static_poses(load_recording(tmp_path / "rec.yaml"))
+    assert "poses.csv" in _one_line(error) and "row 4" in _one_line(error) and "unit quaternion" in _one_line(error)

@@ -98,8 +98,11 @@ def _bench_compensate(args) -> int:
 
     durations = [float(d) for d in args.durations.split(",")]
     formats = ["csv", "parquet"] if args.format == "both" else [args.format]
-    folder = args.folder or tempfile.mkdtemp(prefix="heft_bench_compensate_")
-    results = bench(durations, formats, folder, args.cpu, keep=bool(args.folder))
+    if args.folder:
+        results = bench(durations, formats, args.folder, args.cpu, keep=True)
+    else:
+        with tempfile.TemporaryDirectory(prefix="heft_bench_compensate_") as folder:
+            results = bench(durations, formats, folder, args.cpu)
     if args.out:
         Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
     return 0

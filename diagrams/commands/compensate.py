@@ -28,38 +28,12 @@ def add_arguments(parser) -> None:
                         help="largest clock offset (s) searched either way (default 0.05)")
 
 
-def open_recording(path, estimate_path=None):
-    """A RecordingSource for a recording's YAML file, with the arm's kinematics where the orientation is
-    given as joint angles, and the accelerometer's calibration from ``estimate_path`` where the
-    recording leaves R_SA or the bias to be estimated."""
-    from heft.analysis.recording import ESTIMATE, load_recording, with_accelerometer_calibration
-    from heft.analysis.recording_merge import RecordingSource
-    from heft.diagrams.load_estimate import read_accelerometer_calibration
-
-    recording = load_recording(path)
-    acc, calibrated = recording.accelerometer, ""
-    if acc is not None and ESTIMATE in (acc.R_SA, acc.bias):
-        calibration = read_accelerometer_calibration(estimate_path) if estimate_path else None
-        if calibration is None:
-            raise ValueError(f"{path}: the accelerometer's R_SA or bias is 'estimate', and {estimate_path} has no "
-                             "accelerometer calibration: identify with static poses (`heft identify --recording`) "
-                             "or state them in the recording")
-        recording, calibrated = with_accelerometer_calibration(recording, calibration), estimate_path
-    orientation, joints = recording.orientation, None
-    if orientation is not None and orientation.kind == "joint_positions":
-        from heft.diagrams.recording_kinematics import joint_orientation
-        joints = joint_orientation(orientation.robot)
-    source = RecordingSource(recording, joints)
-    if calibrated:
-        source.choices["accelerometer"] += f" (calibration from {calibrated})"
-    return source
-
-
 def run(args) -> int:
     from heft.analysis.clock_offsets import estimate_clock_offsets
     from heft.analysis.compensation import compensate, compensation_figure
     from heft.analysis.recording import ESTIMATE
     from heft.diagrams.load_estimate import read_load_estimate
+    from heft.diagrams.recordings import open_recording
 
     estimate = read_load_estimate(args.estimate)
     source = open_recording(args.recording, args.estimate)
