@@ -20,11 +20,11 @@ import numpy as np
 from heft.analysis.clock_offsets import estimate_clock_offsets
 from heft.analysis.fit_verdict import AXES, RESIDUAL_RATIO_LIMIT, FitEvidence, fit_verdict, noise_floor
 from heft.analysis.identification_report import estimate_history_figure, static_pose_figure, verdict_report
-from heft.analysis.recording import ESTIMATE, load_recording, with_accelerometer_calibration
-from heft.analysis.recording_merge import RecordingSource
+from heft.analysis.recording import ESTIMATE, load_recording
 from heft.analysis.static_pose_table import read_static_poses
 from heft.diagrams.identify import ALL_METHODS, ARMS, FitRefused, estimate_all, fit_residual, residual_rms
 from heft.diagrams.load_estimate import estimate_record, write_load_estimate
+from heft.diagrams.recordings import open_recording
 from heft.diagrams.recording_kinematics import joint_orientation
 from heft.diagrams.scenario import Scenario
 from heft.systems.estimators import PARAMETER_NAMES, NoiseLevels, batch_estimate
@@ -94,7 +94,7 @@ def static_verdict(static: StaticCalibration, scenario: Scenario) -> dict:
     return {"ok": not causes, "causes": causes, "message": message, "residual_ratio": ratio.tolist()}
 
 
-def _stream_fit(recording, source: RecordingSource, scenario: Scenario, method: str, out: Path) -> tuple[dict, dict]:
+def _stream_fit(recording, source, scenario: Scenario, method: str, out: Path) -> tuple[dict, dict]:
     """Every estimator on the merged streams (clock offsets found first where asked): (metrics,
     the chosen method's estimate.yaml record with its verdict under "verdict")."""
     offsets, metrics = {}, {"choices": source.choices}
@@ -183,17 +183,13 @@ def identify_recording(path, out_dir, scenario: Scenario, method: str = "tls", a
             calibration = static.accelerometer.calibration
         estimate = dataclasses.replace(static.estimate, phi=point_mass_phi(static.mass, static.com))
         record = estimate_record(estimate, "ols", "static poses", static.poses)
-    has_streams = recording.wrench is not None and recording.wrench.file
-    if has_streams:
+    if recording.lcm_log is not None or (recording.wrench is not None and recording.wrench.file):
         stated = recording.accelerometer
-        if stated is not None and ESTIMATE in (stated.R_SA, stated.bias):
-            if calibration is None:
-                raise ValueError(f"{path}: the accelerometer's R_SA or bias is 'estimate', which needs static_poses "
-                                 "with the accelerometer's columns; add them or state R_SA and bias")
-            recording = with_accelerometer_calibration(recording, calibration)
-            print("the accelerometer's streams are calibrated with the static poses' R_SA, bias and scale", flush=True)
-        orientation = recording.orientation
-        source = RecordingSource(recording, _joints(recording, orientation.robot if orientation else None))
+        if calibration is None and stated is not None and ESTIMATE in (stated.R_SA, stated.bias):
+            raise ValueError(f"{path}: the accelerometer's R_SA or bias is 'estimate', which needs static_poses "
+                             "with the accelerometer's columns; add them or state R_SA and bias")
+        source = open_recording(path, calibration=calibration, calibrated_by="the static poses")
+        recording = source.recording
         metrics["streams"], record = _stream_fit(recording, source, scenario, method, out)
         verdict = record.pop("verdict")
     if calibration is not None:
