@@ -131,7 +131,7 @@ def _static_errors(static, poses):
 @pytest.mark.slow
 @pytest.mark.parametrize("kind", ["rotation_matrix", "joint_positions"])
 def test_round_trip_static_poses_and_excitation(simulated_lab, kind, tmp_path):
-    from foreign_recording import ACCELEROMETER_CLOCK_LATE
+    from foreign_recording import ACCELEROMETER_CLOCK_LATE, ACCELEROMETER_R_SA
 
     scenario, run, poses, paths = simulated_lab
     metrics = identify_recording(paths[kind], tmp_path, scenario)
@@ -146,12 +146,7 @@ def test_round_trip_static_poses_and_excitation(simulated_lab, kind, tmp_path):
     errors = estimate_errors(estimate.phi, estimate.offsets, run.phi_true, run.offsets_true.mean(axis=0))
     print(kind, "excitation (tls):", errors, "clock offset", offset)
     assert errors["mass_kg"] / run.phi_true[0] < 0.01 and errors["inertia_relative"] < 0.05
-    assert rotation_angle(estimate.accelerometer.R_SA, poses_R_SA()) < np.radians(1.0)
-
-
-def poses_R_SA():
-    from foreign_recording import ACCELEROMETER_R_SA
-    return ACCELEROMETER_R_SA
+    assert rotation_angle(estimate.accelerometer.R_SA, ACCELEROMETER_R_SA) < np.radians(1.0)
 
 
 @pytest.mark.slow
