@@ -13,22 +13,25 @@ from heft.analysis.recording_merge import RecordingSource
 from heft.diagrams.load_estimate import read_accelerometer_calibration
 
 
-def open_recording(path, estimate_path=None) -> RecordingSource:
+def open_recording(path, estimate_path=None, calibration=None, calibrated_by: str = "") -> RecordingSource:
     """A RecordingSource for a recording's YAML file: its lcm_log exported to files (``from_lcm_log``),
-    the arm's kinematics where the orientation is joint angles, and the accelerometer's calibration from
-    ``estimate_path`` where the recording says R_SA or bias 'estimate'."""
+    the arm's kinematics where the orientation is joint angles, and, where the recording says R_SA or
+    bias 'estimate', the accelerometer's ``calibration`` (found from static poses, ``calibrated_by``
+    saying so) or else the one of ``estimate_path``."""
     recording = load_recording(path)
     log_choices = {}
     if recording.lcm_log is not None:
         recording, log_choices = from_lcm_log(recording)
     acc, calibrated = recording.accelerometer, ""
     if acc is not None and ESTIMATE in (acc.R_SA, acc.bias):
-        calibration = read_accelerometer_calibration(estimate_path) if estimate_path else None
+        if calibration is None:
+            calibration = read_accelerometer_calibration(estimate_path) if estimate_path else None
+            calibrated_by = estimate_path
         if calibration is None:
             raise ValueError(f"{path}: the accelerometer's R_SA or bias is 'estimate', and {estimate_path} has no "
                              "accelerometer calibration: identify with static poses (`heft identify --recording`) "
                              "or state them in the recording")
-        recording, calibrated = with_accelerometer_calibration(recording, calibration), estimate_path
+        recording, calibrated = with_accelerometer_calibration(recording, calibration), calibrated_by
     orientation, joints = recording.orientation, None
     if orientation is not None and orientation.kind == "joint_positions":
         from heft.diagrams.recording_kinematics import joint_orientation
