@@ -149,10 +149,15 @@ class Recording:
         """A file the recording names, relative to its YAML file."""
         return Path(self.folder) / relative
 
-    def streams(self) -> dict:
-        """{name: stream} of the time streams present, the wrench first."""
+    def entries(self) -> dict:
+        """{name: stream entry} of the stream entries present, the wrench first (with or without a file)."""
         return {name: getattr(self, name) for name in ("wrench", "accelerometer", "orientation", "angular_velocity")
                 if getattr(self, name) is not None}
+
+    def streams(self) -> dict:
+        """{name: stream} of the time streams, those with a file; an entry without one gives settings only
+        (the wrench's sign and the accelerometer's unit for static poses; p_SA, robot for an lcm_log)."""
+        return {name: entry for name, entry in self.entries().items() if entry.file}
 
 
 def load_recording(path) -> Recording:
@@ -221,12 +226,14 @@ def _first_problem(recording: Recording) -> str | None:
     """The first problem of a recording that needs no data, or None."""
     if recording.wrench is None and recording.static_poses is None and recording.lcm_log is None:
         return "a recording needs a wrench stream, static_poses or an lcm_log"
-    for name, stream in recording.streams().items():
+    for name, stream in recording.entries().items():
         if recording.lcm_log is not None:
             if stream.file:
                 return f"{name}.file cannot be given with lcm_log: the log holds the streams"
             continue  # the stream's settings only; its file and clock come from the log
         if not stream.file:
+            if recording.static_poses is not None:
+                continue  # settings for the static poses (the wrench's sign, the accelerometer's unit)
             return f"{name}.file is missing: name the stream's CSV or Parquet file (relative to this YAML file)"
         problem = _clock_problem(name, stream.time, name == "wrench")
         if problem:

@@ -136,16 +136,17 @@ class RecordingSource:
     report and metrics.json."""
 
     def __init__(self, recording: Recording, joint_orientation: JointOrientation | None = None):
-        if recording.wrench is None:
-            raise ValueError(f"{recording.source}: merging streams needs a wrench stream")
-        if recording.accelerometer is None:
+        streams = recording.streams()
+        if "wrench" not in streams:
+            raise ValueError(f"{recording.source}: merging streams needs a wrench stream (a file)")
+        if "accelerometer" not in streams:
             raise ValueError(f"{recording.source}: the load's non-contact wrench needs an accelerometer stream "
                              "(a − g and, unless recorded, α from the orientation)")
-        if recording.orientation is None and recording.angular_velocity is None:
+        if "orientation" not in streams and "angular_velocity" not in streams:
             raise ValueError(f"{recording.source}: ω needs an orientation or an angular_velocity stream")
-        if recording.orientation is None and not recording.accelerometer.includes_gravity:
+        if "orientation" not in streams and not recording.accelerometer.includes_gravity:
             raise ValueError(f"{recording.source}: a gravity-free accelerometer needs the orientation for g")
-        if recording.orientation is not None and recording.orientation.kind == "joint_positions" \
+        if "orientation" in streams and recording.orientation.kind == "joint_positions" \
                 and joint_orientation is None:
             raise ValueError("joint positions need the arm's kinematics (pass joint_orientation)")
         self.recording = recording
@@ -183,7 +184,7 @@ class RecordingSource:
                                     + ("specific force a − g" if acc.includes_gravity else "gravity-free a"))
         window = rec.differentiation
         derived = []
-        if rec.angular_velocity is not None:
+        if "angular_velocity" in self.files:
             choices["omega"] = "recorded (angular_velocity stream)"
             source, period = "ω stream", self.period("angular_velocity")
         else:
@@ -202,7 +203,7 @@ class RecordingSource:
             for what in derived:
                 choices["omega" if what == "ω" else "alpha"] = text
         choices["gravity"] = (f"g_S = R_WSᵀ·{rec.gravity_W} m/s² from the orientation ({rec.orientation.kind})"
-                              if rec.orientation is not None else
+                              if "orientation" in self.files else
                               "no orientation: g left at 0 and a = the specific force (V needs only a − g)")
         choices["clock_offsets_s"] = {name: (offset if offset == ESTIMATE else float(offset))
                                       for name, offset in self.stated_offsets().items()}

@@ -177,3 +177,23 @@ static_poses: {file: poses.csv, wrench: [Fx, Fy, Fz, Tx, Ty, Tz], accelerometer:
     with pytest.raises(RecordingError) as error:
         read_static_poses(load_recording(tmp_path / "rec.yaml"))
     assert "poses.csv" in _one_line(error) and "row 4" in _one_line(error) and "unit quaternion" in _one_line(error)
+
+
+def test_stream_entries_without_a_file_give_the_static_poses_their_settings(tmp_path):
+    from heft.analysis.static_pose_table import read_static_poses
+
+    header = ["fx", "fy", "fz", "tx", "ty", "tz", "gx", "gy", "gz"]
+    (tmp_path / "poses.csv").write_text(",".join(header) + "\n" + ",".join(["1"] * 6 + ["0", "0", "-9.81"]) + "\n")
+    (tmp_path / "rec.yaml").write_text("""
+wrench: {exerted_on: load}
+accelerometer: {unit: g, R_SA: estimate, bias: estimate}
+static_poses: {file: poses.csv, gravity_S: [gx, gy, gz]}
+""")
+    recording = load_recording(tmp_path / "rec.yaml")
+    assert recording.streams() == {} and recording.accelerometer.unit == "g"
+    np.testing.assert_allclose(read_static_poses(recording).wrench, np.ones((1, 6)))  # the load's sign, as stated
+    with pytest.raises(ValueError, match="needs a wrench stream"):
+        RecordingSource(recording)
+    (tmp_path / "rec.yaml").write_text("wrench: {file: w.csv, time: {rate: 100.0}}\naccelerometer: {unit: g}\n")
+    with pytest.raises(ValueError, match="accelerometer.file is missing"):
+        load_recording(tmp_path / "rec.yaml")
