@@ -108,6 +108,10 @@ _MASTER, _SLAVE, _FT = range(3)
 _NAN_STREAM, _REORDER_STREAM = 3, 4
 _DUE_SLACK = 1e-9
 """A message is due when its nominal time is at most this (s) after ``now`` (round-off of k/rate)."""
+_MAX_STEP = 0.05
+"""The most lab time (s) one step covers: a stand-in starved of CPU catches up in steps this
+long, so that it sees a stop request between two of them instead of after its whole backlog
+(which, on a machine too busy for it to keep real time, grows without end)."""
 _NOISE_BLOCK = 64
 """Sensor samples whose noise and offsets are drawn at once."""
 
@@ -536,11 +540,12 @@ def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
                  faults: FaultInjection | None = None, clutch_at: float = 0.0, clutch_release_at: float = math.inf,
                  clock=time.perf_counter, sleep=time.sleep, ready=None, stop=None) -> dict:
     """Runs ``StandIn`` on ``channels``' two URLs (``open_buses``) in real time on ``clock`` (s)
-    for ``duration`` s or until it dies, waiting between due messages: with the default
+    for ``duration`` s or until it dies, waiting between due messages (a late lab catches up
+    ``_MAX_STEP`` at a time): with the default
     ``sleep`` the wait is a ``select`` on the command bus that also ends when a command
     arrives; another ``sleep(seconds)`` (e.g. with a fake ``clock``) is called instead.
 
-    Returns {"duration_s": wall time run (s), "died", "published" / "received" (channel name →
+    Returns {"duration_s": wall time run (s; the lab's own time may lag it), "died", "published" / "received" (channel name →
     messages), "published_hz" / "received_hz" (channel name → messages per wall second),
     "max_lateness_ms": the latest a message was published after its nominal time, "cpu_s":
     this process's CPU time over the run, "stylus_force_peak": ``StandIn.stylus_force_peak``}.
@@ -561,19 +566,20 @@ def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
     cpu_start, start, epoch = time.process_time(), clock(), time.time()
     if ready is not None:
         ready(epoch)
-    now = 0.0
+    now = wall = 0.0
     while True:
-        lateness = max(lateness, now - lab.next_due)
+        lateness = max(lateness, wall - lab.next_due)
         alive = lab.step(now)
         if not alive or now >= duration - _DUE_SLACK or (stop is not None and stop()):
             break
         pause = min(lab.next_due, duration) - (clock() - start)
         if pause > _DUE_SLACK:
             wait(pause)
-        now = clock() - start
-    elapsed = max(now, 1e-9)
+        wall = clock() - start
+        now = min(wall, now + _MAX_STEP)
+    elapsed = max(clock() - start, 1e-9)
     published, received = lab.published, lab.received
-    return {"duration_s": now, "died": not alive, "published": published, "received": received,
+    return {"duration_s": elapsed, "died": not alive, "published": published, "received": received,
             "published_hz": {name: count / elapsed for name, count in published.items()},
             "received_hz": {name: count / elapsed for name, count in received.items()},
             "max_lateness_ms": 1e3 * lateness, "cpu_s": time.process_time() - cpu_start,
