@@ -12,7 +12,8 @@ known) and starts again on every recovery, from the slave's measured pose with
 the clutch disengaged; motion follows the stylus only while the operator holds
 the clutch button, anchored on the slave's measured pose at the press. Load
 commands (``heft load``: re-zero, offset tracking, a new tool's estimate) are
-served after each tick's send (``hardware_interface.load_commands``).
+served after each tick's send (``hardware_interface.load_commands``). Each tick the
+controller steps, what it computed goes out beside the commands (``hardware_interface.teleop_state``).
 
 ``run_hardware_teleop`` runs it for a while (``diagrams.running.realtime``) and returns
 what the run saw: faults and recoveries, the master command's largest stylus
@@ -40,6 +41,7 @@ from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import WATCHED_CHANNELS, HardwareStation, HardwareStationParams
 from heft.hardware_interface.lcm_mailbox import open_buses
 from heft.hardware_interface.load_commands import LoadCommandServer
+from heft.hardware_interface.teleop_state import TeleopStatePublisher
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
 
@@ -63,6 +65,7 @@ class HardwareTeleop:
         limits = device_limits(scenario)
         self.station = HardwareStation(bus, channels, limits, params, command_bus)
         self.load_commands = LoadCommandServer(bus, channels, self.controller, limits.wrench_full_scale, command_bus)
+        self.state = TeleopStatePublisher(bus if command_bus is None else command_bus, channels)
         self._channel_names = [getattr(channels, name).name for name in WATCHED_CHANNELS]
         self._zero = np.zeros(NUM_JOINTS)
         self.now = 0.0
@@ -88,9 +91,11 @@ class HardwareTeleop:
         if healthy:
             if not self._was_healthy:
                 controller.start(station.slave_position)
+                self.state.starts += 1
             controller.step(dt, station.master_position, station.master_velocity, station.slave_position,
                             station.slave_velocity, station.wrench, station.acceleration, station.clutch)
             station.send(now, controller.torque, controller.position)
+            self.state.publish(round((station.epoch + now) * 1e6), dt, station.stamps, controller, station.gain)
         else:
             station.send(now, self._zero, None)
         self.load_commands.serve(round((station.epoch + now) * 1e6), healthy)

@@ -1,0 +1,205 @@
+"""A run's log as the arrays the analyses read (``heft analyze passivity|replay``), from either
+kind of log heft writes:
+
+- ``npz``: a simulation's ``log.npz`` / ``log_sigma*.npz`` (``heft simulate``), read as it is;
+- ``lcm``: the LCM event log ``heft teleop --hardware --record`` writes (``lcm-logger``'s
+  format, ``diagrams.running.lcm_recording``).
+
+The kind is told by the file's first bytes (``log_kind``), or given. From an LCM log, one
+row per controller tick, i.e. per ``heft_teleop_state`` message (``hardware_interface.
+teleop_state``), with the driver messages that tick read, found by their utimes:
+
+====================  =====  ========================================================================
+key                   width  what (units, frame), and from which message
+====================  =====  ========================================================================
+t                     —      the tick's time (s) since the first row's (teleop state ``utime``)
+hold                  —      the tick's duration the controller stepped with (s; ``dt``): the
+                             passivity observer's hold
+starts                —      controller starts so far (the observer restarts from 0 at each)
+gain                  —      the watchdog's force gain (0..1)
+master_q, master_v    6      Phantom joint positions (rad), velocities (rad/s): ``heft_haptic_state``
+master_torque         6      joint torques sent (N·m, gain applied): ``heft_haptic_command``
+master_force          6      the wrench on the hand as mapped, before the PC [f; τ] at E in B (N, N·m)
+master_force_applied  6      the same after the PC and the device's limits
+passivity_energy      2      the observer's [E_t, E_r] after the PC (J)
+passivity_damping     2      the PC's [α_t (N·s/m), α_r (N·m·s/rad)]
+slave_q, slave_v      6      arm joint positions (rad), velocities (rad/s): ``lcmt_iiwa_status``
+slave_q_commanded     6      the arm command sent in the tick (rad): ``lcmt_iiwa_command``
+wrench_measured       6      the sensor's wrench ON THE LOAD, at S in S (N, N·m): −``heft_ft_sample.wrench``
+accel_measured        6      the accelerometer's reading as the driver reports it (m/s², rad/s²; in S)
+wrench_contact        6      the controller's contact wrench (Eq. 13), on the load at S in S
+wrench_noncontact     6      its non-contact wrench (Eq. 5), the same frame
+====================  =====  ========================================================================
+
+A hardware log holds no truth: ``wrench_contact_true`` (the simulation's contact force, for
+the environment port of the passivity analysis) is missing, and said so in ``RunLog.notes``.
+Timing differs from a simulation's in one respect, ``RunLog.wrench_lag``: the simulated
+controller's passivity observer pairs row k's stylus twist with the wrench of row k − 1 (its
+blocks are sampled at once), the hardware's with row k's (one computation per tick).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+NPZ, LCM = "npz", "lcm"
+KINDS = (NPZ, LCM)
+_MAGIC = {b"PK\x03\x04": NPZ, b"\xed\xa1\xda\x01": LCM}  # zip (numpy's .npz); LCM event log
+WRITERS = "a log.npz of `heft simulate` or an LCM log of `heft teleop --hardware --record`"
+
+
+@dataclasses.dataclass
+class RunLog:
+    """The arrays of a run (``arrays``, keys as ``heft simulate`` writes them), its ``kind``,
+    ``wrench_lag`` (rows between the wrench and the twist the observer paired it with) and
+    ``notes``: what was left out, missing or chosen, one sentence each."""
+
+    arrays: dict
+    kind: str
+    wrench_lag: int
+    notes: list
+
+
+def log_kind(path) -> str:
+    """``npz`` or ``lcm`` from the first bytes of the file at ``path``; a ValueError (one line,
+    naming the file and what to give) for a missing, unreadable or other file."""
+    path = Path(path)
+    if not path.exists():
+        raise ValueError(f"no log at {path}; give {WRITERS}")
+    try:
+        with open(path, "rb") as file:
+            head = file.read(4)
+    except OSError as error:
+        raise ValueError(f"cannot read a log from {path} ({error.strerror}); give {WRITERS}") from None
+    if head not in _MAGIC:
+        raise ValueError(f"{path} is neither an .npz archive nor an LCM log; give {WRITERS}")
+    return _MAGIC[head]
+
+
+def read_run_log(path, kind: str | None = None) -> RunLog:
+    """The run in the log at ``path`` (module docstring); ``kind`` ``npz`` or ``lcm``, or None:
+    told by the file (``log_kind``). A ValueError (one line) names what is wrong."""
+    found = log_kind(path)
+    if kind is not None and kind != found:
+        raise ValueError(f"{path} is an {found} log, not {kind}: drop --kind or give {WRITERS}")
+    return _read_npz(Path(path)) if found == NPZ else read_lcm_log(path)
+
+
+def _read_npz(path: Path) -> RunLog:
+    try:
+        with np.load(path) as archive:
+            arrays = {key: archive[key] for key in archive.files}
+    except (OSError, ValueError) as error:
+        raise ValueError(f"cannot read {path} as a log.npz ({error}); write one with `heft simulate`") from None
+    return RunLog(arrays, NPZ, 1, [])
+
+
+def _by_utime(events, decode, name: str, notes: list) -> tuple[dict, set]:
+    """``{utime: message}`` of one channel's ``events`` (decoded with ``decode``), and the utimes
+    that more than one message carried (a second publisher: which one a tick read is unknown)."""
+    messages, repeated, undecodable = {}, set(), 0
+    for data in events:
+        try:
+            msg = decode(data)
+        except Exception:  # whatever a malformed payload makes the generated decoder raise
+            undecodable += 1
+            continue
+        if msg.utime in messages:
+            repeated.add(msg.utime)
+        messages[msg.utime] = msg
+    if undecodable:
+        notes.append(f"{undecodable} undecodable {name} messages skipped")
+    return messages, repeated
+
+
+def read_lcm_log(path) -> RunLog:
+    """The run recorded in the LCM log at ``path`` (module docstring). Ticks whose driver
+    messages the log lacks (a packet the logger missed) or holds twice are left out and
+    counted in the notes."""
+    import lcm
+    from drake import lcmt_iiwa_command, lcmt_iiwa_status
+
+    from heft.hardware_interface.channels import LcmChannels
+    from heft.hardware_interface.lcmtypes import (heft_ft_sample, heft_haptic_command, heft_haptic_state,
+                                                  heft_teleop_state)
+
+    channels = LcmChannels()
+    names = {channels.teleop_state.name: "teleop_state", channels.master_state.name: "master_state",
+             channels.master_command.name: "master_command", channels.slave_status.name: "slave_status",
+             channels.slave_command.name: "slave_command", channels.ft_sample.name: "ft_sample"}
+    payloads = {name: [] for name in names.values()}
+    try:
+        for event in lcm.EventLog(str(path), "r"):
+            if event.channel in names:
+                payloads[names[event.channel]].append(event.data)
+    except OSError as error:
+        raise ValueError(f"cannot read the LCM log {path} ({error}); give {WRITERS}") from None
+    if not payloads["teleop_state"]:
+        raise ValueError(f"{path} holds no {channels.teleop_state.name} messages: the controller's ticks are not in "
+                         "it; record with `heft teleop --hardware --record LOG`")
+    notes = []
+    decoders = {"teleop_state": heft_teleop_state.decode, "master_state": heft_haptic_state.decode,
+                "master_command": heft_haptic_command.decode, "slave_status": lcmt_iiwa_status.decode,
+                "slave_command": lcmt_iiwa_command.decode, "ft_sample": heft_ft_sample.decode}
+    tables = {name: _by_utime(payloads[name], decoders[name], name, notes) for name in decoders}
+    ticks = sorted(tables["teleop_state"][0].values(), key=lambda msg: msg.utime)
+    rows, lacking, doubled = [], 0, 0
+    for tick in ticks:
+        keys = {"master_state": tick.master_utime, "slave_status": tick.slave_utime, "ft_sample": tick.ft_utime,
+                "master_command": tick.utime, "slave_command": tick.utime}
+        if any(key not in tables[name][0] for name, key in keys.items()):
+            lacking += 1
+        elif any(key in tables[name][1] for name, key in keys.items()):
+            doubled += 1
+        else:
+            rows.append((tick, *(tables[name][0][key] for name, key in keys.items())))
+    if lacking:
+        notes.append(f"{lacking} of {len(ticks)} ticks left out: the log lacks a driver message or command they read")
+    if doubled:
+        notes.append(f"{doubled} of {len(ticks)} ticks left out: a message they read has a twin with the same utime")
+    if len(rows) < 3:
+        raise ValueError(f"{path} holds {len(rows)} complete controller ticks; an analysis needs 3 or more")
+    notes.append("no wrench_contact_true: a hardware log holds no true contact force (environment port not computed)")
+    return RunLog(_lcm_arrays(rows), LCM, 0, notes)
+
+
+def _lcm_arrays(rows) -> dict:
+    """The arrays of the module docstring from (teleop state, master state, slave status, FT
+    sample, master command, slave command) per tick."""
+    tick, master, slave, ft, master_command, slave_command = zip(*rows)
+    utime = np.array([msg.utime for msg in tick], dtype=np.int64)
+
+    def stack(messages, field, dtype=float):
+        return np.array([getattr(msg, field) for msg in messages], dtype=dtype)
+
+    return {
+        "t": (utime - utime[0]) * 1e-6, "hold": stack(tick, "dt"), "starts": stack(tick, "starts", np.int64),
+        "gain": stack(tick, "gain"),
+        "master_q": stack(master, "position"), "master_v": stack(master, "velocity"),
+        "master_torque": stack(master_command, "torque"),
+        "master_force": stack(tick, "master_wrench"), "master_force_applied": stack(tick, "applied_wrench"),
+        "passivity_energy": stack(tick, "energy"), "passivity_damping": stack(tick, "damping"),
+        "slave_q": stack(slave, "joint_position_measured"), "slave_v": stack(slave, "joint_velocity_estimated"),
+        "slave_q_commanded": stack(slave_command, "joint_position"),
+        "wrench_measured": -stack(ft, "wrench"), "accel_measured": stack(ft, "acceleration"),
+        "wrench_contact": stack(tick, "wrench_contact"), "wrench_noncontact": stack(tick, "wrench_noncontact"),
+    }
+
+
+def longest_start(run: RunLog) -> RunLog:
+    """The rows of ``run`` from its longest stretch of one controller start (the passivity
+    observer restarts from zero at each), with a note if others were left out; ``run`` itself
+    if it has one (or is a simulation's)."""
+    starts = run.arrays.get("starts")
+    if starts is None or np.all(starts == starts[0]):
+        return run
+    values, counts = np.unique(starts, return_counts=True)
+    keep = starts == values[np.argmax(counts)]
+    t = run.arrays["t"]
+    arrays = {key: value[keep] for key, value in run.arrays.items()}
+    note = (f"the controller started {len(values)} times (after faults); analysed its longest stretch, "
+            f"{t[keep][0]:.3f}–{t[keep][-1]:.3f} s ({keep.sum()} of {len(t)} ticks)")
+    return RunLog(arrays, run.kind, run.wrench_lag, [*run.notes, note])
