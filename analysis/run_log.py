@@ -7,7 +7,8 @@ kind of log heft writes:
 
 The kind is told by the file's first bytes (``log_kind``), or given. From an LCM log, one
 row per controller tick, i.e. per ``heft_teleop_state`` message (``hardware_interface.
-teleop_state``), with the driver messages that tick read, found by their utimes:
+teleop_state``), with the driver messages that tick read, found by their utimes, and the
+commands it sent (NaN where the log lacks one: ``complete_rows``):
 
 ====================  =====  ========================================================================
 key                   width  what (units, frame), and from which message
@@ -116,9 +117,10 @@ def _by_utime(events, decode, name: str, notes: list) -> tuple[dict, set]:
 
 
 def read_lcm_log(path) -> RunLog:
-    """The run recorded in the LCM log at ``path`` (module docstring). Ticks whose driver
-    messages the log lacks (a packet the logger missed) or holds twice are left out and
-    counted in the notes."""
+    """The run recorded in the LCM log at ``path`` (module docstring), one row per tick. Where
+    the log lacks a driver message or command a tick read (a packet the logger missed) or holds
+    it twice (another publisher on the same stamp), that row's values from it are NaN, counted
+    in the notes (``complete_rows`` keeps the rows an analysis can use)."""
     import lcm
     from drake import lcmt_iiwa_command, lcmt_iiwa_status
 
@@ -127,66 +129,84 @@ def read_lcm_log(path) -> RunLog:
                                                   heft_teleop_state)
 
     channels = LcmChannels()
-    names = {channels.teleop_state.name: "teleop_state", channels.master_state.name: "master_state",
-             channels.master_command.name: "master_command", channels.slave_status.name: "slave_status",
-             channels.slave_command.name: "slave_command", channels.ft_sample.name: "ft_sample"}
-    payloads = {name: [] for name in names.values()}
+    decoders = {channels.teleop_state.name: heft_teleop_state.decode,
+                channels.master_state.name: heft_haptic_state.decode,
+                channels.master_command.name: heft_haptic_command.decode,
+                channels.slave_status.name: lcmt_iiwa_status.decode,
+                channels.slave_command.name: lcmt_iiwa_command.decode,
+                channels.ft_sample.name: heft_ft_sample.decode}
+    payloads = {name: [] for name in decoders}
     try:
         for event in lcm.EventLog(str(path), "r"):
-            if event.channel in names:
-                payloads[names[event.channel]].append(event.data)
+            if event.channel in payloads:
+                payloads[event.channel].append(event.data)
     except OSError as error:
         raise ValueError(f"cannot read the LCM log {path} ({error}); give {WRITERS}") from None
-    if not payloads["teleop_state"]:
+    if not payloads[channels.teleop_state.name]:
         raise ValueError(f"{path} holds no {channels.teleop_state.name} messages: the controller's ticks are not in "
                          "it; record with `heft teleop --hardware --record LOG`")
     notes = []
-    decoders = {"teleop_state": heft_teleop_state.decode, "master_state": heft_haptic_state.decode,
-                "master_command": heft_haptic_command.decode, "slave_status": lcmt_iiwa_status.decode,
-                "slave_command": lcmt_iiwa_command.decode, "ft_sample": heft_ft_sample.decode}
-    tables = {name: _by_utime(payloads[name], decoders[name], name, notes) for name in decoders}
-    ticks = sorted(tables["teleop_state"][0].values(), key=lambda msg: msg.utime)
-    rows, lacking, doubled = [], 0, 0
-    for tick in ticks:
-        keys = {"master_state": tick.master_utime, "slave_status": tick.slave_utime, "ft_sample": tick.ft_utime,
-                "master_command": tick.utime, "slave_command": tick.utime}
-        if any(key not in tables[name][0] for name, key in keys.items()):
-            lacking += 1
-        elif any(key in tables[name][1] for name, key in keys.items()):
-            doubled += 1
-        else:
-            rows.append((tick, *(tables[name][0][key] for name, key in keys.items())))
-    if lacking:
-        notes.append(f"{lacking} of {len(ticks)} ticks left out: the log lacks a driver message or command they read")
-    if doubled:
-        notes.append(f"{doubled} of {len(ticks)} ticks left out: a message they read has a twin with the same utime")
-    if len(rows) < 3:
-        raise ValueError(f"{path} holds {len(rows)} complete controller ticks; an analysis needs 3 or more")
+    tables = {name: _by_utime(payloads[name], decode, name, notes) for name, decode in decoders.items()}
+    ticks = sorted(tables.pop(channels.teleop_state.name)[0].values(), key=lambda msg: msg.utime)
+    if len(ticks) < 3:
+        raise ValueError(f"{path} holds {len(ticks)} controller ticks; an analysis needs 3 or more")
+    stamp_of = {channels.master_state.name: lambda tick: tick.master_utime,
+                channels.slave_status.name: lambda tick: tick.slave_utime,
+                channels.ft_sample.name: lambda tick: tick.ft_utime,
+                channels.master_command.name: lambda tick: tick.utime,
+                channels.slave_command.name: lambda tick: tick.utime}
+    read = {}
+    for name, (messages, repeated) in tables.items():
+        stamps = [stamp_of[name](tick) for tick in ticks]
+        read[name] = [None if stamp in repeated else messages.get(stamp) for stamp in stamps]
+        lacking = sum(message is None for message in read[name])
+        if lacking:
+            notes.append(f"{lacking} of {len(ticks)} ticks without their {name} message in the log (NaN)")
     notes.append("no wrench_contact_true: a hardware log holds no true contact force (environment port not computed)")
-    return RunLog(_lcm_arrays(rows), LCM, 0, notes)
+    return RunLog(_lcm_arrays(ticks, read, channels), LCM, 0, notes)
 
 
-def _lcm_arrays(rows) -> dict:
-    """The arrays of the module docstring from (teleop state, master state, slave status, FT
-    sample, master command, slave command) per tick."""
-    tick, master, slave, ft, master_command, slave_command = zip(*rows)
-    utime = np.array([msg.utime for msg in tick], dtype=np.int64)
+def _lcm_arrays(ticks, read: dict, channels) -> dict:
+    """The arrays of the module docstring from the teleop states ``ticks`` and, per channel
+    name, the message each tick read (``read``; None: NaN)."""
 
-    def stack(messages, field, dtype=float):
-        return np.array([getattr(msg, field) for msg in messages], dtype=dtype)
+    def stack(messages, field, width=6, sign=1.0):
+        nan = [np.nan] * width
+        return sign * np.array([nan if msg is None else getattr(msg, field) for msg in messages], dtype=float)
 
+    utime = np.array([tick.utime for tick in ticks], dtype=np.int64)
+    master, slave, ft = (read[channels.master_state.name], read[channels.slave_status.name],
+                         read[channels.ft_sample.name])
+    master_command, slave_command = read[channels.master_command.name], read[channels.slave_command.name]
     return {
-        "t": (utime - utime[0]) * 1e-6, "hold": stack(tick, "dt"), "starts": stack(tick, "starts", np.int64),
-        "gain": stack(tick, "gain"),
+        "t": (utime - utime[0]) * 1e-6, "hold": np.array([tick.dt for tick in ticks]),
+        "starts": np.array([tick.starts for tick in ticks], dtype=np.int64),
+        "gain": np.array([tick.gain for tick in ticks]),
         "master_q": stack(master, "position"), "master_v": stack(master, "velocity"),
         "master_torque": stack(master_command, "torque"),
-        "master_force": stack(tick, "master_wrench"), "master_force_applied": stack(tick, "applied_wrench"),
-        "passivity_energy": stack(tick, "energy"), "passivity_damping": stack(tick, "damping"),
+        "master_force": stack(ticks, "master_wrench"), "master_force_applied": stack(ticks, "applied_wrench"),
+        "passivity_energy": stack(ticks, "energy", 2), "passivity_damping": stack(ticks, "damping", 2),
         "slave_q": stack(slave, "joint_position_measured"), "slave_v": stack(slave, "joint_velocity_estimated"),
         "slave_q_commanded": stack(slave_command, "joint_position"),
-        "wrench_measured": -stack(ft, "wrench"), "accel_measured": stack(ft, "acceleration"),
-        "wrench_contact": stack(tick, "wrench_contact"), "wrench_noncontact": stack(tick, "wrench_noncontact"),
+        "wrench_measured": stack(ft, "wrench", sign=-1.0), "accel_measured": stack(ft, "acceleration"),
+        "wrench_contact": stack(ticks, "wrench_contact"), "wrench_noncontact": stack(ticks, "wrench_noncontact"),
     }
+
+
+def complete_rows(run: RunLog, keys, why: str) -> RunLog:
+    """The rows of ``run`` where every array of ``keys`` is finite (``why``: what the others
+    miss, for the note); ``run`` itself if all are."""
+    keep = np.ones(len(run.arrays["t"]), dtype=bool)
+    for key in keys:
+        values = np.asarray(run.arrays[key], dtype=float)
+        keep &= np.isfinite(values.reshape(len(keep), -1)).all(axis=1)
+    if keep.all():
+        return run
+    if keep.sum() < 3:
+        raise ValueError(f"the log has {keep.sum()} rows with {', '.join(keys)}; an analysis needs 3 or more")
+    arrays = {key: value[keep] for key, value in run.arrays.items()}
+    note = f"{(~keep).sum()} of {len(keep)} rows left out: {why}"
+    return RunLog(arrays, run.kind, run.wrench_lag, [*run.notes, note])
 
 
 def longest_start(run: RunLog) -> RunLog:

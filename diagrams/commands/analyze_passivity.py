@@ -30,7 +30,7 @@ from pydrake.multibody.tree import JacobianWrtVariable
 
 from heft.analysis.passivity_analysis import (CHANNELS, passivity_controller_summary, passivity_figure,
                                               port_energy, port_power, sample_periods)
-from heft.analysis.run_log import KINDS, RunLog, longest_start, read_run_log
+from heft.analysis.run_log import KINDS, RunLog, complete_rows, longest_start, read_run_log
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, pose_and_jacobian
 
@@ -40,14 +40,16 @@ ENVIRONMENT_KEYS = ("slave_q", "wrench_contact_true")
 
 def read_log(path, kind: str | None = None) -> RunLog:
     """The run in a log.npz or a hardware LCM log (`read_run_log`; on hardware its longest
-    stretch between controller restarts); a ValueError names a missing file or key."""
+    stretch between controller restarts, the rows with the master's state); a ValueError names
+    a missing file or key."""
     run = longest_start(read_run_log(path, kind))
     missing = [key for key in REQUIRED_KEYS if key not in run.arrays]
     if missing:
         raise ValueError(f"{path} lacks {', '.join(missing)}: the passivity analysis needs {', '.join(REQUIRED_KEYS)}")
     if np.asarray(run.arrays["t"]).size < 3:
         raise ValueError(f"{path} holds fewer than 3 samples")
-    return run
+    return complete_rows(run, ("master_q", "master_v"), "without the master's state their energy is not counted "
+                                                        "(the observer identity gap shows it)")
 
 
 def stylus_twists(master_q, master_v) -> np.ndarray:

@@ -22,7 +22,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from heft.analysis.run_log import KINDS, read_run_log
+from heft.analysis.run_log import KINDS, complete_rows, read_run_log
 from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import AddSlave
@@ -62,12 +62,14 @@ SHORTEST_ARROW = 1e-4   # m: a zero force is drawn as a dot (a zero scale would 
 def load_log(path, kind: str | None = None) -> dict:
     """The arrays of a ``log.npz`` / ``log_sigma*.npz`` written by ``heft simulate`` or of an
     LCM log of ``heft teleop --hardware --record`` (`read_run_log`), checked for what a replay
-    needs (``REPLAY_KEYS``, one row per sample of ``t``)."""
-    log = read_run_log(path, kind).arrays
-    missing = [key for key in REPLAY_KEYS if key not in log]
+    needs (``REPLAY_KEYS``, one row per sample of ``t``; rows where the log lacks a message
+    left out)."""
+    run = read_run_log(path, kind)
+    missing = [key for key in REPLAY_KEYS if key not in run.arrays]
     if missing:
         raise ValueError(f"{path} lacks {', '.join(missing)}: write the log with the current `heft simulate`")
-    return log
+    return complete_rows(run, [key for key, width in REPLAY_KEYS.items() if width], "the log lacks a message "
+                                                                                   "they show").arrays
 
 
 def _check_log(log) -> np.ndarray:
