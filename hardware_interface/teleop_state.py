@@ -4,7 +4,9 @@
 the controller computed (the passivity observer's energy and damping, the wrench on the
 hand before and after it, the contact and non-contact wrench) and the stamps of the driver
 messages it read, so that a recording of the traffic holds everything the analyses of a
-simulated run read (``heft.analysis.run_log``). One message object, refilled each tick.
+simulated run read (``heft.analysis.run_log``). One message object, refilled each tick;
+about 45 µs a tick (17 µs of it encoding), which ``heft teleop --hardware`` spends only when
+it records.
 """
 
 from __future__ import annotations
@@ -21,15 +23,13 @@ class TeleopStatePublisher:
     def __init__(self, command_bus: lcm.LCM, channels: LcmChannels):
         self._bus, self._channel = command_bus, channels.teleop_state.name
         self._msg = heft_teleop_state()
-        self.starts = 0
-        """Controller starts so far (the caller counts them up at each start)."""
 
-    def publish(self, utime: int, dt: float, stamps, controller, gain: float) -> None:
+    def publish(self, utime: int, dt: float, starts: int, stamps, controller, gain: float) -> None:
         """The tick at ``utime`` (µs, the commands'), stepped by ``dt`` (s) on the driver messages
         stamped ``stamps`` (master, slave, FT; µs), of ``controller`` (``RealtimeTeleopController``
-        after ``step``), with the watchdog's ``gain``."""
+        after ``step``, started ``starts`` times so far), with the watchdog's ``gain``."""
         msg = self._msg
-        msg.utime, msg.dt, msg.starts, msg.gain = utime, dt, self.starts, gain
+        msg.utime, msg.dt, msg.starts, msg.gain = utime, dt, starts, gain
         msg.master_utime, msg.slave_utime, msg.ft_utime = stamps
         msg.master_wrench, msg.applied_wrench = controller.master_wrench.tolist(), controller.applied_wrench.tolist()
         msg.energy, msg.damping = controller.energy.tolist(), controller.damping.tolist()
