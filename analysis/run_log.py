@@ -34,9 +34,10 @@ wrench_noncontact     6      its non-contact wrench (Eq. 5), the same frame
 
 A hardware log holds no truth: ``wrench_contact_true`` (the simulation's contact force, for
 the environment port of the passivity analysis) is missing, and said so in ``RunLog.notes``.
-Timing differs from a simulation's in one respect, ``RunLog.wrench_lag``: the simulated
-controller's passivity observer pairs row k's stylus twist with the wrench of row k − 1 (its
-blocks are sampled at once), the hardware's with row k's (one computation per tick).
+Timing differs from a simulation's in two respects: the simulated controller's passivity
+observer pairs row k's stylus twist with the wrench of row k − 1 (its blocks are sampled at
+once), the hardware's with row k's (one computation per tick): ``RunLog.wrench_lag`` 1 or 0;
+and a hardware row holds for the tick's measured ``hold``, a simulated one for the period.
 """
 
 from __future__ import annotations
