@@ -11,13 +11,14 @@ and J_M(q)·q̇ through MultibodyPlant, split into the port energy of the mapped
 the passivity controller dissipated.
 """
 
+import collections
+import json
 import shutil
 import subprocess
 import sys
 import time
 from pathlib import Path
 
-import json
 import lcm
 import numpy as np
 import pytest
@@ -61,23 +62,25 @@ def recording(module_netns, tmp_path_factory):
 
 
 def _raw_ticks(log):
-    """Every controller tick's teleop state, decoded here, in order, and per tick whose master
-    command and the master state it read the log holds: (teleop state, command, master state)."""
+    """Every controller tick's teleop state, decoded here, in order; per tick whose master
+    command and the master state it read the log holds once, (teleop state, command, master
+    state); and the master states by utime. (The run's last command, forces off, goes out on
+    the last tick's stamp: that tick has two, and which one is its own the log does not say.)"""
     channels = LcmChannels()
-    states, commands, masters = {}, {}, {}
+    states, commands, masters = {}, collections.defaultdict(list), collections.defaultdict(list)
     for event in lcm.EventLog(str(log), "r"):
         if event.channel == channels.teleop_state.name:
             msg = heft_teleop_state.decode(event.data)
             states[msg.utime] = msg
         elif event.channel == channels.master_command.name:
             msg = heft_haptic_command.decode(event.data)
-            commands[msg.utime] = msg
+            commands[msg.utime].append(msg)
         elif event.channel == channels.master_state.name:
             msg = heft_haptic_state.decode(event.data)
-            masters[msg.utime] = msg
+            masters[msg.utime].append(msg)
     states = [state for _, state in sorted(states.items())]
-    return states, [(state, commands[state.utime], masters[state.master_utime]) for state in states
-                    if state.utime in commands and state.master_utime in masters]
+    return states, [(state, commands[state.utime][0], masters[state.master_utime][0]) for state in states
+                    if len(commands[state.utime]) == 1 and len(masters[state.master_utime]) == 1], masters
 
 
 def test_passivity_on_the_hardware_log_agrees_with_the_raw_messages(recording, tmp_path):
@@ -94,7 +97,7 @@ def test_passivity_on_the_hardware_log_agrees_with_the_raw_messages(recording, t
 
     # The energy from the hand into the network over the ticks of the analysed stretch whose
     # command and master state the log holds: raw, in joint space, and by the analysis.
-    states, ticks = _raw_ticks(recording)
+    states, ticks, _ = _raw_ticks(recording)
     longest = np.bincount([state.starts for state in states]).argmax()  # the stretch `longest_start` takes
     stretch = sum(state.starts == longest for state in states)
     ticks = [tick for tick in ticks if tick[0].starts == longest]
@@ -128,9 +131,10 @@ def test_replay_of_the_hardware_log_opens_in_chromium(recording, tmp_path):
     print(result.stdout.strip())
     log = load_log(recording)  # the rows the replay shows
     frames = frame_indices(log["t"], FPS)
-    states, ticks = _raw_ticks(recording)
-    by_time = {state.utime - states[0].utime: master for state, _, master in ticks}
-    master_q = np.array(by_time[round(log["t"][frames[-1]] * 1e6)].position)  # as the Phantom driver sent it
+    states, _, masters = _raw_ticks(recording)
+    read = {state.utime - states[0].utime: state.master_utime for state in states}  # the tick's master state
+    (master,) = masters[read[round(log["t"][frames[-1]] * 1e6)]]
+    master_q = np.array(master.position)  # as the Phantom driver sent it
     np.testing.assert_array_equal(log["master_q"][frames[-1]], master_q)
     assert np.ptp(log["master_q"][frames], axis=0).max() > 0.01  # the master moved
 
