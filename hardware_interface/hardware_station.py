@@ -132,6 +132,12 @@ class HardwareStation:
         """Wall-clock time (s since the Unix epoch) at station time 0: published utimes are epoch + now."""
 
     @property
+    def stamps(self) -> tuple[int, int, int]:
+        """The utimes (µs, each on its driver's clock) of the master state, slave status and FT
+        sample in the readings (0 before a channel's first)."""
+        return self._master.utime, self._slave.utime, self._ft.utime
+
+    @property
     def slave_known(self) -> bool:
         return math.isfinite(self._slave.t_good)
 

@@ -1,5 +1,6 @@
 """Shared fixtures."""
 
+import contextlib
 import os
 import shutil
 import subprocess
@@ -12,8 +13,8 @@ def _ip(*args, check=True):
     return subprocess.run(["ip", *args], capture_output=True, text=True, timeout=10, check=check)
 
 
-@pytest.fixture
-def netns():
+@contextlib.contextmanager
+def _namespace():
     """A fresh network namespace with `lo` up and multicast routed to it; always deleted."""
     if shutil.which("ip") is None:
         pytest.skip("needs the `ip` tool (iproute2) to create a network namespace")
@@ -29,6 +30,20 @@ def netns():
         yield name
     finally:
         _ip("netns", "del", name, check=False)
+
+
+@pytest.fixture
+def netns():
+    """A network namespace of its own for one test (`_namespace`)."""
+    with _namespace() as name:
+        yield name
+
+
+@pytest.fixture(scope="module")
+def module_netns():
+    """A network namespace shared by the tests of one module (`_namespace`)."""
+    with _namespace() as name:
+        yield name
 
 
 class FakeClock:

@@ -32,10 +32,11 @@ MAX_FORCE, MAX_TORQUE = 8.5, 0.188  # the Phantom Premium 1.5 6DoF's continuous 
 class Lab:
     """Stand-in and controller on one memq:// bus, ticking together every ``PERIOD`` s."""
 
-    def __init__(self, scenario: Scenario, faults=None, clutch_at=np.inf, load=None):
+    def __init__(self, scenario: Scenario, faults=None, clutch_at=np.inf, load=None, publish_state=False):
         bus = self.bus = lcm.LCM("memq://")
         self.stand_in = StandIn(scenario, bus, LcmChannels(), faults or FaultInjection(), clutch_at=clutch_at)
-        self.teleop = HardwareTeleop(scenario, load or true_load(scenario)[0], bus, LcmChannels())
+        self.teleop = HardwareTeleop(scenario, load or true_load(scenario)[0], bus, LcmChannels(),
+                                     publish_state=publish_state)
         self.now = 0.0
         self.commands, self.torques, self.master_q, self.gains, self.stylus_wrenches = [], [], [], [], []
 

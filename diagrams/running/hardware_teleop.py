@@ -12,7 +12,9 @@ known) and starts again on every recovery, from the slave's measured pose with
 the clutch disengaged; motion follows the stylus only while the operator holds
 the clutch button, anchored on the slave's measured pose at the press. Load
 commands (``heft load``: re-zero, offset tracking, a new tool's estimate) are
-served after each tick's send (``hardware_interface.load_commands``).
+served after each tick's send (``hardware_interface.load_commands``). When the run is
+recorded, what the controller computed goes out beside the commands each tick it steps
+(``hardware_interface.teleop_state``; about 45 µs a tick, so only then).
 
 ``run_hardware_teleop`` runs it for a while (``diagrams.running.realtime``) and returns
 what the run saw: faults and recoveries, the master command's largest stylus
@@ -40,6 +42,7 @@ from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import WATCHED_CHANNELS, HardwareStation, HardwareStationParams
 from heft.hardware_interface.lcm_mailbox import open_buses
 from heft.hardware_interface.load_commands import LoadCommandServer
+from heft.hardware_interface.teleop_state import TeleopStatePublisher
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
 
@@ -50,11 +53,11 @@ class HardwareTeleop:
 
     ``tick(now, dt)`` runs one tick at ``now`` (s, monotonic) ``dt`` s after the last, nominally
     ``period`` s (default the scenario's ``controller_period``); ``summary(elapsed)`` reports the
-    run so far."""
+    run so far. ``publish_state``: publish ``heft_teleop_state`` each tick the controller steps."""
 
     def __init__(self, scenario: Scenario, load: LoadEstimate, bus: lcm.LCM, channels: LcmChannels,
                  params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None,
-                 period: float | None = None):
+                 period: float | None = None, publish_state: bool = False):
         # The controller's models first (about a second): the station's subscriptions then
         # start receiving only when the loop is about to pump them.
         self.controller = MakeRealtimeTeleopController(
@@ -63,6 +66,10 @@ class HardwareTeleop:
         limits = device_limits(scenario)
         self.station = HardwareStation(bus, channels, limits, params, command_bus)
         self.load_commands = LoadCommandServer(bus, channels, self.controller, limits.wrench_full_scale, command_bus)
+        self.state = (TeleopStatePublisher(bus if command_bus is None else command_bus, channels) if publish_state
+                      else None)
+        self.starts = 0
+        """Controller starts so far (the first healthy tick and each recovery)."""
         self._channel_names = [getattr(channels, name).name for name in WATCHED_CHANNELS]
         self._zero = np.zeros(NUM_JOINTS)
         self.now = 0.0
@@ -88,9 +95,13 @@ class HardwareTeleop:
         if healthy:
             if not self._was_healthy:
                 controller.start(station.slave_position)
+                self.starts += 1
             controller.step(dt, station.master_position, station.master_velocity, station.slave_position,
                             station.slave_velocity, station.wrench, station.acceleration, station.clutch)
             station.send(now, controller.torque, controller.position)
+            if self.state is not None:
+                self.state.publish(round((station.epoch + now) * 1e6), dt, self.starts, station.stamps, controller,
+                                   station.gain)
         else:
             station.send(now, self._zero, None)
         self.load_commands.serve(round((station.epoch + now) * 1e6), healthy)
@@ -200,7 +211,8 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, channels: LcmCha
         scheduling = claim_realtime(priority)
         print(f"teleop: {scheduling}", flush=True)
         bus, command_bus = open_buses(channels)
-        teleop = HardwareTeleop(scenario, load, bus, channels, params, command_bus, period=1.0 / rate)
+        teleop = HardwareTeleop(scenario, load, bus, channels, params, command_bus, period=1.0 / rate,
+                                publish_state=record is not None)
         teleop.station.epoch = time.time()
         with StopOnSignal() as stop:
             print("teleop: running (Ctrl-C stops with forces off and the slave held)", flush=True)
