@@ -37,6 +37,8 @@ from heft.diagrams.scenario import DEFAULT_MOUNT, MountSpec
 from heft.systems.load_dynamics import inertia_matrix
 
 CONSTANTS = ("torque_stiffness", "torque_damping", "force_stiffness", "force_damping")
+_WRENCH_ORDER = np.r_[3:6, 0:3]
+"""[rotation; translation] → heft's [translation; rotation]."""
 STEP_MARGIN = 0.8
 """The share of the step's stability bound a mount's mode may use (see the module's notes)."""
 
@@ -75,6 +77,11 @@ def spatial_inertia_about_S(phi) -> np.ndarray:
     m, h = phi[0], np.asarray(phi[1:4])
     hx = np.array([[0, -h[2], h[1]], [h[2], 0, -h[0]], [-h[1], h[0], 0]])
     return np.block([[inertia_matrix(phi[4:]), hx], [hx.T, m * np.eye(3)]])
+
+
+def inertia_in_wrench_order(phi) -> np.ndarray:
+    """``spatial_inertia_about_S`` in heft's order [translation; rotation]: M·[a; α] = V(a, α, 0, 0)·φ."""
+    return spatial_inertia_about_S(phi)[np.ix_(_WRENCH_ORDER, _WRENCH_ORDER)]
 
 
 def modes_on_fixed_sensor(phi, mount: MountSpec) -> Modes:
@@ -137,9 +144,8 @@ class MountUnderMovingSensor:
     positive and C ≥ 0, where the plant's semi-implicit step needs the bound of the module's notes."""
 
     def __init__(self, constants: MountSpec, phi, period: float):
-        order = np.r_[3:6, 0:3]  # [rotation; translation] → [translation; rotation]
-        inertia = spatial_inertia_about_S(phi)[np.ix_(order, order)]
-        K, C = stiffness(constants)[np.ix_(order, order)], damping(constants)[np.ix_(order, order)]
+        order = np.ix_(_WRENCH_ORDER, _WRENCH_ORDER)
+        inertia, K, C = inertia_in_wrench_order(phi), stiffness(constants)[order], damping(constants)[order]
         inverse_inertia = np.linalg.inv(inertia)
         generator = np.zeros((18, 18))  # d/dt [ξ; ξ̇; w] with w constant over the period
         generator[:6, 6:12] = np.eye(6)
