@@ -107,6 +107,8 @@ have been published: the controller reads a state at most its watchdog's timeout
 arrived, and on a busy machine the arrival itself lagged the publish by up to 50 ms. The Phantom
 driver judges the force a command renders at the positions it published within this window (a
 stand-in running late publishes its backlog at once: then all of it)."""
+_NO_TORQUE = np.zeros(NUM_JOINTS)
+_NO_TORQUE.flags.writeable = False
 _MASK64 = (1 << 64) - 1
 _MASTER, _SLAVE, _FT, _GRIPPER = range(4)
 """Channel indices; channel i loses messages on random stream i and reorders them on 4 + i, but the
@@ -305,8 +307,9 @@ class StandIn:
         self._wrist.update(0.0, self._slave[0], self._slave[1], np.zeros(NUM_JOINTS))
 
         ft_period = 1.0 / channels.ft_sample.rate
-        self._ft = SixAxisSampler(scenario.ft_sensor, FORCE_TORQUE_STREAM, ft_period)
-        self._accelerometer = SixAxisSampler(scenario.accelerometer, ACCELEROMETER_STREAM, ft_period)
+        per_step = max(1, round(channels.ft_sample.rate / channels.slave_status.rate))  # FT samples per arm step
+        self._ft = SixAxisSampler(scenario.ft_sensor, FORCE_TORQUE_STREAM, ft_period, per_step)
+        self._accelerometer = SixAxisSampler(scenario.accelerometer, ACCELEROMETER_STREAM, ft_period, per_step)
         self.truth = TruthRecord(channels.ft_sample.rate, self._wrist.phis) if record_truth else None
         self.offsets = np.zeros(6)
         self._bits = 1 << np.arange(2 * NUM_AXES)
@@ -419,7 +422,7 @@ class StandIn:
 
     def _applied_torque(self, t: float) -> np.ndarray:
         """The torque (N·m) the haptic driver applies at ``t`` (s)."""
-        return self._torque_commanded if t < self._torque_until else np.zeros(NUM_JOINTS)
+        return self._torque_commanded if t < self._torque_until else _NO_TORQUE
 
     def _slave_tick(self, tick: int, t: float) -> None:
         x, u, w = self._slave, self._setpoint, self._w

@@ -20,7 +20,7 @@ from heft.diagrams.scenario import Scenario
 from heft.hardware_interface.lcmtypes import heft_gripper_state
 from heft.systems.accelerometer_reading import reading_from_motion
 from heft.systems.load_dynamics import GRAVITY_W, regressor
-from heft.systems.sensor_models import (NUM_AXES, SixAxisMeasurement, SixAxisSensorParams, lowpass,
+from heft.systems.sensor_models import (NUM_AXES, HeldLowpass, SixAxisMeasurement, SixAxisSensorParams, lowpass,
                                         lowpass_coefficients)
 from heft.systems.slave_kinematics import NUM_JOINTS
 
@@ -40,14 +40,15 @@ _NOISE_BLOCK = 64
 class SixAxisSampler:
     """``sensor_models.SixAxisMeasurement`` of one instrument sampled every ``period`` s:
     sample j (t = j·period, j ≥ 1) with the draws of sample index j, as the simulated
-    sensor's; offsets and noise are drawn ``_NOISE_BLOCK`` samples at a time."""
+    sensor's; offsets and noise are drawn ``_NOISE_BLOCK`` samples at a time. Its input is
+    held over ``held_count`` samples at a time, mostly (the arm's step)."""
 
-    def __init__(self, params: SixAxisSensorParams, stream: int, period: float):
+    def __init__(self, params: SixAxisSensorParams, stream: int, period: float, held_count: int):
         self._model, self._period = SixAxisMeasurement(params, stream, period), period
         self._lowpass = lowpass_coefficients(params.lowpass_cutoff, period)  # the sensor's filter at this rate
+        self._held_lowpass = None if self._lowpass is None else HeldLowpass(self._lowpass, held_count)
         self._lowpass_state = np.full((2, NUM_AXES), np.nan)
         self._walk = np.zeros(NUM_AXES)
-        self._held = np.empty((0, NUM_AXES))  # the true value repeated for the filter, reused
         # Offsets and offsets + noise of samples start, start + 1, ...
         self._start, self._offsets, self._disturbance = 1, np.zeros((0, NUM_AXES)), np.zeros((0, NUM_AXES))
 
@@ -69,10 +70,10 @@ class SixAxisSampler:
             self._draw_block(first)
         rows = slice(first - self._start, first - self._start + count)
         if self._lowpass is not None:
-            if len(self._held) != count:
-                self._held = np.empty((count, NUM_AXES))
-            self._held[:] = value
-            value = lowpass(self._lowpass, self._lowpass_state, self._held)
+            if count == self._held_lowpass.count and not np.isnan(self._lowpass_state[0, 0]):
+                value = self._held_lowpass(self._lowpass_state, value)
+            else:
+                value = lowpass(self._lowpass, self._lowpass_state, np.repeat(value[np.newaxis], count, axis=0))
         measured, saturated = self._model.measure(value + self._disturbance[rows])
         return measured, self._offsets[rows], saturated
 
