@@ -101,6 +101,30 @@ def gate_open(spec: EstimatorSpec, acceleration, omega, contact, fault: bool, si
             and excitation(acceleration, omega) >= spec.min_excitation)
 
 
+CLOCKS_START = (0.0, 0.0, math.inf)
+"""The gate's clocks before the first sample: the time since the last reset (s; the start counts
+as one), the reset requests seen, the time since the last spoiled sample (s; none yet)."""
+
+
+def clocks_now(clocks, requests: float) -> tuple[float, float, float]:
+    """(since_reset, requests seen, since_spoiled) of ``clocks`` (``CLOCKS_START``'s layout) with
+    this sample's reset request counter ``requests`` applied: an increase is a new load."""
+    since_reset, seen, since_spoiled = clocks
+    if requests > seen:
+        since_reset, seen = 0.0, requests
+    return since_reset, seen, since_spoiled
+
+
+def advance_clocks(out, spec: EstimatorSpec, now: tuple[float, float, float], contact, fault: bool,
+                   dt: float) -> None:
+    """The clocks after this sample into ``out`` (3): ``now`` (``clocks_now``) advanced by ``dt`` s,
+    the time since a spoiled sample restarted if this one is (``spoiled``)."""
+    since_reset, seen, since_spoiled = now
+    if spoiled(spec, contact, fault, since_reset):
+        since_spoiled = 0.0
+    out[0], out[1], out[2] = since_reset + dt, seen, since_spoiled + dt
+
+
 class EstimatorGate(LeafSystem):
     """``enable`` (1: 1.0 to take the sample) for ``LoadEstimatorSystem`` (module docstring).
 
@@ -119,9 +143,7 @@ class EstimatorGate(LeafSystem):
         self._contact = self.DeclareVectorInputPort("wrench_contact", 6)
         self._fault = self.DeclareVectorInputPort("fault", 1)
         self._reset = self.DeclareVectorInputPort("reset", 1)
-        # Time since the last reset (s; the start counts as one), the reset counter seen, and the
-        # time since the last spoiled sample (s; none yet).
-        self._clock = self.DeclareDiscreteState(BasicVector([0.0, 0.0, math.inf]))
+        self._clock = self.DeclareDiscreteState(BasicVector(list(CLOCKS_START)))
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
         self.DeclareVectorOutputPort("enable", 1, self._calc_enable)
 
@@ -129,12 +151,7 @@ class EstimatorGate(LeafSystem):
         return self._reset.Eval(context)[0] if self._reset.HasValue(context) else 0.0
 
     def _clocks(self, context):
-        """(since_reset, counter seen, since_spoiled) with this sample's reset request applied."""
-        since_reset, seen, since_spoiled = context.get_discrete_state(self._clock).get_value()
-        requests = self._requests(context)
-        if requests > seen:
-            since_reset, seen = 0.0, requests
-        return since_reset, seen, since_spoiled
+        return clocks_now(context.get_discrete_state(self._clock).get_value(), self._requests(context))
 
     def _calc_enable(self, context, output):
         since_reset, _, since_spoiled = self._clocks(context)
@@ -144,7 +161,6 @@ class EstimatorGate(LeafSystem):
         output.SetAtIndex(0, 1.0 if open_ else 0.0)
 
     def _update(self, context, discrete_state):
-        since_reset, seen, since_spoiled = self._clocks(context)
-        if spoiled(self._spec, self._contact.Eval(context), self._fault.Eval(context)[0] > 0.5, since_reset):
-            since_spoiled = 0.0
-        discrete_state.set_value(self._clock, [since_reset + self._period, seen, since_spoiled + self._period])
+        advance_clocks(discrete_state.get_mutable_vector(self._clock).get_mutable_value(), self._spec,
+                       self._clocks(context), self._contact.Eval(context), self._fault.Eval(context)[0] > 0.5,
+                       self._period)
