@@ -56,8 +56,13 @@ class OnlineLoadEstimator:
 
     @property
     def since_reset(self) -> float:
-        """s since the last new load (or the start), as of the last step."""
-        return float(self._clocks[0])
+        """s since the last new load (or the start), as of the last step; 0 while one is pending."""
+        return 0.0 if self._requests > self._clocks[1] else float(self._clocks[0])
+
+    @property
+    def learning_window(self) -> float:
+        """s after a new load during which contact does not close the gate (``EstimatorSpec``)."""
+        return self._spec.learning_window
 
     @property
     def num_samples(self) -> int:
