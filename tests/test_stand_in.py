@@ -41,10 +41,11 @@ def reader_of(scenario: Scenario) -> FtSampleReader:
 
 
 def quiet_scenario() -> Scenario:
-    """Ideal wrist sensors (no disturbances, no filter) and a still operator: what is published
-    is the model's truth."""
+    """Ideal wrist sensors (no disturbances, no filter), the load welded at S, the arm's true joint
+    velocities and a still operator: what is published is the model's truth."""
     scenario = Scenario()
     scenario.operator.amplitude = [0.0, 0.0, 0.0]
+    scenario.load.mount.rigid, scenario.slave_velocity_filter = True, 0.0
     for sensor in (scenario.ft_sensor, scenario.accelerometer):
         sensor.noise, sensor.lowpass_cutoff = False, 0.0
     return scenario
