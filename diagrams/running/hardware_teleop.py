@@ -45,6 +45,8 @@ from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many 
 
 PHI_SAMPLE_PERIOD = 0.01
 """s between the samples of φ̂ a run's summary keeps while the estimator learns online."""
+MAX_PHI_SAMPLES = 60_000
+"""The samples of φ̂ a summary keeps at most: the first 10 minutes (a long run grows nothing further)."""
 
 
 class HardwareTeleop:
@@ -83,7 +85,8 @@ class HardwareTeleop:
         self.conflicts = []
         self._conflicts = 0
         self.phi_history = []
-        """(time (s), φ̂ in use (10)) every ``PHI_SAMPLE_PERIOD`` s while the estimator learns online."""
+        """(time (s), φ̂ in use (10)) every ``PHI_SAMPLE_PERIOD`` s while the estimator learns online (the
+        first ``MAX_PHI_SAMPLES``)."""
         self._next_phi_sample = 0.0
 
     def tick(self, now: float, dt: float) -> None:
@@ -133,7 +136,7 @@ class HardwareTeleop:
             self.stylus_torque_peak = max(self.stylus_torque_peak,
                                           station.gain * math.sqrt(tx * tx + ty * ty + tz * tz))
         estimator = self.controller.estimator
-        if estimator is not None and now >= self._next_phi_sample:
+        if estimator is not None and now >= self._next_phi_sample and len(self.phi_history) < MAX_PHI_SAMPLES:
             self._next_phi_sample = now + PHI_SAMPLE_PERIOD
             self.phi_history.append((now, self.controller.phi.tolist()))
         position = station.position_sent
