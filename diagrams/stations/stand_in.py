@@ -1,10 +1,11 @@
-"""The lab stand-in: the Phantom, arm and JR3 drivers on LCM, modelled cheaply
+"""The lab stand-in: the Phantom, arm, JR3 and gripper drivers on LCM, modelled cheaply
 enough to keep real time on one core.
 
-``StandIn`` publishes ``heft_haptic_state``, ``lcmt_iiwa_status`` (6 joints) and
-``heft_ft_sample`` at the channels' nominal rates (2, 2 and 8 kHz by default) on
-a python-lcm bus and obeys ``heft_haptic_command`` and ``lcmt_iiwa_command`` from
-another (``LcmChannels``: the command URL).
+``StandIn`` publishes ``heft_haptic_state``, ``lcmt_iiwa_status`` (6 joints),
+``heft_ft_sample`` and, for a "gripper_object" load, ``heft_gripper_state`` at the
+channels' nominal rates (2, 2, 8 and 0.1 kHz by default) on a python-lcm bus
+and obeys ``heft_haptic_command`` and ``lcmt_iiwa_command`` from another
+(``LcmChannels``: the command URL).
 ``FaultInjection`` degrades what it publishes, so ``HardwareStation`` can be
 exercised against a misbehaving lab. ``run_stand_in`` runs it in wall-clock
 real time, as a separate process would.
@@ -17,16 +18,25 @@ Models (frames as DESIGN §4: W world = R slave base, B master base, S wrist sen
   the robot controller's critically damped setpoint filter
   (``critically_damped_step_matrices``, ``Scenario.slave_setpoint_bandwidth``),
   stepped exactly at the status rate; an ideal servo: the measured position is
-  the filter's (encoder-quantised), the estimated velocity the filter's.
+  the filter's (encoder-quantised), the estimated velocity the arm controller's
+  estimate from those encoder readings (``EncoderVelocityEstimator``, the simulated
+  station's ``slave_velocity_filter``; the filter's own q̇ when that is 0).
 * Sensor frame S: pose, ω, and the kinematic acceleration [a; α] of S in S from
   the filter's state by Drake: A_WS = J·q̈ + J̇·q̇, with q̈ the filter's own
   acceleration after each step. Gravity in S is R_SW·g_W. The accelerometer
   reports what a real one does (``accelerometer_reading``: specific force a − g
   unless the scenario's ``accelerometer.includes_gravity`` is False) at its
   ``accelerometer.position``, as in the simulated station.
-* JR3 driver: the wrench is the load's non-contact wrench V(a, α, ω, g)·φ (Eq. 5,
-  ``load_dynamics.regressor``) with φ of the scenario's load as the simulated
-  station computes it, through ``sensor_models``' measurement model (the sensor's
+* Load (``stand_in_wrist.Wrist``): on the scenario's compliant mount, sized to the
+  load as the simulated station's (``mount_for``), its small-deflection dynamics
+  driven by S's motion (``mount.MountUnderMovingSensor``, stepped with the slave),
+  or welded at S with ``load.mount.rigid``. A "gripper_object" load's gripper closes
+  on the object at ``GraspTimes.grasp_at`` (CLOSING for ``GRIPPER_CLOSING_S``, then
+  HOLDING: the object's inertia joins the gripper's, the mount rings) and opens at
+  ``release_at`` (OPEN: the object is let go); its driver publishes that state.
+* JR3 driver: the wrench is what the mount transmits, the load's non-contact wrench
+  (V(a, α, ω, g)·φ, Eq. 5, at the load's own motion), with φ of what it carries as
+  the simulated station computes it, through ``sensor_models``' measurement model (the sensor's
   low-pass filter, offsets, drift, noise, saturation, quantisation as the
   scenario's sensor parameters enable them, sampled at the channel rate); the
   accelerometer likewise. The
@@ -45,9 +55,15 @@ Models (frames as DESIGN §4: W world = R slave base, B master base, S wrist sen
 
 Left out against ``MakeSimStation``: contact and the environment (no sheet
 spring: the wrench is the load's own only), the arm's link dynamics and servo
-error (an ideal servo: the arm is exactly where its filter says), the operator's
-impedance and the master's dynamics (the applied torque does not move the
-master; the stylus follows the reference only to first order), friction.
+error (an ideal servo: the arm is exactly where its filter says, and the mount's
+load does not move the wrist), the mount's second-order terms
+(``MountUnderMovingSensor``), the object's approach and lift (it weighs on the
+gripper all at once when the fingers close), the operator's impedance and the
+master's dynamics (the applied torque does not move the master; the stylus follows
+the reference only to first order), friction.
+
+With ``record_truth`` the lab keeps the truth of every FT sample (``TruthRecord``);
+``run_stand_in`` writes it to ``truth_path``.
 
 Times are the lab's own clock: seconds since it started; ``utime`` is that clock
 in µs at the message's sample time, so a restarted lab stamps from zero again
@@ -91,6 +107,8 @@ have been published: the controller reads a state at most its watchdog's timeout
 arrived, and on a busy machine the arrival itself lagged the publish by up to 50 ms. The Phantom
 driver judges the force a command renders at the positions it published within this window (a
 stand-in running late publishes its backlog at once: then all of it)."""
+_NO_TORQUE = np.zeros(NUM_JOINTS)
+_NO_TORQUE.flags.writeable = False
 _MASK64 = (1 << 64) - 1
 _MASTER, _SLAVE, _FT, _GRIPPER = range(4)
 """Channel indices; channel i loses messages on random stream i and reorders them on 4 + i, but the
@@ -289,9 +307,10 @@ class StandIn:
         self._wrist.update(0.0, self._slave[0], self._slave[1], np.zeros(NUM_JOINTS))
 
         ft_period = 1.0 / channels.ft_sample.rate
-        self._ft = SixAxisSampler(scenario.ft_sensor, FORCE_TORQUE_STREAM, ft_period)
-        self._accelerometer = SixAxisSampler(scenario.accelerometer, ACCELEROMETER_STREAM, ft_period)
-        self.truth = TruthRecord(channels.ft_sample.rate, self._wrist.phi_gripper) if record_truth else None
+        per_step = max(1, round(channels.ft_sample.rate / channels.slave_status.rate))  # FT samples per arm step
+        self._ft = SixAxisSampler(scenario.ft_sensor, FORCE_TORQUE_STREAM, ft_period, per_step)
+        self._accelerometer = SixAxisSampler(scenario.accelerometer, ACCELEROMETER_STREAM, ft_period, per_step)
+        self.truth = TruthRecord(channels.ft_sample.rate, self._wrist.phis) if record_truth else None
         self.offsets = np.zeros(6)
         self._bits = 1 << np.arange(2 * NUM_AXES)
         # FT samples [first, end) on the held kinematics: wrench (sensor sign), acceleration, flags; offsets.
@@ -403,7 +422,7 @@ class StandIn:
 
     def _applied_torque(self, t: float) -> np.ndarray:
         """The torque (N·m) the haptic driver applies at ``t`` (s)."""
-        return self._torque_commanded if t < self._torque_until else np.zeros(NUM_JOINTS)
+        return self._torque_commanded if t < self._torque_until else _NO_TORQUE
 
     def _slave_tick(self, tick: int, t: float) -> None:
         x, u, w = self._slave, self._setpoint, self._w

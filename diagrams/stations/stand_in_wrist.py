@@ -19,9 +19,8 @@ from heft.diagrams.plants import MakeSlavePlant, mount_for, phi_about_S
 from heft.diagrams.scenario import Scenario
 from heft.hardware_interface.lcmtypes import heft_gripper_state
 from heft.systems.accelerometer_reading import reading_from_motion
-from heft.systems.drake_conventions import swap_halves
 from heft.systems.load_dynamics import GRAVITY_W, regressor
-from heft.systems.sensor_models import (NUM_AXES, SixAxisMeasurement, SixAxisSensorParams, lowpass,
+from heft.systems.sensor_models import (NUM_AXES, HeldLowpass, SixAxisMeasurement, SixAxisSensorParams, lowpass,
                                         lowpass_coefficients)
 from heft.systems.slave_kinematics import NUM_JOINTS
 
@@ -41,11 +40,13 @@ _NOISE_BLOCK = 64
 class SixAxisSampler:
     """``sensor_models.SixAxisMeasurement`` of one instrument sampled every ``period`` s:
     sample j (t = j·period, j ≥ 1) with the draws of sample index j, as the simulated
-    sensor's; offsets and noise are drawn ``_NOISE_BLOCK`` samples at a time."""
+    sensor's; offsets and noise are drawn ``_NOISE_BLOCK`` samples at a time. Its input is
+    held over ``held_count`` samples at a time, mostly (the arm's step)."""
 
-    def __init__(self, params: SixAxisSensorParams, stream: int, period: float):
+    def __init__(self, params: SixAxisSensorParams, stream: int, period: float, held_count: int):
         self._model, self._period = SixAxisMeasurement(params, stream, period), period
         self._lowpass = lowpass_coefficients(params.lowpass_cutoff, period)  # the sensor's filter at this rate
+        self._held_lowpass = None if self._lowpass is None else HeldLowpass(self._lowpass, held_count)
         self._lowpass_state = np.full((2, NUM_AXES), np.nan)
         self._walk = np.zeros(NUM_AXES)
         # Offsets and offsets + noise of samples start, start + 1, ...
@@ -69,7 +70,10 @@ class SixAxisSampler:
             self._draw_block(first)
         rows = slice(first - self._start, first - self._start + count)
         if self._lowpass is not None:
-            value = lowpass(self._lowpass, self._lowpass_state, np.broadcast_to(value, (count, NUM_AXES)))
+            if count == self._held_lowpass.count and not np.isnan(self._lowpass_state[0, 0]):
+                value = self._held_lowpass(self._lowpass_state, value)
+            else:
+                value = lowpass(self._lowpass, self._lowpass_state, np.repeat(value[np.newaxis], count, axis=0))
         measured, saturated = self._model.measure(value + self._disturbance[rows])
         return measured, self._offsets[rows], saturated
 
@@ -136,11 +140,13 @@ class Wrist:
         phi_load = phi_about_S(plant, parts.S, parts.load_bodies)
         self.phi_gripper = (phi_about_S(plant, parts.S, parts.gripper_bodies) if parts.gripper_bodies
                             else np.zeros(10))
-        self._phis = {True: phi_load, False: self.phi_gripper}  # holding or not
+        self.phis = {True: phi_load, False: self.phi_gripper}
+        """φ of what the sensor carries while the gripper holds the object, and while not."""
         self.holding = grasp.holding(0.0)
-        self.phi = self._phis[self.holding]
-        self._phi_object = phi_load - self.phi_gripper if parts.gripper_bodies else np.zeros(10)
-        self._object_inertia = mount.inertia_in_wrench_order(self._phi_object)
+        self.phi = self.phis[self.holding]
+        self._phi_object = phi_load - self.phi_gripper if parts.gripper_bodies else None  # a tool: none
+        if self._phi_object is not None:
+            self._object_inertia = mount.inertia_in_wrench_order(self._phi_object)
         self._origin = np.zeros(3)
         self._x = np.zeros(2 * NUM_JOINTS)
         self.wrench, self.wrench_object = np.zeros(6), np.zeros(6)
@@ -151,7 +157,7 @@ class Wrist:
         else:
             constants = mount_for(scenario)
             self._mounts = {holding: mount.MountUnderMovingSensor(constants, phi, period)
-                            for holding, phi in self._phis.items() if phi[0] > 0}  # a tool: always "holding"
+                            for holding, phi in self.phis.items() if phi[0] > 0}  # a tool: always "holding"
             self._motion(q0, np.zeros(NUM_JOINTS), np.zeros(NUM_JOINTS))
             self._mount_state = self._mounts[self.holding].at_rest(self._rigid)  # settled under the load
 
@@ -163,11 +169,11 @@ class Wrist:
         R_SW = plant.CalcRelativeTransform(context, W, S).rotation().matrix().T
         J = plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV, S, self._origin, W, W)
         bias = plant.CalcBiasSpatialAcceleration(context, JacobianWrtVariable.kV, S, self._origin, W, W)
-        A_WS_W = J @ qdd + bias.get_coeffs()  # [α; a]
-        acceleration = swap_halves(A_WS_W)  # [a; α] in W
-        a, alpha = R_SW @ acceleration[:3], R_SW @ acceleration[3:]
+        A_WS_W = J @ qdd + bias.get_coeffs()  # [α; a] in W
+        alpha_a = A_WS_W.reshape(2, 3) @ R_SW.T  # rows α, a in S
+        self.acceleration[:3], self.acceleration[3:] = alpha_a[1], alpha_a[0]
+        a, alpha = self.acceleration[:3], self.acceleration[3:]
         omega = R_SW @ (J[:3] @ qd)
-        self.acceleration[:3], self.acceleration[3:] = a, alpha
         gravity = R_SW @ GRAVITY_W
         self.reading[:] = reading_from_motion(self.acceleration, gravity, omega, self._accelerometer)
         V = regressor(a, alpha, omega, gravity)
@@ -180,14 +186,14 @@ class Wrist:
         next step, the motion held."""
         holding = self._grasp.holding(t)
         if holding != self.holding:
-            self.holding, self.phi = holding, self._phis[holding]
+            self.holding, self.phi = holding, self.phis[holding]
         V = self._motion(q, qd, qdd)
         if self._mounts is None:
             self.wrench[:] = self._rigid
             self._deflection_acceleration[:] = 0.0
         else:
             self._mounts[holding].step(self._mount_state, self._rigid, self.wrench, self._deflection_acceleration)
-        if holding:  # the object moves with the load's frame L: V(S's motion)·φ_obj + M_obj·ξ̈
+        if holding and self._phi_object is not None:  # the object moves with L: V(S's motion)·φ_obj + M_obj·ξ̈
             np.dot(V, self._phi_object, out=self.wrench_object)
             self.wrench_object += self._object_inertia @ self._deflection_acceleration
         else:
@@ -202,45 +208,44 @@ class TruthRecord:
     clock), as in the published ``heft_ft_sample``; ``phi`` (N, 10, Eq. 6: what the sensor carries);
     ``wrench_noncontact``, ``wrench_noncontact_object``, ``wrench_contact`` (N, 6: the load's own
     wrench, the object's share of it, and contact, zero: the stand-in has no environment);
-    ``ft_offsets`` (N, 6, the offsets inside the measurement); ``phi_gripper`` (10)."""
+    ``ft_offsets`` (N, 6, the offsets inside the measurement); ``phi_gripper`` (10). Kept per arm
+    step while running (a few µs), expanded to samples when read."""
 
-    _COLUMNS = (("sample_counter", 1), ("utime", 1), ("phi", 10), ("wrench_noncontact", 6),
-                ("wrench_noncontact_object", 6), ("wrench_contact", 6), ("ft_offsets", 6))
-
-    def __init__(self, rate: float, phi_gripper):
-        self._rate, self._phi_gripper = rate, np.asarray(phi_gripper, dtype=float)
-        self._slices, start = {}, 0
-        for name, width in self._COLUMNS:
-            self._slices[name], start = slice(start, start + width), start + width
-        self._rows, self._count = np.zeros((8192, start)), 0
+    def __init__(self, rate: float, phis: dict[bool, np.ndarray]):
+        self._rate, self._phis = rate, phis  # ``Wrist.phis``: holding the object, and not
+        self._steps = np.zeros((1024, 15))  # first sample, count, holding, wrench, wrench_object
+        self._offsets = np.zeros((4096, NUM_AXES))
+        self._count, self._samples = 0, 0
 
     def add(self, first: int, count: int, wrist: Wrist, offsets: np.ndarray) -> None:
-        """Rows for samples ``first`` … ``first + count − 1`` of the sensor (at ``rate`` Hz), on the
-        ``wrist``'s present truth, with their ``offsets`` (count, 6)."""
-        if self._count + count > len(self._rows):
-            self._rows = np.concatenate((self._rows, np.zeros_like(self._rows)))
-        rows, at = self._rows[self._count:self._count + count], self._slices
-        counters = rows[:, at["sample_counter"]]
-        counters[:, 0] = np.arange(first, first + count)
-        rows[:, at["utime"]] = np.round(counters / self._rate * 1e6)
-        rows[:, at["phi"]] = wrist.phi
-        rows[:, at["wrench_noncontact"]] = wrist.wrench
-        rows[:, at["wrench_noncontact_object"]] = wrist.wrench_object
-        rows[:, at["ft_offsets"]] = offsets
-        self._count += count
+        """Samples ``first`` … ``first + count − 1`` of the sensor (at ``rate`` Hz) on the ``wrist``'s
+        present truth, with their ``offsets`` (count, 6)."""
+        if self._count == len(self._steps):
+            self._steps = np.concatenate((self._steps, np.zeros_like(self._steps)))
+        if self._samples + count > len(self._offsets):
+            self._offsets = np.concatenate((self._offsets, np.zeros((len(self._offsets) + count, NUM_AXES))))
+        row = self._steps[self._count]
+        row[0], row[1], row[2] = first, count, wrist.holding
+        row[3:9], row[9:15] = wrist.wrench, wrist.wrench_object
+        self._offsets[self._samples:self._samples + count] = offsets
+        self._count, self._samples = self._count + 1, self._samples + count
 
     def arrays(self, through: int | None = None) -> dict[str, np.ndarray]:
         """The record as named arrays (the archive's), of the samples up to counter ``through`` (the
         last the lab's clock reached; the sensor samples ahead to the arm's next step), else all."""
-        rows = self._rows[:self._count]
-        if through is not None:
-            rows = rows[rows[:, self._slices["sample_counter"].start] <= through]
-        out = {name: rows[:, part] if part.stop - part.start > 1 else rows[:, part.start]
-               for name, part in self._slices.items()}
-        for name in ("sample_counter", "utime"):
-            out[name] = out[name].astype(np.int64)
-        out["phi_gripper"] = self._phi_gripper
-        return out
+        steps = self._steps[:self._count]
+        counts = steps[:, 1].astype(np.int64)
+        rows = np.repeat(np.arange(self._count), counts)
+        counters = np.repeat(steps[:, 0].astype(np.int64), counts) + (
+            np.arange(len(rows)) - np.repeat(np.cumsum(counts) - counts, counts))
+        keep = slice(None) if through is None else counters <= through
+        rows, counters = rows[keep], counters[keep]
+        holding = steps[rows, 2].astype(bool)
+        return {"sample_counter": counters, "utime": np.round(counters / self._rate * 1e6).astype(np.int64),
+                "phi": np.where(holding[:, None], self._phis[True], self._phis[False]),
+                "wrench_noncontact": steps[rows, 3:9], "wrench_noncontact_object": steps[rows, 9:15],
+                "wrench_contact": np.zeros((len(rows), 6)), "ft_offsets": self._offsets[:self._samples][keep],
+                "phi_gripper": self._phis[False]}
 
     def save(self, path, through: int | None = None) -> None:
         """Writes ``arrays(through)`` to ``path`` (a .npz)."""
