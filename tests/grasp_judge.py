@@ -87,8 +87,8 @@ def judge(truth, phi_history, phi_gripper, commands, master, slave, *, robot: st
 
 
 def report(result: dict) -> str:
-    lines = [f"object {result['object_mass']:.4f} kg: learned {result['mass_learned_at_start']:.4f} kg 1 s after the "
-             f"grasp, worst since {100 * result['mass_error_max']:.2f} %; stylus force peak "
+    lines = [f"object {result['object_mass']:.4f} kg: learned {result['mass_learned_at_start']:.4f} kg as the judged "
+             f"span starts, worst since {100 * result['mass_error_max']:.2f} %; stylus force peak "
              f"{result['stylus_force_peak']:.3f} N"]
     for phase in ("still", "moving"):
         errors = np.array(result[phase])
