@@ -13,7 +13,8 @@ taken when
   after a reset (a new load), when c holds the not yet learned load itself,
 * force scaling is not faulted, and
 * no contact or fault for 2/``prefilter`` s before: the estimator's prefilter
-  (``EstimatorPrefilter``) still carries such a sample that long.
+  (``EstimatorPrefilter``) still carries such a sample that long; and
+* ``new_load_wait`` s have passed since the last reset (0 by default).
 
 Units: m/s², rad/s², rad/s for the motion, N and N·m for the wrench; all in S.
 """
@@ -53,6 +54,11 @@ class EstimatorSpec:
     learning_window: float = 1.5
     """Time (s) after a reset during which contact is not judged (the new load is learned)."""
 
+    new_load_wait: float = 0.0
+    """Time (s) after a reset before a sample is taken: the prefilter still carries the old load
+    for some 2/``prefilter`` s, and a load that lands on a compliant mount rings meanwhile; 0
+    learns at once (the simulation's grasp, made at rest, learns fastest so)."""
+
     prefilter: float = 10.0
     """Cut-off (Hz) of the low-pass on both sides of W = V·φ before the estimator
     (``EstimatorPrefilter``): below the load's mount modes and above the operator's motion;
@@ -67,7 +73,8 @@ class EstimatorSpec:
                              f"instruments, RTLS a prior mean); got {self.method!r}")
         if not 0.5 <= self.forgetting <= 1.0:
             raise ValueError(f"estimator forgetting must lie in [0.5, 1]; got {self.forgetting}")
-        for name in ("min_excitation", "contact_force", "contact_torque", "learning_window", "prefilter"):
+        for name in ("min_excitation", "contact_force", "contact_torque", "learning_window", "new_load_wait",
+                     "prefilter"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"estimator {name} must be finite and >= 0; got {value}")
@@ -98,7 +105,7 @@ def gate_open(spec: EstimatorSpec, acceleration, omega, contact, fault: bool, si
     ``since_spoiled`` (the time since the last ``spoiled`` sample) in s."""
     hold = 2.0 / spec.prefilter if spec.prefilter > 0 else 0.0
     return (not spoiled(spec, contact, fault, since_reset) and since_spoiled >= hold
-            and excitation(acceleration, omega) >= spec.min_excitation)
+            and since_reset >= spec.new_load_wait and excitation(acceleration, omega) >= spec.min_excitation)
 
 
 CLOCKS_START = (0.0, 0.0, math.inf)

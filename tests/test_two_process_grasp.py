@@ -37,12 +37,14 @@ pytestmark = pytest.mark.slow
 
 MOVE_FROM, GRASP_AT, STILL_FROM, END = 1.8, 2.0, 4.5, 6.5
 ETA, BOUND, MAX_FORCE = 0.5, 0.05, 8.5
+WAIT = 0.2  # s after the grasp before learning (controller.estimator.new_load_wait): 2/prefilter
 
 
 def _settings() -> str:
     lab = yaml.safe_load(lab_settings_text(resolve_scenario("grasp")))
     ours = yaml.safe_load(overrides_text({"controller.estimator.mode": "online", "controller.force.eta": ETA,
-                                          "controller.force.sigma": 0.0, "controller.feedback.force_scale": 1.0}))
+                                          "controller.force.sigma": 0.0, "controller.feedback.force_scale": 1.0,
+                                          "controller.estimator.new_load_wait": WAIT}))
     return yaml.safe_dump(layered_dict(lab, ours), default_flow_style=True)
 
 
@@ -127,7 +129,8 @@ def test_the_grasp_is_heard_and_the_object_learned(two_process_run):
     assert "re-zeroed" in rezero, rezero
     assert summary["estimator"]["holding"], summary["load_events"]
     assert any(event.startswith("gripper driver: grasp") for event in summary["load_events"])
-    assert results[2.0]["mass_error_max"] <= 0.02
+    assert results[1.0]["object_mass"] > 0.4
+    assert results[1.0]["mass_error_max"] <= 0.02  # from 1 s after the grasp on
 
 
 def test_holding_still_the_stylus_feels_eta_of_the_objects_weight(two_process_run):
@@ -143,11 +146,9 @@ def test_the_stylus_force_stays_within_the_devices_limits(two_process_run):
     assert summary["stylus_force_peak"] <= MAX_FORCE + 1e-9 and summary["master_torque_finite"]
 
 
-@pytest.mark.xfail(strict=True, reason="not met yet, as in one process (test_grasp_lab): the object's mass within "
-                                       "2 % only some 1.3 s after a grasp made mid-stroke; while moving the fed-back "
-                                       "force is off by up to 8.8 % of the object's weight")
-def test_the_done_when_bounds_within_one_second_and_while_moving(two_process_run):
+@pytest.mark.xfail(strict=True, reason="not met yet, as in one process (test_grasp_lab): while moving the fed-back "
+                                       "force is off by up to 7.8 % of the object's weight")
+def test_while_moving_the_stylus_follows_contact_and_eta_of_the_objects_wrench(two_process_run):
     _, _, _, results = two_process_run
     result = results[1.0]
-    assert result["mass_error_max"] <= 0.02
     assert len(result["moving"]) > 50 and max(result["moving"]) <= BOUND
