@@ -14,8 +14,9 @@ def _ip(*args, check=True):
 
 
 @contextlib.contextmanager
-def _namespace():
-    """A fresh network namespace with `lo` up and multicast routed to it; always deleted."""
+def network_namespace():
+    """A fresh network namespace with `lo` up and multicast routed to it, deleted on leaving; skips the
+    test if one cannot be made."""
     if shutil.which("ip") is None:
         pytest.skip("needs the `ip` tool (iproute2) to create a network namespace")
     if os.geteuid() != 0:
@@ -34,15 +35,15 @@ def _namespace():
 
 @pytest.fixture
 def netns():
-    """A network namespace of its own for one test (`_namespace`)."""
-    with _namespace() as name:
+    """``network_namespace`` for one test."""
+    with network_namespace() as name:
         yield name
 
 
 @pytest.fixture(scope="module")
 def module_netns():
-    """A network namespace shared by the tests of one module (`_namespace`)."""
-    with _namespace() as name:
+    """``network_namespace`` shared by the tests of one module."""
+    with network_namespace() as name:
         yield name
 
 
