@@ -42,6 +42,48 @@ def convergence_figure(histories: dict, sample_period: float, phi_true, offsets_
     plt.close(figure)
 
 
+def estimate_history_figure(histories: dict, sample_period: float, path):
+    """Mass, centre of mass and the inertia's diagonal about S of each recursive estimator over time,
+    where no truth is known (a recording). PNG."""
+    figure, panels = plt.subplots(3, 1, sharex=True, figsize=(7, 7))
+    for method, (steps, thetas) in histories.items():
+        t, phi = steps * sample_period, thetas[:, 6:]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            com = 1e3 * phi[:, 1:4] / phi[:, :1]
+        panels[0].plot(t, phi[:, 0], label=method.upper())
+        panels[1].plot(t, com, color=panels[0].lines[-1].get_color())
+        panels[2].plot(t, phi[:, [4, 7, 9]], color=panels[0].lines[-1].get_color())
+    for panel, label in zip(panels, ("mass (kg)", "COM x, y, z (mm)", "I_xx, I_yy, I_zz (kg·m²)")):
+        panel.set_ylabel(label)
+        panel.grid(alpha=0.3)
+    panels[0].legend()
+    panels[-1].set_xlabel("t (s)")
+    figure.suptitle("Recursive estimators along the recording")
+    figure.tight_layout()
+    figure.savefig(path, dpi=120)
+    plt.close(figure)
+
+
+def static_pose_figure(wrench, residual, path):
+    """Per static pose the measured wrench and what the fit leaves of it (``residual``), (P, 6) [f; τ]
+    in N, N·m. PNG."""
+    wrench, residual = np.asarray(wrench, dtype=float), np.asarray(residual, dtype=float)
+    figure, panels = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
+    poses = np.arange(1, len(wrench) + 1)
+    for panel, columns, unit in zip(panels, (slice(0, 3), slice(3, 6)), ("N", "N·m")):
+        for k, name in zip(range(columns.start, columns.stop), AXES[columns]):
+            line, = panel.plot(poses, wrench[:, k], "o-", ms=3, label=f"{name} measured")
+            panel.plot(poses, 100 * residual[:, k], "x:", color=line.get_color(), label=f"{name} residual × 100")
+        panel.set_ylabel(unit)
+        panel.grid(alpha=0.3)
+        panel.legend(fontsize=7, ncol=3)
+    panels[-1].set_xlabel("pose")
+    figure.suptitle("Static poses: the measured wrench and the fit's residual (× 100)")
+    figure.tight_layout()
+    figure.savefig(path, dpi=120)
+    plt.close(figure)
+
+
 def verdict_report(verdict: dict, method: str) -> str:
     """The fit's verdict (``fit_verdict.fit_verdict``) for the printed report: per axis the
     residual RMS against the noise floor, then the verdict in words."""

@@ -13,6 +13,7 @@ COMMANDS = (
     ("demo", "demo"),
     ("simulate", "simulate"),
     ("identify", "identify"),
+    ("compensate", "compensate"),
     ("bench", "bench"),
     ("stand-in", "stand_in"),
     ("teleop", "teleop"),

@@ -1,6 +1,11 @@
 """The load estimate the controller uses, and its file: ``estimate.yaml``, written by
-``heft identify`` (simulated or on hardware) and read by ``heft simulate``, ``heft teleop``
-and ``heft load``, through the one writer and the one validating reader here."""
+``heft identify`` (simulated, on hardware or from a recording) and read by ``heft simulate``,
+``heft teleop`` and ``heft load``, through the one writer and the one validating reader here.
+
+Its schema: ``phi``, ``offsets`` (what the controller uses), their standard deviations, which
+entries the data identified, the fit's verdict (``fit``) and, where the data calibrated the
+accelerometer (static poses with its readings), ``accelerometer``: {R_SA, bias, scale, unit} as
+``systems.accelerometer_calibration`` defines them."""
 
 import dataclasses
 from pathlib import Path
@@ -8,14 +13,17 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from heft.systems.accelerometer_calibration import AccelerometerCalibration
 from heft.systems.load_dynamics import InertialParameters, checked_load, inertia_entries
 
 
 @dataclasses.dataclass
 class LoadEstimate:
-    """The load model the controller uses: φ̂ (Eq. 6) and offsets [f_o; τ_o] (N, N·m)."""
+    """The load model the controller uses: φ̂ (Eq. 6) and offsets [f_o; τ_o] (N, N·m); the
+    accelerometer's calibration when the estimate carries one."""
     phi: np.ndarray
     offsets: np.ndarray
+    accelerometer: AccelerometerCalibration | None = None
 
 
 def estimate_record(result, method: str, signals: str, samples: int) -> dict:
@@ -34,26 +42,39 @@ def estimate_record(result, method: str, signals: str, samples: int) -> dict:
     return record
 
 
-def write_load_estimate(path, record: dict, verdict: dict) -> None:
+def write_load_estimate(path, record: dict, verdict: dict,
+                        accelerometer: AccelerometerCalibration | None = None) -> None:
     """Writes an ``estimate_record`` to ``path`` (YAML) with its fit's verdict
     (``analysis.fit_verdict``): whether it was ok, its causes, and whether a fit that was not
-    ok was accepted (``heft identify --accept-fit``)."""
+    ok was accepted (``heft identify --accept-fit``); and the accelerometer's calibration if given."""
     fit = {"ok": verdict["ok"], "accepted": not verdict["ok"], "causes": verdict["causes"]}
-    Path(path).write_text(yaml.safe_dump({**record, "fit": fit}, sort_keys=False))
+    extra = {} if accelerometer is None else {"accelerometer": accelerometer.as_dict()}
+    Path(path).write_text(yaml.safe_dump({**record, "fit": fit, **extra}, sort_keys=False))
 
 
 def read_load_estimate(path, wrench_full_scale=None) -> LoadEstimate:
-    """φ̂ and offsets from an estimate.yaml written by ``heft identify``, checked by
-    ``checked_load`` (against the sensor's range ``wrench_full_scale``, N, N·m, if given)."""
+    """φ̂, offsets and the accelerometer's calibration (if any) from an estimate.yaml written by
+    ``heft identify``, checked by ``checked_load`` (against the sensor's range ``wrench_full_scale``,
+    N, N·m, if given) and ``AccelerometerCalibration``."""
     path = Path(path)
     try:
         data = yaml.safe_load(path.read_text())
         phi, offsets = np.asarray(data["phi"], dtype=float), np.asarray(data["offsets"], dtype=float)
-    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError) as error:
+        calibration = data.get("accelerometer")
+    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError, AttributeError) as error:
         raise ValueError(f"cannot read a load estimate from {path}: {error}; "
                          "write one with `heft identify --scenario FILE --out DIR`") from None
     try:
         phi, offsets = checked_load(phi, offsets, wrench_full_scale)
-    except ValueError as error:
+        if calibration is not None:
+            if not isinstance(calibration, dict) or set(calibration) != {"R_SA", "bias", "scale", "unit"}:
+                raise ValueError(f"accelerometer must hold R_SA, bias, scale and unit; got {calibration!r}")
+            calibration = AccelerometerCalibration(**calibration)
+    except (ValueError, TypeError) as error:
         raise ValueError(f"{path}: {error}") from None
-    return LoadEstimate(phi=phi, offsets=offsets)
+    return LoadEstimate(phi=phi, offsets=offsets, accelerometer=calibration)
+
+
+def read_accelerometer_calibration(path) -> AccelerometerCalibration | None:
+    """The accelerometer's calibration an estimate.yaml carries (``read_load_estimate``), or None."""
+    return read_load_estimate(path).accelerometer

@@ -133,11 +133,20 @@ def regressor_with_offsets(a, alpha, omega, g) -> np.ndarray:
 
 
 def noncontact_wrench(phi, a, alpha, omega, g) -> np.ndarray:
-    """Eq. 12: the load's own wrench V·phi, (6,) or (N, 6)."""
+    """Eq. 12: the load's own wrench V·phi, (6,) or (N, 6). A batch is evaluated as V·φ's products
+    (``regressor``'s docstring) without forming the (N, 6, 10) V: a tenth of the cost per sample."""
     phi = _finite_array("phi", phi, (10,))
     if phi.ndim != 1:
         raise ValueError(f"phi must have shape (10,); got {phi.shape}")
-    return regressor(a, alpha, omega, g) @ phi
+    if all(np.ndim(x) == 1 for x in (a, alpha, omega, g)):
+        return regressor(a, alpha, omega, g) @ phi
+    (a, alpha, omega, g), _ = _motion_inputs(a, alpha, omega, g)
+    h, inertia = phi[1:4], inertia_matrix(phi[4:])
+    specific = a - g
+    out = np.empty(specific.shape[:-1] + (6,))
+    out[..., :3] = phi[0] * specific + np.cross(alpha, h) + np.cross(omega, np.cross(omega, h))
+    out[..., 3:] = alpha @ inertia + np.cross(omega, omega @ inertia) + np.cross(h, specific)
+    return out
 
 
 def inertia_matrix(entries) -> np.ndarray:

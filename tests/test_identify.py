@@ -80,6 +80,31 @@ def test_bad_estimate_file_says_what_to_do(tmp_path):
         read_load_estimate(tmp_path / "missing.yaml")
 
 
+def test_estimate_file_keeps_the_accelerometer_calibration(tmp_path):
+    from scipy.spatial.transform import Rotation
+
+    from heft.diagrams.load_estimate import write_load_estimate
+    from heft.systems.accelerometer_calibration import AccelerometerCalibration
+    from heft.systems.static_calibration import point_mass_phi
+
+    calibration = AccelerometerCalibration(R_SA=Rotation.from_rotvec([0.2, -0.4, 1.0]).as_matrix(),
+                                           bias=[0.0, 0.08, 0.01], scale=0.99, unit="g")
+    record = {"phi": point_mass_phi(3.13, [0.0, 0.0, 0.063]).tolist(), "offsets": [1.0, 2, 3, 0.01, 0.02, 0.03]}
+    path = tmp_path / "estimate.yaml"
+    write_load_estimate(path, record, {"ok": True, "causes": []}, calibration)
+    load = read_load_estimate(path)
+    np.testing.assert_allclose(load.accelerometer.R_SA, calibration.R_SA, atol=1e-12)
+    np.testing.assert_allclose(load.accelerometer.bias, calibration.bias)
+    assert load.accelerometer.scale == 0.99 and load.accelerometer.unit == "g"
+    write_load_estimate(path, record, {"ok": True, "causes": []})
+    assert read_load_estimate(path).accelerometer is None
+    text = path.read_text() + "accelerometer: {R_SA: [[1, 0, 0], [0, 1, 0], [0, 0, -1]], bias: [0, 0, 0], " \
+                              "scale: 1.0, unit: g}\n"
+    path.write_text(text)
+    with pytest.raises(ValueError, match="estimate.yaml: the accelerometer's R_SA is not a rotation"):
+        read_load_estimate(path)
+
+
 def test_unknown_method_is_rejected(tmp_path):
     with pytest.raises(ValueError, match="method must be one of"):
         identify(Scenario(), tmp_path, simulated_recorder(Scenario()), method="magic")

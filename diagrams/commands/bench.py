@@ -2,7 +2,8 @@
 
 ``regressor``: V·φ per sample and per batch against Drake; ``identify``: Monte Carlo accuracy
 of every estimator against the Cramér–Rao bound, and update costs; ``lcm``: the controller
-against a driver probe and the stand-in over LCM in two processes."""
+against a driver probe and the stand-in over LCM in two processes; ``compensate``: rate and peak
+memory of `heft compensate` on long recordings."""
 
 from __future__ import annotations
 
@@ -90,6 +91,23 @@ def _bench_lcm(args) -> int:
     return 0
 
 
+def _bench_compensate(args) -> int:
+    import tempfile
+
+    from heft.analysis.bench_compensate import bench
+
+    durations = [float(d) for d in args.durations.split(",")]
+    formats = ["csv", "parquet"] if args.format == "both" else [args.format]
+    if args.folder:
+        results = bench(durations, formats, args.folder, args.cpu, keep=True)
+    else:
+        with tempfile.TemporaryDirectory(prefix="heft_bench_compensate_") as folder:
+            results = bench(durations, formats, folder, args.cpu)
+    if args.out:
+        Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
+    return 0
+
+
 def add_arguments(parser) -> None:
     benches = parser.add_subparsers(dest="bench_name", metavar="BENCH", required=True)
     regressor_parser = benches.add_parser("regressor", help="cost of V·φ per sample and per batch, against Drake")
@@ -113,6 +131,17 @@ def add_arguments(parser) -> None:
     add_lcm_urls(lcm_parser)
     lcm_parser.add_argument("--out", help="write every number as JSON here")
     lcm_parser.set_defaults(bench=_bench_lcm)
+    compensate_parser = benches.add_parser(
+        "compensate", help="`heft compensate` on synthetic 8 kHz recordings written to a temporary folder: rate and "
+                           "peak memory on one CPU, the hour extrapolated from the two longest")
+    compensate_parser.add_argument("--durations", default="60,240",
+                                   help="recording lengths (s, default 60,240; 3600 writes the whole hour, ~2.3 GB)")
+    compensate_parser.add_argument("--format", choices=("csv", "parquet", "both"), default="both")
+    compensate_parser.add_argument("--cpu", type=int, default=0, help="the CPU the command is pinned to (default 0)")
+    compensate_parser.add_argument("--folder", help="write the recordings here and keep them (default: a temporary "
+                                                    "folder, removed run by run)")
+    compensate_parser.add_argument("--out", help="write every number as JSON here")
+    compensate_parser.set_defaults(bench=_bench_compensate)
 
 
 def run(args) -> int:

@@ -1,5 +1,5 @@
 """`heft identify`: the load's inertial parameters and the sensor offsets from an excitation,
-in simulation or on the hardware."""
+in simulation or on the hardware, or from a lab's recording."""
 
 from __future__ import annotations
 
@@ -11,7 +11,10 @@ HELP = ("identify the load's inertial parameters and the sensor "
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--scenario", required=True, help="fig6 | fig7 | fig8 | path to a scenario YAML")
+    parser.add_argument("--scenario", help="fig6 | fig7 | fig8 | path to a scenario YAML (required unless --recording; "
+                                            "with it, the lab's sensors' noise and range, default heft's JR3 model)")
+    parser.add_argument("--recording", help="identify from a recording (YAML, README \"Your own data\"): its static "
+                                            "poses and/or its streams, instead of an excitation heft drives")
     add_set(parser)
     add_station(parser)
     parser.add_argument("--out", required=True, help="output folder")
@@ -38,6 +41,10 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
+    if args.recording:
+        return _from_recording(args)
+    if not args.scenario:
+        raise ValueError("identify needs --scenario (the excitation heft drives) or --recording (a lab's recording)")
     from heft.diagrams.identify import identify
     from heft.systems.excitation import ExcitationSettings
 
@@ -62,4 +69,19 @@ def run(args) -> int:
     identify(scenario, args.out, recorder, method=args.method, signals=args.signals, settings=settings,
              periods=args.periods, accept_fit=args.accept_fit)
     print(f"wrote {args.out}/{wrote}")
+    return 0
+
+
+def _from_recording(args) -> int:
+    from heft.diagrams.identify_recording import identify_recording
+    from heft.diagrams.scenario import Scenario, layered
+
+    for option in ("hardware", "station", "record", "quick"):
+        if getattr(args, option):
+            raise ValueError(f"--{option} belongs to an excitation heft drives; a --recording is already recorded")
+    if args.periods != 1:
+        raise ValueError("--periods belongs to an excitation heft drives; a --recording is already recorded")
+    scenario = scenario_from(args) if args.scenario else (layered(Scenario(), args.set) if args.set else Scenario())
+    identify_recording(args.recording, args.out, scenario, method=args.method, accept_fit=args.accept_fit)
+    print(f"wrote {args.out}/estimate.yaml, metrics.json and the figures")
     return 0

@@ -1,0 +1,140 @@
+"""The clock offset of each stream against the wrench's: the shift that makes V·φ̂ agree best with
+the measured wrench.
+
+For a candidate offset the streams are merged onto the wrench's stamps (``recording_merge.merge``)
+and the cost is Σ over the six axes of var(f − V·φ̂) / var(f): the variance, so that the sensor's
+constant offsets (unknown while identifying) do not matter, and per axis relative, so that forces
+and torques weigh alike. Each stream's offset is found on a grid over ±``search`` s, refined on a
+grid 20 times finer around the best and by a parabola through the finest grid's three best points.
+Then the samples near contact (``contact_free``) are left out and the search runs again (with
+several streams, two more rounds of one stream at a time). A φ̂ is needed: ``heft compensate`` takes
+the estimate's, identification may alternate (identify with an offset, estimate the offset, …).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from heft.analysis.recording_merge import RecordingSource, StreamData, merge, rotation_terms
+
+COARSE_STEPS = 25
+"""Grid points on each side of the stated offset at the coarse stage."""
+FINE_FACTOR = 20
+"""The fine grid's step is the coarse one's over this."""
+ROUNDS = 2
+FLAT = 1e-3
+"""A cost that varies by less than this (relative) over the search cannot tell the offset: the window
+holds too little motion."""
+
+
+@dataclasses.dataclass
+class OffsetFit:
+    """One stream's offset (s): the cost at the grid points (``offsets`` s, ``costs``), and whether the
+    window's motion could tell (``observable``: the cost varies by more than ``FLAT``)."""
+    offset: float
+    offsets: list
+    costs: list
+    observable: bool
+
+    def summary(self) -> dict:
+        return {"offset_s": self.offset, "observable": self.observable,
+                "cost_min": float(min(self.costs)), "cost_max": float(max(self.costs))}
+
+
+def residuals(recording, t, wrench, data: StreamData, offsets: dict, phi, rotations=None) -> np.ndarray:
+    """f − V·φ̂ (N, 6) with the streams merged at ``offsets``. ``rotations``: a dict caching
+    ``rotation_terms`` by the rotation streams' offsets (the accelerometer's search leaves them alone)."""
+    rotation = None
+    if rotations is not None:
+        key = (offsets.get("orientation"), offsets.get("angular_velocity"))
+        if key not in rotations:
+            rotations[key] = rotation_terms(recording, t, data, offsets)
+        rotation = rotations[key]
+    return wrench - merge(recording, t, wrench, data, offsets, rotation).noncontact(phi)
+
+
+def residual_cost(recording, t, wrench, data: StreamData, offsets: dict, phi, keep=None, rotations=None) -> float:
+    """Σ_axes var(f − V·φ̂)/var(f) over the samples ``keep`` (all if None)."""
+    residual = residuals(recording, t, wrench, data, offsets, phi, rotations)
+    if keep is not None:
+        residual, wrench = residual[keep], wrench[keep]
+    return float(np.sum(residual.var(axis=0) / np.maximum(wrench.var(axis=0), 1e-12)))
+
+
+def contact_free(t: np.ndarray, residual: np.ndarray, guard: float) -> np.ndarray:
+    """The samples at least ``guard`` s from any whose force residual |f − V·φ̂ − mean| lies beyond its
+    median + 6 robust standard deviations (1.4826 × MAD): contact, which no clock offset explains."""
+    force = np.linalg.norm(residual[:, :3] - residual[:, :3].mean(axis=0), axis=1)
+    median = np.median(force)
+    outside = force > median + 6.0 * 1.4826 * np.median(np.abs(force - median))
+    if not outside.any():
+        return np.ones(len(t), dtype=bool)
+    near = np.zeros(len(t), dtype=bool)
+    edges = t[outside]
+    left = np.searchsorted(edges, t - guard)
+    right = np.searchsorted(edges, t + guard, side="right")
+    near |= right > left
+    return ~near
+
+
+def estimate_clock_offsets(source: RecordingSource, phi, streams=None, window: tuple[float, float] | None = None,
+                           search: float = 0.05, max_samples: int = 20000, initial: dict | None = None) -> dict:
+    """{stream: OffsetFit} for ``streams`` (default: those whose offset is 'estimate'), the others held
+    at their stated (or ``initial``) offsets. ``window``: (start, duration) s of wrench time (default:
+    the first 60 s the streams share); at most ``max_samples`` wrench rows of it are used."""
+    stated = source.stated_offsets()
+    streams = list(streams) if streams is not None else [n for n, v in stated.items() if v == "estimate"]
+    offsets = {name: 0.0 if value == "estimate" else float(value) for name, value in stated.items()}
+    offsets.update(initial or {})
+    lo, hi = source.common_interval({n: offsets[n] for n in offsets if n not in streams})
+    lo, hi = lo + search, hi - search
+    start, duration = window if window is not None else (lo, 60.0)
+    lo, hi = max(lo, start), min(hi, start + duration)
+    if hi <= lo:
+        raise ValueError(f"no wrench time is left to estimate clock offsets in (window {start}–{start + duration} s, "
+                         f"streams shared within ±{search} s)")
+    rows = max(1, int(round((hi - lo) / source.period("wrench"))))
+    stride = max(1, rows // max_samples)
+    t, wrench, data = source.snapshot((lo, hi), offsets, margin=search + 0.01, stride=stride)
+    fits, keep, rotations = {}, None, {}
+    for round_ in range(1 + (ROUNDS if len(streams) > 1 else 1)):
+        for name in streams:
+            fits[name] = _search(source.recording, t, wrench, data, offsets, name, phi, search, keep, rotations)
+            offsets[name] = fits[name].offset
+        if round_ == 0:  # leave out contact (and what the filters smear of it) from then on
+            keep = contact_free(t, residuals(source.recording, t, wrench, data, offsets, phi), 2 * search)
+            if keep.sum() < 0.2 * len(t):
+                keep = None
+    return fits
+
+
+def _search(recording, t, wrench, data, offsets, name, phi, search, keep, rotations) -> OffsetFit:
+    centre = offsets[name]
+
+    def cost(value):
+        return residual_cost(recording, t, wrench, data, {**offsets, name: value}, phi, keep, rotations)
+
+    step = search / COARSE_STEPS
+    grid = centre + step * np.arange(-COARSE_STEPS, COARSE_STEPS + 1)
+    costs = np.array([cost(x) for x in grid])
+    best = grid[int(np.argmin(costs))]
+    fine = best + (step / FINE_FACTOR) * np.arange(-FINE_FACTOR, FINE_FACTOR + 1)
+    fine_costs = np.array([cost(x) for x in fine])
+    k = int(np.clip(np.argmin(fine_costs), 1, len(fine) - 2))
+    offset = _parabola_minimum(fine[k - 1:k + 2], fine_costs[k - 1:k + 2])
+    all_offsets = np.concatenate((grid, fine))
+    all_costs = np.concatenate((costs, fine_costs))
+    order = np.argsort(all_offsets)
+    spread = (costs.max() - costs.min()) / max(costs.min(), 1e-12)
+    return OffsetFit(float(offset), all_offsets[order].tolist(), all_costs[order].tolist(), bool(spread > FLAT))
+
+
+def _parabola_minimum(x, y) -> float:
+    """The vertex of the parabola through three equally spaced points, kept within them."""
+    denominator = y[0] - 2 * y[1] + y[2]
+    if denominator <= 0:
+        return float(x[1])
+    h = x[1] - x[0]
+    return float(np.clip(x[1] + 0.5 * h * (y[0] - y[2]) / denominator, x[0], x[2]))

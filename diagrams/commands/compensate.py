@@ -1,0 +1,76 @@
+"""`heft compensate`: a recorded run's non-contact wrench (Eq. 12) and contact estimate (Eq. 13) per
+wrench sample, from a recording (README "Your own data") and a load estimate."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+HELP = ("the non-contact wrench V·φ̂ and the contact estimate per wrench sample of a recording "
+        "(README \"Your own data\"), with a figure and metrics")
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--recording", required=True, help="the recording's YAML file")
+    parser.add_argument("--estimate", required=True,
+                        help="estimate.yaml (`heft identify`): φ̂, the offsets and, if the recording's accelerometer "
+                             "says R_SA or bias 'estimate', its calibration")
+    parser.add_argument("--out", required=True, help="output folder: compensated.csv, figure.png, metrics.json")
+    parser.add_argument("--format", choices=("csv", "parquet"), default="csv",
+                        help="compensated.csv (default) or compensated.parquet (same columns; faster to write)")
+    parser.add_argument("--contact-threshold", type=float,
+                        help="contact force magnitude (N) above which a sample is in contact (default: from the "
+                             "first chunk's residual, see metrics.json)")
+    parser.add_argument("--offset-window", type=float, nargs=2, metavar=("START", "DURATION"),
+                        help="wrench time (s) over which clock offsets marked 'estimate' are found "
+                             "(default: the first 60 s the streams share)")
+    parser.add_argument("--offset-search", type=float, default=0.05,
+                        help="largest clock offset (s) searched either way (default 0.05)")
+
+
+def run(args) -> int:
+    from heft.analysis.clock_offsets import estimate_clock_offsets
+    from heft.analysis.compensation import compensate, compensation_figure
+    from heft.analysis.recording import ESTIMATE
+    from heft.diagrams.load_estimate import read_load_estimate
+    from heft.diagrams.recordings import open_recording
+
+    estimate = read_load_estimate(args.estimate)
+    source = open_recording(args.recording, args.estimate)
+    recording = source.recording
+    checked = source.check_rows()
+    print("every row checked before computing: " + ", ".join(f"{name} {rows}" for name, rows in checked.items()))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for key, value in source.choices.items():
+        if not key.endswith("_span"):
+            print(f"{key}: {value}")
+    offsets = {}
+    fits = {}
+    if ESTIMATE in source.stated_offsets().values():
+        window = tuple(args.offset_window) if args.offset_window else None
+        fits = estimate_clock_offsets(source, estimate.phi, window=window, search=args.offset_search)
+        for name, fit in fits.items():
+            offsets[name] = fit.offset
+            print(f"clock offset of {name}: {1e3 * fit.offset:.3f} ms (estimated: V·φ̂ against the wrench"
+                  + ("" if fit.observable else "; NOT observable: the window holds too little motion") + ")")
+    offsets = source.resolved_offsets(offsets)
+    sign = -1.0 if recording.wrench.exerted_on == "sensor" else 1.0
+    path = out / f"compensated.{args.format}"
+    result = compensate(source.chunks(offsets), estimate.phi, estimate.offsets, sign, path,
+                        args.contact_threshold, source.spans["wrench"][2])
+    compensation_figure(result, out / "figure.png")
+    choices = {**source.choices, "clock_offsets_s": {
+        name: {"offset_s": value, "how": "estimated" if name in fits else "stated",
+               **(fits[name].summary() if name in fits else {})} for name, value in offsets.items()}}
+    metrics = {"recording": str(args.recording), "estimate": str(args.estimate), "output": str(path),
+               "choices": choices, "wrench_rows_outside_the_other_streams": source.dropped,
+               **result.metrics()}
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=2, default=str) + "\n")
+    rms = ", ".join(f"{a} {v:.4g}" for a, v in zip(("fx", "fy", "fz", "tx", "ty", "tz"), result.rms))
+    print(f"compensated {result.samples} samples ({result.duration_s:.6g} s) in {result.elapsed_s:.3g} s "
+          f"({result.duration_s / result.elapsed_s:.3g}× real time; CPU {result.cpu_s:.3g} s, "
+          f"{result.duration_s / result.cpu_s:.3g}×) → {path}")
+    print(f"contact: {len(result.intervals)} interval(s) above {result.threshold_N:.3g} N "
+          f"({100 * result.contact_share:.2g} % of samples); residual RMS without contact (N, N·m): {rms}")
+    return 0

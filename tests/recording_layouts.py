@@ -1,0 +1,126 @@
+"""Recordings written the way a lab's own tools might: Python's csv module, stamps in µs on a wall clock,
+the wrench on the sensor's sign with a status column heft does not read, the accelerometer in g in axes
+of its own, biased and late, the orientation on a clock of its own in ms. Every value from Drake
+(``drake_motion``). Used by the recording and compensation tests and for docs/example_recording."""
+
+import csv
+
+import numpy as np
+from drake_motion import SmoothMotion
+from scipy.spatial.transform import Rotation
+
+from heft.systems.accelerometer_reading import AccelerometerConvention, reading_from_motion
+
+EPOCH_US = 1_700_000_000_000_000  # stamps on a wall clock, as drivers write them
+R_SA = Rotation.from_rotvec([0.3, -0.5, 0.7]).as_matrix()  # not about one axis
+P_SA = np.array([0.02, 0.01, -0.008])
+BIAS_G = np.array([0.0, 0.08, 0.0])
+LATE = 0.006  # the accelerometer's stamps run 6 ms late
+DURATION = 3.0
+CONTACT_S = (1.2, 1.5)
+CONTACT_PEAK = np.array([2.0, -1.0, 15.0, 0.3, 0.2, 0.0])
+
+
+_TRUTH = {}
+
+
+def _truth(rate: float) -> tuple:
+    """(t, Drake's truth) of the motion sampled at ``rate`` over DURATION, computed once per process."""
+    if rate not in _TRUTH:
+        t = np.arange(0, DURATION, 1 / rate)
+        _TRUTH[rate] = t, SmoothMotion().truth(t)
+    return _TRUTH[rate]
+
+
+def _write(path, header, rows):
+    with open(path, "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(header)
+        writer.writerows(rows)
+
+
+def contact_pulse(t: np.ndarray) -> np.ndarray:
+    """A contact wrench on the load (N, N·m, at S in S): 15 N mostly along z with a moment, a half sine over
+    CONTACT_S."""
+    start, end = CONTACT_S
+    shape = np.where((t >= start) & (t <= end), np.sin(np.pi * np.clip((t - start) / (end - start), 0, 1)), 0.0)
+    return np.outer(shape, CONTACT_PEAK)
+
+
+def write_recording(folder, orientation="rotation_matrix", accel_offset="estimate", sensor_offsets=None,
+                    contact=False, noise=0.0, name="rec.yaml"):
+    """A 3 s recording of Drake's motion of the paper's tool: the wrench at 700 Hz on the sensor's sign with
+    µs stamps (and a status column heft does not read), plus ``sensor_offsets`` (on the load's sign) and,
+    with ``contact``, ``contact_pulse``, and Gaussian noise of ``noise`` N (a twentieth of it on the
+    torques); the accelerometer at 250 Hz in g, rotated by R_SA, biased and stamped 6 ms late; the
+    orientation at 100 Hz. Returns the wrench's stamps (s from the start) and Drake's truth at them."""
+    t_w, truth = _truth(700.0)
+    on_load = truth["wrench"] + (0.0 if sensor_offsets is None else np.asarray(sensor_offsets))
+    if contact:
+        on_load = on_load + contact_pulse(t_w)
+    if noise:
+        on_load = on_load + np.random.default_rng(5).normal(size=on_load.shape) * noise * np.repeat([1, 0.05], 3)
+    _write(folder / "ft.csv", ["stamp_us", "Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "status"],
+           [[EPOCH_US + int(round(1e6 * t))] + [f"{-x:.6f}" for x in w] + [0] for t, w in zip(t_w, on_load)])
+    t_a, at_a = _truth(250.0)
+    specific = reading_from_motion(np.hstack((at_a["a"], at_a["alpha"])), at_a["g"], at_a["omega"],
+                                   AccelerometerConvention(True, tuple(P_SA)))[:, :3]
+    raw = specific @ R_SA / 9.80665 + BIAS_G
+    _write(folder / "imu.csv", ["time", "ax", "ay", "az"],
+           [[EPOCH_US + int(round(1e6 * (t + LATE)))] + [f"{x:.7f}" for x in r] for t, r in zip(t_a, raw)])
+    t_p, at_p = _truth(100.0)
+    R = at_p["R_WS"]
+    if orientation == "rotation_matrix":
+        names, values = [f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)], R.reshape(-1, 9)
+    else:
+        names, values = ["qx", "qy", "qz", "qw"], Rotation.from_matrix(R).as_quat()
+    _write(folder / "pose.csv", ["t_ms"] + names,
+           [[f"{1e3 * t:.3f}"] + [f"{x:.8f}" for x in v] for t, v in zip(t_p, values)])
+    offset = accel_offset if isinstance(accel_offset, str) else float(accel_offset)
+    (folder / name).write_text(f"""
+wrench:
+  file: ft.csv
+  time: {{column: stamp_us, unit: us}}
+  columns: [Fx, Fy, Fz, Tx, Ty, Tz]
+  exerted_on: sensor
+accelerometer:
+  file: imu.csv
+  time: {{column: time, unit: us, offset: {offset}}}
+  columns: [ax, ay, az]
+  unit: g
+  R_SA: {R_SA.tolist()}
+  p_SA: {P_SA.tolist()}
+  bias: {BIAS_G.tolist()}
+orientation:
+  file: pose.csv
+  time: {{column: t_ms, unit: ms, offset: {-EPOCH_US * 1e-6}}}
+  kind: {orientation}
+  columns: {names}
+""")
+    return t_w, truth
+
+
+
+
+def write_example(folder) -> None:
+    """docs/example_recording: the recording of ``write_recording`` with sensor offsets, a contact and the
+    JR3's noise, its clock offset left to estimate, and an estimate.yaml holding the paper's tool as the
+    bundled scenarios model it (what `heft identify` would find) and those offsets."""
+    import yaml
+    from drake_motion import PAPER_TOOL
+
+    offsets = [1.5, -2.0, 3.0, 0.1, -0.05, 0.02]
+    write_recording(folder, sensor_offsets=offsets, contact=True, noise=0.1, name="recording.yaml")
+    (folder / "estimate.yaml").write_text(
+        "# The paper's tool (diagrams/models/tool.urdf) and the sensor's offsets on the load's sign:\n"
+        "# what `heft identify` writes (phi: Eq. 6, kg, kg·m, kg·m² about S; offsets: N, N·m).\n"
+        + yaml.safe_dump({"phi": [round(x, 9) for x in PAPER_TOOL.to_phi().tolist()], "offsets": offsets}))
+
+
+if __name__ == "__main__":  # python tests/recording_layouts.py docs/example_recording
+    import sys
+    from pathlib import Path
+
+    target = Path(sys.argv[1])
+    target.mkdir(parents=True, exist_ok=True)
+    write_example(target)

@@ -1,0 +1,106 @@
+"""Recordings in a layout heft did not choose: streams merged onto the wrench's timeline against Drake's
+own motion and wrench, the clock offset found, chunked reading equal to whole, and the rotation math
+against Drake's."""
+
+import numpy as np
+import pytest
+from drake_motion import PAPER_TOOL
+from pydrake.math import RotationMatrix
+from pydrake.trajectories import PiecewiseQuaternionSlerp
+from scipy.spatial.transform import Rotation
+
+from recording_layouts import EPOCH_US, LATE, write_recording
+
+from heft.analysis import column_files
+from heft.analysis.clock_offsets import estimate_clock_offsets
+from heft.analysis.recording import load_recording
+from heft.analysis.recording_merge import RecordingSource
+from heft.systems.rotation_sampling import (
+    body_angular_velocity, continuous, rotate_into_body, savitzky_golay, slerp, window_samples)
+
+@pytest.fixture(scope="module")
+def foreign(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("foreign")
+    t, truth = write_recording(folder)
+    return folder, t, truth
+
+
+def _at_truth(merged, t, truth, key):
+    index = np.round((merged.t - EPOCH_US * 1e-6) * 700).astype(int)
+    return truth[key][index]
+
+
+def test_merged_streams_match_drakes_motion(foreign):
+    folder, t, truth = foreign
+    source = RecordingSource(load_recording(folder / "rec.yaml"))
+    merged = source.merged({"accelerometer": LATE})
+    assert 0.9 * len(t) < len(merged) <= len(t)
+    np.testing.assert_allclose(merged.wrench, _at_truth(merged, t, truth, "wrench"), atol=1e-5)
+    np.testing.assert_allclose(merged.g, _at_truth(merged, t, truth, "g"), atol=0.06)  # 100 Hz, slerp
+    np.testing.assert_allclose(merged.omega, _at_truth(merged, t, truth, "omega"), atol=0.06)  # of 5.5 rad/s
+    np.testing.assert_allclose(merged.alpha, _at_truth(merged, t, truth, "alpha"), atol=0.7)  # of 34 rad/s²
+    np.testing.assert_allclose(merged.a, _at_truth(merged, t, truth, "a"), atol=0.35)  # of 22 m/s², 250 Hz
+    residual = merged.wrench - merged.noncontact(PAPER_TOOL.to_phi())
+    peak = np.abs(merged.wrench).max(axis=0)
+    assert (np.sqrt((residual ** 2).mean(axis=0)) < 2e-3 * peak + 1e-3).all()
+    assert "slerp" in source.choices["timeline"] and "Savitzky–Golay" in source.choices["alpha"]
+
+
+def test_the_accelerometers_clock_offset_is_found(foreign):
+    folder, _, _ = foreign
+    source = RecordingSource(load_recording(folder / "rec.yaml"))
+    fit = estimate_clock_offsets(source, PAPER_TOOL.to_phi())["accelerometer"]
+    assert fit.observable
+    assert abs(fit.offset - LATE) < 2e-4
+    with pytest.raises(ValueError, match="'estimate'"):
+        source.merged()
+
+
+def test_chunked_reading_gives_what_whole_reading_gives(foreign, monkeypatch):
+    folder, _, _ = foreign
+    whole = RecordingSource(load_recording(folder / "rec.yaml")).merged({"accelerometer": LATE})
+    monkeypatch.setattr(column_files, "CSV_BLOCK_BYTES", 4096)
+    source = RecordingSource(load_recording(folder / "rec.yaml"))
+    assert len(list(source.chunks({"accelerometer": LATE}))) > 20
+    chunked = source.merged({"accelerometer": LATE})
+    for name in ("t", "wrench", "a", "alpha", "omega", "g"):
+        np.testing.assert_allclose(getattr(chunked, name), getattr(whole, name), rtol=0, atol=1e-12)
+
+
+def test_a_quaternion_orientation_gives_the_matrices_gravity(tmp_path):
+    write_recording(tmp_path, orientation="quaternion_xyzw", accel_offset=LATE)
+    from_quaternions = RecordingSource(load_recording(tmp_path / "rec.yaml")).merged()
+    write_recording(tmp_path, orientation="rotation_matrix", accel_offset=LATE)
+    from_matrices = RecordingSource(load_recording(tmp_path / "rec.yaml")).merged()
+    np.testing.assert_allclose(from_quaternions.g, from_matrices.g, atol=1e-6)
+    np.testing.assert_allclose(from_quaternions.omega, from_matrices.omega, atol=1e-5)
+
+
+def test_slerp_and_angular_velocity_agree_with_drakes_quaternion_trajectory():
+    rng = np.random.default_rng(3)
+    t = np.cumsum(rng.uniform(0.005, 0.015, 30))
+    R = Rotation.from_rotvec(np.cumsum(rng.normal(scale=0.3, size=(30, 3)), axis=0)).as_matrix()
+    q = continuous(np.roll(Rotation.from_matrix(R).as_quat(), 1, axis=1))
+    reference = PiecewiseQuaternionSlerp(list(t), [RotationMatrix(r) for r in R])
+    queries = np.sort(rng.uniform(t[0], t[-1], 200))
+    ours = slerp(t, q, queries)
+    for k, tq in enumerate(queries):
+        theirs = reference.orientation(tq).rotation()
+        np.testing.assert_allclose(Rotation.from_quat(np.roll(ours[k], -1)).as_matrix(), theirs, atol=1e-9)
+        g_S = theirs.T @ np.array([0.0, 0.0, -9.81])
+        np.testing.assert_allclose(rotate_into_body(ours[k:k + 1], [0.0, 0.0, -9.81])[0], g_S, atol=1e-9)
+    t_mid, omega_S = body_angular_velocity(t, q)
+    for k, tm in enumerate(t_mid):
+        omega_W = reference.angular_velocity(tm)  # constant between samples, in the world
+        np.testing.assert_allclose(omega_S[k], R[k].T @ omega_W, atol=1e-9)
+
+
+@pytest.mark.parametrize("order", [2, 3])
+@pytest.mark.parametrize("deriv", [0, 1])
+def test_savitzky_golay_is_scipys(order, deriv):
+    from scipy.signal import savgol_filter
+
+    x = np.cumsum(np.random.default_rng(order).normal(size=(60, 3)), axis=0)
+    samples = window_samples(0.004, 0.05, order)
+    expected = savgol_filter(x, samples, order, deriv=deriv, delta=0.004, axis=0, mode="interp")
+    np.testing.assert_allclose(savitzky_golay(x, 0.004, 0.05, order, deriv), expected, atol=1e-9 * np.abs(x).max())
