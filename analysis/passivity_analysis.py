@@ -25,12 +25,13 @@ def stylus_twist(jacobians, joint_velocity) -> np.ndarray:
     return np.einsum("nij,nj->ni", jacobians, np.asarray(joint_velocity, dtype=float))
 
 
-def sample_periods(t, period: float | None = None) -> np.ndarray:
-    """The interval (s) each sample's value holds for: ``period`` if given, else
-    t[k+1] − t[k] (the last sample repeats the one before)."""
+def sample_periods(t, period: float | np.ndarray | None = None) -> np.ndarray:
+    """The interval (s) each sample's value holds for: ``period`` if given (one for all, or one
+    per sample: a hardware controller's measured ticks), else t[k+1] − t[k] (the last sample
+    repeats the one before)."""
     t = np.asarray(t, dtype=float)
     if period is not None:
-        return np.full(t.shape, float(period))
+        return np.broadcast_to(np.asarray(period, dtype=float), t.shape).copy()
     if t.size < 2:
         raise ValueError("need two samples or a period to know the sample interval")
     dt = np.diff(t)
@@ -44,7 +45,7 @@ def port_power(wrench, twist) -> np.ndarray:
     return np.stack((product[:, :3].sum(axis=1), product[:, 3:].sum(axis=1)), axis=1)
 
 
-def port_energy(t, wrench, twist, method: str = "rectangle", period: float | None = None) -> np.ndarray:
+def port_energy(t, wrench, twist, method: str = "rectangle", period: float | np.ndarray | None = None) -> np.ndarray:
     """Cumulative energy (N, 2; J) that flowed from the hand into the network through the
     master port, per channel [translational, rotational], positive into the network.
 
@@ -62,7 +63,7 @@ def port_energy(t, wrench, twist, method: str = "rectangle", period: float | Non
     raise ValueError(f"method must be 'rectangle' or 'trapezoid'; got {method!r}")
 
 
-def active_intervals(t, active, period: float | None = None) -> list[tuple[float, float]]:
+def active_intervals(t, active, period: float | np.ndarray | None = None) -> list[tuple[float, float]]:
     """Maximal runs of samples where ``active`` holds, as (start, end) in s: start is the
     first active sample's time, end the last one's plus its sample interval."""
     t = np.asarray(t, dtype=float)
@@ -74,7 +75,7 @@ def active_intervals(t, active, period: float | None = None) -> list[tuple[float
 
 
 def passivity_controller_summary(t, damping, energy_observed, twist=None,
-                                 period: float | None = None) -> dict:
+                                 period: float | np.ndarray | None = None) -> dict:
     """When and how hard the passivity controller acted, per channel.
 
     ``damping`` (N, 2) is [α_t (N·s/m), α_r (N·m·s/rad)], ``energy_observed`` (N, 2) the
@@ -105,7 +106,7 @@ def passivity_controller_summary(t, damping, energy_observed, twist=None,
     return summary
 
 
-def passivity_summary(log: dict, twist=None, period: float | None = None) -> dict:
+def passivity_summary(log: dict, twist=None, period: float | np.ndarray | None = None) -> dict:
     """`passivity_controller_summary` of a run's log (keys t, passivity_damping,
     passivity_energy, master_force); with ``twist`` (N, 6) also the port energy of the
     desired wrench ``master_force`` (rectangle rule): ``c_port_energy_final_J`` and
@@ -120,7 +121,7 @@ def passivity_summary(log: dict, twist=None, period: float | None = None) -> dic
     return summary
 
 
-def passivity_figure(log: dict, path, twist=None, period: float | None = None, title: str = ""):
+def passivity_figure(log: dict, path, twist=None, period: float | np.ndarray | None = None, title: str = ""):
     """PNG at ``path``: per channel (columns), the PO's observed energy — and with
     ``twist`` the port energy of ``master_force`` — over t (top), and the PC's damping
     (bottom)."""

@@ -1,5 +1,6 @@
-"""The compliant tool mount: its constants for a load, its modes, and whether the plant's step
-integrates them.
+"""The compliant tool mount: its constants for a load, its modes, whether the plant's step
+integrates them, and its small-deflection response below a sensor whose motion is given (the
+stand-in lab's, ``MountUnderMovingSensor``).
 
 Drake's discrete plant integrates a force element such as the mount's bushing explicitly: its
 force at the start of a step sets the velocity at the end, which then moves the position
@@ -36,6 +37,8 @@ from heft.diagrams.scenario import DEFAULT_MOUNT, MountSpec
 from heft.systems.load_dynamics import inertia_matrix
 
 CONSTANTS = ("torque_stiffness", "torque_damping", "force_stiffness", "force_damping")
+_WRENCH_ORDER = np.r_[3:6, 0:3]
+"""[rotation; translation] → heft's [translation; rotation]."""
 STEP_MARGIN = 0.8
 """The share of the step's stability bound a mount's mode may use (see the module's notes)."""
 
@@ -74,6 +77,11 @@ def spatial_inertia_about_S(phi) -> np.ndarray:
     m, h = phi[0], np.asarray(phi[1:4])
     hx = np.array([[0, -h[2], h[1]], [h[2], 0, -h[0]], [-h[1], h[0], 0]])
     return np.block([[inertia_matrix(phi[4:]), hx], [hx.T, m * np.eye(3)]])
+
+
+def inertia_in_wrench_order(phi) -> np.ndarray:
+    """``spatial_inertia_about_S`` in heft's order [translation; rotation]: M·[a; α] = V(a, α, 0, 0)·φ."""
+    return spatial_inertia_about_S(phi)[np.ix_(_WRENCH_ORDER, _WRENCH_ORDER)]
 
 
 def modes_on_fixed_sensor(phi, mount: MountSpec) -> Modes:
@@ -117,3 +125,50 @@ def softened(mount: MountSpec, factor: float) -> MountSpec:
     return dataclasses.replace(
         mount, **{name: (np.asarray(getattr(mount, name)) * (factor if "stiffness" in name else np.sqrt(factor))
                          ).tolist() for name in CONSTANTS})
+
+
+class MountUnderMovingSensor:
+    """A load of inertial parameters ``phi`` (about S at rest, Eq. 6) on a mount of ``constants`` below
+    a sensor frame S whose motion is prescribed (the stand-in's arm, an ideal servo), linear in the
+    load frame L's deflection ξ = [d; θ] against S (m, rad; S's axes; heft's order [translation;
+    rotation], as wrenches [f; τ]):
+
+        M·ξ̈ + C·ξ̇ + K·ξ = −w,    w_S = −(K·ξ + C·ξ̇) = w + M·ξ̈,
+
+    w = V(a, α, ω, g)·φ the wrench that moves the load rigidly with S (Eq. 5), w_S the wrench the sensor
+    exerts on the load through the mount, M the load's spatial inertia about S, K and C the bushing's
+    (``stiffness``, ``damping``). Left out, second order in the deflection: ξ̇'s Coriolis terms with
+    S's ω, gravity's turn with θ (m·g·|c| against the torque stiffness: 7e-4 for the paper's tool), the
+    moment of the deflection d (|d| ≈ 30 µm for the tool's weight). Discretised exactly for w held over
+    each ``period`` s (the matrix exponential of the 12-state system): stable at any step for M, K
+    positive and C ≥ 0, where the plant's semi-implicit step needs the bound of the module's notes."""
+
+    def __init__(self, constants: MountSpec, phi, period: float):
+        order = np.ix_(_WRENCH_ORDER, _WRENCH_ORDER)
+        inertia, K, C = inertia_in_wrench_order(phi), stiffness(constants)[order], damping(constants)[order]
+        inverse_inertia = np.linalg.inv(inertia)
+        generator = np.zeros((18, 18))  # d/dt [ξ; ξ̇; w] with w constant over the period
+        generator[:6, 6:12] = np.eye(6)
+        generator[6:12, :6], generator[6:12, 6:12] = -inverse_inertia @ K, -inverse_inertia @ C
+        generator[6:12, 12:] = -inverse_inertia
+        step = scipy.linalg.expm(generator * period)
+        self.transition, self.input_gain = step[:12, :12], step[:12, 12:]
+        """State [ξ; ξ̇] one period on: transition @ state + input_gain @ w."""
+        self.inverse_inertia, self.stiffness = inverse_inertia, K
+        self.output = -np.hstack((K, C))
+        """w_S = output @ state (6×12)."""
+        self._next = np.empty(12)
+
+    def at_rest(self, wrench) -> np.ndarray:
+        """The state [ξ; ξ̇] (12,) at rest under a constant rigid wrench ``wrench`` (w, (6,)): ξ = −K⁻¹·w."""
+        return np.concatenate((-np.linalg.solve(self.stiffness, wrench), np.zeros(6)))
+
+    def step(self, state: np.ndarray, wrench: np.ndarray, sensor_wrench: np.ndarray,
+             deflection_acceleration: np.ndarray) -> None:
+        """Writes w_S and ξ̈ (6 each) at the start of a period from ``state`` and the rigid ``wrench`` w
+        held over it, then advances ``state`` (12) to the period's end; all in place."""
+        np.dot(self.output, state, out=sensor_wrench)
+        np.dot(self.inverse_inertia, sensor_wrench - wrench, out=deflection_acceleration)
+        np.dot(self.transition, state, out=self._next)
+        self._next += self.input_gain @ wrench
+        state[:] = self._next

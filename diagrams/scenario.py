@@ -199,10 +199,12 @@ class Scenario:
         need(len(self.controller.sigmas) >= 1 and min(self.controller.sigmas) >= 0, "controller.sigmas",
              "needs at least one σ >= 0")
         force = self.controller.force
-        need(force.eta == 1.0 or force.phi_gripper is not None or math.isfinite(self.load.grasp_at),
+        need(force.eta == 1.0 or force.phi_gripper is not None or math.isfinite(self.load.grasp_at)
+             or self.controller.estimator.mode == "online",
              "controller.force.eta", f"= {force.eta:g} would do nothing: η acts only with a gripper/object "
              "split; give controller.force.phi_gripper (the gripper's φ, Eq. 6), use a load with a grasp "
-             "(load.grasp_at: the gripper is identified alone) or leave η at 1")
+             "(load.grasp_at: the gripper is identified alone), learn the load online "
+             "(controller.estimator.mode: online; on hardware a grasp over LCM splits it) or leave η at 1")
         need(self.robot in ("rx90", "rx60"), "robot", f"must be 'rx90' or 'rx60', not {self.robot!r}")
         need(len(self.slave_initial_q) == 6, "slave_initial_q", "needs 6 joint angles (rad)")
         need(len(self.master_initial_q) == 6, "master_initial_q", "needs 6 joint angles (rad)")

@@ -55,14 +55,11 @@ def MakeRealtimeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot
                                  accelerometer: AccelerometerConvention) -> RealtimeTeleopController:
     """The controller of ``MakeTeleopController`` as one computation per tick, for the hardware's
     real-time loop (``systems.realtime_controller``) at the nominal ``period`` (s): same models,
-    same parameters."""
-    if spec.estimator.mode != "fixed":
-        raise ValueError("controller.estimator.mode 'online' runs in simulation only so far; on hardware use "
-                         "'fixed' and give a new tool's estimate with `heft load --estimate`")
+    same parameters, the estimator fixed or online as ``spec.estimator`` says."""
     slave, kinematics, X_FS = _slave_ik_model(robot)
     return RealtimeTeleopController(MakeMasterPlant(), slave, f"{robot}_base", kinematics, X_FS, load.phi, load.offsets,
                                     spec.motion, spec.force, spec.feedback, spec.passivity, spec.offsets,
-                                    accelerometer, period)
+                                    accelerometer, period, spec.estimator)
 
 
 def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, period: float, slave_initial_q, *,

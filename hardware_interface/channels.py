@@ -1,8 +1,8 @@
 """LCM channel names and nominal rates of the lab hardware (DESIGN §5, §6).
 
 Message types: the master uses ``heft_haptic_state`` / ``heft_haptic_command``,
-the wrist sensor ``heft_ft_sample`` and the gripper ``heft_gripper_state``
-(``heft.hardware_interface.lcmtypes``).
+the wrist sensor ``heft_ft_sample`` and the gripper ``heft_gripper_state``; the
+controller reports each tick in ``heft_teleop_state`` (``heft.hardware_interface.lcmtypes``).
 The slave arm reuses Drake's ``lcmt_iiwa_status`` / ``lcmt_iiwa_command``:
 their arrays are sized by ``num_joints`` (6 for the RX90/RX60), they carry
 measured and commanded position, estimated velocity and torques, and Drake's
@@ -77,6 +77,9 @@ class LcmChannels:
     station_status: LcmChannel = dataclasses.field(
         default_factory=lambda: LcmChannel("HEFT_STATION_STATUS", 10.0))
     """heft_station_status from the controller: health and the messages it rejected, and at a run's end."""
+    teleop_state: LcmChannel = dataclasses.field(
+        default_factory=lambda: LcmChannel("HEFT_TELEOP_STATE", 2000.0))
+    """heft_teleop_state from ``heft teleop --hardware``: what the controller computed, each tick it steps."""
 
     def command_lcm_url(self) -> str:
         """The URL of the controller's commands: ``command_url``, or derived from ``lcm_url``."""

@@ -28,7 +28,8 @@ class FtSampleReader:
     saturated and not flagged ``error``. The flags describe the newest sample in order; if
     it is not good, the newest good one before it in the same ``take`` is passed on, else
     ``wrench`` and ``acceleration`` hold the last good sample. ``t_good`` is the station
-    time (s) of the last good sample (−inf before the first); ``rejections`` counts what was
+    time (s) of the last good sample (−inf before the first), ``utime`` its stamp (µs on the
+    driver's clock; 0 before the first); ``rejections`` counts what was
     refused and why (a saturated sample is a reading, held but not counted); a source
     silent for ``silence`` s gives way to the next (``SourceClock``).
     """
@@ -40,6 +41,7 @@ class FtSampleReader:
         """The accelerometer's reading as the driver reports it, in S (m/s², rad/s²): specific
         force a − g and α (``accelerometer_reading`` converts it where g_S is known)."""
         self.t_good = -math.inf
+        self.utime = 0
         self.non_finite = self.saturated = self.error = False
         self.rejections = Rejections()
         self.clock = SourceClock(silence)
@@ -88,7 +90,7 @@ class FtSampleReader:
             if sample.saturated != 0:
                 continue
             clock.accept(stamp, now)
-            self._counter, self.t_good = sample.sample_counter, now
+            self._counter, self.t_good, self.utime = sample.sample_counter, now, sample.utime
             # The sign flip of DESIGN §4: sensor-on-load = −(load-on-sensor).
             for i in range(6):
                 self.wrench[i] = -wrench[i]

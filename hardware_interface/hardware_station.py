@@ -8,7 +8,8 @@ is measured on the caller's clock (s, wall-clock, monotonic), never in ticks:
 - ``receive(now)`` pumps LCM once, checks every message that arrived since the last
   tick (``message_checks``: what fails is counted per channel and reason, never
   raised, and never reaches the controller), keeps the newest accepted state of
-  each channel, and runs the watchdog over the channels' ages, the controller's own
+  each channel and the gripper's grasps and releases (``gripper_events``), and
+  runs the watchdog over the channels' ages, the controller's own
   tick spacing (a stalled controller is a fault too) and the channels' conflicts
   (a second publisher on a channel, ``message_order``, is a fault until it stops).
 - ``send(now, torque, position)`` publishes (on the command bus) the master torque scaled by the
@@ -34,6 +35,7 @@ from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many 
 
 from .channels import LcmChannels
 from .ft_receiver import FtSampleReader
+from .gripper_state_reader import GripperStateReader
 from .joint_state_reader import JointStateReader, haptic_state_fields, iiwa_status_fields
 from .lcm_mailbox import LcmMailbox, pump
 from .lcmtypes import heft_haptic_command, heft_haptic_state, heft_station_status
@@ -46,6 +48,9 @@ WATCHED_CHANNELS = ("master_state", "slave_status", "ft_sample")
 stalled controller, bit 4 + i channel i's source in doubt (a second publisher, or a new
 source on probation: ``message_order``)."""
 STALLED_BIT = 1 << len(WATCHED_CHANNELS)
+CHECKED_CHANNELS = (*WATCHED_CHANNELS, "gripper_state")
+"""Every channel read and checked: the watched ones and the gripper's, whose silence is no fault
+(a lab without a gripper driver runs as before)."""
 FT_KEEP = 64
 """FT samples kept between two ticks (8 kHz sensor, a 2 kHz controller late by several ticks)."""
 JOINT_KEEP = 8
@@ -79,7 +84,7 @@ class HardwareStation:
     reading as the sensor reports it: ``accelerometer_reading``); ``ages`` (s, per
     ``WATCHED_CHANNELS``), ``healthy``, ``gain``,
     ``fault`` (bitmask), ``slave_known`` (a slave status has arrived), ``rejections`` and
-    ``conflicts`` per channel.
+    ``conflicts`` per channel, ``gripper_events``.
     """
 
     def __init__(self, bus: lcm.LCM, channels: LcmChannels, limits: DeviceLimits,
@@ -91,7 +96,8 @@ class HardwareStation:
         self._limits = np.asarray(limits.slave_velocity, dtype=float)
         self._mail = (LcmMailbox(bus, channels.master_state.name, keep=JOINT_KEEP),
                       LcmMailbox(bus, channels.slave_status.name, keep=JOINT_KEEP),
-                      LcmMailbox(bus, channels.ft_sample.name, keep=FT_KEEP))
+                      LcmMailbox(bus, channels.ft_sample.name, keep=FT_KEEP),
+                      LcmMailbox(bus, channels.gripper_state.name, keep=JOINT_KEEP))
         silence = SILENCE_PER_TIMEOUT * params.watchdog.timeout
         self._master = JointStateReader(heft_haptic_state, haptic_state_fields,
                                         JointRange(limits.master_lower, limits.master_upper, limits.master_velocity),
@@ -100,7 +106,11 @@ class HardwareStation:
                                        JointRange(limits.slave_lower, limits.slave_upper, limits.slave_velocity),
                                        silence)
         self._ft = FtSampleReader(np.concatenate([limits.wrench_full_scale, limits.acceleration_full_scale]), silence)
-        self._readers = (self._master, self._slave, self._ft)
+        self._gripper = GripperStateReader(silence)
+        self._readers = (self._master, self._slave, self._ft, self._gripper)
+        self.gripper_events: list[str] = []
+        """The grasps and releases the gripper's driver reported since the last ``receive``
+        (``gripper_state_reader``: GRASP, RELEASE)."""
         self.conflicts = 0
         """Bit i set while channel i of ``WATCHED_CHANNELS`` has a second publisher."""
         self.master_position, self.master_velocity = self._master.position, self._master.velocity
@@ -119,8 +129,8 @@ class HardwareStation:
         self._slave_msg = lcmt_iiwa_command()
         self._slave_msg.num_joints = NUM_JOINTS
         status = self._status_msg = heft_station_status()
-        status.num_channels, status.num_reasons = len(WATCHED_CHANNELS), len(REASONS)
-        status.channels, status.reasons = list(WATCHED_CHANNELS), list(REASONS)
+        status.num_channels, status.num_reasons = len(CHECKED_CHANNELS), len(REASONS)
+        status.channels, status.reasons = list(CHECKED_CHANNELS), list(REASONS)
         self._next_status = 0.0
         self.torque_sent = np.zeros(NUM_JOINTS)
         """The master torque last published (N·m), zero while forces are off."""
@@ -132,29 +142,35 @@ class HardwareStation:
         """Wall-clock time (s since the Unix epoch) at station time 0: published utimes are epoch + now."""
 
     @property
+    def stamps(self) -> tuple[int, int, int]:
+        """The utimes (µs, each on its driver's clock) of the master state, slave status and FT
+        sample in the readings (0 before a channel's first)."""
+        return self._master.utime, self._slave.utime, self._ft.utime
+
+    @property
     def slave_known(self) -> bool:
         return math.isfinite(self._slave.t_good)
 
     @property
     def received(self) -> dict[str, int]:
-        """Messages received so far per watched channel (valid or not)."""
-        return {name: mailbox.count for name, mailbox in zip(WATCHED_CHANNELS, self._mail)}
+        """Messages received so far per checked channel (valid or not)."""
+        return {name: mailbox.count for name, mailbox in zip(CHECKED_CHANNELS, self._mail)}
 
     @property
     def rejections(self) -> dict[str, dict[str, int]]:
-        """Per watched channel, the messages rejected so far per reason (``message_checks.REASONS``)."""
-        return {name: reader.rejections.nonzero() for name, reader in zip(WATCHED_CHANNELS, self._readers)}
+        """Per checked channel, the messages rejected so far per reason (``message_checks.REASONS``)."""
+        return {name: reader.rejections.nonzero() for name, reader in zip(CHECKED_CHANNELS, self._readers)}
 
     @property
     def unread(self) -> dict[str, int]:
-        """Per watched channel, the messages pushed out of its mailbox by newer ones before a tick
+        """Per checked channel, the messages pushed out of its mailbox by newer ones before a tick
         read them (more arrived between two ticks than it keeps: a stalled controller, or a flood)."""
-        return {name: mailbox.pushed_out for name, mailbox in zip(WATCHED_CHANNELS, self._mail)}
+        return {name: mailbox.pushed_out for name, mailbox in zip(CHECKED_CHANNELS, self._mail)}
 
     @property
     def clocks(self) -> dict:
-        """Per watched channel, its source's ``SourceClock`` (offsets, restarts)."""
-        return {name: reader.clock for name, reader in zip(WATCHED_CHANNELS, self._readers)}
+        """Per checked channel, its source's ``SourceClock`` (offsets, restarts)."""
+        return {name: reader.clock for name, reader in zip(CHECKED_CHANNELS, self._readers)}
 
     def receive(self, now: float) -> None:
         """Pumps LCM, checks every new message, updates the readings, ages and watchdog at ``now`` (s)."""
@@ -164,6 +180,7 @@ class HardwareStation:
         self.clutch = bool(master.buttons & CLUTCH_BUTTON)
         slave.take(mail[1].take(), now)
         ft.take(mail[2].take(), now)
+        self.gripper_events = self._gripper.take(mail[3].take(), now)
         ages = self.ages
         ages[0], ages[1], ages[2] = now - master.t_good, now - slave.t_good, now - ft.t_good
         self.conflicts = (master.clock.conflict(now) | slave.clock.conflict(now) << 1
@@ -191,7 +208,8 @@ class HardwareStation:
         msg.unread = [mailbox.pushed_out for mailbox in self._mail]
         msg.rejected = [[reader.rejections.counts[reason] for reason in REASONS] for reader in self._readers]
         msg.restarts = [reader.clock.restarts for reader in self._readers]
-        msg.second_publisher = [bool(self.conflicts & (1 << i)) for i in range(len(WATCHED_CHANNELS))]
+        msg.second_publisher = [bool(self.conflicts & (1 << i)) for i in range(len(WATCHED_CHANNELS))] + [
+            self._gripper.clock.conflict(now)]
         self._command_bus.publish(self._channels.station_status.name, msg.encode())
 
     def stop(self, now: float) -> None:

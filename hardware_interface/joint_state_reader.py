@@ -36,14 +36,15 @@ class JointStateReader:
     ``iiwa_status_fields``); ``joint_range`` is what the device can report; a source
     silent for ``silence`` s gives way to the next (``SourceClock``). After ``take``:
     ``position``, ``velocity`` (rad, rad/s; updated in place), ``buttons``, ``t_good`` (the
-    station time, s, of the last accepted message; −inf before the first), ``rejections``
-    and ``clock``."""
+    station time, s, of the last accepted message; −inf before the first), ``utime`` (its
+    stamp, µs on the driver's clock; 0 before the first), ``rejections`` and ``clock``."""
 
     def __init__(self, lcm_type, fields, joint_range: JointRange, silence: float):
         self._decode, self._fields, self._range = lcm_type.decode, fields, joint_range
         self.position, self.velocity = np.zeros(NUM_JOINTS), np.zeros(NUM_JOINTS)
         self.buttons = 0
         self.t_good = -math.inf
+        self.utime = 0
         self.rejections = Rejections()
         self.clock = SourceClock(silence)
         self._position = [0.0] * NUM_JOINTS  # the last accepted position, for the continuity check
@@ -84,7 +85,7 @@ class JointStateReader:
             clock.foreign(stamp, now)
             return "discontinuous"
         clock.accept(stamp, now)
-        self._stamp, self.t_good, self.buttons = stamp, now, buttons
+        self._stamp, self.t_good, self.buttons, self.utime = stamp, now, buttons, utime
         self._position[:] = position
         self.position[:] = position
         self.velocity[:] = velocity

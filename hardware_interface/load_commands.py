@@ -1,13 +1,17 @@
-"""The running controller's load model over LCM: re-zero, offset tracking, tool change.
+"""The running controller's load model over LCM: re-zero, offset tracking, tool change, grasp.
 
 ``LoadCommandServer`` (in the controller's process) takes ``heft_load_command``
 messages once per tick and answers each with a ``heft_load_status``; it also
-publishes one when a re-zero finishes or is refused. ``send_load_command`` (in
-``heft load``) sends one command and waits for the answers.
+publishes one when a re-zero finishes or is refused, and when the object grasped
+has been learned for the estimator's learning window. A grasp or release comes from
+``heft load --grasp``/``--release`` or from the gripper's driver
+(``gripper_state_reader``, ``gripper``); both are served alike. ``send_load_command``
+(in ``heft load``) sends one command and waits for the answers.
 """
 
 from __future__ import annotations
 
+import math
 import select
 import time
 
@@ -17,12 +21,15 @@ import numpy as np
 from heft.systems.load_dynamics import checked_load
 from heft.systems.offset_tracking import COLLECTING, DONE, STATUS_TEXT
 
+from .gripper_state_reader import GRASP
+
 from .channels import LcmChannels
 from .lcm_mailbox import LcmMailbox, open_buses
 from .lcmtypes import heft_load_command, heft_load_status
 
 ACTIONS = {"rezero": heft_load_command.REZERO, "tracking_on": heft_load_command.TRACKING_ON,
-           "tracking_off": heft_load_command.TRACKING_OFF, "new_estimate": heft_load_command.NEW_ESTIMATE}
+           "tracking_off": heft_load_command.TRACKING_OFF, "new_estimate": heft_load_command.NEW_ESTIMATE,
+           "grasp": heft_load_command.GRASP, "release": heft_load_command.RELEASE}
 """The actions by name (``heft load``'s)."""
 
 
@@ -49,6 +56,7 @@ class LoadCommandServer:
         self._mail = LcmMailbox(bus, channels.load_command.name, keep=16)
         self._waiting: list[int] = []  # utimes of the re-zero commands whose outcome is not yet told
         self._requests_seen = controller.rezero_requests_seen
+        self._grasps: list[int] = []  # utimes of the grasps whose object is still being learned
         self.events: list[tuple[int, str]] = []
 
     def serve(self, now_utime: int, healthy: bool) -> None:
@@ -68,6 +76,42 @@ class LoadCommandServer:
             for utime in self._waiting:
                 self._answer(now_utime, utime, status == DONE, STATUS_TEXT[status])
             self._waiting.clear()
+        if self._grasps and controller.estimator.since_reset >= controller.estimator.learning_window:
+            message = self._object_learned()
+            for utime in self._grasps:
+                self._answer(now_utime, utime, True, message)
+            self._grasps.clear()
+
+    def gripper(self, now_utime: int, event: str) -> None:
+        """Serves a grasp or release (``gripper_state_reader.GRASP``/``RELEASE``) the gripper's driver
+        reported, as the same ``heft load`` action, answered with ``command_utime`` 0."""
+        accepted, message = self._grasp_or_release(event == GRASP, 0)
+        self._answer(now_utime, 0, accepted, f"gripper driver: {message}")
+
+    def _object_learned(self) -> str:
+        controller = self._controller
+        if not controller.holding:
+            return "the object was released before its learning window ended"
+        gripper, phi = controller.phi_gripper, controller.phi
+        mass = phi[0] - gripper[0]
+        centre = (phi[1:4] - gripper[1:4]) / mass if mass > 0 else [math.nan] * 3
+        return (f"object learned over {controller.estimator.learning_window:g} s: m = {mass:.4g} kg, its centre of "
+                f"mass at [" + ", ".join(f"{1e3 * x:.1f}" for x in centre) + "] mm in S "
+                f"({controller.estimator.num_samples} samples taken)")
+
+    def _grasp_or_release(self, grasp: bool, utime: int) -> tuple[bool, str]:
+        controller = self._controller
+        try:
+            controller.grasp() if grasp else controller.release()
+        except ValueError as error:
+            return False, f"{'grasp' if grasp else 'release'} refused: {error}"
+        if not grasp:
+            self._grasps.clear()
+            return True, f"released: back to the gripper's φ (m = {controller.phi[0]:.4g} kg)"
+        self._grasps.append(utime)
+        return True, (f"grasp: the gripper's φ kept (m = {controller.phi_gripper[0]:.4g} kg); learning the object for "
+                      f"{controller.estimator.learning_window:g} s; η = {controller.scales[2]:g} of its non-contact "
+                      "wrench fed back")
 
     def _apply(self, command, healthy: bool) -> tuple[bool, str]:
         controller = self._controller
@@ -87,6 +131,8 @@ class LoadCommandServer:
             except ValueError as error:
                 return False, f"new estimate refused: {error}"
             return True, f"new estimate in use: m = {controller.phi[0]:.4g} kg"
+        if command.action in (heft_load_command.GRASP, heft_load_command.RELEASE):
+            return self._grasp_or_release(command.action == heft_load_command.GRASP, command.utime)
         return False, (f"unknown load action {command.action}; "
                        f"send one of {', '.join(f'{v} ({k})' for k, v in ACTIONS.items())}")
 
@@ -106,8 +152,8 @@ def send_load_command(channels: LcmChannels, action: str, phi=None, offsets=None
                       timeout: float = 2.0) -> list[heft_load_status]:
     """Sends one ``action`` (a key of ``ACTIONS``; "new_estimate" with ``phi`` (10) and
     ``offsets`` (6)) on ``channels.lcm_url`` and returns the controller's answers (heard on its
-    command URL): the first, and for a started re-zero also its outcome. Raises TimeoutError if
-    they do not come within ``timeout`` s."""
+    command URL): the first, and for a started re-zero also its outcome, for a grasp the object
+    learned. Raises TimeoutError if they do not come within ``timeout`` s."""
     if action not in ACTIONS:
         raise ValueError(f"unknown action {action!r}; one of {', '.join(ACTIONS)}")
     bus, answer_bus = open_buses(channels)
@@ -125,7 +171,8 @@ def send_load_command(channels: LcmChannels, action: str, phi=None, offsets=None
 
     answer_bus.subscribe(channels.load_status.name, on_status)
     bus.publish(channels.load_command.name, command.encode())
-    expected = 2 if action == "rezero" else 1  # a started re-zero is answered again when it ends
+    # A started re-zero is answered again when it ends, a grasp when the object has been learned.
+    expected = 2 if action in ("rezero", "grasp") else 1
     deadline = time.monotonic() + timeout
     while True:
         if answers and (len(answers) >= expected or not answers[-1].accepted):
@@ -134,6 +181,6 @@ def send_load_command(channels: LcmChannels, action: str, phi=None, offsets=None
         if remaining <= 0:
             raise TimeoutError(f"no answer from the controller on {channels.load_status.name} within {timeout} s: "
                                f"is `heft teleop --hardware` running on {channels.lcm_url}?" if not answers else
-                               f"the re-zero did not finish within {timeout} s")
+                               f"the {action.replace('_', ' ')} did not finish within {timeout} s")
         if select.select([answer_bus.fileno()], [], [], remaining)[0]:
             answer_bus.handle()

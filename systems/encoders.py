@@ -1,4 +1,6 @@
-"""Incremental encoders: joint angles quantised to whole counts."""
+"""Incremental encoders: joint angles quantised to whole counts, and a robot controller's joint
+velocity estimate from them (as a Drake block for the simulated station, as a per-sample core for
+the stand-in lab: one filter, ``velocity_lowpass_keep``)."""
 
 import math
 
@@ -23,6 +25,37 @@ class EncoderQuantizer(LeafSystem):
         output.SetFromVector(np.round(q / self.step) * self.step)
 
 
+def velocity_lowpass_keep(period: float, cutoff_hz: float) -> float:
+    """The share e^(−2π·f_c·T) of the last estimate that the velocity estimate's first-order low-pass
+    of ``cutoff_hz`` (Hz) keeps each sample ``period`` (s) (its exact discretisation)."""
+    if not (period > 0 and cutoff_hz > 0):
+        raise ValueError(f"period and cutoff_hz must be > 0; got {period}, {cutoff_hz}")
+    return math.exp(-2 * math.pi * cutoff_hz * period)
+
+
+class EncoderVelocityEstimator:
+    """``AddEncoderVelocityEstimate`` one sample at a time, for a driver outside a Diagram:
+    ``update(q_k)`` returns v_k = v_{k−1} + (1 − keep)·((q_k − q_{k−1})/T − v_{k−1}) (rad/s), starting
+    at rest at ``initial_position`` (rad; the Diagram's first two samples are zero alike when the
+    joints start at rest there). Updates its own arrays in place: returns the same array each time."""
+
+    def __init__(self, initial_position, period: float, cutoff_hz: float):
+        keep = velocity_lowpass_keep(period, cutoff_hz)
+        self._keep, self._gain = keep, (1 - keep) / period
+        self._previous = np.array(initial_position, dtype=float)
+        self._difference = np.zeros_like(self._previous)
+        self.velocity = np.zeros_like(self._previous)
+
+    def update(self, position: np.ndarray) -> np.ndarray:
+        """The estimate after the encoder-quantised ``position`` (rad) of the next sample."""
+        np.subtract(position, self._previous, out=self._difference)
+        self._previous[:] = position
+        self.velocity *= self._keep
+        self._difference *= self._gain
+        self.velocity += self._difference
+        return self.velocity
+
+
 def AddEncoderVelocityEstimate(builder: DiagramBuilder, position, period: float, cutoff_hz: float):
     """A robot controller's joint velocity estimate from its encoders, added to ``builder``:
     every ``period`` s the backward difference of the output port ``position`` (n, rad,
@@ -30,10 +63,8 @@ def AddEncoderVelocityEstimate(builder: DiagramBuilder, position, period: float,
     a first-order low-pass of ``cutoff_hz`` (exact discretisation: v_k = v_{k−1} + (1 − e^(−2π·f_c·T))·
     (Δq_k/T − v_{k−1}), a ``LinearSystem`` whose output takes this tick's difference). Returns the
     velocity port (n, rad/s); no feedthrough from ``position``."""
-    if not (period > 0 and cutoff_hz > 0):
-        raise ValueError(f"period and cutoff_hz must be > 0; got {period}, {cutoff_hz}")
+    keep = velocity_lowpass_keep(period, cutoff_hz)
     size = position.size()
-    keep = math.exp(-2 * math.pi * cutoff_hz * period)
     derivative = builder.AddSystem(DiscreteDerivative(size, period))
     identity = np.eye(size)
     lowpass = builder.AddSystem(LinearSystem(keep * identity, (1 - keep) * identity, keep * identity,

@@ -13,7 +13,8 @@ taken when
   after a reset (a new load), when c holds the not yet learned load itself,
 * force scaling is not faulted, and
 * no contact or fault for 2/``prefilter`` s before: the estimator's prefilter
-  (``EstimatorPrefilter``) still carries such a sample that long.
+  (``EstimatorPrefilter``) still carries such a sample that long; and
+* ``new_load_wait`` s have passed since the last reset (0 by default).
 
 Units: m/s², rad/s², rad/s for the motion, N and N·m for the wrench; all in S.
 """
@@ -53,6 +54,11 @@ class EstimatorSpec:
     learning_window: float = 1.5
     """Time (s) after a reset during which contact is not judged (the new load is learned)."""
 
+    new_load_wait: float = 0.0
+    """Time (s) after a reset before a sample is taken: the prefilter still carries the old load
+    for some 2/``prefilter`` s, and a load that lands on a compliant mount rings meanwhile; 0
+    learns at once (the simulation's grasp, made at rest, learns fastest so)."""
+
     prefilter: float = 10.0
     """Cut-off (Hz) of the low-pass on both sides of W = V·φ before the estimator
     (``EstimatorPrefilter``): below the load's mount modes and above the operator's motion;
@@ -67,7 +73,8 @@ class EstimatorSpec:
                              f"instruments, RTLS a prior mean); got {self.method!r}")
         if not 0.5 <= self.forgetting <= 1.0:
             raise ValueError(f"estimator forgetting must lie in [0.5, 1]; got {self.forgetting}")
-        for name in ("min_excitation", "contact_force", "contact_torque", "learning_window", "prefilter"):
+        for name in ("min_excitation", "contact_force", "contact_torque", "learning_window", "new_load_wait",
+                     "prefilter"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"estimator {name} must be finite and >= 0; got {value}")
@@ -98,7 +105,31 @@ def gate_open(spec: EstimatorSpec, acceleration, omega, contact, fault: bool, si
     ``since_spoiled`` (the time since the last ``spoiled`` sample) in s."""
     hold = 2.0 / spec.prefilter if spec.prefilter > 0 else 0.0
     return (not spoiled(spec, contact, fault, since_reset) and since_spoiled >= hold
-            and excitation(acceleration, omega) >= spec.min_excitation)
+            and since_reset >= spec.new_load_wait and excitation(acceleration, omega) >= spec.min_excitation)
+
+
+CLOCKS_START = (0.0, 0.0, math.inf)
+"""The gate's clocks before the first sample: the time since the last reset (s; the start counts
+as one), the reset requests seen, the time since the last spoiled sample (s; none yet)."""
+
+
+def clocks_now(clocks, requests: float) -> tuple[float, float, float]:
+    """(since_reset, requests seen, since_spoiled) of ``clocks`` (``CLOCKS_START``'s layout) with
+    this sample's reset request counter ``requests`` applied: an increase is a new load."""
+    since_reset, seen, since_spoiled = clocks
+    if requests > seen:
+        since_reset, seen = 0.0, requests
+    return since_reset, seen, since_spoiled
+
+
+def advance_clocks(out, spec: EstimatorSpec, now: tuple[float, float, float], contact, fault: bool,
+                   dt: float) -> None:
+    """The clocks after this sample into ``out`` (3): ``now`` (``clocks_now``) advanced by ``dt`` s,
+    the time since a spoiled sample restarted if this one is (``spoiled``)."""
+    since_reset, seen, since_spoiled = now
+    if spoiled(spec, contact, fault, since_reset):
+        since_spoiled = 0.0
+    out[0], out[1], out[2] = since_reset + dt, seen, since_spoiled + dt
 
 
 class EstimatorGate(LeafSystem):
@@ -119,9 +150,7 @@ class EstimatorGate(LeafSystem):
         self._contact = self.DeclareVectorInputPort("wrench_contact", 6)
         self._fault = self.DeclareVectorInputPort("fault", 1)
         self._reset = self.DeclareVectorInputPort("reset", 1)
-        # Time since the last reset (s; the start counts as one), the reset counter seen, and the
-        # time since the last spoiled sample (s; none yet).
-        self._clock = self.DeclareDiscreteState(BasicVector([0.0, 0.0, math.inf]))
+        self._clock = self.DeclareDiscreteState(BasicVector(list(CLOCKS_START)))
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
         self.DeclareVectorOutputPort("enable", 1, self._calc_enable)
 
@@ -129,12 +158,7 @@ class EstimatorGate(LeafSystem):
         return self._reset.Eval(context)[0] if self._reset.HasValue(context) else 0.0
 
     def _clocks(self, context):
-        """(since_reset, counter seen, since_spoiled) with this sample's reset request applied."""
-        since_reset, seen, since_spoiled = context.get_discrete_state(self._clock).get_value()
-        requests = self._requests(context)
-        if requests > seen:
-            since_reset, seen = 0.0, requests
-        return since_reset, seen, since_spoiled
+        return clocks_now(context.get_discrete_state(self._clock).get_value(), self._requests(context))
 
     def _calc_enable(self, context, output):
         since_reset, _, since_spoiled = self._clocks(context)
@@ -144,7 +168,6 @@ class EstimatorGate(LeafSystem):
         output.SetAtIndex(0, 1.0 if open_ else 0.0)
 
     def _update(self, context, discrete_state):
-        since_reset, seen, since_spoiled = self._clocks(context)
-        if spoiled(self._spec, self._contact.Eval(context), self._fault.Eval(context)[0] > 0.5, since_reset):
-            since_spoiled = 0.0
-        discrete_state.set_value(self._clock, [since_reset + self._period, seen, since_spoiled + self._period])
+        advance_clocks(discrete_state.get_mutable_vector(self._clock).get_mutable_value(), self._spec,
+                       self._clocks(context), self._contact.Eval(context), self._fault.Eval(context)[0] > 0.5,
+                       self._period)

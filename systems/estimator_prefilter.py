@@ -15,11 +15,48 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from .sample_period import require_period
-from .sensor_models import lowpass, lowpass_coefficients
+from .sensor_models import lowpass_coefficients
 
 # The signals filtered, in the order of the state's columns: name, size.
 SIGNALS = (("wrench", 6), ("acceleration", 6), ("omega", 3), ("gravity", 3))
-_WIDTH = sum(size for _, size in SIGNALS)
+WIDTH = sum(size for _, size in SIGNALS)
+STATE_SIZE = 3 * WIDTH
+"""The filtered values (NaN until the first sample), then the filter's state (2 × ``WIDTH``,
+transposed direct form II; NaN: to start in the steady state of the next sample)."""
+
+
+def prefilter_coefficients(cutoff: float, period: float) -> np.ndarray:
+    """The low-pass's (b0, b1, b2, a1, a2) (``sensor_models.lowpass_coefficients``), or a ValueError
+    saying how to set ``controller.estimator.prefilter`` (Hz) for a controller ``period`` (s)."""
+    if not (math.isfinite(cutoff) and 0 < cutoff < 0.5 / period):
+        raise ValueError(f"controller.estimator.prefilter must lie between 0 and the controller's Nyquist "
+                         f"frequency {0.5 / period:g} Hz (set 0 for no prefilter); got {cutoff}")
+    return lowpass_coefficients(cutoff, period)
+
+
+def prefilter_step(coefficients: np.ndarray, state: np.ndarray, sample: np.ndarray, scratch: np.ndarray) -> None:
+    """One sample (``WIDTH``: wrench, acceleration, omega, gravity as ``SIGNALS``) through the filter,
+    in place on ``state`` (``STATE_SIZE``): its first ``WIDTH`` entries become the filtered sample
+    (``sensor_models.lowpass``'s recursion for one row, in scalar-coefficient form: no allocation);
+    a non-finite sample makes the whole state NaN, so that the next finite one restarts the filter
+    in its steady state. ``scratch`` (``WIDTH``) is work space."""
+    if not math.isfinite(sum(sample.tolist())):
+        state[:] = np.nan
+        return
+    b0, b1, b2, a1, a2 = coefficients.tolist()
+    out, z1, z2 = state[:WIDTH], state[WIDTH:2 * WIDTH], state[2 * WIDTH:]
+    if math.isnan(z1[0]):  # the steady state for ``sample``: out = sample (unit DC gain)
+        np.multiply(sample, b1 + b2 - a1 - a2, out=z1)
+        np.multiply(sample, b2 - a2, out=z2)
+    np.multiply(sample, b0, out=out)
+    out += z1
+    np.multiply(sample, b1, out=z1)
+    z1 += z2
+    np.multiply(out, a1, out=scratch)
+    z1 -= scratch
+    np.multiply(sample, b2, out=z2)
+    np.multiply(out, a2, out=scratch)
+    z2 -= scratch
 
 
 class EstimatorPrefilter(LeafSystem):
@@ -34,15 +71,9 @@ class EstimatorPrefilter(LeafSystem):
 
     def __init__(self, cutoff: float, period: float):
         super().__init__()
-        period = require_period(period)
-        if not (math.isfinite(cutoff) and 0 < cutoff < 0.5 / period):
-            raise ValueError(f"controller.estimator.prefilter must lie between 0 and the controller's Nyquist "
-                             f"frequency {0.5 / period:g} Hz (set 0 for no prefilter); got {cutoff}")
-        self._coefficients = lowpass_coefficients(cutoff, period)
+        self._coefficients = prefilter_coefficients(cutoff, require_period(period))
         self._inputs = [self.DeclareVectorInputPort(name, size) for name, size in SIGNALS]
-        # The filtered values (NaN until the first update), then the filter's state (2 × width,
-        # NaN: to start in the steady state of the next sample).
-        self._state = self.DeclareDiscreteState(np.full(3 * _WIDTH, np.nan))
+        self._state = self.DeclareDiscreteState(np.full(STATE_SIZE, np.nan))  # ``STATE_SIZE``
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
         start = 0
         for name, size in SIGNALS:
@@ -55,9 +86,5 @@ class EstimatorPrefilter(LeafSystem):
     def _update(self, context, discrete_state):
         sample = np.concatenate([port.Eval(context) for port in self._inputs])
         state = context.get_discrete_state(self._state).get_value().copy()
-        filter_state = state[_WIDTH:].reshape(2, _WIDTH)
-        if np.isfinite(sample).all():
-            state[:_WIDTH] = lowpass(self._coefficients, filter_state, sample[np.newaxis])[0]
-        else:
-            state[:] = np.nan
+        prefilter_step(self._coefficients, state, sample, np.empty(WIDTH))
         discrete_state.set_value(self._state, state)

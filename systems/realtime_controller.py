@@ -7,7 +7,11 @@ mapping, passivity controller — in one ``step`` per tick, with the measured
 tick duration ``dt`` (s) wherever a block uses its period: slews, speed limits,
 the fault decay, the passivity observer's hold. The arithmetic of each block
 lives in its own module; this one only orders the calls, holds the state a
-Diagram Context would hold, and reuses one plant Context per model.
+Diagram Context would hold, and reuses one plant Context per model. With
+``controller.estimator.mode: online`` φ̂ is learned in the loop
+(``online_estimator``, the Diagram's gate, prefilter and RLS), and a grasp
+(``grasp``/``release``) splits it into the gripper's φ_gr and the object's, as the
+simulation's grasp does (Eq. 14).
 
 Timing against the per-block Diagram: there every block is sampled at the same
 tick, so the slave command of tick k is computed from the desired pose of tick
@@ -21,7 +25,8 @@ import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
 
-from heft.systems.accelerometer_reading import AccelerometerConvention
+from heft.systems.accelerometer_reading import AccelerometerConvention, motion_from_reading
+from heft.systems.estimator_gate import EstimatorSpec
 from heft.systems.feedback_mapping import FeedbackMappingParams, rendered_wrench
 from heft.systems.force_scaling import (
     CONTACT,
@@ -38,6 +43,7 @@ from heft.systems.force_scaling import (
 )
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, pose_and_jacobian
 from heft.systems.motion_scaling import IDENTITY_POSE, MotionScalingParams, motion_scaling_update
+from heft.systems.online_estimator import OnlineLoadEstimator
 from heft.systems.load_dynamics import GRAVITY_W, checked_load
 from heft.systems.offset_tracking import (OFFSETS, REQUESTS, STATUS, TRACKING, OffsetTrackingParams, initial_state,
                                           offsets_update, restart_rezero_window)
@@ -65,13 +71,15 @@ class RealtimeTeleopController:
     limits), ``pose_RS_desired`` (7), ``energy``/``damping`` (2 each, the passivity
     observer's), ``reachable``, ``force_fault``, ``scales`` (3: σ, γ, η in effect). The
     requested σ, γ, η are ``force``'s; the load model changes at run time through
-    ``request_rezero``, ``set_tracking`` and ``set_load``.
+    ``request_rezero``, ``set_tracking``, ``set_load``, ``grasp`` and ``release``.
+    ``estimator`` (``controller.estimator``) fixes φ̂ or learns it online (``estimator``: the
+    ``OnlineLoadEstimator``, None when fixed).
     """
 
     def __init__(self, master: MultibodyPlant, slave: MultibodyPlant, base_frame: str, kinematics: RxKinematics,
                  X_FS: RigidTransform, phi, offsets, motion: MotionScalingParams, force: ForceScalingParams,
                  feedback: FeedbackMappingParams, passivity: PassivityParams, offsets_tracking: OffsetTrackingParams,
-                 accelerometer: AccelerometerConvention, period: float):
+                 accelerometer: AccelerometerConvention, period: float, estimator: EstimatorSpec | None = None):
         for params in (motion, force, feedback, passivity, offsets_tracking):
             params.validate()
         phi, offsets = checked_load(phi, offsets)
@@ -83,14 +91,19 @@ class RealtimeTeleopController:
         self._g_R = np.array(GRAVITY_W)  # R = W
         X_SF = X_FS.inverse()
         self._kinematics, self._R_SF, self._p_SF = kinematics, X_SF.rotation().matrix(), X_SF.translation()
-        self._phi = phi.copy()
+        online = estimator is not None and estimator.mode == "online"
+        self.estimator = OnlineLoadEstimator(estimator, phi, period) if online else None
+        self._phi = self.estimator.phi if online else phi.copy()  # the estimator's, updated in place
+        self._motion_S = np.zeros(6)
         self._offset_params = offsets_tracking
         self._offset_state = initial_state(offsets, offsets_tracking)
         self._offsets = self._offset_state[OFFSETS]  # a view: updated in place by offsets_update
         self._rezero_requests = 0
         self.period = period
         self._notch = notch_coefficients(force.mount_notch, force.mount_notch_quality, period)
-        self._phi_gripper = None if force.phi_gripper is None else np.array(force.phi_gripper, dtype=float)
+        self._phi_gripper_given = None if force.phi_gripper is None else np.array(force.phi_gripper, dtype=float)
+        self._phi_gripper = self._phi_gripper_given
+        self._phi_gripper_held = np.zeros(10)  # φ_gr while an object is held
         self._motion, self._force, self._feedback = motion, force, feedback
         self._R_RB_motion = RotationMatrix(RollPitchYaw(motion.R_RB)).matrix()
         self._R_BR = RotationMatrix(RollPitchYaw(feedback.R_RB)).inverse().matrix()
@@ -121,6 +134,8 @@ class RealtimeTeleopController:
         self.scales = np.array(self._requested, dtype=float)
         self.energy, self.damping = np.zeros(2), np.zeros(2)
         self.torque, self.master_wrench, self.applied_wrench = np.zeros(NUM_JOINTS), np.zeros(6), np.zeros(6)
+        if self.estimator is not None:
+            self.estimator.restart_prefilter()
         self.started = True
 
     def step(self, dt: float, master_position, master_velocity, slave_position, slave_velocity, wrench,
@@ -160,6 +175,10 @@ class RealtimeTeleopController:
                                force.slew_rate * dt, self._notch)
         offsets_update(self._offset_state, evaluation[CONTACT], evaluation[FAULT] > 0.5, slave_velocity, dt,
                        self._offset_params, self._rezero_requests)
+        if self.estimator is not None:  # φ̂ for the next tick
+            self.estimator.step(dt, evaluation[CONTACT], evaluation[NONCONTACT], motion_from_reading(
+                self._motion_S, acceleration, gravity_S, omega_S, self._accelerometer), omega_S, gravity_S,
+                evaluation[FAULT] > 0.5)
         feedback = self._feedback
         self.master_wrench = rendered_wrench(evaluation[FEEDBACK], self._R_BR @ R_RS, feedback.force_scale,
                                              feedback.torque_scale, feedback.max_force, feedback.max_torque)
@@ -218,10 +237,47 @@ class RealtimeTeleopController:
 
     def set_load(self, phi, offsets) -> None:
         """A new tool: φ̂ (10) and offsets (6) from the next step on (``checked_load``, as at the
-        start; a ValueError changes nothing). A re-zero under way restarts its window, so that
-        it averages only with the new φ̂."""
+        start; a ValueError changes nothing); online, the estimator starts from it as from a new
+        load. A re-zero under way restarts its window, so that it averages only with the new φ̂."""
         phi, offsets = checked_load(phi, offsets)
+        if self.estimator is not None:
+            self.estimator.start_from(phi)
         self._phi[:] = phi
         self._offsets[:] = offsets
         restart_rezero_window(self._offset_state)
+
+    # --- the grasp (Eq. 14) --------------------------------------------------------------
+
+    @property
+    def holding(self) -> bool:
+        """An object is held (since ``grasp``, until ``release``)."""
+        return self._phi_gripper is self._phi_gripper_held
+
+    @property
+    def phi_gripper(self) -> np.ndarray | None:
+        """φ_gr of the Eq. 14 split in use (10), or None (the load as one body)."""
+        return self._phi_gripper
+
+    def grasp(self) -> None:
+        """The gripper closed on an object: φ̂ in use is kept as the gripper's φ_gr, the estimator
+        learns the whole load from the next step (a new load: its learning window opens) and
+        φ̂ − φ_gr is the object's, whose non-contact wrench is fed back scaled by η. A
+        ValueError changes nothing: with the estimate fixed, or while already holding."""
+        if self.estimator is None:
+            raise ValueError("a grasp needs the load estimator online to learn the object; run the controller with "
+                             "--set '{controller: {estimator: {mode: online}}}'")
+        if self.holding:
+            raise ValueError("the gripper already holds an object; release it first")
+        self._phi_gripper_held[:] = self._phi
+        self._phi_gripper = self._phi_gripper_held
+        self.estimator.new_load()
+
+    def release(self) -> None:
+        """The gripper opened: φ̂ returns to the gripper's φ_gr kept at the grasp, from which the
+        estimator starts as from a new load; the split returns to what it was before the grasp.
+        A ValueError (nothing held) changes nothing."""
+        if not self.holding:
+            raise ValueError("the gripper holds nothing to release")
+        self.estimator.start_from(self._phi_gripper_held)
+        self._phi_gripper = self._phi_gripper_given
 

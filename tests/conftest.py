@@ -1,5 +1,6 @@
 """Shared fixtures."""
 
+import contextlib
 import os
 import shutil
 import subprocess
@@ -12,9 +13,10 @@ def _ip(*args, check=True):
     return subprocess.run(["ip", *args], capture_output=True, text=True, timeout=10, check=check)
 
 
-@pytest.fixture
-def netns():
-    """A fresh network namespace with `lo` up and multicast routed to it; always deleted."""
+@contextlib.contextmanager
+def network_namespace():
+    """A fresh network namespace with `lo` up and multicast routed to it, deleted on leaving; skips the
+    test if one cannot be made."""
     if shutil.which("ip") is None:
         pytest.skip("needs the `ip` tool (iproute2) to create a network namespace")
     if os.geteuid() != 0:
@@ -29,6 +31,20 @@ def netns():
         yield name
     finally:
         _ip("netns", "del", name, check=False)
+
+
+@pytest.fixture
+def netns():
+    """``network_namespace`` for one test."""
+    with network_namespace() as name:
+        yield name
+
+
+@pytest.fixture(scope="module")
+def module_netns():
+    """``network_namespace`` shared by the tests of one module."""
+    with network_namespace() as name:
+        yield name
 
 
 class FakeClock:

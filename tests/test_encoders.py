@@ -7,7 +7,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from heft.systems.encoders import AddEncoderVelocityEstimate, EncoderQuantizer
+from heft.systems.encoders import AddEncoderVelocityEstimate, EncoderQuantizer, EncoderVelocityEstimator
 
 PERIOD, CUTOFF = 0.0005, 100.0
 STEP = 2 * np.pi / 2**20  # rad per count
@@ -53,3 +53,23 @@ def test_bad_settings_are_refused():
     encoders = builder.AddSystem(EncoderQuantizer(6, 2**20))
     with pytest.raises(ValueError, match="cutoff_hz"):
         AddEncoderVelocityEstimate(builder, encoders.get_output_port(), PERIOD, 0.0)
+
+
+def test_the_per_sample_estimator_is_the_diagram_on_the_same_encoder_readings():
+    """``EncoderVelocityEstimator`` (the stand-in's) against Drake's DiscreteDerivative and LinearSystem
+    of ``AddEncoderVelocityEstimate`` (the simulated station's) on the same motion: at rest for 10
+    samples, then a non-smooth path through random knots; equal to round-off at every sample."""
+    rng = np.random.default_rng(4)
+    times = np.concatenate(([0.0], 10 * PERIOD + np.cumsum(rng.uniform(0.01, 0.03, 8))))
+    positions = np.cumsum(rng.normal(0.0, 0.05, (3, len(times))), axis=1)
+    positions[:, 1] = positions[:, 0]  # at rest until sample 10
+    samples = 400
+    expected = estimate(positions, times, samples)
+    path = PiecewisePolynomial.FirstOrderHold(times, positions)
+    estimator = EncoderVelocityEstimator(np.round(positions[:, 0] / STEP) * STEP, PERIOD, CUTOFF)
+    got = np.array([estimator.update(np.round(path.value(k * PERIOD)[:, 0] / STEP) * STEP).copy()
+                    for k in range(samples)])
+    assert np.abs(expected).max() > 0.5  # it moved
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+    with pytest.raises(ValueError, match="cutoff_hz"):
+        EncoderVelocityEstimator(np.zeros(3), PERIOD, -1.0)

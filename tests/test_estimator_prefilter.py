@@ -87,3 +87,25 @@ def test_a_cut_off_outside_the_band_is_refused():
     for cutoff in (0.0, 1000.0, np.nan):
         with pytest.raises(ValueError, match="controller.estimator.prefilter.*set 0"):
             EstimatorPrefilter(cutoff, PERIOD)
+
+
+def test_one_sample_step_is_scipys_filter_started_in_its_steady_state():
+    """``prefilter_step``, the per-tick recursion the Diagram and the real-time controller share,
+    against scipy's ``lfilter`` started at ``lfilter_zi`` times the first sample; a NaN restarts it."""
+    from scipy.signal import lfilter, lfilter_zi
+
+    from heft.systems.estimator_prefilter import STATE_SIZE, WIDTH, prefilter_coefficients, prefilter_step
+
+    coefficients = prefilter_coefficients(CUTOFF, PERIOD)
+    b, a = coefficients[:3], np.concatenate(([1.0], coefficients[3:]))
+    samples = np.random.default_rng(5).normal(size=(300, WIDTH)) + np.linspace(0, 3, WIDTH)
+    expected, _ = lfilter(b, a, samples, axis=0, zi=lfilter_zi(b, a)[:, None] * samples[0])
+    state, scratch, out = np.full(STATE_SIZE, np.nan), np.empty(WIDTH), []
+    for sample in samples:
+        prefilter_step(coefficients, state, sample, scratch)
+        out.append(state[:WIDTH].copy())
+    np.testing.assert_allclose(out, expected, rtol=0, atol=1e-12)
+    prefilter_step(coefficients, state, np.full(WIDTH, np.nan), scratch)
+    assert np.isnan(state).all()
+    prefilter_step(coefficients, state, samples[7], scratch)
+    np.testing.assert_allclose(state[:WIDTH], samples[7], rtol=0, atol=1e-12)

@@ -22,8 +22,9 @@ from heft.hardware_interface.hardware_station import (
     rate_limit,
 )
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
-from heft.hardware_interface.lcmtypes import (heft_ft_sample, heft_haptic_command, heft_haptic_state,
-                                              heft_station_status)
+from heft.hardware_interface.gripper_state_reader import GRASP, RELEASE
+from heft.hardware_interface.lcmtypes import (heft_ft_sample, heft_gripper_state, heft_haptic_command,
+                                              heft_haptic_state, heft_station_status)
 from heft.hardware_interface.message_order import CONFLICT_CLEAR, CONFLICT_COUNT, PROBATION, SILENCE_PER_TIMEOUT
 from heft.hardware_interface.watchdog import WatchdogParams, watchdog_step
 
@@ -187,8 +188,8 @@ def test_restarted_drivers_recover_without_a_jump():
     q_elsewhere = Q_SLAVE + 0.2
     before, back = len(rig.positions), rig.now
     rig.run(PROBATION + 0.3, q_slave=q_elsewhere)
-    assert {name: clock.restarts for name, clock in rig.station.clocks.items()} == dict.fromkeys(
-        ("master_state", "slave_status", "ft_sample"), 1)
+    assert {name: clock.restarts for name, clock in rig.station.clocks.items()} == {
+        **dict.fromkeys(("master_state", "slave_status", "ft_sample"), 1), "gripper_state": 0}  # no gripper here
     enabled = [i for i, enable in enumerate(rig.enables[before:]) if enable]
     assert enabled and PROBATION <= enabled[0] * PERIOD <= PROBATION + 2 * PERIOD, back
     positions = np.array(rig.positions[before:])
@@ -250,6 +251,12 @@ def haptic_state(utime, position, num_joints=6, velocity=None) -> bytes:
     return msg.encode()
 
 
+def gripper_state(utime, state, width=0.05, error=False) -> bytes:
+    msg = heft_gripper_state()
+    msg.utime, msg.state, msg.width, msg.error = utime, state, width, error
+    return msg.encode()
+
+
 def test_malformed_messages_are_counted_and_never_reach_the_controller():
     """Between the drivers' own messages, every kind of broken one on every channel, those that
     decode stamped on the drivers' clock (corrupted by the driver or the network, not another
@@ -271,6 +278,8 @@ def test_malformed_messages_are_counted_and_never_reach_the_controller():
                 haptic_state(stamp, (lower + upper) / 2, velocity=[1e3] * 6)],
             CHANNELS.slave_status.name: [bytes(range(200)), b""],
             CHANNELS.ft_sample.name: [ft.encode()[:50], b"\xff" * 8],
+            CHANNELS.gripper_state.name: [b"\x01" * 9, gripper_state(stamp, 7), gripper_state(stamp, OPEN, math.nan),
+                                          gripper_state(stamp, OPEN, -0.01), gripper_state(stamp, HOLDING, error=True)],
         }
         for channel, payloads in hostile.items():
             for payload in payloads:
@@ -284,17 +293,51 @@ def test_malformed_messages_are_counted_and_never_reach_the_controller():
         "master_state": {"undecodable": 40, "joint_count": 20, "non_finite": 20, "out_of_range": 40},
         "slave_status": {"undecodable": 40},
         "ft_sample": {"undecodable": 40},
+        "gripper_state": {"undecodable": 20, "out_of_range": 40, "non_finite": 20, "driver_error": 20},
     }
+    assert rig.station.gripper_events == []
     assert rig.enables[-1] and rig.station.conflicts == 0
     # The same counts go out on the status channel, for a recording to keep.
     statuses = LcmMailbox(rig.bus, CHANNELS.station_status.name)
     rig.station.publish_status(rig.now, force=True)
     pump(rig.bus)
     status = heft_station_status.decode(statuses.take()[-1])
-    assert status.healthy and list(status.channels) == ["master_state", "slave_status", "ft_sample"]
+    assert status.healthy and list(status.channels) == ["master_state", "slave_status", "ft_sample", "gripper_state"]
     assert {channel: {reason: count for reason, count in zip(status.reasons, row) if count}
             for channel, row in zip(status.channels, status.rejected)} == rig.station.rejections
     assert list(status.received) == [rig.station.received[name] for name in status.channels]
+
+
+OPEN, CLOSING, HOLDING = heft_gripper_state.OPEN, heft_gripper_state.CLOSING, heft_gripper_state.HOLDING
+
+
+def test_the_grippers_grasps_and_releases_are_read_once_and_its_silence_is_no_fault():
+    """The gripper driver's state changes become one event each: HOLDING after OPEN or CLOSING a
+    grasp, OPEN after HOLDING a release; the first state heard sets where it is without one; a
+    message stamped on another clock is rejected as foreign; the gripper going silent leaves the
+    station healthy."""
+    rig = Rig()
+    rig.run(0.05)
+    events = []
+
+    def gripper(states, stamp_offset=0.0):
+        for state in states:
+            rig.now += PERIOD
+            rig.publish()
+            stamp = round(1e6 * (rig.now - rig.driver_start + stamp_offset)) + 1
+            rig.bus.publish(CHANNELS.gripper_state.name, gripper_state(stamp, state))
+            rig.tick()
+            events.extend(rig.station.gripper_events)
+
+    gripper([HOLDING])  # first heard: no event
+    gripper([OPEN, OPEN, CLOSING, CLOSING, HOLDING, HOLDING, HOLDING])
+    assert events == [RELEASE, GRASP]
+    gripper([OPEN], stamp_offset=5.0)  # another clock's: foreign, no release
+    assert events == [RELEASE, GRASP] and rig.station.rejections["gripper_state"] == {"stamped_ahead": 1}
+    gripper([CLOSING, HOLDING, OPEN])  # CLOSING while holding changes nothing
+    assert events == [RELEASE, GRASP, RELEASE]
+    rig.run(0.2)  # the gripper silent, the others not
+    assert rig.station.healthy and rig.enables[-1]
 
 
 def test_a_second_publisher_is_a_fault_until_it_stops():

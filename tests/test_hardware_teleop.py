@@ -32,10 +32,11 @@ MAX_FORCE, MAX_TORQUE = 8.5, 0.188  # the Phantom Premium 1.5 6DoF's continuous 
 class Lab:
     """Stand-in and controller on one memq:// bus, ticking together every ``PERIOD`` s."""
 
-    def __init__(self, scenario: Scenario, faults=None, clutch_at=np.inf, load=None):
+    def __init__(self, scenario: Scenario, faults=None, clutch_at=np.inf, load=None, publish_state=False):
         bus = self.bus = lcm.LCM("memq://")
         self.stand_in = StandIn(scenario, bus, LcmChannels(), faults or FaultInjection(), clutch_at=clutch_at)
-        self.teleop = HardwareTeleop(scenario, load or true_load(scenario)[0], bus, LcmChannels())
+        self.teleop = HardwareTeleop(scenario, load or true_load(scenario)[0], bus, LcmChannels(),
+                                     publish_state=publish_state)
         self.now = 0.0
         self.commands, self.torques, self.master_q, self.gains, self.stylus_wrenches = [], [], [], [], []
 
@@ -114,16 +115,18 @@ def test_a_tool_hanging_still_is_weighed_once(sigma):
     np.testing.assert_allclose(settled[:3], [0.0, 0.0, expected], atol=0.05)
 
 
-def still_lab(load_of, clutch_at=np.inf, amplitude=0.0):
+def still_lab(load_of, clutch_at=np.inf, amplitude=0.0, configure=None):
     """fig6 with σ = 0, no white noise nor accelerometer bias, the operator's hand at rest (or
     moving by ``amplitude`` m), the controller given ``load_of(true load)`` and no offset
-    tracking; answers on the load status channel are kept."""
+    tracking, then changed by ``configure(scenario)``; answers on the load status channel are kept."""
     scenario = resolve_scenario("fig6")
     scenario.operator.amplitude = [0.0, 0.0, amplitude]
     scenario.ft_sensor.white_noise = scenario.accelerometer.white_noise = False
     scenario.accelerometer.offsets = False  # its bias would weigh m·b on the force (0.4 N): not this test's subject
     scenario.controller.force.sigma = 0.0
     scenario.controller.offsets.tracking = False
+    if configure is not None:
+        configure(scenario)
     true = true_load(scenario)[0]
     lab = Lab(scenario, load=load_of(true), clutch_at=clutch_at)
     lab.answers = []
@@ -293,3 +296,48 @@ def test_the_controller_is_designed_for_the_rate_the_loop_runs_at():
     load = true_load(scenario)[0]
     assert HardwareTeleop(scenario, load, bus, LcmChannels()).controller.period == scenario.controller_period
     assert HardwareTeleop(scenario, load, bus, LcmChannels(), period=0.00025).controller.period == 0.00025
+
+
+def test_a_grasp_and_release_over_lcm_split_the_load_and_are_answered():
+    """With the estimator online, `heft load --grasp` (and the gripper driver's HOLDING) keep φ̂ in
+    use as the gripper's, open the estimator's learning window, and are answered twice: at once and
+    with the object learned when the window ends (nothing, at rest: the gate takes no sample
+    without excitation); a release returns to the gripper's φ. With the estimate fixed, or a second
+    grasp, the answer refuses with the reason."""
+    from heft.hardware_interface.lcmtypes import heft_gripper_state
+
+    fixed, _, _ = still_lab(lambda true: true)
+    fixed.run(0.05)
+    send(fixed, heft_load_command.GRASP)
+    fixed.run(0.01)
+    assert [a.accepted for a in fixed.answers] == [False] and "mode: online" in fixed.answers[0].message
+
+    def online(scenario):
+        scenario.controller.estimator.mode = "online"
+        scenario.controller.estimator.learning_window = 0.1
+    lab, true, scenario = still_lab(lambda true: true, configure=online)
+    lab.run(0.05)
+    send(lab, heft_load_command.GRASP)
+    lab.run(0.01)
+    send(lab, heft_load_command.GRASP)
+    lab.run(0.15)
+    first, refused, learned = lab.answers
+    assert first.accepted and "grasp: the gripper's φ kept (m = 3.13 kg)" in first.message, first.message
+    assert not refused.accepted and "already holds" in refused.message
+    assert learned.accepted and learned.command_utime == first.command_utime
+    assert "object learned over 0.1 s: m = 0 kg" in learned.message, learned.message
+    np.testing.assert_array_equal(lab.teleop.controller.phi_gripper, true.phi)
+    send(lab, heft_load_command.RELEASE)
+    lab.run(0.01)
+    assert lab.answers[-1].accepted and "released" in lab.answers[-1].message
+    assert not lab.teleop.controller.holding
+
+    # The gripper's driver says the same on its own channel.
+    for k, state in enumerate((heft_gripper_state.OPEN, heft_gripper_state.CLOSING, heft_gripper_state.HOLDING)):
+        msg = heft_gripper_state()
+        msg.utime, msg.state, msg.width = 1000 * (k + 1), state, 0.05
+        lab.bus.publish(LcmChannels().gripper_state.name, msg.encode())
+        lab.run(0.005)
+    assert lab.answers[-1].message.startswith("gripper driver: grasp:") and lab.answers[-1].command_utime == 0
+    assert lab.teleop.controller.holding
+    assert lab.teleop.summary(1.0)["load_events"][-1].startswith("gripper driver: grasp:")

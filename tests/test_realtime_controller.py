@@ -51,22 +51,18 @@ def input_sequence(scenario: Scenario, period: float) -> list[dict]:
     return sequence
 
 
-@pytest.fixture(scope="module")
-def both_runs():
-    scenario = Scenario()
-    scenario.controller.motion.translation_scale = 2.0
-    scenario.controller.force.sigma = 0.5
-    offsets = scenario.controller.offsets
-    offsets.rezero_window = 40 * PERIOD
-    # The sequence's wrench is not a load at rest; wide gates let the re-zero and tracking run.
-    offsets.rezero_force = offsets.rezero_torque = offsets.track_force = offsets.track_torque = 1e3
-    load, _ = true_load(scenario)
-    period = PERIOD
-    sequence = input_sequence(scenario, period)
+SIGNALS_READ = ("master.position_measured", "master.velocity_estimated", "slave.position_measured",
+                "slave.velocity_estimated", "ft.wrench_measured", "ft.acceleration_measured")
+STATE_LOGS = ("master.torque_commanded", "slave.position_commanded", "log.pose_RS_desired", "log.passivity_energy",
+              "log.passivity_damping", "log.scales", "log.offsets", "log.rezero_status", "log.phi_hat")
 
-    accelerometer = scenario.accelerometer.convention()  # displaced from S: the transport runs in both
-    assert accelerometer.displaced
-    assert scenario.controller.force.mount_notch > 0  # and so does the notch on the contact
+
+def run_both(scenario: Scenario, load, sequence: list[dict]):
+    """The per-block Diagram and the fused step on ``sequence`` (a re-zero where its ``rezero`` counter
+    rises; online, a new load where its ``estimator_reset`` counter rises): per tick, the feedthrough
+    signals the Diagram computed from its inputs and the state the update left, and the fused step's."""
+    period = PERIOD
+    accelerometer = scenario.accelerometer.convention()
     diagram = MakeTeleopController(scenario.controller, load, scenario.robot, period, scenario.slave_initial_q,
                                    accelerometer=accelerometer)
     simulator = Simulator(diagram)
@@ -81,40 +77,62 @@ def both_runs():
         used = {name: diagram.GetOutputPort(name).Eval(context).copy() for name in FEEDTHROUGH}
         simulator.AdvanceTo((k + 1) * period)  # runs the update of tick k on these inputs
         # … and the state its update leaves.
-        blocks.append(used | {name: diagram.GetOutputPort(name).Eval(context).copy() for name in (
-            "master.torque_commanded", "slave.position_commanded", "log.pose_RS_desired", "log.passivity_energy",
-            "log.passivity_damping", "log.scales", "log.offsets", "log.rezero_status")})
+        blocks.append(used | {name: diagram.GetOutputPort(name).Eval(context).copy() for name in STATE_LOGS})
 
     fused = MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, scenario.controller_period,
                                          accelerometer=accelerometer)
     fused.start(sequence[0]["slave.position_measured"])
-    steps = []
-    for k, inputs in enumerate(sequence):
-        if k == REZERO_TICK:
+    steps, previous = [], sequence[0]
+    for inputs in sequence:
+        if inputs["rezero"][0] > previous["rezero"][0]:
             fused.request_rezero()
-        fused.step(period, *(inputs[name] for name in (
-            "master.position_measured", "master.velocity_estimated", "slave.position_measured",
-            "slave.velocity_estimated", "ft.wrench_measured", "ft.acceleration_measured")),
-            inputs["clutch"][0] > 0.5)
+        if "estimator_reset" in inputs and inputs["estimator_reset"][0] > previous["estimator_reset"][0]:
+            fused.estimator.new_load()
+        previous = inputs
+        fused.step(period, *(inputs[name] for name in SIGNALS_READ), inputs["clutch"][0] > 0.5)
         steps.append({"master.torque_commanded": fused.torque.copy(), "slave.position_commanded": fused.position.copy(),
                       "log.wrench_feedback": fused.wrench_feedback.copy(), "log.wrench_contact":
                       fused.wrench_contact.copy(), "log.master_wrench": fused.master_wrench.copy(),
                       "log.pose_RS_desired": fused.pose_RS_desired.copy(), "log.passivity_energy": fused.energy.copy(),
                       "log.passivity_damping": fused.damping.copy(), "log.scales": fused.scales.copy(),
-                      "log.offsets": fused.offsets.copy(), "log.rezero_status": [fused.rezero_status]})
+                      "log.offsets": fused.offsets.copy(), "log.rezero_status": [fused.rezero_status],
+                      "log.phi_hat": fused.phi.copy(),
+                      "enabled": fused.estimator is not None and fused.estimator.enabled})
+    return blocks, steps, fused
+
+
+@pytest.fixture(scope="module")
+def both_runs():
+    scenario = Scenario()
+    scenario.controller.motion.translation_scale = 2.0
+    scenario.controller.force.sigma = 0.5
+    offsets = scenario.controller.offsets
+    offsets.rezero_window = 40 * PERIOD
+    # The sequence's wrench is not a load at rest; wide gates let the re-zero and tracking run.
+    offsets.rezero_force = offsets.rezero_torque = offsets.track_force = offsets.track_torque = 1e3
+    load, _ = true_load(scenario)
+    assert scenario.accelerometer.convention().displaced  # displaced from S: the transport runs in both
+    assert scenario.controller.force.mount_notch > 0  # and so does the notch on the contact
+    blocks, steps, _ = run_both(scenario, load, input_sequence(scenario, PERIOD))
     return blocks, steps
 
 
-@pytest.mark.parametrize("name", ["master.torque_commanded", "log.wrench_feedback", "log.wrench_contact",
-                                  "log.master_wrench", "log.pose_RS_desired", "log.passivity_energy",
-                                  "log.passivity_damping", "log.scales", "log.offsets", "log.rezero_status"])
-def test_same_tick_signals_equal_the_per_block_diagram(both_runs, name):
-    blocks, steps = both_runs
+COMPARED = ["master.torque_commanded", "log.wrench_feedback", "log.wrench_contact", "log.master_wrench",
+            "log.pose_RS_desired", "log.passivity_energy", "log.passivity_damping", "log.scales", "log.offsets",
+            "log.rezero_status", "log.phi_hat"]
+
+
+def assert_same_signal(blocks, steps, name):
     expected = np.array([b[name] for b in blocks])
     actual = np.array([s[name] for s in steps])
     if name == "log.pose_RS_desired":  # a quaternion and its negative are the same rotation
         actual[:, 3:] *= np.sign(np.sum(actual[:, 3:] * expected[:, 3:], axis=1, keepdims=True))
     np.testing.assert_allclose(actual, expected, rtol=1e-9, atol=1e-9)
+
+
+@pytest.mark.parametrize("name", COMPARED)
+def test_same_tick_signals_equal_the_per_block_diagram(both_runs, name):
+    assert_same_signal(*both_runs, name)
 
 
 def test_slave_command_is_the_per_block_command_one_tick_earlier(both_runs):
@@ -149,11 +167,3 @@ def test_step_before_start_is_refused():
         fused.step(5e-4, *([np.zeros(6)] * 6), True)
     with pytest.raises(ValueError, match="finite"):
         fused.start([0.0, np.nan, 0, 0, 0, 0])
-
-
-def test_online_estimation_is_refused_on_hardware_with_what_to_do():
-    scenario = Scenario()
-    scenario.controller.estimator.mode = "online"
-    with pytest.raises(ValueError, match="heft load --estimate"):
-        MakeRealtimeTeleopController(scenario.controller, true_load(scenario)[0], scenario.robot,
-                                     scenario.controller_period, accelerometer=AT_S)

@@ -86,7 +86,7 @@ def test_bad_input_is_rejected_with_what_to_do(tmp_path):
     with pytest.raises(ValueError, match="heft simulate"):
         load_log(tmp_path / "missing.npz")
     np.save(tmp_path / "array.npy", np.zeros(3))
-    with pytest.raises(ValueError, match="not an .npz archive"):
+    with pytest.raises(ValueError, match="neither an .npz archive nor an LCM log"):
         load_log(tmp_path / "array.npy")
     with pytest.raises(ValueError, match="fps"):
         frame_indices(np.arange(3.0), 0.0)

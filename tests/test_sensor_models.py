@@ -10,10 +10,11 @@ from pydrake.systems.analysis import InitializeParams, Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Adder, ConstantVectorSource, Gain, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
+from scipy.signal import butter, lfilter, lfilter_zi
 
 from heft.systems.sensor_models import (
-    AccelerometerModel, AccelerometerParams, ForceTorqueSensorModel, ForceTorqueSensorParams,
-    drift_offsets, noise_key, quantize, saturate, standard_normals)
+    AccelerometerModel, AccelerometerParams, ForceTorqueSensorModel, ForceTorqueSensorParams, HeldLowpass,
+    drift_offsets, lowpass_coefficients, noise_key, quantize, saturate, standard_normals)
 
 FT_FULL_SCALE = np.array(ForceTorqueSensorParams().full_scale)
 ACCEL_FULL_SCALE = np.array(AccelerometerParams().full_scale)
@@ -387,3 +388,17 @@ def test_the_lowpass_starts_in_steady_state_and_can_be_turned_off():
 def test_a_lowpass_at_or_above_nyquist_is_refused(cutoff):
     with pytest.raises(ValueError, match="^lowpass_cutoff .*Nyquist"):
         ForceTorqueSensorModel(ForceTorqueSensorParams(lowpass_cutoff=cutoff))
+
+
+def test_the_held_input_lowpass_is_scipys_filter_on_the_repeated_rows():
+    """``HeldLowpass`` (the stand-in's) against ``scipy.signal.lfilter`` on each held value repeated
+    ``count`` times, the state carried from one hold to the next: equal to round-off over 50 holds."""
+    rng = np.random.default_rng(2)
+    values = rng.normal(0.0, 50.0, (50, 6))
+    b, a = butter(2, 500.0, fs=8000.0)
+    expected, _ = lfilter(b, a, np.repeat(values, 4, axis=0), axis=0, zi=lfilter_zi(b, a)[:, None] * values[0])
+    held = HeldLowpass(lowpass_coefficients(500.0, 1 / 8000.0), 4)
+    state = lfilter_zi(b, a)[:, None] * values[0]
+    got = np.concatenate([held(state, value) for value in values])
+    assert np.abs(np.diff(expected, axis=0)).max() > 1.0  # the filter moved
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-10 * np.abs(expected).max())

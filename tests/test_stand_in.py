@@ -41,10 +41,11 @@ def reader_of(scenario: Scenario) -> FtSampleReader:
 
 
 def quiet_scenario() -> Scenario:
-    """Ideal wrist sensors (no disturbances, no filter) and a still operator: what is published
-    is the model's truth."""
+    """Ideal wrist sensors (no disturbances, no filter), the load welded at S, the arm's true joint
+    velocities and a still operator: what is published is the model's truth."""
     scenario = Scenario()
     scenario.operator.amplitude = [0.0, 0.0, 0.0]
+    scenario.load.mount.rigid, scenario.slave_velocity_filter = True, 0.0
     for sensor in (scenario.ft_sensor, scenario.accelerometer):
         sensor.noise, sensor.lowpass_cutoff = False, 0.0
     return scenario
@@ -488,6 +489,24 @@ def test_run_stand_in_on_a_fake_clock(fake_clock):
     for name, rate in zip(NAMES, (2000, 2000, 8000)):
         assert summary["published_hz"][name] == pytest.approx(rate)
     assert summary["max_lateness_ms"] == pytest.approx(0.0, abs=1e-6)
+
+
+def test_a_starved_stand_in_stops_when_asked(fake_clock):
+    """A stand-in whose machine gives it a tenth of real time falls ever further behind; a stop
+    request still ends it after one bounded step, not after its whole backlog."""
+    clock, stops = fake_clock, []
+
+    def stop():  # asked after each step, each of which took a second of wall time
+        clock.t += 1.0
+        stops.append(clock())
+        return len(stops) == 20
+
+    summary = run_stand_in(quiet_scenario(), LcmChannels(lcm_url="memq://"), 1000.0, clock=clock,
+                           sleep=clock.sleep, stop=stop)
+    assert len(stops) == 20 and not summary["died"]
+    assert summary["duration_s"] == pytest.approx(20.0)
+    assert summary["max_lateness_ms"] > 1e4  # it reports how far behind the wall clock it fell
+    assert summary["published"][NAMES[2]] <= 20 * 0.05 * 8000 + 1  # 20 steps of at most 50 ms each
 
 
 def test_run_stand_in_returns_when_the_lab_dies(fake_clock):

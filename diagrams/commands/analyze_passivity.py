@@ -1,5 +1,6 @@
-"""``heft analyze passivity LOG.npz``: energy through the ports of a run, and what the
-passivity controller did (`analysis.passivity_analysis`).
+"""``heft analyze passivity LOG``: energy through the ports of a run, and what the
+passivity controller did (`analysis.passivity_analysis`), from a simulation's ``log.npz`` or
+the LCM log of ``heft teleop --hardware --record`` (`analysis.run_log`).
 
 Master port: the wrench the network renders on the hand (``master_force``) against the
 stylus twist J_M(q)·q̇ from the logged master angles and velocities, as the passivity
@@ -8,11 +9,15 @@ observer pairs them. Environment port (when the log has ``slave_q`` and
 from the slave's angles differentiated in time; positive energy flows from the slave's
 tool into the environment.
 
-Sample alignment: the observer's energy and damping logged at row k come from the update
-that paired the stylus twist of row k (master angles and velocities) with the wrench logged
-at row k−1; `paired_wrench` shifts the wrench so that every row holds one update's inputs.
-The report checks the pairing: the observer's energy must equal the port energy plus what
-the PC dissipated (``observer_identity_gap_J``, zero up to rounding on an undelayed run).
+Sample alignment: in a simulation's log the observer's energy and damping logged at row k
+come from the update that paired the stylus twist of row k (master angles and velocities)
+with the wrench logged at row k−1; on hardware with the wrench of row k (``RunLog.wrench_lag``);
+`paired_wrench` shifts the wrench so that every row holds one update's inputs. Each row is
+held for the log's ``hold`` where it has one (a hardware controller's measured ticks), else
+until the next row. The report checks the pairing: the observer's energy must equal the port
+energy plus what the PC dissipated (``observer_identity_gap_J``, zero up to rounding on an
+undelayed run). On hardware the analysis takes the controller's longest stretch between
+restarts (the observer restarts from zero) and prints what the log lacks.
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ from pydrake.multibody.tree import JacobianWrtVariable
 
 from heft.analysis.passivity_analysis import (CHANNELS, passivity_controller_summary, passivity_figure,
                                               port_energy, port_power, sample_periods)
+from heft.analysis.run_log import KINDS, RunLog, complete_rows, longest_start, read_run_log
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, pose_and_jacobian
 
@@ -32,19 +38,18 @@ REQUIRED_KEYS = ("t", "master_q", "master_v", "master_force", "passivity_energy"
 ENVIRONMENT_KEYS = ("slave_q", "wrench_contact_true")
 
 
-def read_log(path) -> dict:
-    """The arrays of a run's log.npz; a ValueError names a missing file or key."""
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"no log at {path}; write one with `heft simulate` (log.npz)")
-    with np.load(path) as archive:
-        log = {key: archive[key] for key in archive.files}
-    missing = [key for key in REQUIRED_KEYS if key not in log]
+def read_log(path, kind: str | None = None) -> RunLog:
+    """The run in a log.npz or a hardware LCM log (`read_run_log`; on hardware its longest
+    stretch between controller restarts, the rows with the master's state); a ValueError names
+    a missing file or key."""
+    run = longest_start(read_run_log(path, kind))
+    missing = [key for key in REQUIRED_KEYS if key not in run.arrays]
     if missing:
         raise ValueError(f"{path} lacks {', '.join(missing)}: the passivity analysis needs {', '.join(REQUIRED_KEYS)}")
-    if np.asarray(log["t"]).size < 3:
+    if np.asarray(run.arrays["t"]).size < 3:
         raise ValueError(f"{path} holds fewer than 3 samples")
-    return log
+    return complete_rows(run, ("master_q", "master_v"), "without the master's state their energy is not counted "
+                                                        "(the observer identity gap shows it)")
 
 
 def stylus_twists(master_q, master_v) -> np.ndarray:
@@ -73,11 +78,11 @@ def sensor_twists(robot: str, t, slave_q) -> np.ndarray:
     return np.array(twists)
 
 
-def paired_wrench(master_force) -> np.ndarray:
-    """The logged wrench (N, 6) moved down one row (zeros first), so that row k holds the
+def paired_wrench(master_force, lag: int = 1) -> np.ndarray:
+    """The logged wrench (N, 6) moved down ``lag`` rows (zeros first), so that row k holds the
     wrench the observer met with row k's twist (module docstring)."""
     master_force = np.asarray(master_force, dtype=float)
-    return np.concatenate((np.zeros((1, master_force.shape[1])), master_force[:-1]))
+    return np.concatenate((np.zeros((lag, master_force.shape[1])), master_force[:len(master_force) - lag]))
 
 
 def _flows(power_into_network, holds) -> tuple[float, float]:
@@ -86,20 +91,21 @@ def _flows(power_into_network, holds) -> tuple[float, float]:
     return float(energy[energy > 0].sum()), 0.0 - float(energy[energy < 0].sum())
 
 
-def analyze_log(log: dict, robot: str = "rx90", twist=None) -> dict:
-    """The passivity report of a log (keys as `heft simulate` writes them): per channel the
-    master port's energy in/out and final value, the PC's summary, and the largest gap
-    between the observer's energy and the port energy plus what the PC dissipated (J)
-    (zero up to rounding when the log and the observer agree); with the environment keys,
-    the environment port's energies too. ``twist``: `stylus_twists` of the log, if already computed."""
+def analyze_log(log: dict, robot: str = "rx90", twist=None, wrench_lag: int = 1) -> dict:
+    """The passivity report of a log (keys as `heft simulate` writes them; ``hold`` if the log
+    has one): per channel the master port's energy in/out and final value, the PC's summary,
+    and the largest gap between the observer's energy and the port energy plus what the PC
+    dissipated (J) (zero up to rounding when the log and the observer agree); with the
+    environment keys, the environment port's energies too. ``twist``: `stylus_twists` of the
+    log, if already computed; ``wrench_lag``: as `paired_wrench`'s ``lag`` (module docstring)."""
     t = np.asarray(log["t"], dtype=float)
-    holds = sample_periods(t)
+    holds = sample_periods(t, log.get("hold"))
     twist = stylus_twists(log["master_q"], log["master_v"]) if twist is None else np.asarray(twist, dtype=float)
-    wrench = paired_wrench(log["master_force"])
+    wrench = paired_wrench(log["master_force"], wrench_lag)
     damping = np.asarray(log["passivity_damping"], dtype=float)
     observed = np.asarray(log["passivity_energy"], dtype=float)
-    summary = passivity_controller_summary(t, damping, observed, twist)
-    port = port_energy(t, wrench, twist)
+    summary = passivity_controller_summary(t, damping, observed, twist, period=holds)
+    port = port_energy(t, wrench, twist, period=holds)
     speed_squared = np.stack(((twist[:, :3] ** 2).sum(1), (twist[:, 3:] ** 2).sum(1)), axis=1)
     dissipated = np.cumsum(damping * speed_squared * holds[:, None], axis=0)
     gap = np.abs(observed - (port + dissipated)).max(axis=0)
@@ -122,7 +128,10 @@ def analyze_log(log: dict, robot: str = "rx90", twist=None) -> dict:
 
 def add_arguments(parser) -> None:
     """The options of ``heft analyze passivity``."""
-    parser.add_argument("log", help="a run's log.npz (from `heft simulate`)")
+    parser.add_argument("log", help="a run's log.npz (from `heft simulate`) or LCM log (from `heft teleop --hardware "
+                                    "--record`)")
+    parser.add_argument("--kind", choices=KINDS, default=None,
+                        help="the log's kind (default: told by the file's first bytes)")
     parser.add_argument("--robot", default="rx90", choices=("rx90", "rx60"),
                         help="the slave of the run, for the environment port (default rx90)")
     parser.add_argument("--out", default=None, help="output folder (default: the log's folder)")
@@ -130,13 +139,15 @@ def add_arguments(parser) -> None:
 
 def run(args) -> int:
     """Writes passivity.png and passivity.json and prints a one-line summary; returns 0."""
-    log = read_log(args.log)
+    run_log = read_log(args.log, args.kind)
+    log = run_log.arrays
     out = Path(args.out) if args.out else Path(args.log).parent
     out.mkdir(parents=True, exist_ok=True)
     twist = stylus_twists(log["master_q"], log["master_v"])
-    report = analyze_log(log, args.robot, twist)
-    paired = {**log, "master_force": paired_wrench(log["master_force"])}
-    passivity_figure(paired, out / "passivity.png", twist=twist, title=Path(args.log).name)
+    report = analyze_log(log, args.robot, twist, run_log.wrench_lag)
+    report["log"] = {"path": str(args.log), "kind": run_log.kind, "notes": run_log.notes}
+    paired = {**log, "master_force": paired_wrench(log["master_force"], run_log.wrench_lag)}
+    passivity_figure(paired, out / "passivity.png", twist=twist, period=log.get("hold"), title=Path(args.log).name)
     (out / "passivity.json").write_text(json.dumps(report, indent=2) + "\n")
     pc = report["passivity_controller"]
     ports = "; ".join(f"master {name}: in {p['energy_in_J']:.4g} J, out {p['energy_out_J']:.4g} J"
@@ -146,5 +157,6 @@ def run(args) -> int:
         ports += f"; environment: in {environment['energy_in_J']:.4g} J, out {environment['energy_out_J']:.4g} J"
     active = ", ".join(f"{name} {100 * pc[f'{name}_active_fraction']:.1f} % active, "
                        f"{pc[f'{name}_dissipated_J']:.4g} J dissipated" for name in CHANNELS)
-    print(f"{ports}; PC: {active}; wrote {out / 'passivity.png'} and {out / 'passivity.json'}")
+    notes = "".join(f"; {note}" for note in run_log.notes)
+    print(f"{ports}; PC: {active}{notes}; wrote {out / 'passivity.png'} and {out / 'passivity.json'}")
     return 0

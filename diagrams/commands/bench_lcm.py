@@ -14,9 +14,11 @@ publish to the receipt of the first command that has moved half-way to its new
 level: LCM both ways, the receiver's sampling, the controller's ticks and the
 watchdog-gated sender. A step stamped more than ``PROBE_LATE`` after it was due
 had the probe preempted around its publish; it is left out and counted. The controller reports the
-loop rate it sustained and its tick cost. Where it may (root, ``ip``), the
-bench runs both processes in a private network namespace so no packet leaves
-the machine.
+loop rate it sustained and its tick cost. Each rate runs twice, the load estimate fixed and
+learned online (``ONLINE``): the probe's accelerometer swings (``PROBE_ACCELERATION``) so that
+the estimator's gate opens, and its learning window outlasts the run so that the sensor's steps
+never close it: the estimator updates on every tick, its worst case. Where it may (root, ``ip``),
+the bench runs both processes in a private network namespace so no packet leaves the machine.
 """
 
 from __future__ import annotations
@@ -45,6 +47,12 @@ SETTLE = 1.5
 """Seconds of traffic before the first step (start guard and torque ramp)."""
 PROBE_LATE = 0.001
 """A step published this much (s) after it was due had the probe preempted around its publish."""
+PROBE_ACCELERATION = (3.0, 2.0)
+"""The probe's accelerometer adds a horizontal acceleration of this magnitude (m/s²) turning at this
+rate (Hz) to its reading at rest, so that the online estimator's gate (``min_excitation``) opens."""
+ESTIMATORS = ("fixed", "online")
+ONLINE = {"controller.estimator.mode": "online", "controller.estimator.learning_window": 1e9}
+"""The online estimator as benched: contact never judged, so that every excited tick updates it."""
 
 
 def run_probe(channels, duration: float, out: Path, master_q, slave_q) -> None:
@@ -91,6 +99,9 @@ def run_probe(channels, duration: float, out: Path, master_q, slave_q) -> None:
             utime = int((now - start) * 1e6)
             if msg is ft:
                 counter += 1
+                magnitude, frequency = PROBE_ACCELERATION
+                angle = 2 * np.pi * frequency * (now - start)
+                msg.acceleration[0], msg.acceleration[1] = magnitude * np.cos(angle), magnitude * np.sin(angle)
                 level = (first_command is not None and now - first_command > SETTLE
                          and int((now - first_command - SETTLE) / STEP_PERIOD) % 2 == 1)
                 msg.sample_counter, msg.utime = counter, utime
@@ -213,18 +224,28 @@ def _url_arguments(channels) -> list[str]:
     return ["--lcm-url", channels.lcm_url, "--command-url", channels.command_lcm_url()]
 
 
-def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder: Path, prefix) -> dict:
-    """One controller rate: both processes, then the latency statistics and the controller's timing."""
+def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder: Path, prefix,
+               estimator: str = "fixed") -> dict:
+    """One controller rate with the load ``estimator`` "fixed" or "online" (``ONLINE``): both processes,
+    then the latency statistics and the controller's timing."""
+    import yaml
+
     from heft.diagrams.commands.options import lab_settings_text
-    from heft.diagrams.scenario import resolve_scenario
+    from heft.diagrams.scenario import overrides_text, resolve_scenario
 
     loaded = resolve_scenario(scenario)
-    summary_path, probe_path = folder / f"teleop_{rate_hz:g}.json", folder / f"probe_{rate_hz:g}.json"
+    settings = yaml.safe_load(lab_settings_text(loaded))
+    if estimator == "online":
+        online = yaml.safe_load(overrides_text(ONLINE))
+        settings["controller"] = {**settings.get("controller", {}), **online["controller"]}
+    summary_path = folder / f"teleop_{rate_hz:g}_{estimator}.json"
+    probe_path = folder / f"probe_{rate_hz:g}_{estimator}.json"
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONUNBUFFERED="1")
     python = [*prefix, sys.executable]
     teleop = subprocess.Popen(
         [*python, "-m", "heft.diagrams.cli", "teleop", "--hardware", *_url_arguments(channels), "--scenario", scenario,
-         "--set", lab_settings_text(loaded), "--rate", str(rate_hz), "--duration", str(duration + SETTLE),
+         "--set", yaml.safe_dump(settings, default_flow_style=True), "--rate", str(rate_hz),
+         "--duration", str(duration + SETTLE),
          "--out", str(summary_path)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
     probe = subprocess.Popen(
@@ -244,8 +265,11 @@ def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder:
     summary = json.loads(summary_path.read_text())
     timing = summary["timing"]
     receipts = np.asarray(measured["receipts"])
+    learned = summary["estimator"].get("samples_since_new_load", 0)
     return {
         "rate_hz": rate_hz,
+        "estimator": estimator,
+        "estimator_updates_per_tick": learned / max(summary["ticks"], 1),
         "steps": len(measured["steps"]),
         "steps_published_late": int((~on_time).sum()),
         "latency_samples": int(latencies.size),
@@ -312,12 +336,13 @@ def run(rates, duration: float, scenario: str, channels) -> dict:
     try:
         with tempfile.TemporaryDirectory() as folder:
             for rate in rates:
-                results.append(bench_rate(rate, duration, channels, scenario, Path(folder), prefix))
+                for estimator in ESTIMATORS:
+                    results.append(bench_rate(rate, duration, channels, scenario, Path(folder), prefix, estimator))
             stand_in = bench_stand_in(rates[0], duration, channels, scenario, Path(folder), prefix)
     finally:
         cleanup()
-    print(f"{'rate (Hz)':>10s}{'sustained (Hz)':>16s}{'ratio':>7s}{'skipped':>9s}{'late max (ms)':>15s}"
-          f"{'tick wall p50/p99 (µs)':>24s}"
+    print(f"{'rate (Hz)':>10s}{'estimator':>10s}{'sustained (Hz)':>16s}{'ratio':>7s}{'skipped':>9s}"
+          f"{'late max (ms)':>15s}{'tick wall p50/p99 (µs)':>24s}"
           f"{'cpu p50/p99 (µs)':>18s}{'commands (Hz)':>15s}{'latency p50/p99 (ms)':>22s}{'faults':>8s}")
     for r in results:
         c = r["controller"]
@@ -325,14 +350,21 @@ def run(rates, duration: float, scenario: str, channels) -> dict:
                    else f"{r['latency_p50_ms']:.2f} / {r['latency_p99_ms']:.2f}")
         if r["steps_published_late"]:
             latency += f" ({r['steps_published_late']} late)"
-        print(f"{r['rate_hz']:10.0f}{c['achieved_rate_hz']:16.0f}{c['achieved_rate_hz'] / r['rate_hz']:7.2f}"
-              f"{c['skipped_ticks']:9d}{1e3 * c['max_lateness']:15.2f}"
+        print(f"{r['rate_hz']:10.0f}{r['estimator']:>10s}{c['achieved_rate_hz']:16.0f}"
+              f"{c['achieved_rate_hz'] / r['rate_hz']:7.2f}{c['skipped_ticks']:9d}{1e3 * c['max_lateness']:15.2f}"
               f"{c['tick_wall_p50_us']:>13.0f} / {c['tick_wall_p99_us']:<8.0f}"
               f"{c['tick_cpu_p50_us']:>9.0f} / {c['tick_cpu_p99_us']:<6.0f}"
               f"{r['commands_received_hz']:15.0f}{latency:>22s}{len(r['controller_faults']):8d}")
         for fault in r["controller_faults"]:  # a stale channel or a stalled loop, with the ages then
             print(f"{'':10s}fault at {fault['onset']:.4f} s: bits {fault['fault_bits']}, ages {fault['ages_ms']} ms, "
                   f"recovered {fault['recovered']}")
+    for fixed, online in zip(results[::2], results[1::2]):
+        costs = "; ".join(f"{name} {online['controller'][key]:.0f} against {fixed['controller'][key]:.0f} µs "
+                          f"(× {online['controller'][key] / fixed['controller'][key]:.2f})"
+                          for name, key in (("tick wall p50", "tick_wall_p50_us"), ("p99", "tick_wall_p99_us"),
+                                            ("cpu p50", "tick_cpu_p50_us"), ("p99", "tick_cpu_p99_us")))
+        rate, updated = fixed["rate_hz"], 100 * online["estimator_updates_per_tick"]
+        print(f"estimator online at {rate:g} Hz (updated on {updated:.0f} % of ticks), against fixed: {costs}")
     _print_stand_in(stand_in)
     return {"duration_s": duration, "network": where, "results": results, "stand_in": stand_in}
 

@@ -1,4 +1,4 @@
-"""`heft load`: re-zero, offset tracking or a new tool for a running controller."""
+"""`heft load`: re-zero, offset tracking, a new tool, a grasp or a release for a running controller."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import sys
 
 from heft.diagrams.commands.options import add_lcm_urls, lcm_channels
 
-HELP = ("re-zero the sensor, switch offset tracking or change the tool "
-       "of a running `heft teleop --hardware`")
+HELP = ("re-zero the sensor, switch offset tracking, change the tool or tell a grasp or release "
+        "to a running `heft teleop --hardware`")
 
 
 def add_arguments(parser) -> None:
@@ -16,6 +16,10 @@ def add_arguments(parser) -> None:
                       help="measure the offsets now (hold the slave still, out of contact)")
     parser.add_argument("--tracking", choices=("on", "off"), help="slow offset tracking at rest")
     parser.add_argument("--estimate", help="a new tool's estimate.yaml from `heft identify`")
+    parser.add_argument("--grasp", action="store_true",
+                        help="the gripper closed on an object: keep the gripper's φ, learn the object's "
+                             "(needs controller.estimator.mode: online); answered again once it is learned")
+    parser.add_argument("--release", action="store_true", help="the gripper let go: back to the gripper's φ")
     add_lcm_urls(parser)
     parser.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for the answers (default 5)")
 
@@ -25,16 +29,17 @@ def run(args) -> int:
     from heft.hardware_interface.load_commands import send_load_command
 
     chosen = [name for name, given in (("rezero", args.rezero), ("tracking", args.tracking),
-                                       ("estimate", args.estimate)) if given]
+                                       ("estimate", args.estimate), ("grasp", args.grasp),
+                                       ("release", args.release)) if given]
     if len(chosen) != 1:
-        raise ValueError("give exactly one of --rezero, --tracking on|off, --estimate FILE")
+        raise ValueError("give exactly one of --rezero, --tracking on|off, --estimate FILE, --grasp, --release")
     channels = lcm_channels(args)
     try:
         if args.estimate:
             load = read_load_estimate(args.estimate)
             answers = send_load_command(channels, "new_estimate", load.phi, load.offsets, args.timeout)
         else:
-            action = "rezero" if args.rezero else f"tracking_{args.tracking}"
+            action = chosen[0] if chosen[0] != "tracking" else f"tracking_{args.tracking}"
             answers = send_load_command(channels, action, timeout=args.timeout)
     except TimeoutError as error:
         print(f"heft load: {error}", file=sys.stderr)
@@ -43,5 +48,5 @@ def run(args) -> int:
         print(f"heft load: {answer.message}")
     final = answers[-1]
     print("heft load: offsets in use [" + ", ".join(f"{x:.4g}" for x in final.offsets)
-          + f"] (N, N·m); m = {final.phi[0]:.4g} kg; tracking {'on' if final.tracking else 'off'}")
+          + f"] (N, N·m); m = {final.phi[0]:.4g} kg in all; tracking {'on' if final.tracking else 'off'}")
     return 0 if final.accepted else 4

@@ -11,7 +11,10 @@ positions (``slave_q``, ``master_q``) and draws three force arrows:
   Eq. 13), i.e. what the environment does to the tool;
 - blue, at the stylus frame E: the force sent to the master (``master_force``, in B).
 
-The page needs no server: open it in a browser and press play.
+The log is a simulation's ``log.npz`` or the LCM log of ``heft teleop --hardware --record``
+(`analysis.run_log`: on hardware ``wrench_contact`` is the controller's estimate, the stylus
+force the wrench mapped for the hand). The page needs no server: open it in a browser and
+press play.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from heft.analysis.run_log import KINDS, complete_rows, read_run_log
 from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import AddSlave
@@ -55,22 +59,17 @@ ARROW_HEAD = 0.05       # m, cone height
 SHORTEST_ARROW = 1e-4   # m: a zero force is drawn as a dot (a zero scale would be singular)
 
 
-def load_log(path) -> dict:
-    """The arrays of a ``log.npz`` / ``log_sigma*.npz`` written by ``heft simulate``, checked
-    for what a replay needs (``REPLAY_KEYS``, one row per sample of ``t``)."""
-    path = Path(path)
-    try:
-        npz = np.load(path)
-    except (OSError, ValueError) as error:
-        raise ValueError(f"cannot read a log from {path}: {error}; write one with `heft simulate`") from None
-    if not hasattr(npz, "files"):  # np.load gives a bare array for an .npy file
-        raise ValueError(f"{path} is not an .npz archive of named arrays; give the log.npz of `heft simulate`")
-    with npz:
-        log = {key: npz[key] for key in npz.files}
-    missing = [key for key in REPLAY_KEYS if key not in log]
+def load_log(path, kind: str | None = None) -> dict:
+    """The arrays of a ``log.npz`` / ``log_sigma*.npz`` written by ``heft simulate`` or of an
+    LCM log of ``heft teleop --hardware --record`` (`read_run_log`), checked for what a replay
+    needs (``REPLAY_KEYS``, one row per sample of ``t``; rows where the log lacks a message
+    left out)."""
+    run = read_run_log(path, kind)
+    missing = [key for key in REPLAY_KEYS if key not in run.arrays]
     if missing:
         raise ValueError(f"{path} lacks {', '.join(missing)}: write the log with the current `heft simulate`")
-    return log
+    return complete_rows(run, [key for key, width in REPLAY_KEYS.items() if width], "the log lacks a message "
+                                                                                   "they show").arrays
 
 
 def _check_log(log) -> np.ndarray:
@@ -190,7 +189,10 @@ def write_replay(log, scenario: Scenario, path, fps: float = 30.0, slave_metres_
 
 def add_arguments(parser):
     """The arguments of ``heft analyze replay``."""
-    parser.add_argument("log", help="log.npz or log_sigma*.npz written by `heft simulate`")
+    parser.add_argument("log", help="log.npz or log_sigma*.npz written by `heft simulate`, or the LCM log of "
+                                    "`heft teleop --hardware --record`")
+    parser.add_argument("--kind", choices=KINDS, default=None,
+                        help="the log's kind (default: told by the file's first bytes)")
     parser.add_argument("--scenario", default="fig6",
                         help="the scenario the log was run with: fig6 | fig7 | fig8 | YAML (default fig6)")
     parser.add_argument("--out", help="HTML file to write (default: replay.html beside the log)")
@@ -199,7 +201,7 @@ def add_arguments(parser):
 
 def run(args) -> int:
     """``heft analyze replay``: writes the HTML and prints a one-line summary."""
-    log = load_log(args.log)
+    log = load_log(args.log, args.kind)
     out = Path(args.out) if args.out else Path(args.log).with_name("replay.html")
     summary = write_replay(log, resolve_scenario(args.scenario), out, fps=args.fps)
     peaks = summary["peak_force_N"]

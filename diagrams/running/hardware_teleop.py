@@ -11,8 +11,11 @@ station is healthy (every channel fresh, so the slave's measured position is
 known) and starts again on every recovery, from the slave's measured pose with
 the clutch disengaged; motion follows the stylus only while the operator holds
 the clutch button, anchored on the slave's measured pose at the press. Load
-commands (``heft load``: re-zero, offset tracking, a new tool's estimate) are
-served after each tick's send (``hardware_interface.load_commands``).
+commands (``heft load``: re-zero, offset tracking, a new tool's estimate, a grasp
+or release) and the gripper driver's grasps and releases are served after each
+tick's send (``hardware_interface.load_commands``). When the run is recorded, what
+the controller computed goes out beside the commands each tick it steps
+(``hardware_interface.teleop_state``; about 45 µs a tick, so only then).
 
 ``run_hardware_teleop`` runs it for a while (``diagrams.running.realtime``) and returns
 what the run saw: faults and recoveries, the master command's largest stylus
@@ -40,8 +43,13 @@ from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import WATCHED_CHANNELS, HardwareStation, HardwareStationParams
 from heft.hardware_interface.lcm_mailbox import open_buses
 from heft.hardware_interface.load_commands import LoadCommandServer
+from heft.hardware_interface.teleop_state import TeleopStatePublisher
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
+PHI_SAMPLE_PERIOD = 0.01
+"""s between the samples of φ̂ a run's summary keeps while the estimator learns online."""
+MAX_PHI_SAMPLES = 60_000
+"""The samples of φ̂ a summary keeps at most: the first 10 minutes (a long run grows nothing further)."""
 
 
 class HardwareTeleop:
@@ -50,11 +58,11 @@ class HardwareTeleop:
 
     ``tick(now, dt)`` runs one tick at ``now`` (s, monotonic) ``dt`` s after the last, nominally
     ``period`` s (default the scenario's ``controller_period``); ``summary(elapsed)`` reports the
-    run so far."""
+    run so far. ``publish_state``: publish ``heft_teleop_state`` each tick the controller steps."""
 
     def __init__(self, scenario: Scenario, load: LoadEstimate, bus: lcm.LCM, channels: LcmChannels,
                  params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None,
-                 period: float | None = None):
+                 period: float | None = None, publish_state: bool = False):
         # The controller's models first (about a second): the station's subscriptions then
         # start receiving only when the loop is about to pump them.
         self.controller = MakeRealtimeTeleopController(
@@ -63,6 +71,10 @@ class HardwareTeleop:
         limits = device_limits(scenario)
         self.station = HardwareStation(bus, channels, limits, params, command_bus)
         self.load_commands = LoadCommandServer(bus, channels, self.controller, limits.wrench_full_scale, command_bus)
+        self.state = (TeleopStatePublisher(bus if command_bus is None else command_bus, channels) if publish_state
+                      else None)
+        self.starts = 0
+        """Controller starts so far (the first healthy tick and each recovery)."""
         self._channel_names = [getattr(channels, name).name for name in WATCHED_CHANNELS]
         self._zero = np.zeros(NUM_JOINTS)
         self.now = 0.0
@@ -79,6 +91,10 @@ class HardwareTeleop:
         self.master_commands = self.slave_commands = 0
         self.conflicts = []
         self._conflicts = 0
+        self.phi_history = []
+        """(time (s), φ̂ in use (10)) every ``PHI_SAMPLE_PERIOD`` s while the estimator learns online (the
+        first ``MAX_PHI_SAMPLES``)."""
+        self._next_phi_sample = 0.0
 
     def tick(self, now: float, dt: float) -> None:
         self.now = now
@@ -88,12 +104,19 @@ class HardwareTeleop:
         if healthy:
             if not self._was_healthy:
                 controller.start(station.slave_position)
+                self.starts += 1
             controller.step(dt, station.master_position, station.master_velocity, station.slave_position,
                             station.slave_velocity, station.wrench, station.acceleration, station.clutch)
             station.send(now, controller.torque, controller.position)
+            if self.state is not None:
+                self.state.publish(round((station.epoch + now) * 1e6), dt, self.starts, station.stamps, controller,
+                                   station.gain)
         else:
             station.send(now, self._zero, None)
-        self.load_commands.serve(round((station.epoch + now) * 1e6), healthy)
+        utime = round((station.epoch + now) * 1e6)
+        for event in station.gripper_events:
+            self.load_commands.gripper(utime, event)
+        self.load_commands.serve(utime, healthy)
         station.publish_status(now)
         self._observe(now, healthy)
         self._was_healthy = healthy
@@ -123,6 +146,10 @@ class HardwareTeleop:
             self.stylus_force_peak = max(self.stylus_force_peak, station.gain * math.sqrt(fx * fx + fy * fy + fz * fz))
             self.stylus_torque_peak = max(self.stylus_torque_peak,
                                           station.gain * math.sqrt(tx * tx + ty * ty + tz * tz))
+        estimator = self.controller.estimator
+        if estimator is not None and now >= self._next_phi_sample and len(self.phi_history) < MAX_PHI_SAMPLES:
+            self._next_phi_sample = now + PHI_SAMPLE_PERIOD
+            self.phi_history.append((now, self.controller.phi.tolist()))
         position = station.position_sent
         if position is not None:
             self.slave_commands += 1
@@ -181,7 +208,21 @@ class HardwareTeleop:
             "received_hz": {name: count / elapsed for name, count in station.received.items()},
             "load_events": [message for _, message in self.load_commands.events],
             "offsets_final": self.controller.offsets.tolist(),
+            "estimator": self._estimator_summary(),
         }
+
+    def _estimator_summary(self) -> dict:
+        """φ̂ and the grasp's split at the end; online, the samples taken and skipped since the last new
+        load and ``phi_history``."""
+        controller = self.controller
+        estimator = controller.estimator
+        gripper = controller.phi_gripper
+        summary = {"mode": "fixed" if estimator is None else "online", "phi_final": controller.phi.tolist(),
+                   "holding": controller.holding, "phi_gripper": None if gripper is None else gripper.tolist()}
+        if estimator is not None:
+            summary |= {"samples_since_new_load": estimator.num_samples, "skipped": estimator.num_skipped,
+                        "phi_history": self.phi_history}
+        return summary
 
 
 def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, channels: LcmChannels, duration: float, rate: float,
@@ -196,11 +237,18 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, channels: LcmCha
     ``record``: a path to record the LCM traffic to (``lcm-logger`` format), or None."""
     print(f"teleop: {scenario.accelerometer.convention()}", flush=True)
     print(f"teleop: {scenario.controller.force.mount_notch_summary()}", flush=True)
+    estimator = scenario.controller.estimator
+    print("teleop: load estimate " + (
+        "fixed (`heft load --estimate` changes it)" if estimator.mode == "fixed" else
+        f"learned online ({estimator.method}, forgetting {estimator.forgetting:g} per tick, prefilter "
+        f"{estimator.prefilter:g} Hz; `heft load --grasp`/`--release` or the gripper's driver split it into the "
+        "gripper's and the object's, η of the object's fed back)"), flush=True)
     with contextlib.nullcontext() if record is None else LcmTrafficRecorder(channels, record):
         scheduling = claim_realtime(priority)
         print(f"teleop: {scheduling}", flush=True)
         bus, command_bus = open_buses(channels)
-        teleop = HardwareTeleop(scenario, load, bus, channels, params, command_bus, period=1.0 / rate)
+        teleop = HardwareTeleop(scenario, load, bus, channels, params, command_bus, period=1.0 / rate,
+                                publish_state=record is not None)
         teleop.station.epoch = time.time()
         with StopOnSignal() as stop:
             print("teleop: running (Ctrl-C stops with forces off and the slave held)", flush=True)

@@ -1,10 +1,11 @@
-"""The lab stand-in: the Phantom, arm and JR3 drivers on LCM, modelled cheaply
+"""The lab stand-in: the Phantom, arm, JR3 and gripper drivers on LCM, modelled cheaply
 enough to keep real time on one core.
 
-``StandIn`` publishes ``heft_haptic_state``, ``lcmt_iiwa_status`` (6 joints) and
-``heft_ft_sample`` at the channels' nominal rates (2, 2 and 8 kHz by default) on
-a python-lcm bus and obeys ``heft_haptic_command`` and ``lcmt_iiwa_command`` from
-another (``LcmChannels``: the command URL).
+``StandIn`` publishes ``heft_haptic_state``, ``lcmt_iiwa_status`` (6 joints),
+``heft_ft_sample`` and, for a "gripper_object" load, ``heft_gripper_state`` at the
+channels' nominal rates (2, 2, 8 and 0.1 kHz by default) on a python-lcm bus
+and obeys ``heft_haptic_command`` and ``lcmt_iiwa_command`` from another
+(``LcmChannels``: the command URL).
 ``FaultInjection`` degrades what it publishes, so ``HardwareStation`` can be
 exercised against a misbehaving lab. ``run_stand_in`` runs it in wall-clock
 real time, as a separate process would.
@@ -17,16 +18,25 @@ Models (frames as DESIGN §4: W world = R slave base, B master base, S wrist sen
   the robot controller's critically damped setpoint filter
   (``critically_damped_step_matrices``, ``Scenario.slave_setpoint_bandwidth``),
   stepped exactly at the status rate; an ideal servo: the measured position is
-  the filter's (encoder-quantised), the estimated velocity the filter's.
+  the filter's (encoder-quantised), the estimated velocity the arm controller's
+  estimate from those encoder readings (``EncoderVelocityEstimator``, the simulated
+  station's ``slave_velocity_filter``; the filter's own q̇ when that is 0).
 * Sensor frame S: pose, ω, and the kinematic acceleration [a; α] of S in S from
   the filter's state by Drake: A_WS = J·q̈ + J̇·q̇, with q̈ the filter's own
   acceleration after each step. Gravity in S is R_SW·g_W. The accelerometer
   reports what a real one does (``accelerometer_reading``: specific force a − g
   unless the scenario's ``accelerometer.includes_gravity`` is False) at its
   ``accelerometer.position``, as in the simulated station.
-* JR3 driver: the wrench is the load's non-contact wrench V(a, α, ω, g)·φ (Eq. 5,
-  ``load_dynamics.regressor``) with φ of the scenario's load as the simulated
-  station computes it, through ``sensor_models``' measurement model (the sensor's
+* Load (``stand_in_wrist.Wrist``): on the scenario's compliant mount, sized to the
+  load as the simulated station's (``mount_for``), its small-deflection dynamics
+  driven by S's motion (``mount.MountUnderMovingSensor``, stepped with the slave),
+  or welded at S with ``load.mount.rigid``. A "gripper_object" load's gripper closes
+  on the object at ``GraspTimes.grasp_at`` (CLOSING for ``GRIPPER_CLOSING_S``, then
+  HOLDING: the object's inertia joins the gripper's, the mount rings) and opens at
+  ``release_at`` (OPEN: the object is let go); its driver publishes that state.
+* JR3 driver: the wrench is what the mount transmits, the load's non-contact wrench
+  (V(a, α, ω, g)·φ, Eq. 5, at the load's own motion), with φ of what it carries as
+  the simulated station computes it, through ``sensor_models``' measurement model (the sensor's
   low-pass filter, offsets, drift, noise, saturation, quantisation as the
   scenario's sensor parameters enable them, sampled at the channel rate); the
   accelerometer likewise. The
@@ -45,9 +55,15 @@ Models (frames as DESIGN §4: W world = R slave base, B master base, S wrist sen
 
 Left out against ``MakeSimStation``: contact and the environment (no sheet
 spring: the wrench is the load's own only), the arm's link dynamics and servo
-error (an ideal servo: the arm is exactly where its filter says), the operator's
-impedance and the master's dynamics (the applied torque does not move the
-master; the stylus follows the reference only to first order), friction.
+error (an ideal servo: the arm is exactly where its filter says, and the mount's
+load does not move the wrist), the mount's second-order terms
+(``MountUnderMovingSensor``), the object's approach and lift (it weighs on the
+gripper all at once when the fingers close), the operator's impedance and the
+master's dynamics (the applied torque does not move the master; the stylus follows
+the reference only to first order), friction.
+
+With ``record_truth`` the lab keeps the truth of every FT sample (``TruthRecord``);
+``run_stand_in`` writes it to ``truth_path``.
 
 Times are the lab's own clock: seconds since it started; ``utime`` is that clock
 in µs at the message's sample time, so a restarted lab stamps from zero again
@@ -66,30 +82,19 @@ import time
 import lcm
 import numpy as np
 from drake import lcmt_iiwa_command, lcmt_iiwa_status
-from pydrake.multibody.tree import JacobianWrtVariable
 
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant, MakeSlavePlant, phi_about_S
+from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
 from heft.diagrams.stations.sim_station import MASTER_ENCODER_COUNTS_PER_REV
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import CLUTCH_BUTTON
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, open_buses, pump
-from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_command, heft_haptic_state
-from heft.systems.accelerometer_reading import reading_from_motion
-from heft.systems.drake_conventions import swap_halves
-from heft.systems.load_dynamics import GRAVITY_W, regressor
+from heft.diagrams.stations.stand_in_wrist import GraspTimes, SixAxisSampler, TruthRecord, Wrist
+from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_gripper_state, heft_haptic_command, heft_haptic_state
+from heft.systems.encoders import EncoderVelocityEstimator
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, pose_and_jacobian
 from heft.systems.operator_hand import smooth_sine_offset
-from heft.systems.sensor_models import (
-    ACCELEROMETER_STREAM,
-    FORCE_TORQUE_STREAM,
-    NUM_AXES,
-    SixAxisMeasurement,
-    SixAxisSensorParams,
-    lowpass,
-    lowpass_coefficients,
-    quantize,
-)
+from heft.systems.sensor_models import ACCELEROMETER_STREAM, FORCE_TORQUE_STREAM, NUM_AXES, quantize
 from heft.systems.setpoint_filter import critically_damped_step_matrices
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
@@ -102,14 +107,19 @@ have been published: the controller reads a state at most its watchdog's timeout
 arrived, and on a busy machine the arrival itself lagged the publish by up to 50 ms. The Phantom
 driver judges the force a command renders at the positions it published within this window (a
 stand-in running late publishes its backlog at once: then all of it)."""
+_NO_TORQUE = np.zeros(NUM_JOINTS)
+_NO_TORQUE.flags.writeable = False
 _MASK64 = (1 << 64) - 1
-_MASTER, _SLAVE, _FT = range(3)
-"""Channel indices; channel i loses messages on random stream i and reorders them on 4 + i."""
-_NAN_STREAM, _REORDER_STREAM = 3, 4
+_MASTER, _SLAVE, _FT, _GRIPPER = range(4)
+"""Channel indices; channel i loses messages on random stream i and reorders them on 4 + i, but the
+gripper's (i = 3, the NaN faults' stream) on ``_GRIPPER_STREAM`` and 4 + it."""
+_NAN_STREAM, _REORDER_STREAM, _GRIPPER_STREAM = 3, 4, 7
 _DUE_SLACK = 1e-9
 """A message is due when its nominal time is at most this (s) after ``now`` (round-off of k/rate)."""
-_NOISE_BLOCK = 64
-"""Sensor samples whose noise and offsets are drawn at once."""
+_MAX_STEP = 0.05
+"""The most lab time (s) one step covers: a stand-in starved of CPU catches up in steps this
+long, so that it sees a stop request between two of them instead of after its whole backlog
+(which, on a machine too busy for it to keep real time, grows without end)."""
 
 
 @dataclasses.dataclass
@@ -195,80 +205,6 @@ class _Outlet:
             self._held = None
 
 
-class _SixAxisSampler:
-    """``sensor_models.SixAxisMeasurement`` of one instrument sampled every ``period`` s:
-    sample j (t = j·period, j ≥ 1) with the draws of sample index j, as the simulated
-    sensor's; offsets and noise are drawn ``_NOISE_BLOCK`` samples at a time."""
-
-    def __init__(self, params: SixAxisSensorParams, stream: int, period: float):
-        self._model, self._period = SixAxisMeasurement(params, stream, period), period
-        self._lowpass = lowpass_coefficients(params.lowpass_cutoff, period)  # the sensor's filter at this rate
-        self._lowpass_state = np.full((2, NUM_AXES), np.nan)
-        self._walk = np.zeros(NUM_AXES)
-        # Offsets and offsets + noise of samples start, start + 1, ...
-        self._start, self._offsets, self._disturbance = 1, np.zeros((0, NUM_AXES)), np.zeros((0, NUM_AXES))
-
-    def _draw_block(self, keep_from: int) -> None:
-        """Appends the next ``_NOISE_BLOCK`` samples, forgetting those before ``keep_from``."""
-        first = self._start + len(self._offsets)
-        index = np.arange(first, first + _NOISE_BLOCK)
-        offsets, disturbance, self._walk = self._model.disturbance(index * self._period, self._model.normals(index),
-                                                                   self._walk)
-        drop = max(0, min(keep_from, first) - self._start)
-        self._offsets = np.concatenate((self._offsets[drop:], offsets))
-        self._disturbance = np.concatenate((self._disturbance[drop:], disturbance))
-        self._start += drop
-
-    def sample(self, first: int, count: int, value: np.ndarray):
-        """(measured, offsets o_j, saturated flags (0/1)), each (count, 6), of samples
-        j = first … first + count − 1 of the true ``value`` (6,); ``first`` ≥ 1 never decreases."""
-        while first + count > self._start + len(self._offsets):
-            self._draw_block(first)
-        rows = slice(first - self._start, first - self._start + count)
-        if self._lowpass is not None:
-            value = lowpass(self._lowpass, self._lowpass_state, np.broadcast_to(value, (count, NUM_AXES)))
-        measured, saturated = self._model.measure(value + self._disturbance[rows])
-        return measured, self._offsets[rows], saturated
-
-
-class _SensorFrame:
-    """The slave arm with its wrist sensor and load, evaluated by Drake: motion of S and
-    the load's non-contact wrench V·φ from the joint state."""
-
-    def __init__(self, scenario: Scenario):
-        plant, parts = MakeSlavePlant(scenario)
-        self._plant, self._context = plant, plant.CreateDefaultContext()
-        self._W, self._S = plant.world_frame(), parts.S
-        self._accelerometer = scenario.accelerometer.convention()
-        self.phi = phi_about_S(plant, parts.S, parts.load_bodies)
-        self._origin = np.zeros(3)
-        self._x = np.zeros(2 * NUM_JOINTS)
-        self.wrench = np.zeros(6)
-        """V·φ: [f; τ] the sensor exerts on the load, at S, in S (N, N·m)."""
-        self.acceleration = np.zeros(6)
-        """[a; α] of S in W, expressed in S (m/s², rad/s²)."""
-        self.reading = np.zeros(6)
-        """What the accelerometer reports (``accelerometer_reading``), in S."""
-
-    def update(self, q, qd, qdd) -> None:
-        """Evaluates S's motion at joint positions ``q`` (rad), velocities ``qd`` (rad/s) and
-        accelerations ``qdd`` (rad/s²)."""
-        plant, context, W, S = self._plant, self._context, self._W, self._S
-        self._x[:NUM_JOINTS], self._x[NUM_JOINTS:] = q, qd
-        plant.SetPositionsAndVelocities(context, self._x)
-        R_SW = plant.CalcRelativeTransform(context, W, S).rotation().matrix().T
-        J = plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV, S, self._origin, W, W)
-        bias = plant.CalcBiasSpatialAcceleration(context, JacobianWrtVariable.kV, S, self._origin, W, W)
-        A_WS_W = J @ qdd + bias.get_coeffs()  # [α; a]
-        acceleration = swap_halves(A_WS_W)  # [a; α] in W
-        a, alpha = R_SW @ acceleration[:3], R_SW @ acceleration[3:]
-        omega = R_SW @ (J[:3] @ qd)
-        self.acceleration[:3], self.acceleration[3:] = a, alpha
-        gravity = R_SW @ GRAVITY_W
-        self.reading[:] = reading_from_motion(self.acceleration, gravity, omega, self._accelerometer)
-        self.wrench[:] = regressor(a, alpha, omega, gravity) @ self.phi
-
-
 class _Master:
     """The Phantom's joints moved by the operator's reference motion through the master's
     Jacobian at its start pose: q = q₀ + J_M(q₀)⁻¹·[Δp; Δrpy](t), q̇ = its derivative."""
@@ -317,23 +253,38 @@ class StandIn:
     (6, rad, true joints), ``master_torque`` (6, N·m, the torque the haptic driver applies
     now), ``stylus_force_peak`` (N, the largest force a command's torque rendered on the hand,
     ``_observe_stylus_force``), ``published`` / ``received`` (channel name → messages),
-    ``phi_true`` (10, the load's φ about S in S, Eq. 6), ``offsets`` (6, N, N·m: the FT offsets in the latest
-    sample, heft's sign), ``next_due`` (s, the nominal time of the next message).
+    ``phi_true`` (10, φ about S in S of what the sensor carries now, Eq. 6), ``offsets`` (6, N, N·m: the FT
+    offsets in the latest sample, heft's sign), ``next_due`` (s, the nominal time of the next message),
+    ``truth`` (the ``TruthRecord`` of every FT sample with ``record_truth``, else None).
+
+    A "gripper_object" load has a gripper driver too: it closes on the object at ``grasp.grasp_at``
+    and opens at ``grasp.release_at`` (``GraspTimes``; by default the scenario's ``load.grasp_at``).
     """
 
     def __init__(self, scenario: Scenario, bus: lcm.LCM, channels: LcmChannels = LcmChannels(),
                  faults: FaultInjection | None = None, clutch_at: float = 0.0,
-                 clutch_release_at: float = math.inf, command_bus: lcm.LCM | None = None):
+                 clutch_release_at: float = math.inf, command_bus: lcm.LCM | None = None,
+                 grasp: GraspTimes | None = None, record_truth: bool = False):
         scenario.validate()
         self._faults = faults = faults or FaultInjection()
         faults.validate()
+        gripper = scenario.load.kind == "gripper_object"
+        if grasp is None:
+            grasp = GraspTimes(scenario.load.grasp_at) if gripper else GraspTimes()
+        grasp.validate()
+        if not gripper and grasp != GraspTimes():
+            raise ValueError(f"--grasp-at and --release-at need a 'gripper_object' load (e.g. --scenario grasp); "
+                             f"this scenario's load is {scenario.load.kind!r}")
+        self._grasp = grasp
         self._command_bus = command_bus = bus if command_bus is None else command_bus
         self._clutch = (clutch_at, clutch_release_at)
-        self._rates = (channels.master_state.rate, channels.slave_status.rate, channels.ft_sample.rate)
-        self._ticks = [1, 1, 1]
-        self._due = [1.0 / rate for rate in self._rates]
-        self._outlets = [_Outlet(bus, channel.name, i, faults) for i, channel in
-                         enumerate((channels.master_state, channels.slave_status, channels.ft_sample))]
+        drivers = [channels.master_state, channels.slave_status, channels.ft_sample] + (
+            [channels.gripper_state] if gripper else [])
+        self._rates = tuple(channel.rate for channel in drivers)
+        self._ticks = [1] * len(drivers)
+        self._due = [1.0 / rate for rate in self._rates] + [math.inf] * (_GRIPPER + 1 - len(drivers))
+        self._outlets = [_Outlet(bus, channel.name, _GRIPPER_STREAM if i == _GRIPPER else i, faults)
+                         for i, channel in enumerate(drivers)]
         self._delayed = collections.deque()  # (release time (s), sample index, payload) of FT samples
         self._haptic_commands = LcmMailbox(command_bus, channels.master_command.name, keep=64)
         self._slave_commands = LcmMailbox(command_bus, channels.slave_command.name, keep=64)
@@ -353,13 +304,17 @@ class StandIn:
         arm, _ = MakeArmPlant(scenario.robot)
         self._max_setpoint_step = arm.GetVelocityUpperLimits() * slave_period  # rad per status step
         self._slave_step = 2 * math.pi / scenario.encoder_counts_per_rev  # rad per encoder count
-        self._sensor_frame = _SensorFrame(scenario)
-        self._sensor_frame.update(self._slave[0], self._slave[1], np.zeros(NUM_JOINTS))
-        self.phi_true = self._sensor_frame.phi
+        self._velocity = (EncoderVelocityEstimator(quantize(self._slave[0], self._slave_step), slave_period,
+                                                   scenario.slave_velocity_filter)
+                          if scenario.slave_velocity_filter > 0 else None)  # else the filter's own q̇
+        self._wrist = Wrist(scenario, slave_period, grasp, self._slave[0])
+        self._wrist.update(0.0, self._slave[0], self._slave[1], np.zeros(NUM_JOINTS))
 
         ft_period = 1.0 / channels.ft_sample.rate
-        self._ft = _SixAxisSampler(scenario.ft_sensor, FORCE_TORQUE_STREAM, ft_period)
-        self._accelerometer = _SixAxisSampler(scenario.accelerometer, ACCELEROMETER_STREAM, ft_period)
+        per_step = max(1, round(channels.ft_sample.rate / channels.slave_status.rate))  # FT samples per arm step
+        self._ft = SixAxisSampler(scenario.ft_sensor, FORCE_TORQUE_STREAM, ft_period, per_step)
+        self._accelerometer = SixAxisSampler(scenario.accelerometer, ACCELEROMETER_STREAM, ft_period, per_step)
+        self.truth = TruthRecord(channels.ft_sample.rate, self._wrist.phis) if record_truth else None
         self.offsets = np.zeros(6)
         self._bits = 1 << np.arange(2 * NUM_AXES)
         # FT samples [first, end) on the held kinematics: wrench (sensor sign), acceleration, flags; offsets.
@@ -371,7 +326,7 @@ class StandIn:
         self._torque_until = -math.inf  # the driver's watchdog: no torque from this time on (s)
         self.master_torque = np.zeros(NUM_JOINTS)
 
-        self._messages = (heft_haptic_state(), lcmt_iiwa_status(), heft_ft_sample())
+        self._messages = (heft_haptic_state(), lcmt_iiwa_status(), heft_ft_sample(), heft_gripper_state())
         for msg in self._messages[:2]:
             msg.num_joints = NUM_JOINTS
         zeros = [0.0] * NUM_JOINTS
@@ -385,6 +340,15 @@ class StandIn:
     @property
     def master_position(self) -> np.ndarray:
         return self._master.position
+
+    @property
+    def phi_true(self) -> np.ndarray:
+        return self._wrist.phi
+
+    @property
+    def ft_samples_due(self) -> int:
+        """The FT samples whose time the lab's clock has reached (published, lost or after its death)."""
+        return self._ticks[_FT] - 1
 
     @property
     def published(self) -> dict[str, int]:
@@ -407,7 +371,7 @@ class StandIn:
         die_at = self._faults.die_at_s
         self._now = now
         self._take_commands(now)
-        due, handlers = self._due, (self._master_tick, self._slave_tick, self._ft_tick)
+        due, handlers = self._due, (self._master_tick, self._slave_tick, self._ft_tick, self._gripper_tick)
         end = now + _DUE_SLACK
         while True:
             # Ties go to the slave first (its step sets the kinematics the FT sample reads).
@@ -462,21 +426,23 @@ class StandIn:
 
     def _applied_torque(self, t: float) -> np.ndarray:
         """The torque (N·m) the haptic driver applies at ``t`` (s)."""
-        return self._torque_commanded if t < self._torque_until else np.zeros(NUM_JOINTS)
+        return self._torque_commanded if t < self._torque_until else _NO_TORQUE
 
     def _slave_tick(self, tick: int, t: float) -> None:
         x, u, w = self._slave, self._setpoint, self._w
         u += np.minimum(np.maximum(self.slave_command - u, -self._max_setpoint_step), self._max_setpoint_step)
         x[:] = self._A @ x + self._B * u
         q, qd = x
-        self._sensor_frame.update(q, qd, w * w * (u - q) - 2 * w * qd)  # q̈ of the filter's ODE
+        self._wrist.update(t, q, qd, w * w * (u - q) - 2 * w * qd)  # q̈ of the filter's ODE
+        measured = quantize(q, self._slave_step)
+        velocity = qd if self._velocity is None else self._velocity.update(measured)
         outlet = self._outlets[_SLAVE]
         if outlet.lost(tick, t):
             return
         msg = self._messages[_SLAVE]
         msg.utime = round(t * 1e6)
-        msg.joint_position_measured = quantize(q, self._slave_step).tolist()
-        msg.joint_velocity_estimated = qd.tolist()
+        msg.joint_position_measured = measured.tolist()
+        msg.joint_velocity_estimated = velocity.tolist()
         msg.joint_position_commanded, msg.joint_position_ipo = self.slave_command.tolist(), u.tolist()
         outlet.send(tick, msg.encode())
 
@@ -502,9 +468,11 @@ class StandIn:
         """Samples the wrist sensor from sample ``first`` until the next slave step, all on
         the kinematics held since the last one; keeps what the FT messages need."""
         last = max(first, math.ceil(self._due[_SLAVE] * self._rates[_FT] - 1e-6) - 1)
-        frame, count = self._sensor_frame, last - first + 1
-        wrench, self._ft_offsets, wrench_saturated = self._ft.sample(first, count, frame.wrench)
-        acceleration, _, acceleration_saturated = self._accelerometer.sample(first, count, frame.reading)
+        wrist, count = self._wrist, last - first + 1
+        wrench, self._ft_offsets, wrench_saturated = self._ft.sample(first, count, wrist.wrench)
+        acceleration, _, acceleration_saturated = self._accelerometer.sample(first, count, wrist.reading)
+        if self.truth is not None:
+            self.truth.add(first, count, wrist, self._ft_offsets)
         saturated = wrench_saturated @ self._bits[:NUM_AXES] + acceleration_saturated @ self._bits[NUM_AXES:]
         self._ft_rows = (first, last + 1, (-wrench).tolist(), acceleration.tolist(), saturated.astype(int).tolist())
 
@@ -532,24 +500,37 @@ class StandIn:
             outlet.send(tick, msg.encode())
 
 
+    def _gripper_tick(self, tick: int, t: float) -> None:
+        outlet = self._outlets[_GRIPPER]
+        if outlet.lost(tick, t):
+            return
+        msg, grasp = self._messages[_GRIPPER], self._grasp
+        msg.utime, msg.state, msg.width = round(t * 1e6), grasp.state(t), grasp.width(t)
+        outlet.send(tick, msg.encode())
+
+
 def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
                  faults: FaultInjection | None = None, clutch_at: float = 0.0, clutch_release_at: float = math.inf,
-                 clock=time.perf_counter, sleep=time.sleep, ready=None, stop=None) -> dict:
+                 clock=time.perf_counter, sleep=time.sleep, ready=None, stop=None, grasp: GraspTimes | None = None,
+                 truth_path=None) -> dict:
     """Runs ``StandIn`` on ``channels``' two URLs (``open_buses``) in real time on ``clock`` (s)
-    for ``duration`` s or until it dies, waiting between due messages: with the default
+    for ``duration`` s or until it dies, waiting between due messages (a late lab catches up
+    ``_MAX_STEP`` at a time): with the default
     ``sleep`` the wait is a ``select`` on the command bus that also ends when a command
     arrives; another ``sleep(seconds)`` (e.g. with a fake ``clock``) is called instead.
 
-    Returns {"duration_s": wall time run (s), "died", "published" / "received" (channel name →
-    messages), "published_hz" / "received_hz" (channel name → messages per wall second),
+    Returns {"duration_s": wall time run (s; the lab's own time may lag it), "died",
+    "published" / "received" (channel name → messages), "published_hz" / "received_hz" (channel name → messages per wall second),
     "max_lateness_ms": the latest a message was published after its nominal time, "cpu_s":
     this process's CPU time over the run, "stylus_force_peak": ``StandIn.stylus_force_peak``}.
     ``ready(epoch)``, if given, is called once the lab is built, as it starts publishing, with
     the wall-clock time (s since the Unix epoch) of its clock's zero, the time its ``utime``
-    stamps count from; ``stop()``, if given, ends the run early once it returns True.
+    stamps count from; ``stop()``, if given, ends the run early once it returns True. With a
+    ``truth_path``, the ``TruthRecord`` of the run is written there at the end (a .npz).
     """
     bus, command_bus = open_buses(channels)
-    lab = StandIn(scenario, bus, channels, faults, clutch_at, clutch_release_at, command_bus)
+    lab = StandIn(scenario, bus, channels, faults, clutch_at, clutch_release_at, command_bus, grasp,
+                  record_truth=truth_path is not None)
     if sleep is time.sleep:
         fd = command_bus.fileno()
 
@@ -561,20 +542,24 @@ def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
     cpu_start, start, epoch = time.process_time(), clock(), time.time()
     if ready is not None:
         ready(epoch)
-    now = 0.0
+    now = wall = 0.0
     while True:
-        lateness = max(lateness, now - lab.next_due)
+        lateness = max(lateness, wall - lab.next_due)
         alive = lab.step(now)
         if not alive or now >= duration - _DUE_SLACK or (stop is not None and stop()):
             break
         pause = min(lab.next_due, duration) - (clock() - start)
         if pause > _DUE_SLACK:
             wait(pause)
-        now = clock() - start
-    elapsed = max(now, 1e-9)
+        wall = clock() - start
+        now = min(wall, now + _MAX_STEP)
+    elapsed = max(clock() - start, 1e-9)
     published, received = lab.published, lab.received
-    return {"duration_s": now, "died": not alive, "published": published, "received": received,
-            "published_hz": {name: count / elapsed for name, count in published.items()},
-            "received_hz": {name: count / elapsed for name, count in received.items()},
-            "max_lateness_ms": 1e3 * lateness, "cpu_s": time.process_time() - cpu_start,
-            "stylus_force_peak": lab.stylus_force_peak}
+    summary = {"duration_s": elapsed, "died": not alive, "published": published, "received": received,
+               "published_hz": {name: count / elapsed for name, count in published.items()},
+               "received_hz": {name: count / elapsed for name, count in received.items()},
+               "max_lateness_ms": 1e3 * lateness, "cpu_s": time.process_time() - cpu_start,
+               "stylus_force_peak": lab.stylus_force_peak}
+    if truth_path is not None:
+        lab.truth.save(truth_path, lab.ft_samples_due)
+    return summary

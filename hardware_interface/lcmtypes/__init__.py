@@ -11,3 +11,4 @@ from .heft_haptic_state import heft_haptic_state as heft_haptic_state
 from .heft_load_command import heft_load_command as heft_load_command
 from .heft_load_status import heft_load_status as heft_load_status
 from .heft_station_status import heft_station_status as heft_station_status
+from .heft_teleop_state import heft_teleop_state as heft_teleop_state

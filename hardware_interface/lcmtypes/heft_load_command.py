@@ -11,8 +11,9 @@ class heft_load_command(object):
     """
     A request to the running controller about the load model it eliminates
     (heft.systems.offset_tracking): re-zero the sensor's offsets, switch their
-    tracking, or change the tool's estimate without restarting. `heft load`
-    sends it; the controller answers on the load status channel.
+    tracking, change the tool's estimate without restarting, or tell it that
+    the gripper grasped or released an object. `heft load` sends it; the
+    controller answers on the load status channel.
     """
 
     __slots__ = ["utime", "action", "phi", "offsets"]
@@ -25,6 +26,8 @@ class heft_load_command(object):
     TRACKING_ON = 2
     TRACKING_OFF = 3
     NEW_ESTIMATE = 4
+    GRASP = 5
+    RELEASE = 6
 
     def __init__(self):
         self.utime = 0
@@ -39,6 +42,9 @@ class heft_load_command(object):
         REZERO: measure the offsets at rest over the re-zero window.
         TRACKING_ON / TRACKING_OFF: switch slow offset tracking.
         NEW_ESTIMATE: use `phi` and `offsets` from now on (tool change).
+        GRASP: the gripper closed on an object: keep phi in use as the
+        gripper's, learn the object's (the online estimator's new-load window).
+        RELEASE: the gripper let go: back to the gripper's phi.
         LCM Type: int8_t
         """
 

@@ -41,8 +41,9 @@ class heft_station_status(object):
         """ LCM Type: double """
         self.num_channels = 0
         """
-        The watched channels (master_state, slave_status, ft_sample) and the
-        reasons a message is rejected for (heft.hardware_interface.message_checks).
+        The channels checked (master_state, slave_status, ft_sample, which the
+        watchdog watches, then gripper_state) and the reasons a message is
+        rejected for (heft.hardware_interface.message_checks).
         LCM Type: int32_t
         """
 

@@ -1,0 +1,252 @@
+"""The stand-in lab's wrist: the JR3's sampled measurement, the motion of its frame S by Drake,
+the load on its compliant mount (``mount.MountUnderMovingSensor``), the gripper that grasps and
+releases the scenario's object, and the truth of every sensor sample (``TruthRecord``).
+
+Wrenches here are heft's (DESIGN §4): [f; τ] the sensor exerts on the load, at S, in S (N, N·m);
+the JR3 driver publishes them negated (``stand_in``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+from pydrake.multibody.tree import JacobianWrtVariable
+
+from heft.diagrams import mount
+from heft.diagrams.plants import MakeSlavePlant, mount_for, phi_about_S
+from heft.diagrams.scenario import Scenario
+from heft.hardware_interface.lcmtypes import heft_gripper_state
+from heft.systems.accelerometer_reading import reading_from_motion
+from heft.systems.load_dynamics import GRAVITY_W, regressor
+from heft.systems.sensor_models import (NUM_AXES, HeldLowpass, SixAxisMeasurement, SixAxisSensorParams, lowpass,
+                                        lowpass_coefficients)
+from heft.systems.slave_kinematics import NUM_JOINTS
+
+GRIPPER_CLOSING_S = 0.2
+"""How long (s) the gripper's fingers take from open to closed on the object (assumed: a Schunk
+PG 70 class servo-electric gripper closes its 15 mm per jaw in a few tenths of a second)."""
+GRIPPER_OPEN_WIDTH_M = 0.07
+"""Finger opening when open (m; assumed, the PG 70's 2 × 35 mm stroke, recalled)."""
+OBJECT_WIDTH_M = 0.04
+"""Finger opening when holding (m): the 40 mm steel cube of ``gripper_object.urdf``."""
+_AT_TIME = 1e-9
+"""Event times are reached this close (s; round-off of k/rate)."""
+_NOISE_BLOCK = 64
+"""Sensor samples whose noise and offsets are drawn at once."""
+
+
+class SixAxisSampler:
+    """``sensor_models.SixAxisMeasurement`` of one instrument sampled every ``period`` s:
+    sample j (t = j·period, j ≥ 1) with the draws of sample index j, as the simulated
+    sensor's; offsets and noise are drawn ``_NOISE_BLOCK`` samples at a time. Its input is
+    held over ``held_count`` samples at a time, mostly (the arm's step)."""
+
+    def __init__(self, params: SixAxisSensorParams, stream: int, period: float, held_count: int):
+        self._model, self._period = SixAxisMeasurement(params, stream, period), period
+        self._lowpass = lowpass_coefficients(params.lowpass_cutoff, period)  # the sensor's filter at this rate
+        self._held_lowpass = None if self._lowpass is None else HeldLowpass(self._lowpass, held_count)
+        self._lowpass_state = np.full((2, NUM_AXES), np.nan)
+        self._walk = np.zeros(NUM_AXES)
+        # Offsets and offsets + noise of samples start, start + 1, ...
+        self._start, self._offsets, self._disturbance = 1, np.zeros((0, NUM_AXES)), np.zeros((0, NUM_AXES))
+
+    def _draw_block(self, keep_from: int) -> None:
+        """Appends the next ``_NOISE_BLOCK`` samples, forgetting those before ``keep_from``."""
+        first = self._start + len(self._offsets)
+        index = np.arange(first, first + _NOISE_BLOCK)
+        offsets, disturbance, self._walk = self._model.disturbance(index * self._period, self._model.normals(index),
+                                                                   self._walk)
+        drop = max(0, min(keep_from, first) - self._start)
+        self._offsets = np.concatenate((self._offsets[drop:], offsets))
+        self._disturbance = np.concatenate((self._disturbance[drop:], disturbance))
+        self._start += drop
+
+    def sample(self, first: int, count: int, value: np.ndarray):
+        """(measured, offsets o_j, saturated flags (0/1)), each (count, 6), of samples
+        j = first … first + count − 1 of the true ``value`` (6,); ``first`` ≥ 1 never decreases."""
+        while first + count > self._start + len(self._offsets):
+            self._draw_block(first)
+        rows = slice(first - self._start, first - self._start + count)
+        if self._lowpass is not None:
+            if count == self._held_lowpass.count and not np.isnan(self._lowpass_state[0, 0]):
+                value = self._held_lowpass(self._lowpass_state, value)
+            else:
+                value = lowpass(self._lowpass, self._lowpass_state, np.repeat(value[np.newaxis], count, axis=0))
+        measured, saturated = self._model.measure(value + self._disturbance[rows])
+        return measured, self._offsets[rows], saturated
+
+
+@dataclasses.dataclass(frozen=True)
+class GraspTimes:
+    """When the gripper closes on the object (``grasp_at``, s; inf: it holds it from the start, as a
+    "gripper_object" load without ``load.grasp_at``) and opens again (``release_at``, s; inf: never).
+    Its fingers close for ``GRIPPER_CLOSING_S``; the object weighs on the sensor from then (HOLDING)
+    until the release (OPEN at once: the object is let go)."""
+
+    grasp_at: float = math.inf
+    release_at: float = math.inf
+
+    def validate(self) -> None:
+        """Raises ValueError saying which time is wrong and what to give."""
+        if not (self.grasp_at > 0):  # NaN too
+            raise ValueError(f"--grasp-at must be a time > 0 (s) or inf; got {self.grasp_at}")
+        if not (self.release_at > 0) or (math.isfinite(self.grasp_at) and not self.release_at > self.grasp_at):
+            raise ValueError(f"--release-at must be a time (s) after the grasp at {self.grasp_at:g} s, or inf; "
+                             f"got {self.release_at}")
+
+    def holding(self, t: float) -> bool:
+        """Whether the object weighs on the sensor at ``t`` (s)."""
+        return t + _AT_TIME < self.release_at and (math.isinf(self.grasp_at)
+                                                   or t + _AT_TIME >= self.grasp_at + GRIPPER_CLOSING_S)
+
+    def state(self, t: float) -> int:
+        """The driver's state at ``t`` (s): ``heft_gripper_state`` OPEN, CLOSING or HOLDING."""
+        if self.holding(t):
+            return heft_gripper_state.HOLDING
+        if self.grasp_at <= t + _AT_TIME and t + _AT_TIME < self.release_at:
+            return heft_gripper_state.CLOSING
+        return heft_gripper_state.OPEN
+
+    def width(self, t: float) -> float:
+        """The finger opening (m) at ``t`` (s): closing linearly from open to the object's width."""
+        state = self.state(t)
+        if state == heft_gripper_state.CLOSING:
+            closed = (t - self.grasp_at) / GRIPPER_CLOSING_S
+            return GRIPPER_OPEN_WIDTH_M + closed * (OBJECT_WIDTH_M - GRIPPER_OPEN_WIDTH_M)
+        return OBJECT_WIDTH_M if state == heft_gripper_state.HOLDING else GRIPPER_OPEN_WIDTH_M
+
+
+class Wrist:
+    """The slave arm with its wrist sensor and load, evaluated by Drake at each of the arm's steps
+    (``period`` s): the motion of S from the joint state, the load on its compliant mount (the
+    scenario's ``MountSpec``, sized to the load as the simulated station's, ``mount_for``; welded at S
+    for ``load.mount.rigid``), the gripper holding the object per ``grasp``.
+
+    Readable after ``update``: ``wrench`` (what the sensor exerts on the load: w_S, the load's
+    non-contact wrench moved to S, as there is no contact), ``wrench_object`` (the object's share, the
+    simulated station's ``truth.wrench_noncontact_object``: V at L's motion times φ − φ_gripper while
+    holding, else zero), ``acceleration`` ([a; α] of S in W, expressed in S; m/s², rad/s²),
+    ``reading`` (what the accelerometer reports, ``accelerometer_reading``), ``phi`` (φ about S of
+    what the sensor carries, Eq. 6: the gripper alone or with its object), ``phi_gripper``."""
+
+    def __init__(self, scenario: Scenario, period: float, grasp: GraspTimes, q0):
+        plant, parts = MakeSlavePlant(scenario)
+        self._plant, self._context = plant, plant.CreateDefaultContext()
+        self._W, self._S = plant.world_frame(), parts.S
+        self._accelerometer = scenario.accelerometer.convention()
+        self._grasp = grasp
+        phi_load = phi_about_S(plant, parts.S, parts.load_bodies)
+        self.phi_gripper = (phi_about_S(plant, parts.S, parts.gripper_bodies) if parts.gripper_bodies
+                            else np.zeros(10))
+        self.phis = {True: phi_load, False: self.phi_gripper}
+        """φ of what the sensor carries while the gripper holds the object, and while not."""
+        self.holding = grasp.holding(0.0)
+        self.phi = self.phis[self.holding]
+        self._phi_object = phi_load - self.phi_gripper if parts.gripper_bodies else None  # a tool: none
+        if self._phi_object is not None:
+            self._object_inertia = mount.inertia_in_wrench_order(self._phi_object)
+        self._origin = np.zeros(3)
+        self._x = np.zeros(2 * NUM_JOINTS)
+        self.wrench, self.wrench_object = np.zeros(6), np.zeros(6)
+        self.acceleration, self.reading = np.zeros(6), np.zeros(6)
+        self._rigid, self._deflection_acceleration = np.zeros(6), np.zeros(6)
+        if scenario.load.mount.rigid:
+            self._mounts = None
+        else:
+            constants = mount_for(scenario)
+            self._mounts = {holding: mount.MountUnderMovingSensor(constants, phi, period)
+                            for holding, phi in self.phis.items() if phi[0] > 0}  # a tool: always "holding"
+            self._motion(q0, np.zeros(NUM_JOINTS), np.zeros(NUM_JOINTS))
+            self._mount_state = self._mounts[self.holding].at_rest(self._rigid)  # settled under the load
+
+    def _motion(self, q, qd, qdd) -> np.ndarray:
+        """Sets ``acceleration``, ``reading`` and the rigid wrench V·φ from the joint state; returns V."""
+        plant, context, W, S = self._plant, self._context, self._W, self._S
+        self._x[:NUM_JOINTS], self._x[NUM_JOINTS:] = q, qd
+        plant.SetPositionsAndVelocities(context, self._x)
+        R_SW = plant.CalcRelativeTransform(context, W, S).rotation().matrix().T
+        J = plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV, S, self._origin, W, W)
+        bias = plant.CalcBiasSpatialAcceleration(context, JacobianWrtVariable.kV, S, self._origin, W, W)
+        A_WS_W = J @ qdd + bias.get_coeffs()  # [α; a] in W
+        alpha_a = A_WS_W.reshape(2, 3) @ R_SW.T  # rows α, a in S
+        self.acceleration[:3], self.acceleration[3:] = alpha_a[1], alpha_a[0]
+        a, alpha = self.acceleration[:3], self.acceleration[3:]
+        omega = R_SW @ (J[:3] @ qd)
+        gravity = R_SW @ GRAVITY_W
+        self.reading[:] = reading_from_motion(self.acceleration, gravity, omega, self._accelerometer)
+        V = regressor(a, alpha, omega, gravity)
+        np.dot(V, self.phi, out=self._rigid)
+        return V
+
+    def update(self, t: float, q, qd, qdd) -> None:
+        """Evaluates the wrist at time ``t`` (s; the gripper's state then) and joint positions ``q``
+        (rad), velocities ``qd`` (rad/s), accelerations ``qdd`` (rad/s²); steps the mount on to the
+        next step, the motion held."""
+        holding = self._grasp.holding(t)
+        if holding != self.holding:
+            self.holding, self.phi = holding, self.phis[holding]
+        V = self._motion(q, qd, qdd)
+        if self._mounts is None:
+            self.wrench[:] = self._rigid
+            self._deflection_acceleration[:] = 0.0
+        else:
+            self._mounts[holding].step(self._mount_state, self._rigid, self.wrench, self._deflection_acceleration)
+        if holding and self._phi_object is not None:  # the object moves with L: V(S's motion)·φ_obj + M_obj·ξ̈
+            np.dot(V, self._phi_object, out=self.wrench_object)
+            self.wrench_object += self._object_inertia @ self._deflection_acceleration
+        else:
+            self.wrench_object[:] = 0.0
+
+
+class TruthRecord:
+    """What the stand-in's wrist sensor carried at each of its samples, one row per sample it took
+    (published or lost), in heft's convention (the module's): the samples between two of the arm's
+    steps carry that step's truth, as the sensor's input is held. ``save`` writes a compressed
+    NumPy archive (``numpy.load``) with ``sample_counter`` (N,) and ``utime`` (N, µs on the stand-in's
+    clock), as in the published ``heft_ft_sample``; ``phi`` (N, 10, Eq. 6: what the sensor carries);
+    ``wrench_noncontact``, ``wrench_noncontact_object``, ``wrench_contact`` (N, 6: the load's own
+    wrench, the object's share of it, and contact, zero: the stand-in has no environment);
+    ``ft_offsets`` (N, 6, the offsets inside the measurement); ``phi_gripper`` (10). Kept per arm
+    step while running (a few µs), expanded to samples when read."""
+
+    def __init__(self, rate: float, phis: dict[bool, np.ndarray]):
+        self._rate, self._phis = rate, phis  # ``Wrist.phis``: holding the object, and not
+        self._steps = np.zeros((1024, 15))  # first sample, count, holding, wrench, wrench_object
+        self._offsets = np.zeros((4096, NUM_AXES))
+        self._count, self._samples = 0, 0
+
+    def add(self, first: int, count: int, wrist: Wrist, offsets: np.ndarray) -> None:
+        """Samples ``first`` … ``first + count − 1`` of the sensor (at ``rate`` Hz) on the ``wrist``'s
+        present truth, with their ``offsets`` (count, 6)."""
+        if self._count == len(self._steps):
+            self._steps = np.concatenate((self._steps, np.zeros_like(self._steps)))
+        if self._samples + count > len(self._offsets):
+            self._offsets = np.concatenate((self._offsets, np.zeros((len(self._offsets) + count, NUM_AXES))))
+        row = self._steps[self._count]
+        row[0], row[1], row[2] = first, count, wrist.holding
+        row[3:9], row[9:15] = wrist.wrench, wrist.wrench_object
+        self._offsets[self._samples:self._samples + count] = offsets
+        self._count, self._samples = self._count + 1, self._samples + count
+
+    def arrays(self, through: int | None = None) -> dict[str, np.ndarray]:
+        """The record as named arrays (the archive's), of the samples up to counter ``through`` (the
+        last the lab's clock reached; the sensor samples ahead to the arm's next step), else all."""
+        steps = self._steps[:self._count]
+        counts = steps[:, 1].astype(np.int64)
+        rows = np.repeat(np.arange(self._count), counts)
+        counters = np.repeat(steps[:, 0].astype(np.int64), counts) + (
+            np.arange(len(rows)) - np.repeat(np.cumsum(counts) - counts, counts))
+        keep = slice(None) if through is None else counters <= through
+        rows, counters = rows[keep], counters[keep]
+        holding = steps[rows, 2].astype(bool)
+        return {"sample_counter": counters, "utime": np.round(counters / self._rate * 1e6).astype(np.int64),
+                "phi": np.where(holding[:, None], self._phis[True], self._phis[False]),
+                "wrench_noncontact": steps[rows, 3:9], "wrench_noncontact_object": steps[rows, 9:15],
+                "wrench_contact": np.zeros((len(rows), 6)), "ft_offsets": self._offsets[:self._samples][keep],
+                "phi_gripper": self._phis[False]}
+
+    def save(self, path, through: int | None = None) -> None:
+        """Writes ``arrays(through)`` to ``path`` (a .npz)."""
+        np.savez_compressed(path, **self.arrays(through))

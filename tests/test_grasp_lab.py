@@ -1,0 +1,99 @@
+"""The grasp on hardware in one process: `heft stand-in`'s lab (``StandIn``, the grasp scenario, its
+gripper closing on the 0.5 kg block at 2 s) and the controller on the hardware station
+(``HardwareTeleop``: estimator online, η = 0.5, σ = 0, force scale 1), both stepped on one
+explicit clock over memq://, so that the machine's load cannot make either late. The controller
+starts from the gripper's φ alone, re-zeroes the sensor at rest (``heft load --rezero``'s command:
+the offsets then take in what the accelerometer's bias makes of the gripper's weight, as an
+identification's would) and hears the grasp from the gripper's driver; the slave follows the
+operator's strokes from ``MOVE_FROM`` s until the clutch is let go at ``STILL_FROM`` s, then holds still. Judged by
+``grasp_judge`` against the stand-in's truth (the issue's done-when, which
+``test_two_process_grasp`` judges across two processes)."""
+
+import lcm
+import pytest
+
+from heft.diagrams.load_estimate import LoadEstimate
+from heft.diagrams.running.hardware_teleop import HardwareTeleop
+from heft.diagrams.running.simulation import true_load
+from heft.diagrams.scenario import layered, overrides_text, resolve_scenario
+from heft.diagrams.stations.stand_in import FaultInjection, StandIn
+from heft.diagrams.stations.stand_in_wrist import GRIPPER_CLOSING_S, GraspTimes
+from heft.hardware_interface.channels import LcmChannels
+from heft.hardware_interface.lcmtypes import heft_load_command
+
+from grasp_judge import judge, report
+
+pytestmark = pytest.mark.slow
+
+PERIOD = 0.0005
+MOVE_FROM, GRASP_AT, STILL_FROM, END = 1.0, 2.0, 4.5, 6.5
+REZERO_AT = 0.25  # s: healthy, the forces ramped in, the slave at rest
+WAIT = 0.2  # s after the grasp before learning (controller.estimator.new_load_wait): 2/prefilter
+ETA, BOUND, MAX_FORCE = 0.5, 0.05, 8.5
+
+
+@pytest.fixture(scope="module")
+def lab_run():
+    """The run, judged from 1 s after the grasp (the done-when's) and from 2 s."""
+    lab_scenario = layered(resolve_scenario("grasp"), overrides_text({"operator.start_time": MOVE_FROM}))
+    scenario = layered(lab_scenario, overrides_text({
+        "controller.estimator.mode": "online", "controller.force.eta": ETA, "controller.force.sigma": 0.0,
+        "controller.feedback.force_scale": 1.0, "controller.estimator.new_load_wait": WAIT}))
+    truth_load, phi_gripper = true_load(lab_scenario)
+    bus = lcm.LCM("memq://")
+    stand_in = StandIn(lab_scenario, bus, LcmChannels(), FaultInjection(), 0.0, STILL_FROM,
+                       grasp=GraspTimes(GRASP_AT), record_truth=True)
+    teleop = HardwareTeleop(scenario, LoadEstimate(phi=phi_gripper, offsets=truth_load.offsets), bus, LcmChannels())
+    station = teleop.station
+    commands, master, slave = [], [], []
+    now = 0.0
+    for _ in range(round(END / PERIOD)):
+        now += PERIOD
+        stand_in.step(now)
+        if now - PERIOD < REZERO_AT <= now:
+            command = heft_load_command()
+            command.utime, command.action = round(now * 1e6), heft_load_command.REZERO
+            bus.publish(LcmChannels().load_command.name, command.encode())
+        teleop.tick(now, PERIOD)
+        commands.append((now, station.torque_sent.copy(), station.healthy))
+        master.append((now, station.master_position.copy()))
+        slave.append((now, station.slave_position.copy()))
+    summary = teleop.summary(END)
+    print(summary["load_events"])
+    holding_from = GRASP_AT + GRIPPER_CLOSING_S
+    results = {after: judge(stand_in.truth.arrays(), summary["estimator"]["phi_history"],
+                            summary["estimator"]["phi_gripper"], commands, master, slave, robot=scenario.robot,
+                            eta=ETA, force_scale=1.0, learned_by=holding_from + after, still_from=STILL_FROM, end=END)
+               for after in (1.0, 2.0)}
+    for after, result in results.items():
+        print(f"from {after:g} s after the grasp:\n{report(result)}")
+    return summary, results
+
+
+def test_the_grasp_is_heard_from_the_driver_and_the_object_learned(lab_run):
+    summary, results = lab_run
+    events = summary["load_events"]
+    assert "re-zeroed" in events[1] and events[2].startswith("gripper driver: grasp"), events
+    assert summary["estimator"]["holding"]
+    assert results[1.0]["object_mass"] > 0.4
+    assert results[1.0]["mass_error_max"] <= 0.02  # from 1 s after the grasp on
+
+
+def test_holding_still_the_stylus_feels_eta_of_the_objects_weight(lab_run):
+    _, results = lab_run
+    result = results[1.0]
+    assert result["still_expected_force"] == pytest.approx(ETA * result["object_mass"] * 9.81, rel=0.02)
+    assert len(result["still"]) > 50 and max(result["still"]) <= BOUND
+
+
+def test_the_stylus_force_stays_within_the_devices_limits(lab_run):
+    _, results = lab_run
+    assert results[1.0]["stylus_force_peak"] <= MAX_FORCE + 1e-9
+
+
+@pytest.mark.xfail(strict=True, reason="not met yet: while moving, the fed-back force is off by up to 7.8 % of the "
+                                       "object's weight (p50 3.5 %): the README's grasp section")
+def test_while_moving_the_stylus_follows_contact_and_eta_of_the_objects_wrench(lab_run):
+    _, results = lab_run
+    result = results[1.0]
+    assert len(result["moving"]) > 50 and max(result["moving"]) <= BOUND

@@ -1,0 +1,85 @@
+"""The stand-in's compliant mount (``mount.MountUnderMovingSensor``) against Drake: the paper's tool
+released undeflected on its mount below a still, tilted sensor rings as Drake's own multibody plant
+of the same load on the same bushing does (the sensor's wrench from the weld's reaction force); its
+discrete step is stable at the stand-in's rate for every bundled load."""
+
+import numpy as np
+import pytest
+from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import FixedOffsetFrame
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+
+from heft.diagrams import mount
+from heft.diagrams.plants import _add_compliant_mount, _add_load, load_phi, mount_for
+from heft.diagrams.scenario import DEFAULT_MOUNT, LoadSpec, resolve_scenario
+from heft.systems.drake_conventions import wrench_from_spatial_force
+from heft.systems.load_dynamics import GRAVITY_W, regressor
+
+PERIOD = 0.0005  # s, the stand-in's slave step
+R_WS = RollPitchYaw(0.4, -0.7, 0.3).ToRotationMatrix()  # the sensor tilted: gravity on every axis of S
+
+
+def drake_ring_down(load: LoadSpec, constants, times):
+    """The wrench [f; τ] on the load at S in S (the plate's weld reaction) at ``times`` (s) after the
+    load is released undeflected and at rest, Drake's continuous plant integrated to 1e-10."""
+    builder = DiagramBuilder()
+    plant = builder.AddSystem(MultibodyPlant(time_step=0.0))
+    S = plant.AddFrame(FixedOffsetFrame("S", plant.world_frame(), RigidTransform(R_WS, [0.3, 0.1, 0.5])))
+    bodies, _ = _add_load(plant, load)  # a gripper and its object welded together
+    weld, joint = _add_compliant_mount(plant, S, bodies[0], constants)
+    plant.mutable_gravity_field().set_gravity_vector(GRAVITY_W)
+    plant.Finalize()
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    simulator.get_mutable_integrator().set_target_accuracy(1e-10)
+    context = simulator.get_mutable_context()
+    plant_context = plant.GetMyContextFromRoot(context)
+    joint.SetPose(plant_context, RigidTransform())
+    out = []
+    for t in times:
+        simulator.AdvanceTo(t)
+        reaction = plant.get_reaction_forces_output_port().Eval(plant_context)[weld.index()]
+        out.append(wrench_from_spatial_force(reaction))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("kind", ["tool", "gripper_object"])
+def test_a_released_load_rings_on_its_mount_as_drakes_plant_does(kind):
+    load = LoadSpec(kind=kind)
+    phi = load_phi(load)
+    model = mount.MountUnderMovingSensor(DEFAULT_MOUNT, phi, PERIOD)
+    g_S = R_WS.matrix().T @ GRAVITY_W
+    rigid = regressor(np.zeros(3), np.zeros(3), np.zeros(3), g_S) @ phi  # the sensor holding the load still
+    steps = 400  # 0.2 s: ten periods of the rocking mode
+    state, wrench, acceleration = np.zeros(12), np.empty(6), np.empty(6)
+    ours = []
+    for _ in range(steps):
+        model.step(state, rigid, wrench, acceleration)
+        ours.append(wrench.copy())
+    ours = np.array(ours)
+    drake = drake_ring_down(load, DEFAULT_MOUNT, np.arange(steps) * PERIOD)
+    ringing = drake - rigid
+    # It rings: at release the sensor holds nothing, then swings about the load's weight.
+    np.testing.assert_allclose(drake[0], 0.0, atol=1e-9)
+    assert np.abs(ringing[steps // 2:, :3]).max() > 0.05 * np.abs(rigid[:3]).max()
+    for axes in (slice(0, 3), slice(3, 6)):  # forces (N), torques (N·m): within 0.5 % of the ringing's peak
+        assert np.abs(ours[:, axes] - drake[:, axes]).max() < 0.005 * np.abs(ringing[:, axes]).max()
+    # And settles on the weight, as the static closed form says.
+    np.testing.assert_allclose(model.output @ model.at_rest(rigid), rigid, atol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["fig6", "grasp"])
+def test_the_step_is_stable_at_the_stand_ins_rate(name):
+    """Every eigenvalue of the step inside the unit circle, and the decay per step what the modes on
+    a still sensor (``modes_on_fixed_sensor``) say: e^(−ζ·ω·T) for the least damped."""
+    scenario = resolve_scenario(name)
+    phi = load_phi(scenario.load)
+    constants = mount_for(scenario)
+    model = mount.MountUnderMovingSensor(constants, phi, PERIOD)
+    radius = np.abs(np.linalg.eigvals(model.transition))
+    modes = mount.modes_on_fixed_sensor(phi, constants)
+    omega = 2 * np.pi * modes.frequencies
+    assert radius.max() < 1.0
+    assert radius.max() == pytest.approx(np.exp(-(modes.damping_ratios * omega).min() * PERIOD), abs=2e-4)

@@ -1,0 +1,157 @@
+"""The paper's Sec. V across two processes: `heft teleop --hardware` with the estimator online
+(η = 0.5, σ = 0, force scale 1) against `heft stand-in --scenario grasp --grasp-at 2`.
+
+The controller starts from the gripper's φ alone; a third process, `heft load --rezero`, re-zeroes
+the sensor at rest; the stand-in's gripper closes on the 0.5 kg block at 2 s while the slave follows
+the operator's strokes (from ``MOVE_FROM`` s), and the clutch is let go at ``STILL_FROM`` s so that
+the slave then holds still. Judged by ``grasp_judge`` from what the processes wrote — the
+controller's φ̂ every 10 ms and its recorded traffic (the master torques through the Phantom's
+Jacobian at the positions its driver published last) — against the stand-in's recorded truth of
+every FT sample (``test_grasp_lab`` judges the same in one process, on one explicit clock).
+
+Nothing here asserts how fast the machine is; a stand-in that could not keep its clock (a busy
+machine) skips the judging with its lateness. Times: the controller's commands carry wall-clock
+stamps, the stand-in's messages and truth its own clock, whose zero it prints as wall-clock time;
+both go on the stand-in's clock.
+"""
+
+import json
+import re
+import time
+
+import lcm
+import numpy as np
+import pytest
+import yaml
+from drake import lcmt_iiwa_status
+
+from heft.diagrams.commands.options import lab_settings_text
+from heft.diagrams.running.simulation import true_load
+from heft.diagrams.scenario import overrides_text, resolve_scenario
+from heft.diagrams.stations.stand_in_wrist import GRIPPER_CLOSING_S
+from heft.hardware_interface.channels import LcmChannels
+from heft.hardware_interface.lcmtypes import heft_haptic_command, heft_haptic_state
+
+from grasp_judge import judge, report
+from test_two_process import FOREVER, LCM_URL, _Process, _stop_all, _summary, layered_dict
+
+pytestmark = pytest.mark.slow
+
+MOVE_FROM, GRASP_AT, STILL_FROM, END = 1.8, 2.0, 4.5, 6.5
+ETA, BOUND, MAX_FORCE = 0.5, 0.05, 8.5
+WAIT = 0.2  # s after the grasp before learning (controller.estimator.new_load_wait): 2/prefilter
+LATE_MS = 20.0
+"""A stand-in publishing later than this (ms; the watchdog's timeout) behind its clock is not the lab
+in real time: its run is not judged (skipped, with the lateness and its CPU time)."""
+
+
+def _settings() -> str:
+    lab = yaml.safe_load(lab_settings_text(resolve_scenario("grasp")))
+    ours = yaml.safe_load(overrides_text({"controller.estimator.mode": "online", "controller.force.eta": ETA,
+                                          "controller.force.sigma": 0.0, "controller.feedback.force_scale": 1.0,
+                                          "controller.estimator.new_load_wait": WAIT}))
+    return yaml.safe_dump(layered_dict(lab, ours), default_flow_style=True)
+
+
+def _traffic(log, epoch: float):
+    """From the controller's recording, on the stand-in's clock (s): its master commands (t, torques,
+    enabled; stamped on the wall clock), the Phantom driver's and the arm driver's states (t, positions)."""
+    channels = LcmChannels()
+    commands, master, slave = [], [], []
+    for event in lcm.EventLog(str(log), "r"):
+        if event.channel == channels.master_command.name:
+            msg = heft_haptic_command.decode(event.data)
+            commands.append((msg.utime * 1e-6 - epoch, np.array(msg.torque), msg.enable))
+        elif event.channel == channels.master_state.name:
+            msg = heft_haptic_state.decode(event.data)
+            master.append((msg.utime * 1e-6, np.array(msg.position)))
+        elif event.channel == channels.slave_status.name:
+            msg = lcmt_iiwa_status.decode(event.data)
+            slave.append((msg.utime * 1e-6, np.array(msg.joint_position_measured)))
+    return sorted(commands, key=lambda c: c[0]), sorted(master, key=lambda m: m[0]), sorted(slave, key=lambda m: m[0])
+
+
+@pytest.fixture(scope="module")
+def two_process_run(tmp_path_factory):
+    from conftest import network_namespace
+
+    folder = tmp_path_factory.mktemp("grasp")
+    with network_namespace() as netns:
+        return _run(netns, folder)
+
+
+def _run(netns, folder):
+    scenario = resolve_scenario("grasp")
+    truth_load, phi_gripper = true_load(scenario)
+    estimate = folder / "gripper.yaml"  # the gripper identified alone (its true φ and the sensor's offsets)
+    estimate.write_text(f"phi: {phi_gripper.tolist()}\noffsets: {truth_load.offsets.tolist()}\n")
+    log, stand_in_out = folder / "traffic.lcmlog", folder / "stand_in.json"
+    teleop = stand_in = rezero = None
+    try:
+        teleop = _Process(netns, folder, "teleop", "teleop", "--hardware", "--scenario", "grasp", "--lcm-url",
+                          LCM_URL, "--set", _settings(), "--estimate", str(estimate), "--duration", FOREVER,
+                          "--record", str(log), "--out", str(folder / "teleop.json"))
+        teleop.wait_for("teleop: running")
+        stand_in = _Process(netns, folder, "stand_in", "stand-in", "--scenario", "grasp", "--lcm-url", LCM_URL,
+                            "--set", overrides_text({"operator.start_time": MOVE_FROM}), "--duration", str(END + 1.0),
+                            "--grasp-at", str(GRASP_AT), "--clutch-at", "0", "--clutch-release-at", str(STILL_FROM),
+                            "--out", str(stand_in_out))
+        stand_in.wait_for("stand-in: publishing")
+        rezero = _Process(netns, folder, "rezero", "load", "--lcm-url", LCM_URL, "--rezero", "--timeout", "30")
+        epoch = float(re.search(r"stamps count from ([0-9.]+) s", stand_in.text()).group(1))
+        while time.time() < epoch + END:
+            assert stand_in.popen.poll() is None, stand_in.text()
+            time.sleep(0.1)
+        summary = _summary(teleop, folder)
+        assert stand_in.wait() == 0, stand_in.text()
+        rezero.wait(timeout=30)
+    finally:
+        _stop_all(teleop, stand_in, rezero)
+    print(stand_in.text(), rezero.text())
+    lab = json.loads(stand_in_out.read_text())
+    if lab["max_lateness_ms"] > LATE_MS:
+        pytest.skip(f"the stand-in published up to {lab['max_lateness_ms']:.0f} ms behind its own clock (CPU "
+                    f"{lab['cpu_s']:.1f} s over {lab['duration_s']:.1f} s): a machine this busy cannot play the lab "
+                    "in real time, so the grasp is not judged across processes here (test_grasp_lab judges it in "
+                    "one process, on one clock)")
+    truth = np.load(folder / "stand_in.truth.npz")
+    commands, master, slave = _traffic(log, epoch)
+    history = [(summary["epoch"] + t - epoch, phi) for t, phi in summary["estimator"]["phi_history"]]
+    holding_from = GRASP_AT + GRIPPER_CLOSING_S
+    results = {after: judge(truth, history, summary["estimator"]["phi_gripper"] or phi_gripper, commands, master,
+                            slave, robot=scenario.robot, eta=ETA, force_scale=1.0, learned_by=holding_from + after,
+                            still_from=STILL_FROM, end=END)
+               for after in (1.0, 2.0)}
+    for after, result in results.items():
+        print(f"from {after:g} s after the grasp:\n{report(result)}")
+    return summary, lab, rezero.text(), results
+
+
+def test_the_grasp_is_heard_and_the_object_learned(two_process_run):
+    summary, _, rezero, results = two_process_run
+    assert "re-zeroed" in rezero, rezero
+    assert summary["estimator"]["holding"], summary["load_events"]
+    assert any(event.startswith("gripper driver: grasp") for event in summary["load_events"])
+    assert results[1.0]["object_mass"] > 0.4
+    assert results[1.0]["mass_error_max"] <= 0.02  # from 1 s after the grasp on
+
+
+def test_holding_still_the_stylus_feels_eta_of_the_objects_weight(two_process_run):
+    _, _, _, results = two_process_run
+    result = results[1.0]
+    assert result["still_expected_force"] == pytest.approx(ETA * result["object_mass"] * 9.81, rel=0.02)
+    assert len(result["still"]) > 50 and max(result["still"]) <= BOUND
+
+
+def test_the_stylus_force_stays_within_the_devices_limits(two_process_run):
+    summary, lab, _, results = two_process_run
+    assert results[1.0]["stylus_force_peak"] <= MAX_FORCE + 1e-9 and lab["stylus_force_peak"] <= MAX_FORCE + 1e-9
+    assert summary["stylus_force_peak"] <= MAX_FORCE + 1e-9 and summary["master_torque_finite"]
+
+
+@pytest.mark.xfail(strict=True, reason="not met yet, as in one process (test_grasp_lab): while moving the fed-back "
+                                       "force is off by up to 7.8 % of the object's weight")
+def test_while_moving_the_stylus_follows_contact_and_eta_of_the_objects_wrench(two_process_run):
+    _, _, _, results = two_process_run
+    result = results[1.0]
+    assert len(result["moving"]) > 50 and max(result["moving"]) <= BOUND
