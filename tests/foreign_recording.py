@@ -236,3 +236,44 @@ def _export_poses(poses: StaticPoses, folder: Path, orientation: str, robot: str
     if orientation == "joint_positions":
         section["robot"] = robot
     return section
+
+
+def export_teleop_run(folder, scenario: Scenario, log: dict, angular: bool = False) -> Path:
+    """Writes a closed-loop run's log (``heft.diagrams.running.simulation.run_teleop``) in the lab's layout
+    to ``folder``: every 2 kHz sensor sample of the run, each stream with its own stamps (µs) — the wrench
+    on the sensor's sign, the accelerometer's linear axes in g in its own axes (``to_lab_accelerometer``),
+    stamped ``ACCELEROMETER_CLOCK_LATE`` late, the arm's joint angles — and the recording YAML, which
+    states the accelerometer's orientation, bias and position and leaves its clock offset to estimate.
+    Returns the YAML's path."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    t = np.asarray(log["t"])
+    fx, fy, fz, tx, ty, tz = (-np.asarray(log["wrench_measured"])).T
+    _write_csv(folder / "ft.csv", ["stamp_us", "status", "Fz", "Fx", "Fy", "Tx", "Tz", "Ty"],
+               [_stamps_us(t), np.zeros(len(t), dtype=int), fz, fx, fy, tx, tz, ty],
+               ["{:d}", "{:d}"] + ["{:.6f}"] * 6)
+    reading = to_lab_accelerometer(np.asarray(log["accel_measured"])[:, :3])
+    accelerometer_columns = ["acc_x_g", "acc_y_g", "acc_z_g"]
+    values = [reading[:, 2], reading[:, 0], reading[:, 1]]
+    if angular:  # the JR3's angular channels (rad/s²), in the accelerometer's axes
+        accelerometer_columns += ["alpha_x", "alpha_y", "alpha_z"]
+        values += list((np.asarray(log["accel_measured"])[:, 3:] @ ACCELEROMETER_R_SA).T)
+    _write_csv(folder / "imu.csv", ["seq", "imu_time_us", "acc_z_g", "acc_x_g", "acc_y_g"] + accelerometer_columns[3:],
+               [np.arange(len(t)), _stamps_us(t + ACCELEROMETER_CLOCK_LATE)] + values,
+               ["{:d}", "{:d}"] + ["{:.7f}"] * len(values))
+    names, columns, formats = _orientation_columns("joint_positions", log["slave_q"], None)
+    _write_csv(folder / "robot.csv", ["time_us"] + names, [_stamps_us(t)] + columns, ["{:d}"] + formats)
+    document = {
+        "wrench": {"file": "ft.csv", "time": {"column": "stamp_us", "unit": "us"},
+                   "columns": ["Fx", "Fy", "Fz", "Tx", "Ty", "Tz"], "exerted_on": "sensor"},
+        "accelerometer": {"file": "imu.csv", "time": {"column": "imu_time_us", "unit": "us", "offset": "estimate"},
+                          "columns": accelerometer_columns, "unit": "g", "includes_gravity": True,
+                          "R_SA": ACCELEROMETER_R_SA.tolist(),
+                          "p_SA": [float(x) for x in scenario.accelerometer.position],
+                          "bias": ACCELEROMETER_BIAS_G.tolist()},
+        "orientation": {"file": "robot.csv", "time": {"column": "time_us", "unit": "us"}, "kind": "joint_positions",
+                        "columns": names, "robot": scenario.robot},
+        "gravity_W": [0.0, 0.0, -9.81]}
+    path = folder / "recording.yaml"
+    path.write_text(yaml.safe_dump(document, sort_keys=False))
+    return path
