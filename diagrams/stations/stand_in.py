@@ -520,7 +520,8 @@ def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
     arrives; another ``sleep(seconds)`` (e.g. with a fake ``clock``) is called instead.
 
     Returns {"duration_s": wall time run (s; the lab's own time may lag it), "died",
-    "published" / "received" (channel name → messages), "published_hz" / "received_hz" (channel name → messages per wall second),
+    "published" / "received" (channel name → messages), "published_hz" / "received_hz"
+    (channel name → messages per wall second),
     "max_lateness_ms": the latest a message was published after its nominal time, "cpu_s":
     this process's CPU time over the run, "stylus_force_peak": ``StandIn.stylus_force_peak``}.
     ``ready(epoch)``, if given, is called once the lab is built, as it starts publishing, with
