@@ -1,5 +1,6 @@
-"""The judge of the grasp on hardware (issue's done-when), shared by the in-process and the
-two-process test: from what the controller sent and learned, against the stand-in's recorded truth.
+"""The judge of the grasp on hardware (its targets: README, "The grasp on hardware"), shared by
+the in-process and the two-process test: from what the controller sent and learned, against the
+stand-in's recorded truth.
 
 Every time is on the stand-in's clock (s). ``judge`` takes
 

@@ -6,7 +6,7 @@ starts from the gripper's φ alone, re-zeroes the sensor at rest (``heft load --
 the offsets then take in what the accelerometer's bias makes of the gripper's weight, as an
 identification's would) and hears the grasp from the gripper's driver; the slave follows the
 operator's strokes from ``MOVE_FROM`` s until the clutch is let go at ``STILL_FROM`` s, then holds still. Judged by
-``grasp_judge`` against the stand-in's truth (the issue's done-when, which
+``grasp_judge`` against the stand-in's truth (the README's targets, which
 ``test_two_process_grasp`` judges across two processes)."""
 
 import lcm
@@ -34,7 +34,7 @@ ETA, BOUND, MAX_FORCE = 0.5, 0.05, 8.5
 
 @pytest.fixture(scope="module")
 def lab_run():
-    """The run, judged from 1 s after the grasp (the done-when's) and from 2 s."""
+    """The run, judged from 1 s after the grasp (the target's) and from 2 s."""
     lab_scenario = layered(resolve_scenario("grasp"), overrides_text({"operator.start_time": MOVE_FROM}))
     scenario = layered(lab_scenario, overrides_text({
         "controller.estimator.mode": "online", "controller.force.eta": ETA, "controller.force.sigma": 0.0,
