@@ -13,7 +13,7 @@ import numpy as np
 
 from .lcmtypes import heft_ft_sample
 from .message_checks import RANGE_MARGIN, Rejections
-from .message_order import AHEAD, BEHIND, OUT_OF_ORDER, SourceClock
+from .message_order import SourceClock
 
 
 class FtSampleReader:
@@ -61,13 +61,9 @@ class FtSampleReader:
             if sample.utime <= 0:
                 continue
             stamp = sample.utime * 1e-6
-            order = clock.check(stamp, now)
-            if order == OUT_OF_ORDER:
-                rejections.add("out_of_order")
-                continue
-            if order in (AHEAD, BEHIND):
-                clock.foreign(stamp, now)
-                rejections.add("stamped_ahead" if order == AHEAD else "stamped_behind")
+            reason = clock.rejection(stamp, now)
+            if reason is not None:
+                rejections.add(reason)
                 continue
             if sample.sample_counter <= self._counter and not clock.starts_source(now):
                 clock.foreign(stamp, now)

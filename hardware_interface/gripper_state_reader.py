@@ -16,7 +16,7 @@ import math
 
 from .lcmtypes import heft_gripper_state
 from .message_checks import Rejections
-from .message_order import AHEAD, BEHIND, OUT_OF_ORDER, SourceClock
+from .message_order import SourceClock
 
 GRASP, RELEASE = "grasp", "release"
 """The events ``GripperStateReader.take`` returns."""
@@ -58,12 +58,9 @@ class GripperStateReader:
         except Exception:  # whatever a malformed payload makes the generated decoder raise
             return "undecodable"
         stamp, clock = msg.utime * 1e-6, self.clock
-        order = clock.check(stamp, now)
-        if order == OUT_OF_ORDER:
-            return "out_of_order"
-        if order in (AHEAD, BEHIND):
-            clock.foreign(stamp, now)
-            return "stamped_ahead" if order == AHEAD else "stamped_behind"
+        reason = clock.rejection(stamp, now)
+        if reason is not None:
+            return reason
         if not math.isfinite(msg.width):
             return "non_finite"
         if msg.error:

@@ -15,7 +15,7 @@ import numpy as np
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
 from .message_checks import JointRange, Rejections
-from .message_order import AHEAD, BEHIND, LATE_TOLERANCE, OUT_OF_ORDER, SourceClock
+from .message_order import LATE_TOLERANCE, SourceClock
 
 
 def haptic_state_fields(msg) -> tuple:
@@ -66,12 +66,9 @@ class JointStateReader:
         if num_joints != NUM_JOINTS or len(position) != NUM_JOINTS or len(velocity) != NUM_JOINTS:
             return "joint_count"
         stamp, clock = utime * 1e-6, self.clock
-        order = clock.check(stamp, now)
-        if order == OUT_OF_ORDER:
-            return "out_of_order"
-        if order in (AHEAD, BEHIND):
-            clock.foreign(stamp, now)
-            return "stamped_ahead" if order == AHEAD else "stamped_behind"
+        reason = clock.rejection(stamp, now)
+        if reason is not None:
+            return reason
         if not math.isfinite(sum(position) + sum(velocity)):
             return "non_finite"
         if error:

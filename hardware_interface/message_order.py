@@ -57,10 +57,12 @@ class SourceClock:
     """The clock of one channel's source (module docstring), which gives way to another after
     ``silence`` s without a message.
 
-    ``check(stamp, now)`` classifies a message's stamp without changing anything; a reader
-    that then accepts the message calls ``accept(stamp, now)``, one that finds it foreign
-    calls ``foreign(stamp, now)``. ``conflict(now)`` tells whether a second publisher is on
-    the channel, ``on_probation(now)`` whether a new source is still on probation;
+    ``check(stamp, now)`` classifies a message's stamp without changing anything;
+    ``rejection(stamp, now)`` gives a reader the reason to reject it for, if any (counting a
+    foreign one). A reader that then accepts the message calls ``accept(stamp, now)``, one that
+    finds it foreign for another reason (a jump, a counter going back) calls
+    ``foreign(stamp, now)``. ``conflict(now)`` tells whether a second publisher is on the
+    channel, ``on_probation(now)`` whether a new source is still on probation;
     ``restarts`` counts the new sources after the first, ``offset`` is the source's clock
     offset (s), ``foreign_offset`` the last foreign message's (NaN before any)."""
 
@@ -88,6 +90,18 @@ class SourceClock:
         if drift < -CLOCK_TOLERANCE or stamp < self._last_stamp - LATE_TOLERANCE:
             return BEHIND
         return ACCEPTED if stamp > self._last_stamp else OUT_OF_ORDER
+
+    def rejection(self, stamp: float, now: float) -> str | None:
+        """None for a stamp ``check`` accepts; otherwise the reason a reader rejects its message
+        for: "out_of_order", or "stamped_ahead" / "stamped_behind" (foreign: counted towards a
+        conflict, ``foreign``)."""
+        order = self.check(stamp, now)
+        if order == ACCEPTED:
+            return None
+        if order == OUT_OF_ORDER:
+            return "out_of_order"
+        self.foreign(stamp, now)
+        return "stamped_ahead" if order == AHEAD else "stamped_behind"
 
     def starts_source(self, now: float) -> bool:
         """True if a message accepted at ``now`` would start a new source (the last one is silent)."""
