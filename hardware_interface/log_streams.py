@@ -82,7 +82,7 @@ def export_log_streams(log_path, folder, channels: LcmChannels | None = None) ->
 def _take_ft(data: bytes, table: _Table, left_out: Counter) -> None:
     try:
         msg = heft_ft_sample.decode(data)
-    except ValueError:
+    except Exception:  # whatever a malformed payload makes the generated decoder raise
         left_out["undecodable"] += 1
         return
     values = list(msg.wrench) + list(msg.acceleration)
@@ -101,7 +101,7 @@ def _take_ft(data: bytes, table: _Table, left_out: Counter) -> None:
 def _take_joints(data: bytes, table: _Table, left_out: Counter) -> None:
     try:
         msg = lcmt_iiwa_status.decode(data)
-    except ValueError:
+    except Exception:  # whatever a malformed payload makes the generated decoder raise
         left_out["undecodable"] += 1
         return
     if msg.num_joints != len(JOINT_COLUMNS):

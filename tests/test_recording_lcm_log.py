@@ -79,6 +79,8 @@ def write_log(path, duration=1.2, ft_rate=1000.0, joint_rate=250.0):
         events.append((t, channels.slave_status.name, msg))
     for t, channel, msg in sorted(events, key=lambda e: e[0]):
         log.write_event(int(1e6 * t), channel, msg.encode())
+    for channel in (channels.ft_sample.name, channels.slave_status.name):  # a truncated datagram on each
+        log.write_event(int(1e6 * duration), channel, msg.encode()[:20])
     log.close()
 
 
@@ -97,6 +99,7 @@ orientation: {{robot: rx90, time: {{offset: 4.0}}}}
     assert "1200 FT samples, 300 joint states" in metrics["choices"]["lcm_log"]
     assert "'stamped at or before the last': 2" in metrics["choices"]["lcm_log"]
     assert "'error flag': 1" in metrics["choices"]["lcm_log"]
+    assert metrics["choices"]["lcm_log"].count("'undecodable': 1") == 2
     assert metrics["intervals"] == []
     rms = metrics["residual_rms_without_contact"]
     # joints at 250 Hz differentiated for ω; the wrench reaches ~40 N and ~2 N·m
