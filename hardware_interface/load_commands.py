@@ -165,7 +165,10 @@ def send_load_command(channels: LcmChannels, action: str, phi=None, offsets=None
     answers = []
 
     def on_status(_channel, payload):
-        status = heft_load_status.decode(payload)
+        try:
+            status = heft_load_status.decode(payload)
+        except Exception:  # not an answer: another process's datagram, malformed
+            return
         if status.command_utime == command.utime:
             answers.append(status)
 
