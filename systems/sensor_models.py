@@ -47,6 +47,7 @@ from pydrake.systems.framework import LeafSystem
 from scipy.signal import butter, lfilter, lfilter_zi
 
 from .accelerometer_reading import AccelerometerConvention
+from heft.systems.compiled import compiled
 
 NUM_AXES = 6
 
@@ -221,12 +222,17 @@ def quantize(value, step) -> np.ndarray:
     return step * np.round(np.asarray(value, dtype=float) / step)
 
 
-def saturate(value, limit) -> tuple[np.ndarray, np.ndarray]:
-    """(``value`` clipped to ±``limit``, 1.0 on each axis that reached or passed its
-    limit, else 0.0), per axis."""
-    value = np.asarray(value, dtype=float)
-    limit = np.asarray(limit, dtype=float)
-    return np.minimum(np.maximum(value, -limit), limit), (np.abs(value) >= limit).astype(float)
+@compiled("void(float64[:, :], float64[:], float64[:], float64[:, :], float64[:, :])")
+def measure_rows(values, full_scale, step, out, saturated) -> None:
+    """Q(sat(v)) of each disturbed value v in ``values`` (m, 6) into ``out``, and into ``saturated``
+    1.0 on each axis that reached or passed its limit ±``full_scale`` (inf: no limit), else 0.0;
+    Q rounds to the nearest multiple of ``step`` (0: no rounding), as ``quantize``."""
+    for j in range(values.shape[0]):
+        for k in range(values.shape[1]):
+            v, limit = values[j, k], full_scale[k]
+            saturated[j, k] = 1.0 if abs(v) >= limit else 0.0
+            v = min(max(v, -limit), limit)
+            out[j, k] = step[k] * np.round(v / step[k]) if step[k] > 0.0 else v
 
 
 def drift_offsets(t, initial_offsets, drifted_offsets, time_constant: float) -> np.ndarray:
@@ -278,13 +284,23 @@ class HeldLowpass:
             accumulated, power = accumulated + power @ B, A @ power
         self._advance, self._input = power, accumulated[:, np.newaxis]
 
-    def __call__(self, state: np.ndarray, value: np.ndarray) -> np.ndarray:
-        """The ``count`` outputs (count, n) for ``value`` (n,) held; advances ``state`` (2, n, started:
-        not NaN) in place."""
-        out = self._free @ state
-        out += self._forced[:, np.newaxis] * value
-        state[:] = self._advance @ state + self._input * value
+    def __call__(self, state: np.ndarray, value: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """The ``count`` outputs (count, n) for ``value`` (n,) held, into ``out`` if given; advances
+        ``state`` (2, n, started: not NaN) in place."""
+        out = np.empty((self.count, len(value))) if out is None else out
+        _held_lowpass(self._free, self._forced, self._advance, self._input[:, 0], state, value, out)
         return out
+
+
+@compiled("void(float64[:, :], float64[:], float64[:, :], float64[:], float64[:, :], float64[:], float64[:, :])")
+def _held_lowpass(free, forced, advance, gain, state, value, out) -> None:
+    """``HeldLowpass.__call__``: out_j = free_j·z + forced_j·u, then z ← advance·z + gain·u, per column."""
+    for k in range(value.shape[0]):
+        z0, z1, u = state[0, k], state[1, k], value[k]
+        for j in range(out.shape[0]):
+            out[j, k] = free[j, 0] * z0 + free[j, 1] * z1 + forced[j] * u
+        state[0, k] = advance[0, 0] * z0 + advance[0, 1] * z1 + gain[0] * u
+        state[1, k] = advance[1, 0] * z0 + advance[1, 1] * z1 + gain[1] * u
 
 
 def _mix64(z: np.ndarray) -> np.ndarray:
@@ -335,6 +351,8 @@ class SixAxisMeasurement:
         self.step = (np.array(params.full_scale, dtype=float) / params.counts_per_full_scale
                      if effects and params.quantization else None)
         self.draws_noise = self.white_noise_rms is not None or self.drift_on
+        self._limits = np.full(NUM_AXES, np.inf) if self.full_scale is None else self.full_scale
+        self._steps = np.zeros(NUM_AXES) if self.step is None else self.step
         self.key = noise_key(params.seed, stream)
 
     def normals(self, sample_index) -> np.ndarray | None:
@@ -360,15 +378,16 @@ class SixAxisMeasurement:
             return offsets, offsets, walk
         return offsets, offsets + self.white_noise_rms * normals[:, :NUM_AXES], walk
 
-    def measure(self, value) -> tuple[np.ndarray, np.ndarray]:
-        """(Q(sat(value)), the saturation flags (0/1)) of disturbed values (…, 6)."""
+    def measure(self, value, out: np.ndarray | None = None,
+                saturated: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(Q(sat(value)), the saturation flags (0/1)) of disturbed values (…, 6), into ``out`` and
+        ``saturated`` (same shape, float) if given (``measure_rows``)."""
         value = np.asarray(value, dtype=float)
-        saturated = np.zeros(value.shape)
-        if self.full_scale is not None:
-            value, saturated = saturate(value, self.full_scale)
-        if self.step is not None:
-            value = quantize(value, self.step)
-        return value, saturated
+        out = np.empty(value.shape) if out is None else out
+        saturated = np.empty(value.shape) if saturated is None else saturated
+        measure_rows(value.reshape(-1, NUM_AXES), self._limits, self._steps, out.reshape(-1, NUM_AXES),
+                     saturated.reshape(-1, NUM_AXES))
+        return out, saturated
 
 
 # --- Drake systems ------------------------------------------------------------
