@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import os
 
+import numpy as np
+
 try:
     import numba
 except ImportError:  # a platform without numba's wheels
@@ -27,3 +29,11 @@ def compiled(signature: str):
     def decorate(kernel):
         return kernel if PURE_PYTHON else numba.njit(signature, cache=True, nogil=True)(kernel)
     return decorate
+
+
+def float_array(x):
+    """``x`` as a float64 ndarray a kernel takes: itself when it is one (no copy), else a copy (a list,
+    another dtype, or a read-only array, which the kernels' signatures do not admit)."""
+    if type(x) is np.ndarray and x.dtype == np.float64 and x.flags.writeable:
+        return x
+    return np.array(x, dtype=float)

@@ -41,14 +41,15 @@ from heft.systems.force_scaling import (
     next_memory_and_scales,
     notch_coefficients,
 )
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, pose_and_jacobian
+from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
+from heft.systems.serial_chain import GRAVITY, OMEGA, SerialChain
 from heft.systems.motion_scaling import IDENTITY_POSE, MotionScalingParams, motion_scaling_update
 from heft.systems.online_estimator import OnlineLoadEstimator
 from heft.systems.load_dynamics import GRAVITY_W, checked_load
 from heft.systems.offset_tracking import (OFFSETS, REQUESTS, STATUS, TRACKING, OffsetTrackingParams, initial_state,
                                           offsets_update, restart_rezero_window)
 from heft.systems.passivity_controller import PassivityParams, master_torque
-from heft.systems.pose_vectors import pose_vector
+from heft.systems.pose_vectors import POSE_SIZE, pose_into
 from heft.systems.rx_inverse_kinematics import RxKinematics
 from heft.systems.slave_inverse_kinematics import flange_target, ik_step
 from heft.systems.slave_kinematics import NUM_JOINTS
@@ -83,12 +84,10 @@ class RealtimeTeleopController:
         for params in (motion, force, feedback, passivity, offsets_tracking):
             params.validate()
         phi, offsets = checked_load(phi, offsets)
-        self._master, self._master_context = master, master.CreateDefaultContext()
-        self._B, self._E = master.GetFrameByName(BASE_FRAME), master.GetFrameByName(STYLUS_FRAME)
-        self._slave, self._slave_context = slave, slave.CreateDefaultContext()
-        self._R, self._S = slave.GetFrameByName(base_frame), slave.GetFrameByName("S")
-        self._arm = self._R.model_instance()
-        self._g_R = np.array(GRAVITY_W)  # R = W
+        self._master = SerialChain(master, master.GetFrameByName(BASE_FRAME), master.GetFrameByName(STYLUS_FRAME))
+        self._slave = SerialChain(slave, slave.GetFrameByName(base_frame), slave.GetFrameByName("S"),
+                                  GRAVITY_W)  # R = W
+        self._pose_BE, self._pose_RS = np.zeros(POSE_SIZE), np.zeros(POSE_SIZE)
         X_SF = X_FS.inverse()
         self._kinematics, self._R_SF, self._p_SF = kinematics, X_SF.rotation().matrix(), X_SF.translation()
         online = estimator is not None and estimator.mode == "online"
@@ -124,8 +123,9 @@ class RealtimeTeleopController:
         if slave_position.shape != (NUM_JOINTS,) or not np.isfinite(slave_position).all():
             raise ValueError(f"the slave's start position must be {NUM_JOINTS} finite joint angles; "
                              f"got {slave_position}")
-        self._slave.SetPositions(self._slave_context, self._arm, slave_position)
-        self.pose_RS_desired = pose_vector(self._slave.CalcRelativeTransform(self._slave_context, self._R, self._S))
+        self._slave.update(slave_position)
+        self.pose_RS_desired = np.empty(POSE_SIZE)
+        pose_into(self._slave.R, self._slave.p, self.pose_RS_desired)
         self._motion_memory = np.concatenate(([0.0, self._motion.translation_scale, self._motion.rotation_scale],
                                               IDENTITY_POSE, IDENTITY_POSE))
         self.position = np.clip(slave_position, self._kinematics.lower, self._kinematics.upper)
@@ -147,19 +147,17 @@ class RealtimeTeleopController:
         if not self.started:
             raise RuntimeError("RealtimeTeleopController.step before start(): start it from the measured "
                                "slave position once the station is healthy")
-        X_BE, J_M = pose_and_jacobian(self._master, self._master_context, self._B, self._E, master_position)
-        slave, scratch = self._slave, self._slave_context
-        slave.SetPositions(scratch, self._arm, slave_position)
-        slave.SetVelocities(scratch, self._arm, slave_velocity)
-        X_RS = slave.CalcRelativeTransform(scratch, self._R, self._S)
-        R_RS = X_RS.rotation().matrix()
-        omega_S = self._S.CalcAngularVelocity(scratch, self._R, self._S)
-        gravity_S = R_RS.T @ self._g_R
+        master, slave = self._master, self._slave
+        master.update(master_position)
+        slave.update(slave_position, slave_velocity)
+        J_M, R_RS, omega_S, gravity_S = master.J, slave.R, slave.motion[OMEGA], slave.motion[GRAVITY]
+        pose_into(master.R, master.p, self._pose_BE)
+        pose_into(R_RS, slave.p, self._pose_RS)
 
         # Motion scaling, then the slave IK on this tick's desired pose.
         motion = self._motion
         self._motion_memory, self.pose_RS_desired = motion_scaling_update(
-            self._motion_memory, self.pose_RS_desired, pose_vector(X_BE), clutch, pose_vector(X_RS),
+            self._motion_memory, self.pose_RS_desired, self._pose_BE, clutch, self._pose_RS,
             motion.translation_scale, motion.rotation_scale, self._R_RB_motion)
         self.position, self.reachable, _ = ik_step(
             self._kinematics, flange_target(self.pose_RS_desired, self._R_SF, self._p_SF), self.position,

@@ -15,10 +15,12 @@ import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import Frame
 
-from heft.systems.compiled import compiled
+from heft.systems.compiled import compiled, float_array
 
 MOTION_SIZE = 12
 """``SerialChain.motion``: [a (3, m/s²); α (3, rad/s²); ω (3, rad/s); g (3, m/s²)], all in E."""
+ACCELERATION, OMEGA, GRAVITY = slice(0, 6), slice(6, 9), slice(9, 12)
+"""[a; α], ω and g in ``SerialChain.motion``."""
 
 
 @compiled("void(float64[:, :], float64[:, :], float64[:, :], float64[:], float64[:], float64[:], float64[:], "
@@ -154,7 +156,8 @@ class SerialChain:
             body = joint.parent_body()
         self.joints = joints[::-1]
         context = plant.CreateDefaultContext()
-        plant.SetPositions(context, np.zeros(plant.num_positions()))
+        for joint in self.joints:
+            joint.set_angle(context, 0.0)
         n = len(self.joints)
         self._axes, self._points = np.zeros((n, 3)), np.zeros((n, 3))
         for i, joint in enumerate(self.joints):
@@ -174,7 +177,8 @@ class SerialChain:
 
     def update(self, q, qd=None, qdd=None) -> None:
         """Evaluates the chain at joint positions ``q`` (rad), velocities ``qd`` (rad/s; default 0) and
-        accelerations ``qdd`` (rad/s²; default 0), each (n,) float arrays."""
-        chain_kinematics(self._axes, self._points, self._M_R, self._M_p, q,
-                         self._zeros if qd is None else qd, self._zeros if qdd is None else qdd,
+        accelerations ``qdd`` (rad/s²; default 0), each (n,)."""
+        qd = self._zeros if qd is None else float_array(qd)
+        qdd = self._zeros if qdd is None else float_array(qdd)
+        chain_kinematics(self._axes, self._points, self._M_R, self._M_p, float_array(q), qd, qdd,
                          self._gravity_B, self.R, self.p, self.J, self.motion, self._work)

@@ -22,7 +22,8 @@ from heft.hardware_interface.lcmtypes import heft_load_command, heft_load_status
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.systems.load_dynamics import InertialParameters
 from heft.systems.offset_tracking import DONE, REFUSED_MOVING
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant, stylus_jacobian
+from drake_reference import stylus_jacobian
+from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant
 
 PERIOD = 0.0005
 TIMEOUT = HardwareStationParams().watchdog.timeout

@@ -230,7 +230,7 @@ class _Master:
     def stylus_force(self, torque, position) -> float:
         """|f| (N) of the wrench that joint ``torque`` (N·m) renders on the hand at joint
         ``position`` (rad): τ = J_Mᵀ·[f; τ_E]."""
-        self._chain.update(np.asarray(position, dtype=float))
+        self._chain.update(position)
         return float(np.linalg.norm(np.linalg.solve(self._chain.J.T, torque)[:3]))
 
     def update(self, t: float) -> None:
