@@ -5,7 +5,9 @@ field (5–20 µs a message). Once its length fields are fixed (``lengths``), a 
 is one big-endian record: the type's 8-byte fingerprint, then every field in declaration order,
 arrays flattened row-major. ``FixedLayout`` reads that record off the generated class itself
 (``__slots__``, ``__typenames__``, ``__dimensions__``), so the two cannot disagree, and packs a
-message from its values in one call (about 1 µs), for the drivers and loops that send at kHz rates.
+message from its values in one call (about 1 µs), or unpacks one into them, for the drivers and loops
+that send and read at kHz rates. A payload of another size or fingerprint is not of the layout:
+``unpack`` says so with None, and the generated decoder can tell what else it is.
 """
 
 from __future__ import annotations
@@ -24,7 +26,8 @@ class FixedLayout:
 
     def __init__(self, message_type, **lengths: int):
         self.fields: list[tuple[str, int]] = []
-        codes = ">8s"
+        self._slices: dict[str, slice] = {}
+        codes, start = ">8s", 1  # the values after the fingerprint
         for name, typename, dimensions in zip(message_type.__slots__, message_type.__typenames__,
                                               message_type.__dimensions__, strict=True):
             if typename not in _CODES:
@@ -37,7 +40,9 @@ class FixedLayout:
                                      f"FixedLayout({message_type.__name__}, {dimension}=...)")
                 count *= lengths[dimension] if isinstance(dimension, str) else dimension
             self.fields.append((name, count))
+            self._slices[name] = slice(start, start + count) if dimensions else start
             codes += f"{count}{_CODES[typename]}"
+            start += count
         unused = set(lengths) - set(message_type.__slots__)
         if unused:
             raise ValueError(f"{message_type.__name__} has no length field {', '.join(sorted(unused))}")
@@ -49,3 +54,14 @@ class FixedLayout:
     def pack(self, *values) -> bytes:
         """The encoded message of ``values``: every field of ``fields`` in order, arrays flattened."""
         return self._record.pack(self._fingerprint, *values)
+
+    def unpack(self, payload: bytes) -> tuple | None:
+        """The fingerprint and every value of ``payload`` (index them with ``field``), or None if it is
+        not a message of this layout (another size or type)."""
+        if len(payload) != self.size or not payload.startswith(self._fingerprint):
+            return None
+        return self._record.unpack(payload)
+
+    def field(self, name: str) -> int | slice:
+        """Where field ``name`` lies in ``unpack``'s tuple: an index, or a slice for an array."""
+        return self._slices[name]

@@ -45,3 +45,17 @@ def test_a_type_it_cannot_lay_out_is_refused_with_the_reason():
         FixedLayout(heft_load_status)
     with pytest.raises(ValueError, match="no length field num_torques"):
         FixedLayout(heft_haptic_state, num_joints=6, num_torques=1)
+
+
+def test_unpack_reads_what_the_generated_encoder_wrote_and_refuses_anything_else():
+    layout = FixedLayout(heft_haptic_state, num_joints=6)
+    msg = heft_haptic_state()
+    msg.utime, msg.num_joints, msg.buttons, msg.error = 123456, 6, 1, True
+    msg.position, msg.velocity, msg.torque_applied = [0.1 * i for i in range(6)], [-1.0] * 6, [2.5] * 6
+    values = layout.unpack(msg.encode())
+    assert values[layout.field("utime")] == 123456 and values[layout.field("buttons")] == 1
+    assert list(values[layout.field("position")]) == msg.position and values[layout.field("error")] == 1
+    assert layout.unpack(bytes(8) + msg.encode()[8:]) is None  # of the right size, another type's fingerprint
+    msg.num_joints, msg.position, msg.velocity, msg.torque_applied = 5, [0.0] * 5, [0.0] * 5, [0.0] * 5
+    assert layout.unpack(msg.encode()) is None  # another joint count: another size
+    assert layout.unpack(b"") is None
