@@ -24,9 +24,12 @@ leave gravity alone.
 """
 
 import dataclasses
+import functools
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
+
+from heft.systems.compiled import compiled, float_array
 
 
 @dataclasses.dataclass(frozen=True)
@@ -56,18 +59,33 @@ AT_S = AccelerometerConvention()
 """A specific-force reading at S's origin."""
 
 
+@functools.cache
+def kernel_convention(convention: AccelerometerConvention) -> tuple[bool, np.ndarray]:
+    """(includes_gravity, p_SA as an array): the convention as the kernels take it."""
+    return convention.includes_gravity, np.array(convention.p_SA)
+
+
+_NO_ROTATION = np.zeros(3)
+
+
 def _transport(linear, alpha, omega, p, sign: float) -> None:
     """``linear`` (…, 3) += sign·(α × p + ω × (ω × p)), in place: the acceleration of the point p
-    from that of the origin (sign 1) or back (sign −1). One sample in scalar arithmetic (it runs
-    every tick of the real-time controller), a batch with numpy."""
+    from that of the origin (sign 1) or back (sign −1). One sample by ``transport_one``, a batch
+    with numpy."""
     if omega is None:
         raise ValueError("a displaced accelerometer's reading moves to or from S only with ω (rad/s, in S)")
     if np.ndim(linear) > 1:
         linear += sign * (np.cross(alpha, p) + np.cross(omega, np.cross(omega, p)))
         return
-    px, py, pz = p
-    ax, ay, az = float(alpha[0]), float(alpha[1]), float(alpha[2])
-    wx, wy, wz = float(omega[0]), float(omega[1]), float(omega[2])
+    transport_one(linear, float_array(alpha), float_array(omega), float_array(p), sign)
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64[:], float64)")
+def transport_one(linear, alpha, omega, p, sign) -> None:
+    """``_transport`` of one sample (3,) in scalar arithmetic (it runs every tick of the controller)."""
+    px, py, pz = p[0], p[1], p[2]
+    ax, ay, az = alpha[0], alpha[1], alpha[2]
+    wx, wy, wz = omega[0], omega[1], omega[2]
     vx, vy, vz = wy * pz - wz * py, wz * px - wx * pz, wx * py - wy * px  # ω × p
     linear[0] += sign * (ay * pz - az * py + wy * vz - wz * vy)
     linear[1] += sign * (az * px - ax * pz + wz * vx - wx * vz)
@@ -91,13 +109,30 @@ def motion_from_reading(out: np.ndarray, reading, gravity, omega=None,
                         convention: AccelerometerConvention = AT_S) -> np.ndarray:
     """S's kinematic [a; α] into ``out``, (6,) or (N, 6), from the accelerometer's ``reading`` (same
     shape), the gravity g that goes with it into the dynamics and the angular velocity ω ((3,) or
-    (N, 3); only needed for a displaced accelerometer), all in S; returns ``out``."""
+    (N, 3); only needed for a displaced accelerometer), all in S; returns ``out``. One sample by
+    ``motion_from_reading_into``."""
+    if np.ndim(out) == 1 and (omega is not None or not convention.displaced):
+        motion_from_reading_into(out, float_array(reading), float_array(gravity),
+                                 _NO_ROTATION if omega is None else float_array(omega), *kernel_convention(convention))
+        return out
     out[...] = reading
     if convention.includes_gravity:
         out[..., :3] += gravity
     if convention.displaced:
         _transport(out[..., :3], out[..., 3:], omega, convention.p_SA, -1.0)
     return out
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64[:], boolean, float64[:])")
+def motion_from_reading_into(out, reading, gravity, omega, includes_gravity, p_SA) -> None:
+    """``motion_from_reading`` of one sample, the convention as ``includes_gravity`` and ``p_SA``."""
+    for i in range(6):
+        out[i] = reading[i]
+    if includes_gravity:
+        for i in range(3):
+            out[i] += gravity[i]
+    if p_SA[0] != 0.0 or p_SA[1] != 0.0 or p_SA[2] != 0.0:
+        transport_one(out[:3], out[3:], omega, p_SA, -1.0)
 
 
 class AccelerometerToMotion(LeafSystem):

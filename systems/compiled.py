@@ -27,7 +27,7 @@ def compiled(signature: str):
     """A decorator: the kernel compiled for ``signature`` (numba's, e.g. ``"void(float64[:], float64)"``;
     arrays of any layout), or the kernel itself when ``PURE_PYTHON``."""
     def decorate(kernel):
-        return kernel if PURE_PYTHON else numba.njit(signature, cache=True, nogil=True)(kernel)
+        return kernel if PURE_PYTHON else numba.njit(signature, cache=True)(kernel)
     return decorate
 
 

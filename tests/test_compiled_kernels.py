@@ -41,6 +41,29 @@ x = np.zeros((2, 6))
 for u in rng.uniform(-1, 1, (50, 6)):
     setpoint_step(A, B, x, u)
 out["setpoint"] = x
+from heft.systems.accelerometer_reading import AccelerometerConvention, motion_from_reading
+from heft.systems.force_scaling import (EVALUATION_SIZE, evaluate, initial_memory, next_memory_and_scales,
+                                        notch_coefficients)
+from heft.systems.pose_vectors import pose_into
+
+displaced = AccelerometerConvention(True, (0.01, -0.02, 0.03))
+phi, phi_gripper = rng.normal(0, 1, 10), rng.normal(0, 0.5, 10)
+notch, memory, scales = notch_coefficients(30.0, 2.0, 5e-4), initial_memory(), np.array([0.0, 1.0, 0.5])
+out["evaluation"], out["memory"], out["motion_S"], out["pose"] = [], [], [], []
+for k in range(30):
+    evaluation = np.empty(EVALUATION_SIZE)
+    wrench = rng.normal(0, 10, 6) if k != 12 else np.full(6, np.nan)  # one fault: decay, notch restarted
+    reading, omega, gravity = rng.normal(0, 3, 6), rng.normal(0, 1, 3), rng.normal(0, 5, 3)
+    evaluate(evaluation, wrench, reading, omega, gravity, phi, rng.normal(0, 1, 6), scales, memory, 0.9,
+             phi_gripper, displaced, notch)
+    next_memory_and_scales(memory, scales, evaluation, (1.0, 1.0, 0.3), 0.01, notch)
+    out["evaluation"].append(evaluation)
+    out["memory"].append(np.nan_to_num(memory, nan=-1.0))
+    out["motion_S"].append(motion_from_reading(np.empty(6), reading, gravity, omega, displaced))
+    pose = np.empty(7)
+    chain.update(rng.uniform(-3, 3, 6))
+    pose_into(chain.R, chain.p, pose)
+    out["pose"].append(pose)
 np.savez(sys.argv[1], **{name: np.asarray(value) for name, value in out.items()})
 """
 
