@@ -43,7 +43,7 @@ from heft.systems.force_scaling import (
 )
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 from heft.systems.serial_chain import GRAVITY, OMEGA, SerialChain
-from heft.systems.motion_scaling import IDENTITY_POSE, MotionScalingParams, motion_scaling_update
+from heft.systems.motion_scaling import IDENTITY_POSE, MotionScalingParams, motion_scaling_step
 from heft.systems.online_estimator import OnlineLoadEstimator
 from heft.systems.load_dynamics import GRAVITY_W, checked_load
 from heft.systems.offset_tracking import (OFFSETS, REQUESTS, STATUS, TRACKING, OffsetTrackingParams, initial_state,
@@ -87,7 +87,7 @@ class RealtimeTeleopController:
         self._master = SerialChain(master, master.GetFrameByName(BASE_FRAME), master.GetFrameByName(STYLUS_FRAME))
         self._slave = SerialChain(slave, slave.GetFrameByName(base_frame), slave.GetFrameByName("S"),
                                   GRAVITY_W)  # R = W
-        self._pose_BE, self._pose_RS = np.zeros(POSE_SIZE), np.zeros(POSE_SIZE)
+        self._pose_BE, self._pose_RS, self._pose_scratch = np.zeros((3, POSE_SIZE))
         X_SF = X_FS.inverse()
         self._kinematics, self._R_SF, self._p_SF = kinematics, X_SF.rotation().matrix(), X_SF.translation()
         online = estimator is not None and estimator.mode == "online"
@@ -156,9 +156,8 @@ class RealtimeTeleopController:
 
         # Motion scaling, then the slave IK on this tick's desired pose.
         motion = self._motion
-        self._motion_memory, self.pose_RS_desired = motion_scaling_update(
-            self._motion_memory, self.pose_RS_desired, self._pose_BE, clutch, self._pose_RS,
-            motion.translation_scale, motion.rotation_scale, self._R_RB_motion)
+        motion_scaling_step(self._motion_memory, self.pose_RS_desired, self._pose_BE, clutch, self._pose_RS,
+                            motion.translation_scale, motion.rotation_scale, self._R_RB_motion, self._pose_scratch)
         self.position, self.reachable, _ = ik_step(
             self._kinematics, flange_target(self.pose_RS_desired, self._R_SF, self._p_SF), self.position,
             self._kinematics.velocity * dt)

@@ -64,6 +64,16 @@ for k in range(30):
     chain.update(rng.uniform(-3, 3, 6))
     pose_into(chain.R, chain.p, pose)
     out["pose"].append(pose)
+from heft.systems.motion_scaling import IDENTITY_POSE, motion_scaling_update
+
+memory = np.concatenate(([0.0, 1.0, 1.0], IDENTITY_POSE, IDENTITY_POSE))
+desired, R_RB, out["desired"] = IDENTITY_POSE.copy(), chain.R.copy(), []
+for k in range(40):  # engaged, released at 10-14, the scales changed at 25
+    pose_BE = np.concatenate((rng.normal(0, 0.1, 3), rng.normal(0, 1, 4)))
+    scale = 1.0 if k < 25 else 0.5
+    memory, desired = motion_scaling_update(memory, desired, pose_BE, not 10 <= k < 15, out["pose"][k % 30],
+                                            2.0 * scale, scale, R_RB)
+    out["desired"].append(desired)
 np.savez(sys.argv[1], **{name: np.asarray(value) for name, value in out.items()})
 """
 
