@@ -27,7 +27,8 @@ from pydrake.multibody.plant import MultibodyPlant
 
 from heft.systems.accelerometer_reading import AccelerometerConvention, motion_from_reading
 from heft.systems.estimator_gate import EstimatorSpec
-from heft.systems.feedback_mapping import FeedbackMappingParams, rendered_wrench
+from heft.systems.compiled import float_array
+from heft.systems.feedback_mapping import FeedbackMappingParams, rendered_wrench_into
 from heft.systems.force_scaling import (
     CONTACT,
     EVALUATION_SIZE,
@@ -48,7 +49,7 @@ from heft.systems.online_estimator import OnlineLoadEstimator
 from heft.systems.load_dynamics import GRAVITY_W, checked_load
 from heft.systems.offset_tracking import (OFFSETS, REQUESTS, STATUS, TRACKING, OffsetTrackingParams, initial_state,
                                           offsets_update, restart_rezero_window)
-from heft.systems.passivity_controller import PassivityParams, master_torque
+from heft.systems.passivity_controller import PassivityParams, master_torque_into
 from heft.systems.pose_vectors import POSE_SIZE, pose_into
 from heft.systems.rx_inverse_kinematics import RxKinematics
 from heft.systems.slave_inverse_kinematics import flange_target, ik_step
@@ -106,8 +107,9 @@ class RealtimeTeleopController:
         self._motion, self._force, self._feedback = motion, force, feedback
         self._R_RB_motion = RotationMatrix(RollPitchYaw(motion.R_RB)).matrix()
         self._R_BR = RotationMatrix(RollPitchYaw(feedback.R_RB)).inverse().matrix()
-        self._max_damping = ((passivity.max_translational_damping, passivity.max_rotational_damping)
-                             if passivity.enabled else (0.0, 0.0))
+        self._max_damping = np.array((passivity.max_translational_damping, passivity.max_rotational_damping)
+                                     if passivity.enabled else (0.0, 0.0))
+        self._R_BS, self._twist, self._dissipated = np.zeros((3, 3)), np.zeros(6), np.zeros(2)
         self._requested = (force.sigma, force.gamma, force.eta)
         self._accelerometer = accelerometer
         self._evaluation = np.zeros(EVALUATION_SIZE)
@@ -177,11 +179,12 @@ class RealtimeTeleopController:
                 self._motion_S, acceleration, gravity_S, omega_S, self._accelerometer), omega_S, gravity_S,
                 evaluation[FAULT] > 0.5)
         feedback = self._feedback
-        self.master_wrench = rendered_wrench(evaluation[FEEDBACK], self._R_BR @ R_RS, feedback.force_scale,
-                                             feedback.torque_scale, feedback.max_force, feedback.max_torque)
-        self.torque, self.applied_wrench, self.energy, self.damping, _ = master_torque(
-            self.master_wrench, np.asarray(master_velocity, dtype=float), J_M, self.energy, dt, self._max_damping,
-            feedback.max_force, feedback.max_torque)
+        np.dot(self._R_BR, R_RS, out=self._R_BS)
+        rendered_wrench_into(evaluation[FEEDBACK], self._R_BS, feedback.force_scale, feedback.torque_scale,
+                             feedback.max_force, feedback.max_torque, self.master_wrench)
+        master_torque_into(self.master_wrench, float_array(master_velocity), J_M, self.energy, dt, self._max_damping,
+                           feedback.max_force, feedback.max_torque, self.torque, self.applied_wrench, self.damping,
+                           self._dissipated, self._twist)
 
     @property
     def wrench_feedback(self) -> np.ndarray:

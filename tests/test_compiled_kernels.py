@@ -74,6 +74,16 @@ for k in range(40):  # engaged, released at 10-14, the scales changed at 25
     memory, desired = motion_scaling_update(memory, desired, pose_BE, not 10 <= k < 15, out["pose"][k % 30],
                                             2.0 * scale, scale, R_RB)
     out["desired"].append(desired)
+from heft.systems.feedback_mapping import rendered_wrench
+from heft.systems.passivity_controller import master_torque
+
+energy, out["torque"], out["energy"] = np.zeros(2), [], []
+for k in range(40):  # the clamps act on about half of the samples
+    wrench = rendered_wrench(rng.normal(0, 8, 6), chain.R, 1.0, 1.0, 8.5, 0.188)
+    torque, applied, energy, damping, dissipated = master_torque(
+        rng.normal(0, 6, 6), rng.normal(0, 2, 6), out["J"][k % 10], energy, 5e-4, (20.0, 0.2), 8.5, 0.188)
+    out["torque"].append(np.concatenate((wrench, torque, applied, damping, dissipated)))
+    out["energy"].append(energy)
 np.savez(sys.argv[1], **{name: np.asarray(value) for name, value in out.items()})
 """
 
