@@ -6,7 +6,7 @@ from drake import lcmt_iiwa_command, lcmt_iiwa_status
 
 from heft.hardware_interface.fixed_layout import FixedLayout
 from heft.hardware_interface.lcmtypes import (heft_ft_sample, heft_gripper_state, heft_haptic_command,
-                                               heft_haptic_state, heft_load_status)
+                                               heft_haptic_state, heft_load_status, heft_teleop_state)
 
 _RANDOM = {"int8_t": lambda rng: int(rng.integers(-128, 128)), "int16_t": lambda rng: int(rng.integers(-2**15, 2**15)),
            "int32_t": lambda rng: int(rng.integers(-2**31, 2**31)),
@@ -15,7 +15,7 @@ _RANDOM = {"int8_t": lambda rng: int(rng.integers(-128, 128)), "int16_t": lambda
 
 
 @pytest.mark.parametrize("message_type,lengths", [
-    (heft_ft_sample, {}), (heft_gripper_state, {}), (heft_haptic_state, {"num_joints": 6}),
+    (heft_ft_sample, {}), (heft_gripper_state, {}), (heft_teleop_state, {}), (heft_haptic_state, {"num_joints": 6}),
     (heft_haptic_command, {"num_joints": 6}), (lcmt_iiwa_status, {"num_joints": 6}),
     (lcmt_iiwa_command, {"num_joints": 6, "num_torques": 0})])
 def test_pack_is_the_generated_encoding(message_type, lengths):
