@@ -137,11 +137,11 @@ class ControllerSpec:
     """The teleoperation controller's settings (its rate is ``Scenario.controller_period``).
 
     ``load_estimate``: an estimate.yaml written by ``heft identify``; empty means the
-    load is identified in simulation first (as in the paper's Sec. VI-B).
-    ``sigmas``: the σ values one ``heft simulate`` run compares (the paper's 1, 0.5, 0).
+    load is identified in simulation first (as in the paper's Sec. VI-B). The run's σ is
+    ``force.sigma``, its one home (the σ values ``heft simulate`` compares are that command's
+    study axis, laid over it run by run: ``diagrams.running.simulation``).
     """
     load_estimate: str = ""
-    sigmas: list[float] = dataclasses.field(default_factory=lambda: [1.0, 0.5, 0.0])
     motion: MotionScalingParams = dataclasses.field(default_factory=MotionScalingParams)
     # The contact fed back through a notch at the default mount's rocking mode (``MOUNT_ROCKING_HZ``).
     force: ForceScalingParams = dataclasses.field(
@@ -196,8 +196,6 @@ class Scenario:
                 raise ValueError(f"scenario field '{field}' {what}")
         need(self.experiment in ("", "fig6", "fig7", "fig8"), "experiment",
              f"must be '', 'fig6', 'fig7' or 'fig8', not {self.experiment!r}")
-        need(len(self.controller.sigmas) >= 1 and min(self.controller.sigmas) >= 0, "controller.sigmas",
-             "needs at least one σ >= 0")
         force = self.controller.force
         need(force.eta == 1.0 or force.phi_gripper is not None or math.isfinite(self.load.grasp_at)
              or self.controller.estimator.mode == "online",

@@ -86,7 +86,7 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     ik = builder.AddNamedSystem("slave_ik", SlaveInverseKinematics(kinematics, X_FS, slave_initial_q, period))
     force = builder.AddNamedSystem("force_scaling", ForceScalingElimination(
         spec.force, period, accelerometer))
-    feedback = builder.AddNamedSystem("feedback_mapping", FeedbackMapping(spec.feedback))
+    feedback = builder.AddNamedSystem("feedback_mapping", FeedbackMapping(spec.feedback, spec.motion.R_RB))
     passivity = builder.AddNamedSystem("passivity", PassivityController(
         spec.passivity, spec.feedback.max_force, spec.feedback.max_torque, period))
     estimation = spec.estimator

@@ -27,6 +27,20 @@ def lcm_channels(args) -> LcmChannels:
     return LcmChannels(lcm_url=args.lcm_url, command_url=args.command_url)
 
 
+def parse_numbers(text: str, option: str) -> list[float]:
+    """Comma-separated numbers ≥ 0 of ``option``; a ValueError names the bad one."""
+    values = []
+    for item in (part.strip() for part in text.split(",")):
+        try:
+            value = float(item)
+        except ValueError:
+            raise ValueError(f"{option} takes comma-separated numbers, e.g. 0,0.5,1; got {item!r}") from None
+        if not value >= 0:
+            raise ValueError(f"{option} values must be >= 0; got {item}")
+        values.append(value)
+    return values
+
+
 def add_set(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--set", metavar="YAML", help="scenario fields laid over it, nested as in a scenario file, "
                                                       "e.g. '{controller: {force: {gamma: 0.5}}}' (applied last)")
@@ -60,7 +74,7 @@ LAB_SETTINGS = {
 """Fields whose defaults describe the simulated lab: how a real lab finds its value, and an example."""
 
 
-def _stated(text: str) -> set[str]:
+def stated_fields(text: str) -> set[str]:
     """The dotted names of the leaves a scenario YAML ``text`` sets."""
     def leaves(node, prefix):
         if not isinstance(node, dict):
@@ -76,7 +90,7 @@ def require_lab_settings(args, *fields: str) -> None:
     how to find it, and how to give it."""
     from heft.diagrams.scenario import overrides_text, scenario_path
 
-    stated = _stated(scenario_path(args.scenario).read_text()) | _stated(args.set or "")
+    stated = stated_fields(scenario_path(args.scenario).read_text()) | stated_fields(args.set or "")
     missing = [name for name in fields if name not in stated]
     if missing:
         example = overrides_text({name: LAB_SETTINGS[name][1] for name in missing})
