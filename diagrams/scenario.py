@@ -4,7 +4,7 @@ Load with :func:`resolve_scenario` (a bundled name or a file, optionally with
 YAML text layered over it); change one with :func:`layered` (YAML text) or
 :func:`overrides_text` (dotted field names → that text): the one override path
 of the CLI, the sweeps and the tests. A malformed file or override gets a
-ValueError naming the field. Units are SI; frames as DESIGN §4 (W world, R slave
+ValueError naming the field. Units are SI; frames as docs/design.md §4 (W world, R slave
 base, B master base).
 """
 

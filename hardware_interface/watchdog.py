@@ -1,5 +1,5 @@
 """Receive watchdog over the hardware's LCM channels, in wall-clock time
-(DESIGN §6: UR 20 ms, dVRK 30 ms).
+(docs/design.md §6: UR 20 ms, dVRK 30 ms).
 
 A channel is stale when its age (s of the station's clock since its last good
 message; inf before the first) exceeds the timeout; the controller itself is

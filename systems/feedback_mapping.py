@@ -1,6 +1,6 @@
 """Force feedback to the master (Fig. 4: f′ → f̄_M, τ̄_M → m̄_M = J_Mᵀ·[f̄_M; τ̄_M]).
 
-Sign: f′ = [f; τ] is what the sensor exerts ON THE LOAD (DESIGN §4). The operator
+Sign: f′ = [f; τ] is what the sensor exerts ON THE LOAD (docs/design.md §4). The operator
 must feel what the environment does to the tool, and the environment's (and
 gravity's) wrench on the load is, in equilibrium, minus the sensor's. So
 
@@ -37,7 +37,7 @@ class FeedbackMappingParams:
     """k_τ (master N·m per slave N·m)."""
 
     max_force: float = 8.5
-    """Largest force magnitude rendered (N): Phantom Premium 1.5 6DoF, CHAI3D's table (DESIGN §6)."""
+    """Largest force magnitude rendered (N): Phantom Premium 1.5 6DoF, CHAI3D's table (docs/design.md §6)."""
 
     max_torque: float = 0.188
     """Largest torque magnitude rendered (N·m): same source."""

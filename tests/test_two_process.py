@@ -2,7 +2,7 @@
 
 Both run inside a network namespace this test creates (only its own `lo`, with
 the multicast route on it) on ``udpm://239.255.76.67:7667?ttl=0``, so no packet
-can leave the machine (DESIGN §5). Needs root and `ip`; skipped otherwise.
+can leave the machine (docs/design.md §5). Needs root and `ip`; skipped otherwise.
 No assertion here depends on how fast the machine is: each process is waited for by
 what it prints when it is up ("stand-in: publishing", "teleop: running"), the controller
 runs until the test has seen what it needs and then stops it with SIGTERM (it stops as at
