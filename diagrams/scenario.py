@@ -20,6 +20,8 @@ from pydrake.common.yaml import yaml_load_typed
 from pydrake.multibody.plant import MultibodyPlantConfig
 from pydrake.systems.analysis import SimulatorConfig
 
+from heft.hardware_interface.channels import LcmChannels
+from heft.hardware_interface.hardware_station import HardwareStationParams
 from heft.systems.estimator_gate import EstimatorSpec
 from heft.systems.feedback_mapping import FeedbackMappingParams
 from heft.systems.force_scaling import ForceScalingParams
@@ -156,6 +158,18 @@ class ControllerSpec:
 
 
 @dataclasses.dataclass
+class LabSpec:
+    """The lab's hardware, for the commands that talk to it over LCM (``teleop --hardware``,
+    ``identify --hardware``, ``stand-in``, ``load``, ``bench lcm``): the LCM URLs and channels, and
+    the hardware station's limits (its watchdog). One scenario file per lab, as Drake's
+    ``hardware_sim`` keeps its ``lcm_buses`` and drivers in its scenario; the controller's rate is
+    ``Scenario.controller_period``, and the limits the drivers' messages are checked against come
+    from the scenario's robot models and sensors (``diagrams.device_limits``)."""
+    lcm: LcmChannels = dataclasses.field(default_factory=LcmChannels)
+    station: HardwareStationParams = dataclasses.field(default_factory=HardwareStationParams)
+
+
+@dataclasses.dataclass
 class Scenario:
     """One simulated station and run. ``experiment`` names which of the paper's
     experiments it replays ("fig6", "fig7", "fig8"), choosing metrics and figure; "" for none."""
@@ -170,6 +184,7 @@ class Scenario:
     accelerometer: AccelerometerParams = dataclasses.field(default_factory=AccelerometerParams)
     operator: OperatorSpec = dataclasses.field(default_factory=OperatorSpec)
     controller: ControllerSpec = dataclasses.field(default_factory=ControllerSpec)
+    lab: LabSpec = dataclasses.field(default_factory=LabSpec)
     # The slave's discrete MultibodyPlant (Drake's config; its time_step is the master plant's too):
     # SAP with the lagged approximation, point contact (ContactWrenchAtSensor sums point contacts).
     plant: MultibodyPlantConfig = dataclasses.field(default_factory=lambda: MultibodyPlantConfig(
@@ -178,7 +193,7 @@ class Scenario:
     # How a simulation runs (Drake's config, ApplySimulatorConfig): target_realtime_rate 1 paces it
     # to the wall clock; the defaults run as fast as they can.
     simulator: SimulatorConfig = dataclasses.field(default_factory=SimulatorConfig)
-    controller_period: float = 0.0005       # s, 2 kHz
+    controller_period: float = 0.0005       # s, 2 kHz (on hardware too: the loop's rate)
     slave_servo_stiffness: list[float] = dataclasses.field(
         default_factory=lambda: [4e4, 4e4, 2e4, 2e3, 2e3, 5e2])  # N·m/rad, the robot's own joint loop
     slave_servo_damping_ratio: float = 1.0
@@ -242,7 +257,7 @@ class Scenario:
         need(math.isfinite(self.slave_velocity_filter) and self.slave_velocity_filter >= 0, "slave_velocity_filter",
              "must be >= 0 (Hz; 0: the true velocity)")
         for name, params in (("ft_sensor", self.ft_sensor), ("accelerometer", self.accelerometer),
-                             ("load.mount", self.load.mount)):
+                             ("load.mount", self.load.mount), ("lab.station.watchdog", self.lab.station.watchdog)):
             try:
                 params.validate()
             except ValueError as error:  # its message starts with the field's name

@@ -22,8 +22,6 @@ is measured on the caller's clock (s, wall-clock, monotonic), never in ticks:
   speed limits × the time since the last send.
 """
 
-from __future__ import annotations
-
 import dataclasses
 import math
 

@@ -29,7 +29,7 @@ class WatchdogParams:
         for name in ("timeout", "ramp_time"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"watchdog {name} must be a positive number of seconds; got {value}")
+                raise ValueError(f"{name} must be a positive number of seconds; got {value}")
 
 
 def watchdog_step(ages, gain: float, timeout: float, ramp_step: float,

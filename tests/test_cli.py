@@ -214,3 +214,29 @@ def test_simulate_set_sigma_reaches_the_run(tmp_path, capsys):
     assert main(["simulate", "fig6", "--sigmas", "1,0", "--set", "{controller: {force: {sigma: 0.3}}}"]) == 2
     error = capsys.readouterr().err
     assert "--sigmas" in error and "controller.force.sigma" in error
+
+
+def test_the_labs_flags_lay_over_its_scenario_file(tmp_path):
+    """A lab's file holds its URLs, rate and watchdog; the flags are overrides laid over it and
+    `--set` over them, through the one path; a bad value names its field."""
+    import argparse
+    from heft.diagrams.commands.options import scenario_from
+
+    lab = tmp_path / "lab.yaml"
+    lab.write_text("lab: {lcm: {lcm_url: 'udpm://239.255.76.70:7000?ttl=0'}, station: {watchdog: {timeout: 0.03}}}\n"
+                   "controller_period: 0.001\n")
+
+    def scenario(set=None, **flags):
+        return scenario_from(argparse.Namespace(scenario=str(lab), set=set, **flags))
+
+    plain = scenario()
+    assert plain.lab.lcm.lcm_url == "udpm://239.255.76.70:7000?ttl=0"
+    assert plain.lab.lcm.command_lcm_url() == "udpm://239.255.76.70:7001?ttl=0"
+    assert (plain.lab.station.watchdog.timeout, plain.controller_period) == (0.03, 0.001)
+    flagged = scenario(lcm_url="memq://", command_url=None, watchdog_timeout=0.04, rate=4000.0)
+    assert (flagged.lab.lcm.lcm_url, flagged.lab.lcm.command_lcm_url()) == ("memq://", "memq://")
+    assert (flagged.lab.station.watchdog.timeout, flagged.controller_period) == (0.04, 0.00025)
+    last = scenario(set="{lab: {station: {watchdog: {timeout: 0.05}}}}", watchdog_timeout=0.04)
+    assert last.lab.station.watchdog.timeout == 0.05
+    with pytest.raises(ValueError, match="lab.station.watchdog.timeout"):
+        scenario(watchdog_timeout=-1.0)
