@@ -240,3 +240,26 @@ def test_the_labs_flags_lay_over_its_scenario_file(tmp_path):
     assert last.lab.station.watchdog.timeout == 0.05
     with pytest.raises(ValueError, match="lab.station.watchdog.timeout"):
         scenario(watchdog_timeout=-1.0)
+
+
+def test_simulate_compares_the_papers_sigmas_unless_a_sigma_is_stated(capsys):
+    """No σ stated: the paper's 1, 0.5, 0. A σ in the scenario file (grasp: 0) or on the command
+    line: that one run. `--sigmas` over the file's σ: the list, and it says so."""
+    import argparse
+
+    from heft.diagrams.commands.options import scenario_from
+    from heft.diagrams.commands.simulate import compared_sigmas
+    from heft.diagrams.scenario import overrides_text
+
+    def sigmas(scenario, set=None, sigma=None, sigmas=None):
+        args = argparse.Namespace(scenario=scenario, set=set, sigma=sigma, sigmas=sigmas)
+        return compared_sigmas(args, scenario_from(args, overrides_text({"controller.force.sigma": sigma})))
+
+    assert sigmas("fig6") == [1.0, 0.5, 0.0]
+    assert sigmas("grasp") == [0.0]
+    assert sigmas("fig6", sigma=0.2) == [0.2]
+    assert sigmas("fig6", set="{controller: {force: {sigma: 0.3}}}") == [0.3]
+    assert sigmas("grasp", sigmas="1,0") == [1.0, 0.0]
+    assert "in place of the scenario file's σ = 0" in capsys.readouterr().out
+    with pytest.raises(ValueError, match="--sigmas compares"):
+        sigmas("fig6", sigma=0.2, sigmas="1,0")
