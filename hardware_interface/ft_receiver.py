@@ -1,6 +1,6 @@
 """The wrist sensor's LCM samples → heft's wrench and acceleration.
 
-The one place where the sensor's sign becomes DESIGN §4's: a JR3 reports the
+The one place where the sensor's sign becomes docs/design.md §4's: a JR3 reports the
 wrench the load exerts on it; heft carries the wrench the sensor exerts on the
 load, [f; τ] at S, in S (N, N·m).
 """
@@ -95,7 +95,7 @@ class FtSampleReader:
                 continue
             clock.accept(stamp, now)
             self._counter, self.t_good, self.utime = counter, now, utime
-            # The sign flip of DESIGN §4: sensor-on-load = −(load-on-sensor).
+            # The sign flip of docs/design.md §4: sensor-on-load = −(load-on-sensor).
             for i in range(6):
                 self.wrench[i] = -wrench[i]
                 self.acceleration[i] = acceleration[i]

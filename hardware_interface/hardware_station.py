@@ -1,7 +1,7 @@
 """The hardware station: the lab's LCM channels, read and written once per controller tick.
 
 ``HardwareStation`` holds what the controller reads — the station quantities of
-DESIGN §3 (master and slave joint state, the wrist wrench and acceleration) plus
+docs/design.md §3 (master and slave joint state, the wrist wrench and acceleration) plus
 the clutch button — and gates what goes back. Every age, timeout and rate limit
 is measured on the caller's clock (s, wall-clock, monotonic), never in ticks:
 
@@ -21,8 +21,6 @@ is measured on the caller's clock (s, wall-clock, monotonic), never in ticks:
   ``reanchored`` says so for that send), and every other change limited to the joint
   speed limits × the time since the last send.
 """
-
-from __future__ import annotations
 
 import dataclasses
 import math

@@ -1,6 +1,6 @@
 """Force feedback to the master (Fig. 4: f′ → f̄_M, τ̄_M → m̄_M = J_Mᵀ·[f̄_M; τ̄_M]).
 
-Sign: f′ = [f; τ] is what the sensor exerts ON THE LOAD (DESIGN §4). The operator
+Sign: f′ = [f; τ] is what the sensor exerts ON THE LOAD (docs/design.md §4). The operator
 must feel what the environment does to the tool, and the environment's (and
 gravity's) wrench on the load is, in equilibrium, minus the sensor's. So
 
@@ -38,14 +38,10 @@ class FeedbackMappingParams:
     """k_τ (master N·m per slave N·m)."""
 
     max_force: float = 8.5
-    """Largest force magnitude rendered (N): Phantom Premium 1.5 6DoF, CHAI3D's table (DESIGN §6)."""
+    """Largest force magnitude rendered (N): Phantom Premium 1.5 6DoF, CHAI3D's table (docs/design.md §6)."""
 
     max_torque: float = 0.188
     """Largest torque magnitude rendered (N·m): same source."""
-
-    R_RB: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
-    """The fixed rotation from the master base B to the slave base R as roll-pitch-yaw (rad),
-    as in MotionScalingParams."""
 
     def validate(self) -> None:
         """Raises ValueError naming the first field out of range."""
@@ -58,8 +54,6 @@ class FeedbackMappingParams:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be finite and > 0; got {value}")
-        if len(self.R_RB) != 3 or not all(math.isfinite(x) for x in self.R_RB):
-            raise ValueError(f"R_RB must be 3 finite roll-pitch-yaw angles (rad); got {self.R_RB}")
 
 
 @compiled("float64(float64, float64, float64, float64)")
@@ -113,12 +107,14 @@ class FeedbackMapping(LeafSystem):
     plant's state (e.g. a discrete MultibodyPlant) to break it.
     """
 
-    def __init__(self, params: FeedbackMappingParams | None = None):
+    def __init__(self, params: FeedbackMappingParams | None = None, R_RB=(0.0, 0.0, 0.0)):
+        """``R_RB``: the rotation from the master base B to the slave base R as roll-pitch-yaw (rad),
+        the motion scaling's (``MotionScalingParams.R_RB``, its one home)."""
         super().__init__()
         params = params or FeedbackMappingParams()
         params.validate()
         self._params = params
-        self._R_BR = RotationMatrix(RollPitchYaw(params.R_RB)).inverse()
+        self._R_BR = RotationMatrix(RollPitchYaw(list(R_RB))).inverse()
         self._wrench_S = self.DeclareVectorInputPort("wrench_S", WRENCH_SIZE)
         self._pose_RS = self.DeclareVectorInputPort("pose_RS", POSE_SIZE)
         self._jacobian = self.DeclareVectorInputPort("jacobian", JACOBIAN_SIZE)

@@ -1,6 +1,6 @@
 """Scaling and elimination of non-contact wrenches (Kubus & Wahl, Sec. V, Fig. 2).
 
-All vectors are expressed in the sensor frame S (DESIGN §4): wrenches [f; τ]
+All vectors are expressed in the sensor frame S (docs/design.md §4): wrenches [f; τ]
 (N, N·m) that the sensor exerts on the load, torque about S's origin;
 accelerations [a; α] (m/s², rad/s²) of S; ω (rad/s) of S; g (m/s²) in S. The
 block's ``acceleration`` input is the accelerometer's reading, converted by

@@ -1,6 +1,6 @@
 """Rigid-load dynamics at a wrist force-torque sensor (Kubus & Wahl, Sec. III).
 
-Plain numpy, no Drake types. Conventions (DESIGN §4):
+Plain numpy, no Drake types. Conventions (docs/design.md §4):
 
 * Everything is expressed in the sensor frame S, origin at its measuring point.
 * ``a`` is the translational acceleration of S's origin in the world, ``alpha``

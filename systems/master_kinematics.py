@@ -2,7 +2,7 @@
 
 B is the master base (the plant's ``phantom_base`` frame), E the stylus frame
 (``stylus``). The Jacobian's rows are [v_E; ω_E] — translational first, the
-order of heft's wrenches [f; τ] (DESIGN §4) — so that τ_M = J_Mᵀ·[f; τ] for a
+order of heft's wrenches [f; τ] (docs/design.md §4) — so that τ_M = J_Mᵀ·[f; τ] for a
 wrench applied at E's origin, expressed in B.
 """
 

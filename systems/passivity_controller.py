@@ -20,7 +20,7 @@ A passive network keeps E ≥ 0 for all n (it never returns more than it
 received); E < 0 flags active behaviour. Each channel is observed apart, so
 energy the network carries from one channel into the other (the load's moment
 m·c × a, made by translation, turning the stylus) reads as a deficit in the
-receiving channel; DESIGN §3 has fig7's numbers. The PC is the series damper of the
+receiving channel; docs/design.md §3 has fig7's numbers. The PC is the series damper of the
 impedance-type port (velocity in, force out): the applied wrench is
 f − α_t·v, τ − α_r·ω, which adds α·|v|²·T to E. When E would go negative,
 α = −E / (T·|v|²), clamped to [0, α_max], so the PC dissipates exactly the

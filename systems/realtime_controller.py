@@ -106,7 +106,7 @@ class RealtimeTeleopController:
         self._phi_gripper_held = np.zeros(10)  # φ_gr while an object is held
         self._motion, self._force, self._feedback = motion, force, feedback
         self._R_RB_motion = RotationMatrix(RollPitchYaw(motion.R_RB)).matrix()
-        self._R_BR = RotationMatrix(RollPitchYaw(feedback.R_RB)).inverse().matrix()
+        self._R_BR = self._R_RB_motion.T  # R_RB's one home is the motion scaling's
         self._max_damping = np.array((passivity.max_translational_damping, passivity.max_rotational_damping)
                                      if passivity.enabled else (0.0, 0.0))
         self._R_BS, self._twist, self._dissipated = np.zeros((3, 3)), np.zeros(6), np.zeros(2)

@@ -33,7 +33,7 @@ alternative, but in pydrake 1.51 its seed can only be drawn from
 `SetRandomContext` on the whole diagram (`set_fixed_seed` is not bound), not
 set per sensor.
 
-Port conventions (DESIGN §4): the wrench is [f; τ] that the sensor exerts on
+Port conventions (docs/design.md §4): the wrench is [f; τ] that the sensor exerts on
 the load, at S, expressed in S; the accelerometer's input is its ideal reading
 (``accelerometer_reading``: [a − g; α] of its point A, in S's axes). The sign flip of
 real sensors belongs to the hardware interface.
@@ -144,7 +144,7 @@ class ForceTorqueSensorParams(SixAxisSensorParams):
 
     noise_rms: list[float] = dataclasses.field(
         default_factory=lambda: [0.1, 0.1, 0.1, 0.005, 0.005, 0.005])
-    """RMS of the white noise (N, N·m): the project's floor (DESIGN §6)."""
+    """RMS of the white noise (N, N·m): the project's floor (docs/design.md §6)."""
 
     full_scale: list[float] = dataclasses.field(
         default_factory=lambda: [200.0, 200.0, 200.0, 12.0, 12.0, 12.0])
@@ -184,7 +184,7 @@ class AccelerometerParams(SixAxisSensorParams):
 
     noise_rms: list[float] = dataclasses.field(
         default_factory=lambda: [0.05, 0.05, 0.05, 0.5, 0.5, 0.5])
-    """RMS of the white noise (m/s², rad/s²): the project's floor (DESIGN §6)."""
+    """RMS of the white noise (m/s², rad/s²): the project's floor (docs/design.md §6)."""
 
     full_scale: list[float] = dataclasses.field(
         default_factory=lambda: [100.0, 100.0, 100.0, 1000.0, 1000.0, 1000.0])

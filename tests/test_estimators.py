@@ -15,7 +15,7 @@ from heft.systems.estimators import (
 from heft.systems.load_dynamics import PHI_NAMES, InertialParameters, pseudo_inertia, regressor
 
 RECURSIVE = (RecursiveLeastSquares, RecursiveInstrumentalVariables, RecursiveTotalLeastSquares)
-WRENCH_NOISE = np.repeat([0.1, 0.005], 3)  # N, N·m: DESIGN §6
+WRENCH_NOISE = np.repeat([0.1, 0.005], 3)  # N, N·m: docs/design.md §6
 
 
 def unit_gravity(rng, n):

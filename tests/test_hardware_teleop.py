@@ -239,10 +239,8 @@ def test_with_the_clutch_held_the_slave_moves_by_the_scaled_stylus_motion():
 def test_master_command_within_device_limits_under_faults():
     """σ = 1 and force scale 1: the tool's 31 N weight asks for more than the Phantom may render;
     with 5 % drops and 5 % NaN samples no command is non-finite or beyond its limits."""
-    scenario = resolve_scenario("fig6")
-    scenario.controller.force.sigma = 1.0
-    scenario.controller.feedback.force_scale = 1.0
-    scenario.controller.feedback.torque_scale = 1.0
+    scenario = resolve_scenario("fig6", "{controller: {force: {sigma: 1.0},"
+                                        " feedback: {force_scale: 1.0, torque_scale: 1.0}}}")
     lab = Lab(scenario, FaultInjection(drop_rate=0.05, nan_rate=0.05, seed=3), clutch_at=0.1)
     lab.run(1.0)
     assert np.all(np.isfinite(lab.torques)) and lab.teleop.torque_finite
@@ -290,13 +288,21 @@ def test_a_stalled_controller_cuts_forces_and_ramps_back():
 
 
 def test_the_controller_is_designed_for_the_rate_the_loop_runs_at():
-    """`--rate` sets the loop's period, and the mount notch is designed for it (at 4 kHz a notch
-    designed for the scenario's 2 kHz would sit at twice its frequency)."""
-    scenario = Scenario()
+    """`--rate` lays the loop's period over the scenario's ``controller_period``, and the controller,
+    its mount notch among it, is designed for that period (at 4 kHz a notch designed for the
+    scenario's 2 kHz would sit at twice its frequency)."""
+    import argparse
+
+    from heft.diagrams.commands.options import scenario_from
+
     bus = lcm.LCM("memq://")
-    load = true_load(scenario)[0]
-    assert HardwareTeleop(scenario, load, bus, LcmChannels()).controller.period == scenario.controller_period
-    assert HardwareTeleop(scenario, load, bus, LcmChannels(), period=0.00025).controller.period == 0.00025
+    load = true_load(Scenario())[0]
+    assert HardwareTeleop(Scenario(), load, bus, LcmChannels()).controller.period == Scenario().controller_period
+    scenario = scenario_from(argparse.Namespace(scenario="fig6", set=None, rate=4000.0))
+    assert scenario.controller_period == 0.00025
+    assert HardwareTeleop(scenario, load, bus, LcmChannels()).controller.period == 0.00025
+    with pytest.raises(ValueError, match="--rate must be a positive number of Hz"):
+        scenario_from(argparse.Namespace(scenario="fig6", set=None, rate=0.0))
 
 
 def test_a_grasp_and_release_over_lcm_split_the_load_and_are_answered():

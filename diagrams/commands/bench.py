@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from heft.diagrams.commands.options import add_lcm_urls, lcm_channels
+from heft.diagrams.commands.options import add_lcm_urls, scenario_from
 
 HELP = "benchmarks, each printed beside a reference measured in the same run"
 
@@ -36,13 +36,12 @@ def _bench_identify(args) -> int:
     from heft.diagrams.identify import ALL_METHODS, design_excitation, kinematic_signals
     from heft.diagrams.running.sim_identification import record_excitation
     from heft.diagrams.running.progress import ProgressBar
-    from heft.diagrams.scenario import Scenario
+    from heft.diagrams.scenario import NOISE_OFF, Scenario, layered, overrides_text
     from heft.systems.estimators import PARAMETER_NAMES, NoiseLevels
     from heft.systems.excitation import ExcitationSettings
     from heft.systems.load_dynamics import noncontact_wrench
 
-    scenario = Scenario()  # the paper's tool, ideal sensors: noise is added per run below
-    scenario.ft_sensor.noise = scenario.accelerometer.noise = False
+    scenario = layered(Scenario(), overrides_text(NOISE_OFF))  # the paper's tool; noise is added per run below
     settings = dataclasses.replace(ExcitationSettings.quick(), base_frequency=0.5, duration=2.0)
     excitation = design_excitation(scenario, settings)
     recording = record_excitation(scenario, excitation.trajectory, settings.duration)
@@ -85,7 +84,7 @@ def _bench_lcm(args) -> int:
     from heft.diagrams.commands.bench_lcm import run
 
     rates = [float(r) for r in args.rates.split(",")]
-    results = run(rates, args.duration, args.scenario, lcm_channels(args))
+    results = run(rates, args.duration, args.scenario, scenario_from(args).lab.lcm)
     if args.out:
         Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
     return 0

@@ -10,7 +10,7 @@ and obeys ``heft_haptic_command`` and ``lcmt_iiwa_command`` from another
 exercised against a misbehaving lab. ``run_stand_in`` runs it in wall-clock
 real time, as a separate process would.
 
-Models (frames as DESIGN §4: W world = R slave base, B master base, S wrist sensor):
+Models (frames as docs/design.md §4: W world = R slave base, B master base, S wrist sensor):
 
 * Slave (arm driver): the joints follow the last valid command, approached no
   faster than the arm's joint speed limits (its controller's own limit: a command

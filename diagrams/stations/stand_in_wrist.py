@@ -2,7 +2,7 @@
 the load on its compliant mount (``mount.MountUnderMovingSensor``), the gripper that grasps and
 releases the scenario's object, and the truth of every sensor sample (``TruthRecord``).
 
-Wrenches here are heft's (DESIGN §4): [f; τ] the sensor exerts on the load, at S, in S (N, N·m);
+Wrenches here are heft's (docs/design.md §4): [f; τ] the sensor exerts on the load, at S, in S (N, N·m);
 the JR3 driver publishes them negated (``stand_in``).
 """
 
