@@ -44,10 +44,10 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
-from scipy.signal import butter, lfilter, lfilter_zi
+from scipy.signal import butter, lfilter_zi
 
 from .accelerometer_reading import AccelerometerConvention
-from heft.systems.compiled import compiled
+from heft.systems.compiled import compiled, float_array
 
 NUM_AXES = 6
 
@@ -258,11 +258,26 @@ def lowpass(coefficients: np.ndarray, state: np.ndarray, values: np.ndarray) -> 
     """The filter (transposed direct form II, ``scipy.signal.lfilter``) on ``values`` (count, n),
     one sample a row, each column alone: returns the outputs and advances ``state`` (2, n) in
     place. A NaN state (a filter not started) starts in the steady state of the first row."""
-    b, a = coefficients[:3], np.concatenate(([1.0], coefficients[3:]))
     if np.isnan(state[0, 0]):
-        state[:] = lfilter_zi(b, a)[:, np.newaxis] * values[0]
-    out, state[:] = lfilter(b, a, values, axis=0, zi=state)
+        state[:] = lfilter_zi(coefficients[:3], np.concatenate(([1.0], coefficients[3:])))[:, np.newaxis] * values[0]
+    out = np.empty(np.shape(values))
+    _lowpass_rows(coefficients, state, float_array(values), out)
     return out
+
+
+@compiled("void(float64[:], float64[:, :], float64[:, :], float64[:, :])")
+def _lowpass_rows(coefficients, state, values, out) -> None:
+    """``lowpass`` of a started filter: y = b0·x + z1, z1 ← b1·x − a1·y + z2, z2 ← b2·x − a2·y."""
+    b0, b1, b2, a1, a2 = coefficients[0], coefficients[1], coefficients[2], coefficients[3], coefficients[4]
+    for k in range(values.shape[1]):
+        z1, z2 = state[0, k], state[1, k]
+        for j in range(values.shape[0]):
+            x = values[j, k]
+            y = b0 * x + z1
+            z1 = b1 * x - a1 * y + z2
+            z2 = b2 * x - a2 * y
+            out[j, k] = y
+        state[0, k], state[1, k] = z1, z2
 
 
 class HeldLowpass:

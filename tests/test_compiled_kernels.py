@@ -15,7 +15,8 @@ import numpy as np
 from heft.diagrams.plants import MakeArmPlant
 from heft.systems import compiled
 from heft.systems.load_dynamics import GRAVITY_W, regressor_into
-from heft.systems.sensor_models import ForceTorqueSensorParams, HeldLowpass, SixAxisMeasurement, lowpass_coefficients
+from heft.systems.sensor_models import (ForceTorqueSensorParams, HeldLowpass, SixAxisMeasurement, lowpass,
+                                        lowpass_coefficients)
 from heft.systems.serial_chain import SerialChain
 from heft.systems.setpoint_filter import critically_damped_step_matrices, setpoint_step
 
@@ -36,6 +37,7 @@ out["measured"], out["saturated"] = SixAxisMeasurement(params, 0, 1 / 8000).meas
     rng.normal(0, 1, (64, 6)) * np.array(params.full_scale))
 held, state = HeldLowpass(lowpass_coefficients(500.0, 1 / 8000), 4), rng.normal(0, 1, (2, 6))
 out["held"] = np.concatenate([held(state, value) for value in rng.normal(0, 50, (20, 6))])
+out["lowpass"] = lowpass(lowpass_coefficients(500.0, 1 / 8000), np.full((2, 6), np.nan), rng.normal(0, 50, (40, 6)))
 A, B = critically_damped_step_matrices(10.0, 5e-4)
 x = np.zeros((2, 6))
 for u in rng.uniform(-1, 1, (50, 6)):
