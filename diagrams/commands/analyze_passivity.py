@@ -40,17 +40,18 @@ ENVIRONMENT_KEYS = ("slave_q", "wrench_contact_true")
 
 
 def read_log(path, kind: str | None = None) -> RunLog:
-    """The run in a log.npz or a hardware LCM log (`read_run_log`; on hardware its longest
-    stretch between controller restarts, the rows with the master's state); a ValueError names
-    a missing file or key."""
-    run = longest_start(read_run_log(path, kind))
+    """The run in a log.npz or a hardware LCM log (`read_run_log`): the rows with the master's
+    state and, on hardware, of those the longest stretch between controller restarts; a
+    ValueError names a missing file or key."""
+    run = read_run_log(path, kind)
     missing = [key for key in REQUIRED_KEYS if key not in run.arrays]
     if missing:
         raise ValueError(f"{path} lacks {', '.join(missing)}: the passivity analysis needs {', '.join(REQUIRED_KEYS)}")
     if np.asarray(run.arrays["t"]).size < 3:
         raise ValueError(f"{path} holds fewer than 3 samples")
-    return complete_rows(run, ("master_q", "master_v"), "without the master's state their energy is not counted "
-                                                        "(the observer identity gap shows it)")
+    with_master = complete_rows(run, ("master_q", "master_v"), "without the master's state their energy is not "
+                                                               "counted (the observer identity gap shows it)")
+    return longest_start(with_master)
 
 
 def stylus_twists(master_q, master_v) -> np.ndarray:
