@@ -4,7 +4,7 @@ X_BE(q) = e^{[S₁]q₁} ⋯ e^{[Sₙ]qₙ}·M (Lynch & Park, *Modern Robotics*,
 joint's screw S_i a unit axis ω̂_i through a point c_i, both in B at q = 0, and M = X_BE(0). These
 constants are read off a finalized MultibodyPlant (its URDF's numbers); a compiled kernel
 (``compiled``) then gives the pose, the geometric Jacobian and the motion of E with no Drake call
-and no allocation, a few µs where Drake's calls from Python take tens.
+and no allocation (README "Compiled kernels": 2.5 µs where four Drake calls take 12 µs).
 """
 
 from __future__ import annotations
