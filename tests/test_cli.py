@@ -263,3 +263,26 @@ def test_simulate_compares_the_papers_sigmas_unless_a_sigma_is_stated(capsys):
     assert "in place of the scenario file's σ = 0" in capsys.readouterr().out
     with pytest.raises(ValueError, match="--sigmas compares"):
         sigmas("fig6", sigma=0.2, sigmas="1,0")
+
+
+def test_bench_step_ticks_the_diagram_as_the_fused_step_ticks():
+    """The bench's per-block Diagram, ticked by its periodic update alone, commands the torque the fused step
+    commands on the same readings (a tick that skipped the blocks' updates would command none)."""
+    import numpy as np
+
+    from heft.diagrams.commands import bench_step
+    from heft.diagrams.running.simulation import true_load
+    from heft.diagrams.scenario import Scenario
+    from heft.diagrams.teleop import MakeRealtimeTeleopController, MakeTeleopController
+
+    scenario = Scenario()
+    load, _ = true_load(scenario)
+    period, convention = scenario.controller_period, scenario.accelerometer.convention()
+    sequence = bench_step.readings(scenario, 60, period)
+    fused, blocks = [], []
+    bench_step.time_fused(MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, period,
+                                                       accelerometer=convention), sequence, period, fused)
+    bench_step.time_diagram(MakeTeleopController(scenario.controller, load, scenario.robot, period,
+                                                 scenario.slave_initial_q, accelerometer=convention), sequence, blocks)
+    assert np.abs(fused).max() > 0.01
+    np.testing.assert_allclose(blocks, fused, rtol=0, atol=1e-9)

@@ -2,7 +2,8 @@
 
 ``regressor``: V·φ per sample and per batch against Drake; ``identify``: Monte Carlo accuracy
 of every estimator against the Cramér–Rao bound, and update costs; ``lcm``: the controller
-against a driver probe and the stand-in over LCM in two processes; ``compensate``: rate and peak
+against a driver probe and the stand-in over LCM in two processes; ``step``: one controller tick,
+the fused step against the per-block Diagram; ``compensate``: rate and peak
 memory of `heft compensate` on long recordings."""
 
 from __future__ import annotations
@@ -90,6 +91,27 @@ def _bench_lcm(args) -> int:
     return 0
 
 
+def _bench_step(args) -> int:
+    from heft.diagrams.commands import bench_step as bench
+    from heft.diagrams.running.simulation import true_load
+    from heft.diagrams.teleop import MakeRealtimeTeleopController, MakeTeleopController
+
+    scenario = scenario_from(args)
+    load, _ = true_load(scenario)
+    period, convention = scenario.controller_period, scenario.accelerometer.convention()
+    sequence = bench.readings(scenario, args.ticks, period)
+    results = {"ticks": args.ticks,
+               "fused": bench.time_fused(MakeRealtimeTeleopController(
+                   scenario.controller, load, scenario.robot, period, accelerometer=convention), sequence, period),
+               "diagram": bench.time_diagram(MakeTeleopController(
+                   scenario.controller, load, scenario.robot, period, scenario.slave_initial_q,
+                   accelerometer=convention), sequence)}
+    bench.report(results, period)
+    if args.out:
+        Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
+    return 0
+
+
 def _bench_compensate(args) -> int:
     import tempfile
 
@@ -130,6 +152,12 @@ def add_arguments(parser) -> None:
     add_lcm_urls(lcm_parser)
     lcm_parser.add_argument("--out", help="write every number as JSON here")
     lcm_parser.set_defaults(bench=_bench_lcm)
+    step_parser = benches.add_parser("step", help="one controller tick in one process: the fused step against the "
+                                                  "per-block Diagram ticked by a forced update")
+    step_parser.add_argument("--scenario", default="fig6", help="controller settings (default fig6)")
+    step_parser.add_argument("--ticks", type=int, default=4000, help="ticks timed (default 4000)")
+    step_parser.add_argument("--out", help="write every number as JSON here")
+    step_parser.set_defaults(bench=_bench_step)
     compensate_parser = benches.add_parser(
         "compensate", help="`heft compensate` on synthetic 8 kHz recordings written to a temporary folder: rate and "
                            "peak memory on one CPU, the hour extrapolated from the two longest")
