@@ -29,30 +29,61 @@ import functools
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
+from heft.systems.accelerometer_calibration import checked_rotation, unit_factor
 from heft.systems.compiled import compiled, float_array
+
+
+_IDENTITY = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 
 
 @dataclasses.dataclass(frozen=True)
 class AccelerometerConvention:
-    """How a reading relates to S's motion: whether it holds gravity (specific force) and
-    where the accelerometer sits, p_SA (m, in S; axes parallel to S)."""
+    """How a reading relates to S's motion: whether it holds gravity (specific force), where the
+    accelerometer sits, p_SA (m, in S), and how it is mounted and reports (``accelerometer_calibration``):
+    its axes A in S, ``R_SA`` (v_S = R_SA·v_A; rows), the ``unit`` of its linear channels ("m/s^2" or
+    "g"; the angular ones report rad/s²), their ``bias`` (A's axes, its unit) and ``scale`` (their gain).
+    A reading r = [r_a; r_α] is in A's axes: s_S = R_SA·(r_a − bias)·u/scale, α_S = R_SA·r_α."""
     includes_gravity: bool = True
     p_SA: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    R_SA: tuple = _IDENTITY
+    unit: str = "m/s^2"
+    bias: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    scale: float = 1.0
 
     def __post_init__(self):
         p = tuple(float(x) for x in self.p_SA)
         if len(p) != 3 or not np.isfinite(p).all():
             raise ValueError(f"the accelerometer's position p_SA needs 3 finite numbers (m, in S); got {self.p_SA}")
         object.__setattr__(self, "p_SA", p)
+        R = checked_rotation("the accelerometer's R_SA", self.R_SA)
+        object.__setattr__(self, "R_SA", tuple(tuple(float(x) for x in row) for row in R))
+        unit_factor(self.unit)
+        bias = tuple(float(x) for x in self.bias)
+        if len(bias) != 3 or not np.isfinite(bias).all():
+            raise ValueError(f"the accelerometer's bias needs 3 finite numbers (its own axes and unit); "
+                             f"got {self.bias}")
+        object.__setattr__(self, "bias", bias)
+        if not (np.isfinite(self.scale) and self.scale > 0.0):
+            raise ValueError(f"the accelerometer's scale must be finite and > 0; got {self.scale}")
+        object.__setattr__(self, "scale", float(self.scale))
 
     @property
     def displaced(self) -> bool:
         return any(self.p_SA)
 
+    @property
+    def mounted(self) -> bool:
+        """Whether the reading is not already S's axes in m/s² without a bias."""
+        return self.R_SA != _IDENTITY or self.unit != "m/s^2" or any(self.bias) or self.scale != 1.0
+
     def __str__(self) -> str:
         what = "specific force a − g" if self.includes_gravity else "gravity-free a"
-        return (f"accelerometer reads {what} at p_SA = [{', '.join(f'{x:g}' for x in self.p_SA)}] m in S "
-                "(scenario accelerometer.includes_gravity, accelerometer.position)")
+        text = f"accelerometer reads {what} at p_SA = [{', '.join(f'{x:g}' for x in self.p_SA)}] m in S"
+        if self.mounted:
+            rows = "; ".join(", ".join(f"{x:.4g}" for x in row) for row in self.R_SA)
+            text += (f", its axes R_SA = [{rows}], in {self.unit} with a bias of "
+                     f"[{', '.join(f'{x:.4g}' for x in self.bias)}] {self.unit}")
+        return text + " (scenario accelerometer)"
 
 
 AT_S = AccelerometerConvention()
@@ -60,9 +91,11 @@ AT_S = AccelerometerConvention()
 
 
 @functools.cache
-def kernel_convention(convention: AccelerometerConvention) -> tuple[bool, np.ndarray]:
-    """(includes_gravity, p_SA as an array): the convention as the kernels take it."""
-    return convention.includes_gravity, np.array(convention.p_SA)
+def kernel_convention(convention: AccelerometerConvention) -> tuple:
+    """(includes_gravity, p_SA, R_SA (3, 3), m/s² per unit of reading (the unit over the scale), bias): the
+    convention as the kernels take it."""
+    return (convention.includes_gravity, np.array(convention.p_SA), np.array(convention.R_SA),
+            unit_factor(convention.unit) / convention.scale, np.array(convention.bias))
 
 
 _NO_ROTATION = np.zeros(3)
@@ -96,12 +129,16 @@ def reading_from_motion(acceleration, gravity, omega=None,
                         convention: AccelerometerConvention = AT_S) -> np.ndarray:
     """What the accelerometer reports, (6,) or (N, 6), for S's kinematic [a; α], gravity g and
     angular velocity ω ((3,) or (N, 3); only needed for a displaced accelerometer), all in S:
-    [a_A − g; α], or [a_A; α] when the driver removes gravity."""
+    [a_A − g; α], or [a_A; α] when the driver removes gravity, in its own axes and unit with its bias."""
     reading = np.array(acceleration, dtype=float)
     if convention.displaced:
         _transport(reading[..., :3], reading[..., 3:], omega, convention.p_SA, 1.0)
     if convention.includes_gravity:
         reading[..., :3] -= gravity
+    if convention.mounted:
+        _, _, R_SA, u, bias = kernel_convention(convention)
+        reading[..., :3] = reading[..., :3] @ R_SA / u + bias
+        reading[..., 3:] = reading[..., 3:] @ R_SA
     return reading
 
 
@@ -115,7 +152,10 @@ def motion_from_reading(out: np.ndarray, reading, gravity, omega=None,
         motion_from_reading_into(out, float_array(reading), float_array(gravity),
                                  _NO_ROTATION if omega is None else float_array(omega), *kernel_convention(convention))
         return out
-    out[...] = reading
+    _, _, R_SA, u, bias = kernel_convention(convention)
+    reading = np.asarray(reading, dtype=float)
+    out[..., :3] = (reading[..., :3] - bias) @ R_SA.T * u
+    out[..., 3:] = reading[..., 3:] @ R_SA.T
     if convention.includes_gravity:
         out[..., :3] += gravity
     if convention.displaced:
@@ -123,11 +163,14 @@ def motion_from_reading(out: np.ndarray, reading, gravity, omega=None,
     return out
 
 
-@compiled("void(float64[:], float64[:], float64[:], float64[:], boolean, float64[:])")
-def motion_from_reading_into(out, reading, gravity, omega, includes_gravity, p_SA) -> None:
-    """``motion_from_reading`` of one sample, the convention as ``includes_gravity`` and ``p_SA``."""
-    for i in range(6):
-        out[i] = reading[i]
+@compiled("void(float64[:], float64[:], float64[:], float64[:], boolean, float64[:], float64[:, :], float64, "
+          "float64[:])")
+def motion_from_reading_into(out, reading, gravity, omega, includes_gravity, p_SA, R_SA, u, bias) -> None:
+    """``motion_from_reading`` of one sample, the convention as ``kernel_convention`` gives it."""
+    for i in range(3):
+        out[i] = u * (R_SA[i, 0] * (reading[0] - bias[0]) + R_SA[i, 1] * (reading[1] - bias[1])
+                      + R_SA[i, 2] * (reading[2] - bias[2]))
+        out[3 + i] = R_SA[i, 0] * reading[3] + R_SA[i, 1] * reading[4] + R_SA[i, 2] * reading[5]
     if includes_gravity:
         for i in range(3):
             out[i] += gravity[i]

@@ -210,17 +210,18 @@ def evaluate(out: np.ndarray, wrench, reading, omega, gravity, phi, offsets, sca
     (``accelerometer_reading``, ``accelerometer`` its convention), ``scales`` (3) are σ, γ,
     η in effect, ``memory`` (``MEMORY_SIZE``) the block's, ``decay`` the factor applied to the
     last f′ while faulted (``decay_factor``), ``notch`` the mount notch (``notch_coefficients``)."""
-    includes_gravity, p_SA = kernel_convention(accelerometer)
+    includes_gravity, p_SA, R_SA, u, bias = kernel_convention(accelerometer)
     _evaluate(out, float_array(wrench), float_array(reading), float_array(omega), float_array(gravity),
               float_array(phi), float_array(offsets), float_array(scales), float_array(memory), decay,
               _NO_GRIPPER if phi_gripper is None else phi_gripper, phi_gripper is not None, includes_gravity, p_SA,
-              _NO_NOTCH if notch is None else notch, notch is not None, _SCRATCH)
+              R_SA, u, bias, _NO_NOTCH if notch is None else notch, notch is not None, _SCRATCH)
 
 
 @compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], "
-          "float64[:], float64, float64[:], boolean, boolean, float64[:], float64[:], boolean, float64[:, :])")
+          "float64[:], float64, float64[:], boolean, boolean, float64[:], float64[:, :], float64, float64[:], "
+          "float64[:], boolean, float64[:, :])")
 def _evaluate(out, wrench, reading, omega, gravity, phi, offsets, scales, memory, decay, phi_gripper, split,
-              includes_gravity, p_SA, notch, notched, scratch) -> None:
+              includes_gravity, p_SA, R_SA, u, bias, notch, notched, scratch) -> None:
     """``evaluate`` with the optional parts as flags: ``split`` (φ_gr given), ``notched``."""
     total = 0.0
     for i in range(6):
@@ -231,7 +232,7 @@ def _evaluate(out, wrench, reading, omega, gravity, phi, offsets, scales, memory
         total += phi[i]
     if memory[REQUEST_FAULT] == 0.0 and math.isfinite(total):
         motion = scratch[6, :6]
-        motion_from_reading_into(motion, reading, gravity, omega, includes_gravity, p_SA)
+        motion_from_reading_into(motion, reading, gravity, omega, includes_gravity, p_SA, R_SA, u, bias)
         scale_wrench_into(wrench, offsets, phi, motion[:3], motion[3:], omega, gravity, scales[0], scales[1],
                           scales[2], phi_gripper, split, scratch[:6], out[0:6], out[6:12], out[12:18])
         gamma, finite = scales[1], 0.0

@@ -202,16 +202,36 @@ class AccelerometerParams(SixAxisSensorParams):
         default_factory=lambda: [0.001, 0.001, 0.001, 0.01, 0.01, 0.01])
     """Random-walk intensity q of the biases (m/s²/√s, rad/s²/√s) (assumed)."""
 
+    R_SA: list[list[float]] = dataclasses.field(default_factory=lambda: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0],
+                                                                          [0.0, 0.0, 1.0]])
+    """Its axes A in S, rows of R_SA (v_S = R_SA·v_A): identity for one aligned with S, as the JR3's.
+    The station reports in A's axes; the consumers turn the reading into S's."""
+
+    unit: str = "m/s^2"
+    """The unit of the linear channels: "m/s^2" or "g" (9.80665 m/s²); the angular ones are rad/s².
+    ``noise_rms``, ``full_scale`` and the offsets are in the reading's own axes and units."""
+
+    bias: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    """The linear channels' bias as the lab knows it (A's axes, ``unit``): from its calibration
+    (``heft identify --recording`` of static poses), or measured at rest by ``heft load --rezero``
+    on hardware. The consumers subtract it; what the sensor model adds beside it (``initial_offsets``
+    …) is what no calibration knows."""
+
+    scale: float = 1.0
+    """The linear channels' gain against the truth (1: as the datasheet says), from a calibration."""
+
     def validate(self) -> None:
         super().validate()
         try:
             self.convention()
-        except (ValueError, TypeError):
-            raise ValueError(f"position needs 3 finite numbers (m, in S); got {self.position}") from None
+        except (ValueError, TypeError) as error:
+            raise ValueError(f"accelerometer: {error}") from None
 
     def convention(self) -> AccelerometerConvention:
-        """What a reading means, for the consumers: gravity in it or not, and where it is taken."""
-        return AccelerometerConvention(self.includes_gravity, tuple(self.position))
+        """What a reading means, for the consumers: gravity in it or not, where it is taken, how the
+        instrument is mounted and what it reports in."""
+        return AccelerometerConvention(self.includes_gravity, tuple(self.position), tuple(map(tuple, self.R_SA)),
+                                       self.unit, tuple(self.bias), self.scale)
 
 
 # --- pure helpers -------------------------------------------------------------
