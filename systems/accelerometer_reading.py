@@ -142,6 +142,14 @@ def reading_from_motion(acceleration, gravity, omega=None,
     return reading
 
 
+def bias_at_rest(convention: AccelerometerConvention, reading, gravity) -> np.ndarray:
+    """The linear channels' bias (3, the accelerometer's axes and unit) under which the convention explains
+    ``reading`` (its mean at rest, 3 or 6) under ``gravity`` (3, m/s² in S): the reading less what the
+    instrument without a bias reports with S at rest."""
+    unbiased = dataclasses.replace(convention, bias=(0.0, 0.0, 0.0))
+    return np.asarray(reading, dtype=float)[:3] - reading_from_motion(np.zeros(6), gravity, np.zeros(3), unbiased)[:3]
+
+
 def motion_from_reading(out: np.ndarray, reading, gravity, omega=None,
                         convention: AccelerometerConvention = AT_S) -> np.ndarray:
     """S's kinematic [a; α] into ``out``, (6,) or (N, 6), from the accelerometer's ``reading`` (same

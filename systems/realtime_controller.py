@@ -21,6 +21,8 @@ command leaves one tick earlier; the master torque is the same tick in both.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
@@ -46,9 +48,9 @@ from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 from heft.systems.serial_chain import GRAVITY, OMEGA, SerialChain
 from heft.systems.motion_scaling import IDENTITY_POSE, MotionScalingParams, motion_scaling_step
 from heft.systems.online_estimator import OnlineLoadEstimator
-from heft.systems.load_dynamics import GRAVITY_W, checked_load
-from heft.systems.offset_tracking import (OFFSETS, REQUESTS, STATUS, TRACKING, OffsetTrackingParams, initial_state,
-                                          offsets_update, restart_rezero_window)
+from heft.systems.load_dynamics import GRAVITY_W, checked_load, regressor
+from heft.systems.offset_tracking import (OFFSETS, REQUESTS, STATUS, TRACKING, WINDOW_TIME, OffsetTrackingParams,
+                                          initial_state, offsets_update, restart_rezero_window)
 from heft.systems.passivity_controller import PassivityParams, master_torque_into
 from heft.systems.pose_vectors import POSE_SIZE, pose_into
 from heft.systems.rx_inverse_kinematics import RxKinematics
@@ -223,6 +225,33 @@ class RealtimeTeleopController:
     def rezero_requests_seen(self) -> int:
         """How many re-zero requests a step has taken up so far."""
         return int(self._offset_state[REQUESTS])
+
+    @property
+    def rezero_elapsed(self) -> float:
+        """How long (s) the re-zero window under way has averaged (it restarts at 0)."""
+        return float(self._offset_state[WINDOW_TIME])
+
+    @property
+    def gravity_S(self) -> np.ndarray:
+        """Gravity in S (3, m/s²) at the slave's joints of the last step."""
+        return self._slave.motion[GRAVITY]
+
+    @property
+    def accelerometer(self) -> AccelerometerConvention:
+        """The accelerometer's convention in use, its bias as last measured (``set_accelerometer_bias``)."""
+        return self._accelerometer
+
+    def set_accelerometer_bias(self, bias, reading, gravity_S) -> None:
+        """The accelerometer's linear bias (3, its own axes and unit) from the next step on. The offsets
+        measured at rest with the old bias, over readings averaging ``reading`` (6) under ``gravity_S``
+        (3, m/s² in S), hold the load's wrench of that bias: they give it back, o += (V_old − V_new)·φ̂
+        there, so the contact wrench at rest stays what it was."""
+        new = dataclasses.replace(self._accelerometer, bias=tuple(float(x) for x in bias))
+        gravity_S, at_rest = np.asarray(gravity_S, dtype=float), np.zeros(3)
+        for convention, sign in ((self._accelerometer, 1.0), (new, -1.0)):
+            motion = motion_from_reading(np.empty(6), reading, gravity_S, at_rest, convention)
+            self._offsets += sign * (regressor(motion[:3], motion[3:], at_rest, gravity_S) @ self._phi)
+        self._accelerometer = new
 
     @property
     def tracking(self) -> bool:

@@ -116,7 +116,7 @@ class HardwareTeleop:
         utime = round((station.epoch + now) * 1e6)
         for event in station.gripper_events:
             self.load_commands.gripper(utime, event)
-        self.load_commands.serve(utime, healthy)
+        self.load_commands.serve(utime, healthy, station.acceleration)
         station.publish_status(now)
         self._observe(now, healthy)
         self._was_healthy = healthy
