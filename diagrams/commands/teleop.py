@@ -38,6 +38,7 @@ def add_arguments(parser) -> None:
 def run(args) -> int:
     from heft.diagrams.running.hardware_teleop import format_summary, run_hardware_teleop
     from heft.diagrams.load_estimate import LoadEstimate, read_load_estimate
+    from heft.diagrams.scenario import overrides_text
 
     if not args.hardware:
         raise ValueError("only --hardware is supported here; use `heft simulate` for the simulated station")
@@ -46,6 +47,12 @@ def run(args) -> int:
     estimate = args.estimate or scenario.controller.load_estimate
     if estimate:
         load = read_load_estimate(estimate, scenario.ft_sensor.full_scale)
+        if load.accelerometer is not None:  # its calibration, under the flags and --set
+            calibration = load.accelerometer.as_dict()
+            scenario = scenario_from(args, overrides_text({f"accelerometer.{key}": value
+                                                           for key, value in calibration.items()}))
+            print(f"teleop: the accelerometer as {estimate} calibrated it (flags and --set still lay over it)",
+                  flush=True)
     else:
         print("teleop: no load estimate given: φ̂ = 0, offsets 0 (nothing is eliminated)", flush=True)
         load = LoadEstimate(phi=np.zeros(10), offsets=np.zeros(6))
