@@ -29,7 +29,7 @@ import functools
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from heft.systems.accelerometer_calibration import checked_rotation, unit_factor
+from heft.systems.accelerometer_calibration import AccelerometerCalibration, checked_rotation, unit_factor
 from heft.systems.compiled import compiled, float_array
 
 
@@ -70,6 +70,11 @@ class AccelerometerConvention:
     @property
     def displaced(self) -> bool:
         return any(self.p_SA)
+
+    @functools.cached_property
+    def calibration(self) -> AccelerometerCalibration:
+        """The mounting as ``accelerometer_calibration``'s model of the linear channels."""
+        return AccelerometerCalibration(np.array(self.R_SA), np.array(self.bias), self.scale, self.unit)
 
     @property
     def mounted(self) -> bool:
@@ -136,9 +141,9 @@ def reading_from_motion(acceleration, gravity, omega=None,
     if convention.includes_gravity:
         reading[..., :3] -= gravity
     if convention.mounted:
-        _, _, R_SA, u, bias = kernel_convention(convention)
-        reading[..., :3] = reading[..., :3] @ R_SA / u + bias
-        reading[..., 3:] = reading[..., 3:] @ R_SA
+        calibration = convention.calibration
+        reading[..., :3] = calibration.reading_of(reading[..., :3])
+        reading[..., 3:] = reading[..., 3:] @ calibration.R_SA
     return reading
 
 
@@ -160,10 +165,10 @@ def motion_from_reading(out: np.ndarray, reading, gravity, omega=None,
         motion_from_reading_into(out, float_array(reading), float_array(gravity),
                                  _NO_ROTATION if omega is None else float_array(omega), *kernel_convention(convention))
         return out
-    _, _, R_SA, u, bias = kernel_convention(convention)
+    calibration = convention.calibration
     reading = np.asarray(reading, dtype=float)
-    out[..., :3] = (reading[..., :3] - bias) @ R_SA.T * u
-    out[..., 3:] = reading[..., 3:] @ R_SA.T
+    out[..., :3] = calibration.to_sensor_axes(reading[..., :3])
+    out[..., 3:] = reading[..., 3:] @ calibration.R_SA.T
     if convention.includes_gravity:
         out[..., :3] += gravity
     if convention.displaced:
@@ -174,7 +179,8 @@ def motion_from_reading(out: np.ndarray, reading, gravity, omega=None,
 @compiled("void(float64[:], float64[:], float64[:], float64[:], boolean, float64[:], float64[:, :], float64, "
           "float64[:])")
 def motion_from_reading_into(out, reading, gravity, omega, includes_gravity, p_SA, R_SA, u, bias) -> None:
-    """``motion_from_reading`` of one sample, the convention as ``kernel_convention`` gives it."""
+    """``motion_from_reading`` of one sample, the convention as ``kernel_convention`` gives it (the
+    mounting as ``AccelerometerCalibration.to_sensor_axes``, in scalar arithmetic)."""
     for i in range(3):
         out[i] = u * (R_SA[i, 0] * (reading[0] - bias[0]) + R_SA[i, 1] * (reading[1] - bias[1])
                       + R_SA[i, 2] * (reading[2] - bias[2]))

@@ -97,17 +97,16 @@ MOUNTED = AccelerometerConvention(True, (0.02, 0.01, -0.008), Rotation.from_rotv
 
 
 def test_a_mounted_accelerometer_reports_what_its_calibration_model_says():
-    """The reading in A's axes and unit is ``AccelerometerCalibration.reading_of`` (the calibration's model,
-    written apart) of the specific force at A in S, and α turned into A's axes; converted back it is S's
-    motion again, one sample (the compiled kernel) and a batch (numpy) alike."""
-    from heft.systems.accelerometer_calibration import AccelerometerCalibration
-
-    calibration = AccelerometerCalibration(np.array(MOUNTED.R_SA), np.array(MOUNTED.bias), MOUNTED.scale, "g")
+    """The reading in A's axes and unit is r = scale·R_SAᵀ·s/u + bias of the specific force s at A in S
+    (the model, written out here), and α turned into A's axes; converted back it is S's motion again,
+    one sample (the compiled kernel) and a batch (numpy) alike."""
     rng = np.random.default_rng(8)
     motion, gravity, omega = rng.normal(0, 3, (50, 6)), rng.normal(0, 5, (50, 3)), rng.normal(0, 2, (50, 3))
     at_S = reading_from_motion(motion, gravity, omega, AccelerometerConvention(True, MOUNTED.p_SA))  # S's axes, m/s²
     reading = reading_from_motion(motion, gravity, omega, MOUNTED)
-    np.testing.assert_allclose(reading[:, :3], calibration.reading_of(at_S[:, :3]), rtol=0, atol=1e-12)
+    R_AS = np.array(MOUNTED.R_SA).T
+    expected = np.array([MOUNTED.scale * R_AS @ s / 9.80665 + MOUNTED.bias for s in at_S[:, :3]])
+    np.testing.assert_allclose(reading[:, :3], expected, rtol=0, atol=1e-12)
     np.testing.assert_allclose(reading[:, 3:], at_S[:, 3:] @ np.array(MOUNTED.R_SA), rtol=0, atol=1e-12)
     assert np.abs(reading[:, :3] - at_S[:, :3]).max() > 1.0  # not S's axes
     np.testing.assert_allclose(motion_from_reading(np.empty((50, 6)), reading, gravity, omega, MOUNTED), motion,
