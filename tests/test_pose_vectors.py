@@ -30,3 +30,19 @@ def test_rotation_matrix_is_drakes_for_any_scale_of_the_quaternion():
         np.testing.assert_allclose(rotation_matrix(np.concatenate((rng.normal(size=3), q))), expected, atol=1e-14)
     assert rotation_matrix(np.array([0, 0, 0, 0, 0, 0, 0.0])) is None
     assert rotation_matrix(np.array([0, 0, np.nan, 1, 0, 0, 0.0])) is None
+
+
+def test_pose_vector_is_drakes_quaternion_to_round_off():
+    """``pose_into`` (Shepperd's method, scalar) against Drake's ``RotationMatrix.ToQuaternion``, w ≥ 0, for
+    rotations of every kind, the near-π ones (where w is the smallest component) among them."""
+    rng = np.random.default_rng(12)
+    for k in range(2000):
+        q = rng.normal(size=4)
+        if k % 3 == 0:
+            q[rng.integers(4)] *= 1e-4  # one component all but gone: each branch of the method
+        X = RigidTransform(RotationMatrix(Quaternion(q / np.linalg.norm(q))), rng.normal(size=3))
+        expected = X.rotation().ToQuaternion().wxyz()
+        expected = expected if expected[0] >= 0 else -expected
+        pose = pose_vector(X)
+        np.testing.assert_array_equal(pose[:3], X.translation())
+        np.testing.assert_allclose(pose[3:], expected, rtol=0, atol=2e-15)
