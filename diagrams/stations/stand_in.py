@@ -241,12 +241,21 @@ class _Master:
         self.position = self._initial + offset
 
 
-def _decode(message_type, payload: bytes):
-    """The decoded message, or None if ``payload`` is not one."""
-    try:
-        return message_type.decode(payload)
-    except (ValueError, struct.error):
-        return None
+def _command_values(layout: FixedLayout, message_type, payload: bytes, *names: str):
+    """The fields ``names`` of a command for ``NUM_JOINTS`` joints (one value, or a tuple of them), or None
+    if ``payload`` is not one: unpacked by ``layout``, or decoded when of another size."""
+    values = layout.unpack(payload)
+    if values is not None:
+        fields = tuple(values[layout.field(name)] for name in names)
+    else:
+        try:
+            msg = message_type.decode(payload)
+        except (ValueError, struct.error):
+            return None
+        if msg.num_joints != NUM_JOINTS:
+            return None
+        fields = tuple(getattr(msg, name) for name in names)
+    return fields[0] if len(fields) == 1 else fields
 
 
 class StandIn:
@@ -330,6 +339,8 @@ class StandIn:
         self._torque_until = -math.inf  # the driver's watchdog: no torque from this time on (s)
         self.master_torque = np.zeros(NUM_JOINTS)
 
+        self._command_layouts = {_MASTER: FixedLayout(heft_haptic_command, num_joints=NUM_JOINTS),
+                                 _SLAVE: FixedLayout(lcmt_iiwa_command, num_joints=NUM_JOINTS, num_torques=0)}
         self._layouts = (FixedLayout(heft_haptic_state, num_joints=NUM_JOINTS),
                          FixedLayout(lcmt_iiwa_status, num_joints=NUM_JOINTS), FixedLayout(heft_ft_sample),
                          FixedLayout(heft_gripper_state))
@@ -392,19 +403,19 @@ class StandIn:
         return end < die_at
 
     def _take_commands(self, now: float) -> None:
-        """Applies the commands that arrived by ``now`` (s)."""
+        """Applies the commands that arrived by ``now`` (s): a six-joint one unpacked by its layout, any
+        other decoded (and a wrong joint count or garbage refused)."""
         pump(self._command_bus)
         for payload in self._slave_commands.take():
-            msg = _decode(lcmt_iiwa_command, payload)
-            if (msg is not None and msg.num_joints == NUM_JOINTS
-                    and math.isfinite(sum(msg.joint_position))):
-                self.slave_command[:] = msg.joint_position
+            position = _command_values(self._command_layouts[_SLAVE], lcmt_iiwa_command, payload, "joint_position")
+            if position is not None and math.isfinite(sum(position)):
+                self.slave_command[:] = position
         for payload in self._haptic_commands.take():
-            msg = _decode(heft_haptic_command, payload)
-            if (msg is not None and msg.enable and msg.num_joints == NUM_JOINTS
-                    and math.isfinite(sum(msg.torque))):
+            values = _command_values(self._command_layouts[_MASTER], heft_haptic_command, payload, "torque",
+                                     "enable")
+            if values is not None and values[1] and math.isfinite(sum(values[0])):
                 limits = self._master.effort_limits
-                self._torque_commanded = np.clip(msg.torque, -limits, limits)
+                self._torque_commanded = np.clip(values[0], -limits, limits)
                 self._torque_until = now + HAPTIC_WATCHDOG_S
                 self._observe_stylus_force(self._torque_commanded)
             else:
