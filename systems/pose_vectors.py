@@ -50,19 +50,26 @@ def pose_into(R, p, pose) -> None:
     pose[3], pose[4], pose[5], pose[6] = sign * w, sign * x, sign * y, sign * z
 
 
-def rotation_matrix(pose) -> np.ndarray | None:
-    """R (3×3) of a pose vector's quaternion (normalised), or None if the pose is not
-    7 finite numbers with a non-zero quaternion. Scalar arithmetic: no objects per call."""
-    if len(pose) != POSE_SIZE or not math.isfinite(sum(pose)):
-        return None
+@compiled("boolean(float64[:], float64[:, :])")
+def rotation_into(pose, R) -> bool:
+    """Writes into R (3×3) the rotation of a pose vector's quaternion (normalised); returns False,
+    R untouched, if the pose is not 7 finite numbers with a non-zero quaternion."""
+    if pose.shape[0] != POSE_SIZE:
+        return False
+    total = 0.0
+    for value in pose:
+        total += value
+    if not math.isfinite(total):
+        return False
     w, x, y, z = pose[3], pose[4], pose[5], pose[6]
     norm2 = w * w + x * x + y * y + z * z
     if norm2 < 1e-18:
-        return None
+        return False
     s = 2.0 / norm2
-    return np.array(((1.0 - s * (y * y + z * z), s * (x * y - w * z), s * (x * z + w * y)),
-                     (s * (x * y + w * z), 1.0 - s * (x * x + z * z), s * (y * z - w * x)),
-                     (s * (x * z - w * y), s * (y * z + w * x), 1.0 - s * (x * x + y * y))))
+    R[0, 0], R[0, 1], R[0, 2] = 1.0 - s * (y * y + z * z), s * (x * y - w * z), s * (x * z + w * y)
+    R[1, 0], R[1, 1], R[1, 2] = s * (x * y + w * z), 1.0 - s * (x * x + z * z), s * (y * z - w * x)
+    R[2, 0], R[2, 1], R[2, 2] = s * (x * z - w * y), s * (y * z + w * x), 1.0 - s * (x * x + y * y)
+    return True
 
 
 def rigid_transform(pose) -> RigidTransform:

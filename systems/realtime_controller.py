@@ -53,8 +53,8 @@ from heft.systems.offset_tracking import (OFFSETS, REQUESTS, STATUS, TRACKING, W
                                           initial_state, offsets_update, restart_rezero_window)
 from heft.systems.passivity_controller import PassivityParams, master_torque_into
 from heft.systems.pose_vectors import POSE_SIZE, pose_into
-from heft.systems.rx_inverse_kinematics import RxKinematics
-from heft.systems.slave_inverse_kinematics import flange_target, ik_step
+from heft.systems.rx_inverse_kinematics import UNREACHABLE, RxKinematics
+from heft.systems.slave_inverse_kinematics import IkStep
 from heft.systems.slave_kinematics import NUM_JOINTS
 
 
@@ -68,8 +68,8 @@ class RealtimeTeleopController:
     load model φ̂ and [f_o; τ_o] (N, N·m). Every step brings its own ``dt``; the mount notch
     is designed for the nominal ``period`` (s), kept as ``period``.
 
-    After ``step``: ``torque`` τ_M (6, N·m) and ``position`` q̄_S (6, rad), plus what the
-    per-block Diagram logs: ``wrench_feedback``/``wrench_contact``/``wrench_noncontact``
+    After ``step``: ``torque`` τ_M (6, N·m) and ``position`` q̄_S (6, rad; one array, overwritten by each
+    step), plus what the per-block Diagram logs: ``wrench_feedback``/``wrench_contact``/``wrench_noncontact``
     (6 each, at S in S), ``master_wrench`` (6, on the hand at E in B, as mapped),
     ``applied_wrench`` (6, as applied after the passivity controller and the device
     limits), ``pose_RS_desired`` (7), ``energy``/``damping`` (2 each, the passivity
@@ -91,8 +91,7 @@ class RealtimeTeleopController:
         self._slave = SerialChain(slave, slave.GetFrameByName(base_frame), slave.GetFrameByName("S"),
                                   GRAVITY_W)  # R = W
         self._pose_BE, self._pose_RS, self._pose_scratch = np.zeros((3, POSE_SIZE))
-        X_SF = X_FS.inverse()
-        self._kinematics, self._R_SF, self._p_SF = kinematics, X_SF.rotation().matrix(), X_SF.translation()
+        self._kinematics, self._ik_step = kinematics, IkStep(kinematics, X_FS.inverse())
         online = estimator is not None and estimator.mode == "online"
         self.estimator = OnlineLoadEstimator(estimator, phi, period) if online else None
         self._phi = self.estimator.phi if online else phi.copy()  # the estimator's, updated in place
@@ -162,9 +161,7 @@ class RealtimeTeleopController:
         motion = self._motion
         motion_scaling_step(self._motion_memory, self.pose_RS_desired, self._pose_BE, clutch, self._pose_RS,
                             motion.translation_scale, motion.rotation_scale, self._R_RB_motion, self._pose_scratch)
-        self.position, self.reachable, _ = ik_step(
-            self._kinematics, flange_target(self.pose_RS_desired, self._R_SF, self._p_SF), self.position,
-            self._kinematics.velocity * dt)
+        self.reachable = not self._ik_step(self.pose_RS_desired, self.position, dt, self.position) & UNREACHABLE
 
         # Force scaling/elimination, feedback mapping, passivity controller.
         force = self._force

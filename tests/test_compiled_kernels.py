@@ -8,6 +8,9 @@ import sys
 import numpy as np
 
 from heft.systems import compiled
+from heft.systems.rx_inverse_kinematics import (JOINT_LIMIT, NON_FINITE, OUT_OF_REACH, SHOULDER_SINGULARITY,
+                                                WRIST_SINGULARITY)
+from heft.systems.slave_inverse_kinematics import SLEWING
 
 _KERNELS = r"""
 import sys
@@ -86,6 +89,41 @@ for k in range(40):  # the clamps act on about half of the samples
         rng.normal(0, 6, 6), rng.normal(0, 2, 6), out["J"][k % 10], energy, 5e-4, (20.0, 0.2), 8.5, 0.188)
     out["torque"].append(np.concatenate((wrench, torque, applied, damping, dissipated)))
     out["energy"].append(energy)
+
+# The slave IK: seeded targets reachable, out of reach, past a limit, near the wrist, elbow and
+# shoulder singularities and on the J1 axis; the rich API's kernels and one tick's.
+from pydrake.math import RigidTransform, RotationMatrix
+from heft.systems.pose_vectors import pose_into
+from heft.systems.rx_inverse_kinematics import WORK_ROWS, RxKinematics, all_solutions, nearest_solution
+from heft.systems.slave_inverse_kinematics import IkStep
+
+work, q, solutions, pose = np.empty((WORK_ROWS, 6)), np.empty(6), np.empty((8, 6)), np.empty(7)
+for name in ("ik_q", "ik_status", "ik_all", "ik_count", "step_command", "step_status"):
+    out[name] = []
+for robot in ("rx90", "rx60"):
+    kin = getattr(RxKinematics, robot)()
+    step = IkStep(kin, RigidTransform(RotationMatrix.MakeXRotation(0.4), [0.01, -0.02, 0.15]))
+    for n in range(300):
+        q_target = rng.uniform(kin.lower - 0.2, kin.upper + 0.2)  # some beyond the limits
+        q_target[[4, 2][n % 2]] *= 0.02 if n % 3 == 0 else 1.0  # near the wrist or the elbow singularity
+        R, p = kin.forward(q_target)
+        if n % 5 == 1:  # the wrist centre on (or 1 µm from) the J1 axis
+            p_C = p - kin.d6 * R[:, 2]
+            p = p - np.array([p_C[0], p_C[1], 0.0]) * (1.0 + 1e-6 * (n % 2))
+        if n % 5 == 2:
+            p = p + rng.normal(0.0, 0.5, 3)  # often out of reach
+        q_reference = np.clip(q_target + rng.normal(0.0, [0.01, 0.3, 2.0][n % 3], 6), kin.lower, kin.upper)
+        out["ik_status"].append(nearest_solution(kin.dh, kin.lower, kin.upper, kin.wrist_band, R, p, q_reference,
+                                                 q, work))
+        out["ik_q"].append(q.copy())
+        out["ik_count"].append(all_solutions(kin.dh, kin.lower, kin.upper, R, p, q_reference, solutions, work))
+        out["ik_all"].append(solutions[:out["ik_count"][-1]].copy())
+        pose_into(R, p, pose)
+        pose[4] = np.nan if n % 7 == 6 else pose[4]
+        command = np.empty(6)
+        out["step_status"].append(step(pose, q_reference, [5e-4, 0.01, 1.0][n % 3], command))
+        out["step_command"].append(command)
+out["ik_all"] = np.concatenate(out["ik_all"])
 np.savez(sys.argv[1], **{name: np.asarray(value) for name, value in out.items()})
 """
 
@@ -103,6 +141,11 @@ def test_the_plain_python_kernels_equal_the_compiled_ones(tmp_path):
     machine_code = run_kernels(tmp_path / "compiled.npz", pure_python=False)
     assert fallback.pop("pure_python") and not machine_code.pop("pure_python")
     assert fallback.keys() == machine_code.keys()
+    ik_status, step_status = fallback["ik_status"], fallback["step_status"]
+    assert (ik_status == 0).any() and (ik_status & OUT_OF_REACH).any() and (ik_status & JOINT_LIMIT).any()
+    assert (ik_status & SHOULDER_SINGULARITY).any() and (ik_status & WRIST_SINGULARITY).any()
+    assert (step_status & NON_FINITE).any() and (step_status & SLEWING).any() and (step_status == 0).any()
     for name, expected in fallback.items():
         assert np.abs(expected).max() > 0, name
+        assert machine_code[name].shape == expected.shape, name
         np.testing.assert_allclose(machine_code[name], expected, rtol=1e-13, atol=1e-13, err_msg=name)
