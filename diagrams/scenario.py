@@ -282,7 +282,7 @@ def _check_fields(data, schema, path=""):
         hint = hints[key]
         if dataclasses.is_dataclass(hint):
             _check_fields(value, hint, name + ".")
-        elif typing.get_args(hint) and typing.get_origin(typing.get_args(hint)[0]) is list:  # rows of numbers
+        elif typing.get_origin(hint) is list and typing.get_origin(typing.get_args(hint)[0]) is list:  # rows
             if not isinstance(value, list) or not all(isinstance(row, list) and all(
                     isinstance(v, (int, float)) and not isinstance(v, bool) for v in row) for row in value):
                 raise ValueError(f"field '{name}' must be a list of rows of numbers, got {value!r}")
