@@ -103,10 +103,9 @@ def test_a_tool_hanging_still_is_weighed_once(sigma):
     pointing up in the world, R = W here), and the controller counts gravity once: the
     stylus feels σ times the tool's weight scaled by k_f, pointing down; nothing at σ = 0
     (counted twice, σ = 0 would render the full weight upwards)."""
-    scenario = resolve_scenario("fig6")
-    scenario.operator.amplitude = [0.0, 0.0, 0.0]
-    scenario.ft_sensor.white_noise = scenario.accelerometer.white_noise = False
-    scenario.controller.force.sigma = sigma
+    scenario = resolve_scenario("fig6", overrides_text({
+        "operator.amplitude": [0.0, 0.0, 0.0], "ft_sensor.white_noise": False, "accelerometer.white_noise": False,
+        "controller.force.sigma": sigma}))
     load = true_load(scenario)[0]
     lab = Lab(scenario, load=load)
     lab.run(0.5)
@@ -119,19 +118,15 @@ def test_a_tool_hanging_still_is_weighed_once(sigma):
     np.testing.assert_allclose(settled[:3], [0.0, 0.0, expected], atol=0.05)
 
 
-def still_lab(load_of, clutch_at=np.inf, amplitude=0.0, configure=None, overrides=None, controller_overrides=None):
+def still_lab(load_of, clutch_at=np.inf, amplitude=0.0, overrides=None, controller_overrides=None):
     """fig6 with σ = 0, no white noise nor accelerometer bias, the operator's hand at rest (or
     moving by ``amplitude`` m), the controller given ``load_of(true load)`` and no offset
-    tracking, then changed by ``configure(scenario)`` and ``overrides`` (a dict of dotted fields; the
-    controller's by ``controller_overrides`` besides); answers on the load status channel are kept."""
-    scenario = resolve_scenario("fig6")
-    scenario.operator.amplitude = [0.0, 0.0, amplitude]
-    scenario.ft_sensor.white_noise = scenario.accelerometer.white_noise = False
-    scenario.accelerometer.offsets = False  # its bias would weigh m·b on the force (0.4 N): not this test's subject
-    scenario.controller.force.sigma = 0.0
-    scenario.controller.offsets.tracking = False
-    if configure is not None:
-        configure(scenario)
+    tracking, then changed by ``overrides`` (a dict of dotted fields; the controller's by
+    ``controller_overrides`` besides); answers on the load status channel are kept."""
+    scenario = resolve_scenario("fig6", overrides_text({
+        "operator.amplitude": [0.0, 0.0, amplitude], "ft_sensor.white_noise": False, "accelerometer.white_noise": False,
+        # the accelerometer's bias would weigh m·b on the force (0.4 N): not this test's subject
+        "accelerometer.offsets": False, "controller.force.sigma": 0.0, "controller.offsets.tracking": False}))
     if overrides:
         scenario = layered(scenario, overrides_text(overrides))
     true = true_load(scenario)[0]
@@ -360,10 +355,8 @@ def test_a_grasp_and_release_over_lcm_split_the_load_and_are_answered():
     fixed.run(0.01)
     assert [a.accepted for a in fixed.answers] == [False] and "mode: online" in fixed.answers[0].message
 
-    def online(scenario):
-        scenario.controller.estimator.mode = "online"
-        scenario.controller.estimator.learning_window = 0.1
-    lab, true, scenario = still_lab(lambda true: true, configure=online)
+    online = {"controller.estimator.mode": "online", "controller.estimator.learning_window": 0.1}
+    lab, true, scenario = still_lab(lambda true: true, overrides=online)
     lab.run(0.05)
     send(lab, heft_load_command.GRASP)
     lab.run(0.01)

@@ -27,7 +27,7 @@ from heft.diagrams.commands import analyze_linear
 from heft.diagrams.studies.linear_model_params import linear_model_params
 from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.diagrams.running.simulation import with_sigma
-from heft.diagrams.scenario import resolve_scenario
+from heft.diagrams.scenario import NOISE_OFF, overrides_text, resolve_scenario
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation
 from heft.systems.operator_hand import smooth_sine_offset
@@ -240,11 +240,9 @@ def test_reduced_model_predicts_the_full_loop_motion():
     which the single-axis model leaves out. The bound catches a setpoint filter at 25
     instead of 20 Hz (16 %), a slave mass off by 2× (15 %) or 2 ms of extra delay (13 %);
     a single tick (0.5 ms, ≈ 2 %) is below what this comparison resolves."""
-    scenario = resolve_scenario("fig8")
-    scenario.environment.kind = "none"
-    scenario.ft_sensor.noise = scenario.accelerometer.noise = False
-    scenario.operator.amplitude, scenario.operator.frequency, scenario.operator.start_time = [0, 0, 0.01], 2.5, 0.0
-    scenario.duration = 0.4
+    scenario = resolve_scenario("fig8", overrides_text({
+        "environment.kind": "none", **NOISE_OFF, "operator.amplitude": [0, 0, 0.01], "operator.frequency": 2.5,
+        "operator.start_time": 0.0, "duration": 0.4}))
     station = MakeSimStation(scenario)
     load = LoadEstimate(np.array(station.GetOutputPort("truth.phi").Eval(station.CreateDefaultContext())),
                         np.zeros(6))

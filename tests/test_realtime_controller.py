@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
 
-from heft.diagrams.scenario import Scenario
+from heft.diagrams.scenario import Scenario, layered, overrides_text
 from heft.systems.accelerometer_reading import AT_S
 from heft.diagrams.running.simulation import true_load
 from heft.systems.offset_tracking import COLLECTING, DONE
@@ -103,14 +103,14 @@ def run_both(scenario: Scenario, load, sequence: list[dict]):
 
 @pytest.fixture(scope="module")
 def both_runs():
-    scenario = Scenario()
-    scenario.controller.motion.translation_scale = 2.0
-    scenario.controller.motion.R_RB = [0.0, 0.0, 0.4]  # the master's base turned: both map the feedback back through it
-    scenario.controller.force.sigma = 0.5
-    offsets = scenario.controller.offsets
-    offsets.rezero_window = 40 * PERIOD
-    # The sequence's wrench is not a load at rest; wide gates let the re-zero and tracking run.
-    offsets.rezero_force = offsets.rezero_torque = offsets.track_force = offsets.track_torque = 1e3
+    scenario = layered(Scenario(), overrides_text({
+        "controller.motion.translation_scale": 2.0,
+        "controller.motion.R_RB": [0.0, 0.0, 0.4],  # the master's base turned: both map the feedback back through it
+        "controller.force.sigma": 0.5,
+        "controller.offsets.rezero_window": 40 * PERIOD,
+        # The sequence's wrench is not a load at rest; wide gates let the re-zero and tracking run.
+        **{f"controller.offsets.{gate}": 1e3
+           for gate in ("rezero_force", "rezero_torque", "track_force", "track_torque")}}))
     load, _ = true_load(scenario)
     assert scenario.accelerometer.convention().displaced  # displaced from S: the transport runs in both
     assert scenario.controller.force.mount_notch > 0  # and so does the notch on the contact

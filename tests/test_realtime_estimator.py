@@ -27,14 +27,11 @@ FAULT_TICK = 1200           # a NaN wrench: the gate holds 2/prefilter s
 
 
 def online_scenario() -> Scenario:
-    scenario = Scenario()
-    scenario.controller.motion.translation_scale = 2.0
-    scenario.controller.force.sigma = 0.0
-    estimator = scenario.controller.estimator
-    estimator.mode = "online"
-    estimator.learning_window = 0.15  # 300 ticks, so that contact is judged within the sequence
-    estimator.new_load_wait = 0.02  # 40 ticks after the start and each new load
-    return scenario
+    return layered(Scenario(), overrides_text({
+        "controller.motion.translation_scale": 2.0, "controller.force.sigma": 0.0,
+        "controller.estimator.mode": "online",
+        "controller.estimator.learning_window": 0.15,  # 300 ticks, so that contact is judged within the sequence
+        "controller.estimator.new_load_wait": 0.02}))  # 40 ticks after the start and each new load
 
 
 def load_sequence(scenario: Scenario, phi_true, offsets) -> list[dict]:

@@ -63,16 +63,13 @@ class Run:
 
 @pytest.fixture(scope="module")
 def free_space():
-    scenario = ideal(Scenario())
-    scenario.environment.kind = "none"
-    return Run(scenario)
+    return Run(layered(ideal(Scenario()), overrides_text({"environment.kind": "none"})))
 
 
 @pytest.fixture(scope="module")
 def sheet_spring():
-    scenario = ideal(Scenario())
-    scenario.environment.plate_top_W = [0.552, 0.0, 0.075]  # 5 mm below the ball at rest
-    return Run(scenario)
+    # the plate 5 mm below the ball at rest
+    return Run(layered(ideal(Scenario()), overrides_text({"environment.plate_top_W": [0.552, 0.0, 0.075]})))
 
 
 def test_station_exports_the_design_ports(free_space):
@@ -201,12 +198,9 @@ def stylus_height(run):
 
 
 def operator_run(amplitude_z):
-    scenario = ideal(Scenario())
-    scenario.environment.kind = "none"
-    scenario.operator.amplitude = [0.0, 0.0, amplitude_z]
-    scenario.operator.frequency = 0.5
-    scenario.operator.start_time = 0.0
-    return Run(scenario)
+    return Run(layered(ideal(Scenario()), overrides_text({
+        "environment.kind": "none", "operator.amplitude": [0.0, 0.0, amplitude_z], "operator.frequency": 0.5,
+        "operator.start_time": 0.0})))
 
 
 def test_operator_pulls_the_stylus_along_its_reference():
@@ -254,18 +248,16 @@ def test_operator_yields_to_a_rendered_force_by_its_stiffness():
 
 
 def test_custom_and_gripper_loads_give_their_parameters():
-    custom = Scenario()
-    custom.load.kind = "custom"
-    custom.load.mass, custom.load.com = 1.2, [0.01, 0.02, 0.08]
-    custom.load.inertia_com = [0.004, 0.0, 0.0, 0.005, 0.0, 0.003]
+    custom = layered(Scenario(), overrides_text({
+        "load.kind": "custom", "load.mass": 1.2, "load.com": [0.01, 0.02, 0.08],
+        "load.inertia_com": [0.004, 0.0, 0.0, 0.005, 0.0, 0.003]}))
     plant = MultibodyPlant(0.0)
     parts = AddSlave(plant, custom)
     plant.Finalize()
     M = plant.CalcSpatialInertia(plant.CreateDefaultContext(), parts.S, [b.index() for b in parts.load_bodies])
     expected = InertialParameters(1.2, [0.01, 0.02, 0.08], np.diag([0.004, 0.005, 0.003]))
     np.testing.assert_allclose(M.CalcRotationalInertia().CopyToFullMatrix3(), expected.inertia_origin, atol=1e-12)
-    gripper = Scenario()
-    gripper.load.kind = "gripper_object"
+    gripper = layered(Scenario(), overrides_text({"load.kind": "gripper_object"}))
     station = MakeSimStation(ideal(gripper))
     context = station.CreateDefaultContext()
     phi, phi_gripper = (station.GetOutputPort(n).Eval(context) for n in ("truth.phi", "truth.phi_gripper"))
@@ -274,9 +266,8 @@ def test_custom_and_gripper_loads_give_their_parameters():
 
 
 def test_non_physical_custom_load_is_rejected():
-    scenario = Scenario()
-    scenario.load.kind = "custom"
-    scenario.load.inertia_com = [0.001, 0, 0, 0.001, 0, 0.01]  # violates the triangle inequality
+    scenario = layered(Scenario(), overrides_text({
+        "load.kind": "custom", "load.inertia_com": [0.001, 0, 0, 0.001, 0, 0.01]}))  # violates the triangle inequality
     with pytest.raises(ValueError, match="load are not physical: triangle inequality"):
         MakeSimStation(scenario)
 

@@ -7,7 +7,7 @@ from pydrake.math import RigidTransform, RotationMatrix, RollPitchYaw
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable, SpatialInertia
 
-from heft.diagrams.scenario import Scenario
+from heft.diagrams.scenario import Scenario, layered, overrides_text
 from heft.diagrams.plants import AddSlave
 from heft.systems.pose_vectors import rigid_transform
 from heft.systems.rx_inverse_kinematics import RxKinematics
@@ -18,8 +18,7 @@ GRAVITY_W = np.array([0.0, 0.0, -9.81])
 
 def slave_plant(robot="rx90", load="tool", extra_free_body=False):
     """A finalized plant of arm + JR3 + load (and optionally a free body, which adds positions)."""
-    scenario = Scenario()
-    scenario.robot, scenario.load.kind = robot, load
+    scenario = layered(Scenario(), overrides_text({"robot": robot, "load.kind": load}))
     plant = MultibodyPlant(0.0)
     AddSlave(plant, scenario)
     if extra_free_body:

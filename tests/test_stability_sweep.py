@@ -12,7 +12,7 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from heft.analysis.stability_map import draw_stability_map, stability_limits
 from heft.diagrams.commands.analyze_stability import add_arguments, axis_values, run
-from heft.diagrams.scenario import overrides_text, resolve_scenario
+from heft.diagrams.scenario import layered, overrides_text, resolve_scenario
 from heft.diagrams.studies.stability_sweep import grid, point_scenario, simulate_point
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop_simulation import AddDelay, MakeTeleopSimulation
@@ -53,12 +53,12 @@ def test_add_delay_shifts_a_step_by_whole_periods_and_starts_at_the_initial_valu
 
 def test_the_simulation_puts_the_delay_in_every_channel_both_ways():
     scenario = wall(0.1)
-    scenario.controller.delay = 3 * scenario.controller_period
-    diagram, _ = MakeTeleopSimulation(scenario, LoadEstimate(np.zeros(10), np.zeros(6)))
+    delayed = layered(scenario, overrides_text({"controller.delay": 3 * scenario.controller_period}))
+    diagram, _ = MakeTeleopSimulation(delayed, LoadEstimate(np.zeros(10), np.zeros(6)))
     delays = [s for s in diagram.GetSystems() if isinstance(s, DiscreteTimeDelay)]
     assert len(delays) == 8  # six station outputs read, two station inputs driven
-    scenario.controller.delay = 0.0
-    diagram, _ = MakeTeleopSimulation(scenario, LoadEstimate(np.zeros(10), np.zeros(6)))
+    undelayed = layered(delayed, overrides_text({"controller.delay": 0.0}))
+    diagram, _ = MakeTeleopSimulation(undelayed, LoadEstimate(np.zeros(10), np.zeros(6)))
     assert not [s for s in diagram.GetSystems() if isinstance(s, DiscreteTimeDelay)]
 
 

@@ -13,7 +13,7 @@ import pytest
 from drake import lcmt_iiwa_command, lcmt_iiwa_status
 from heft.diagrams.cli import main
 from heft.diagrams.models import model_path
-from heft.diagrams.scenario import Scenario, resolve_scenario
+from heft.diagrams.scenario import Scenario, layered, overrides_text, resolve_scenario
 from heft.diagrams.plants import AddArmWithSensor, AddSlave
 from heft.diagrams.stations.stand_in import HAPTIC_WATCHDOG_S, FaultInjection, StandIn, _uniform, run_stand_in
 from heft.hardware_interface.channels import LcmChannels
@@ -40,15 +40,15 @@ def reader_of(scenario: Scenario) -> FtSampleReader:
     return FtSampleReader(scenario.ft_sensor.full_scale + scenario.accelerometer.full_scale, 0.05)
 
 
-def quiet_scenario() -> Scenario:
+def quiet_scenario(overrides: dict | None = None) -> Scenario:
     """Ideal wrist sensors (no disturbances, no filter), the load welded at S, the arm's true joint
-    velocities and a still operator: what is published is the model's truth."""
-    scenario = Scenario()
-    scenario.operator.amplitude = [0.0, 0.0, 0.0]
-    scenario.load.mount.rigid, scenario.slave_velocity_filter = True, 0.0
-    for sensor in (scenario.ft_sensor, scenario.accelerometer):
-        sensor.noise, sensor.lowpass_cutoff = False, 0.0
-    return scenario
+    velocities and a still operator: what is published is the model's truth; then ``overrides``
+    (dotted fields) laid over it."""
+    quiet = layered(Scenario(), overrides_text({
+        "operator.amplitude": [0.0, 0.0, 0.0], "load.mount.rigid": True, "slave_velocity_filter": 0.0,
+        "ft_sensor.noise": False, "ft_sensor.lowpass_cutoff": 0.0,
+        "accelerometer.noise": False, "accelerometer.lowpass_cutoff": 0.0}))
+    return layered(quiet, overrides_text(overrides)) if overrides else quiet
 
 
 class Lab:
@@ -121,9 +121,9 @@ def test_still_tool_weighs_on_the_sensor_as_drake_says():
     """Still arm: the FT round trip (sensor sign flipped back, offsets removed) is the 3.13 kg
     tool held against gravity, f = −m·g in S and τ = p_SC × f, from Drake's own model; the
     accelerometer reads 9.81 m/s² upwards."""
-    scenario = quiet_scenario()
-    scenario.ft_sensor.noise = True  # offsets only
-    scenario.ft_sensor.white_noise = scenario.ft_sensor.drift = scenario.ft_sensor.quantization = False
+    scenario = quiet_scenario({"ft_sensor.noise": True,  # offsets only
+                               "ft_sensor.white_noise": False, "ft_sensor.drift": False,
+                               "ft_sensor.quantization": False})
     lab = Lab(scenario)
     lab.run(0.05)
     samples = lab.payloads[CHANNELS.ft_sample.name]
@@ -194,8 +194,7 @@ def test_the_sensors_filter_is_a_butterworth_on_the_published_samples(moving):
     """With the JR3's 500 Hz filter on, the same motion publishes the unfiltered samples through a
     second-order Butterworth at the 8 kHz sample rate (scipy's design and filter, started in steady
     state): the wrench and the accelerometer alike."""
-    scenario = quiet_scenario()
-    scenario.ft_sensor.lowpass_cutoff = scenario.accelerometer.lowpass_cutoff = 500.0
+    scenario = quiet_scenario({"ft_sensor.lowpass_cutoff": 500.0, "accelerometer.lowpass_cutoff": 500.0})
     lab = Lab(scenario)
     lab.run(0.1)
     lab.command_slave(np.asarray(lab.scenario.slave_initial_q) + DELTA)

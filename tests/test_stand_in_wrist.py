@@ -19,7 +19,7 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from heft.diagrams.cli import main
 from heft.diagrams.plants import _add_compliant_mount, _add_load, mount_for
-from heft.diagrams.scenario import Scenario, resolve_scenario
+from heft.diagrams.scenario import Scenario, overrides_text, resolve_scenario
 from heft.diagrams.stations.sim_station import settle_mount
 from heft.diagrams.stations.stand_in import StandIn
 from heft.diagrams.stations.stand_in_wrist import GRIPPER_CLOSING_S, GraspTimes
@@ -56,10 +56,9 @@ class Lab:
 
 def quiet_grasp() -> Scenario:
     """The grasp scenario with ideal wrist sensors and the compliant mount on."""
-    scenario = resolve_scenario("grasp")
-    for sensor in (scenario.ft_sensor, scenario.accelerometer):
-        sensor.noise, sensor.lowpass_cutoff = False, 0.0
-    return scenario
+    return resolve_scenario("grasp", overrides_text({
+        "ft_sensor.noise": False, "ft_sensor.lowpass_cutoff": 0.0,
+        "accelerometer.noise": False, "accelerometer.lowpass_cutoff": 0.0}))
 
 
 @pytest.fixture(scope="module")
@@ -244,8 +243,7 @@ def test_the_mount_rings_while_the_arm_moves_and_rests_on_the_weight():
     differ by the mount's ringing; at rest again both carry the tool's weight alike."""
     published = []
     for rigid in (True, False):
-        scenario = quiet_scenario()
-        scenario.load.mount.rigid = rigid
+        scenario = quiet_scenario({"load.mount.rigid": rigid})
         lab = Lab(scenario)
         lab.run(0.05)
         msg = lcmt_iiwa_command()

@@ -21,12 +21,12 @@ def true_load(scenario: Scenario) -> LoadEstimate:
     return LoadEstimate(phi=np.array(phi), offsets=offsets)
 
 
-def quiet_scenario() -> Scenario:
-    """The ideal station (``IDEAL_STATION``), noise-free sensors, free space, a hand at rest."""
-    scenario = layered(Scenario(), overrides_text({**NOISE_OFF, **IDEAL_STATION}))
-    scenario.environment.kind = "none"
-    scenario.operator.amplitude = [0.0, 0.0, 0.0]
-    return scenario
+def quiet_scenario(overrides: dict | None = None) -> Scenario:
+    """The ideal station (``IDEAL_STATION``), noise-free sensors, free space, a hand at rest; then
+    ``overrides`` (dotted fields) laid over it."""
+    quiet = layered(Scenario(), overrides_text({**NOISE_OFF, **IDEAL_STATION, "environment.kind": "none",
+                                                "operator.amplitude": [0.0, 0.0, 0.0]}))
+    return layered(quiet, overrides_text(overrides)) if overrides else quiet
 
 
 def test_controller_ports_are_the_station_ports_and_it_adds_no_feedthrough():
@@ -48,10 +48,9 @@ def test_operator_feels_sigma_times_the_weight_at_rest(sigma, includes_gravity):
     """Holding still, the master renders the load's weight scaled by σ and by the force
     scale k_f: f_z = −σ·m·g·k_f (down), the apparent mass of Sec. V in statics; gravity is
     counted once whether the accelerometer reports specific force or the driver removes it."""
-    scenario = quiet_scenario()
-    scenario.accelerometer.includes_gravity = includes_gravity
-    scenario.operator.stiffness, scenario.operator.damping = 2000.0, 40.0  # a firm grip settles fast
-    scenario.duration = 0.5
+    scenario = quiet_scenario({"accelerometer.includes_gravity": includes_gravity,
+                               # a firm grip settles fast
+                               "operator.stiffness": 2000.0, "operator.damping": 40.0, "duration": 0.5})
     run = run_teleop(with_sigma(scenario, sigma), true_load(scenario))
     k_f = scenario.controller.feedback.force_scale
     expected = -sigma * 3.13 * 9.81 * k_f
@@ -64,12 +63,9 @@ def test_operator_feels_sigma_times_the_weight_at_rest(sigma, includes_gravity):
 def test_slave_follows_the_scaled_master_motion():
     """The operator lifts the stylus by 2 cm; with translation scale 2 the sensor frame
     rises by 4 cm, and the eliminated feedback stays near zero throughout."""
-    scenario = quiet_scenario()
-    scenario.operator.amplitude = [0.0, 0.0, 0.02]
-    scenario.operator.frequency = 1.0
-    scenario.operator.start_time = 0.0
-    scenario.controller.motion.translation_scale = 2.0
-    scenario.duration = 0.6  # past the top of the reference at 0.5 s
+    scenario = quiet_scenario({"operator.amplitude": [0.0, 0.0, 0.02], "operator.frequency": 1.0,
+                               "operator.start_time": 0.0, "controller.motion.translation_scale": 2.0,
+                               "duration": 0.6})  # past the top of the reference at 0.5 s
     diagram, loggers = MakeTeleopSimulation(with_sigma(scenario, 0.0), true_load(scenario))
     simulator = Simulator(diagram)
     simulator.Initialize()
@@ -102,9 +98,7 @@ def test_paper_experiments_with_the_true_load(name):
     about as far as in the first, and after elimination it stays under the detection threshold."""
     from heft.analysis.experiment_metrics import DETECTION_THRESHOLD_N, experiment_metrics
     from heft.systems.operator_hand import stroke_windows
-    scenario = resolve_scenario(name)
-    if name == "fig6":
-        scenario.duration = 1.2
+    scenario = resolve_scenario(name, overrides_text({"duration": 1.2} if name == "fig6" else {}))
     load = true_load(scenario)
     runs = {sigma: run_teleop(with_sigma(scenario, sigma), load) for sigma in (1.0, 0.0)}
     op = scenario.operator
@@ -131,22 +125,21 @@ def test_offset_tracking_in_the_closed_loop_holds_the_residual_against_drift(tra
     warm-up of 0.5 N on f_z with a 3 s time constant, the tracker's 5 s and 0.02 N/s made
     0.05 s and 2 N/s). With tracking the eliminated wrench stays within the tracker's lag;
     without it, it follows the drift."""
-    scenario = quiet_scenario()
-    scenario.ft_sensor.noise, scenario.ft_sensor.white_noise, scenario.ft_sensor.quantization = True, False, False
-    scenario.ft_sensor.offset_random_walk = [0.0] * 6
-    scenario.ft_sensor.drift_time_constant = 3.0
-    scenario.ft_sensor.drifted_offsets = list(np.add(scenario.ft_sensor.initial_offsets, [0, 0, 0.5, 0, 0, 0]))
-    offsets = scenario.controller.offsets
-    offsets.tracking, offsets.time_constant, offsets.max_force_rate = tracking, 0.05, 2.0
-    scenario.operator.stiffness, scenario.operator.damping = 2000.0, 40.0
-    scenario.duration = 1.5
+    initial_offsets = quiet_scenario().ft_sensor.initial_offsets
+    scenario = quiet_scenario({
+        "ft_sensor.noise": True, "ft_sensor.white_noise": False, "ft_sensor.quantization": False,
+        "ft_sensor.offset_random_walk": [0.0] * 6, "ft_sensor.drift_time_constant": 3.0,
+        "ft_sensor.drifted_offsets": np.add(initial_offsets, [0, 0, 0.5, 0, 0, 0]).tolist(),
+        "controller.offsets.tracking": tracking, "controller.offsets.time_constant": 0.05,
+        "controller.offsets.max_force_rate": 2.0, "operator.stiffness": 2000.0, "operator.damping": 40.0,
+        "duration": 1.5})
     run = run_teleop(with_sigma(scenario, 0.0), true_load(scenario), quiet=True)
     residual = run["wrench_contact"][200:, 2]  # f_z of the eliminated wrench, after the start
     drift = run["offsets_true"][-1, 2] - run["offsets_true"][0, 2]
     assert drift > 0.15  # the offsets really drifted
     if tracking:
         rate = 0.5 / 3.0  # the warm-up's fastest drift (N/s)
-        assert np.abs(residual).max() < 1.5 * rate * offsets.time_constant + 1e-3
+        assert np.abs(residual).max() < 1.5 * rate * scenario.controller.offsets.time_constant + 1e-3
         np.testing.assert_allclose(run["offsets_hat"][-1, 2], run["offsets_true"][-1, 2], atol=0.01)
     else:
         assert residual[-1] == pytest.approx(drift, abs=0.01)
@@ -181,7 +174,7 @@ def test_eq_14_after_a_grasp_with_the_estimator_in_the_loop(eta):
     scenario = resolve_scenario("grasp", overrides_text({**NOISE_OFF, **IDEAL_STATION, "duration": 2.2,
                                                          "controller.force.eta": eta}))
     load, phi_gripper = station_truth(scenario)
-    scenario.controller.force.phi_gripper = phi_gripper.tolist()
+    scenario = layered(scenario, overrides_text({"controller.force.phi_gripper": phi_gripper.tolist()}))
     gripper_only = LoadEstimate(phi=phi_gripper, offsets=load.offsets)
     metrics = grasp_metrics(run_teleop(with_sigma(scenario, 0.0), gripper_only, quiet=True), scenario.load.grasp_at)
     assert metrics["object_mass_settled_after_s"] < 1.5
