@@ -7,7 +7,7 @@ taken when
 * excitation: ‖V(a, α, ω, 0)‖ (the regressor of Eq. 5 without its static part,
   a the kinematic acceleration) reaches ``min_excitation``: at rest or in slow
   motion only gravity's direction is seen, which the stabilized forgetting of
-  ``estimators`` already holds; and
+  ``recursive_estimation`` already holds; and
 * no contact: the eliminated wrench c (Eq. 13, from force scaling) is within
   ``contact_force``/``contact_torque``, except during ``learning_window`` s
   after a reset (a new load), when c holds the not yet learned load itself,

@@ -5,7 +5,7 @@ The per-block Diagram (``diagrams.teleop.MakeTeleopController`` with
 ``EstimatorGate``, ``EstimatorPrefilter`` and ``LoadEstimatorSystem`` (RLS, φ alone).
 ``OnlineLoadEstimator.step`` does what they do in one tick, calling the same cores
 (``estimator_gate.gate_open``/``clocks_now``/``advance_clocks``,
-``estimator_prefilter.prefilter_step``, ``estimators.RecursiveLeastSquares``), in the
+``estimator_prefilter.prefilter_step``, ``recursive_estimation.RecursiveLeastSquares``), in the
 order a Diagram's discrete update sees them: the gate decides from this tick's
 samples and the clocks before them, the estimator learns from the prefilter's output
 of the last tick, then the prefilter takes this tick's sample. All state is
@@ -20,7 +20,7 @@ import numpy as np
 
 from .estimator_gate import CLOCKS_START, EstimatorSpec, advance_clocks, clocks_now, gate_open
 from .estimator_prefilter import STATE_SIZE, WIDTH, prefilter_coefficients, prefilter_step
-from .estimators import RecursiveLeastSquares
+from heft.systems.recursive_estimation import RecursiveLeastSquares
 
 # Where the prefilter's sample and output hold each signal (``estimator_prefilter.SIGNALS``).
 _WRENCH, _A, _ALPHA, _OMEGA, _GRAVITY = slice(0, 6), slice(6, 9), slice(9, 12), slice(12, 15), slice(15, 18)

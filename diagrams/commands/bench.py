@@ -37,7 +37,8 @@ def _bench_identify(args) -> int:
     from heft.diagrams.running.sim_identification import record_excitation
     from heft.diagrams.running.progress import ProgressBar
     from heft.diagrams.scenario import Scenario
-    from heft.systems.estimators import PARAMETER_NAMES, NoiseLevels
+    from heft.systems.load_dynamics import PARAMETER_NAMES
+    from heft.systems.regression_noise import NoiseLevels
     from heft.systems.excitation import ExcitationSettings
     from heft.systems.load_dynamics import noncontact_wrench
 
