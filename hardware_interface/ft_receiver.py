@@ -11,9 +11,9 @@ import math
 
 import numpy as np
 
-from .lcmtypes import heft_ft_sample
-from .message_checks import RANGE_MARGIN, Rejections
-from .message_order import SourceClock
+from heft.hardware_interface.lcmtypes import heft_ft_sample
+from heft.hardware_interface.message_checks import RANGE_MARGIN, Rejections
+from heft.hardware_interface.message_order import SourceClock
 
 
 class FtSampleReader:

@@ -14,8 +14,8 @@ import numpy as np
 
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
-from .message_checks import JointRange, Rejections
-from .message_order import LATE_TOLERANCE, SourceClock
+from heft.hardware_interface.message_checks import JointRange, Rejections
+from heft.hardware_interface.message_order import LATE_TOLERANCE, SourceClock
 
 
 def haptic_state_fields(msg) -> tuple:

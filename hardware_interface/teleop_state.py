@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import lcm
 
-from .channels import LcmChannels
-from .lcmtypes import heft_teleop_state
+from heft.hardware_interface.channels import LcmChannels
+from heft.hardware_interface.lcmtypes import heft_teleop_state
 
 
 class TeleopStatePublisher:

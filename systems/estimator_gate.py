@@ -25,7 +25,7 @@ import math
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from .load_dynamics import regressor, wrench_norms
+from heft.systems.load_dynamics import regressor, wrench_norms
 
 ESTIMATOR_MODES = ("fixed", "online")
 ONLINE_METHODS = ("rls",)

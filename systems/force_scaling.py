@@ -34,9 +34,9 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
 from scipy.signal import iirnotch, lfilter_zi
 
-from .accelerometer_reading import AT_S, AccelerometerConvention, motion_from_reading
-from .load_dynamics import regressor
-from .sample_period import DEFAULT_PERIOD, require_period
+from heft.systems.accelerometer_reading import AT_S, AccelerometerConvention, motion_from_reading
+from heft.systems.load_dynamics import regressor
+from heft.systems.sample_period import DEFAULT_PERIOD, require_period
 
 
 @dataclasses.dataclass

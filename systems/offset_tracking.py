@@ -27,7 +27,7 @@ import math
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from .load_dynamics import wrench_norms
+from heft.systems.load_dynamics import wrench_norms
 
 # Layout of the state: offsets, the re-zero window's sum of (c + o)·dt and its length (s),
 # the re-zero status, tracking on (1) or off (0), the last re-zero request counter seen.

@@ -18,8 +18,8 @@ import math
 
 import numpy as np
 
-from .estimator_gate import CLOCKS_START, EstimatorSpec, advance_clocks, clocks_now, gate_open
-from .estimator_prefilter import STATE_SIZE, WIDTH, prefilter_coefficients, prefilter_step
+from heft.systems.estimator_gate import CLOCKS_START, EstimatorSpec, advance_clocks, clocks_now, gate_open
+from heft.systems.estimator_prefilter import STATE_SIZE, WIDTH, prefilter_coefficients, prefilter_step
 from heft.systems.recursive_estimation import RecursiveLeastSquares
 
 # Where the prefilter's sample and output hold each signal (``estimator_prefilter.SIGNALS``).

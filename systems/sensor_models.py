@@ -46,7 +46,7 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 from scipy.signal import butter, lfilter, lfilter_zi
 
-from .accelerometer_reading import AccelerometerConvention
+from heft.systems.accelerometer_reading import AccelerometerConvention
 
 NUM_AXES = 6
 
