@@ -18,7 +18,7 @@ import numpy as np
 
 from heft.analysis.fit_verdict import FitEvidence, fit_verdict, noise_floor
 from heft.analysis.identification_report import convergence_figure, estimate_errors, verdict_report
-from heft.diagrams.running.progress import ProgressBar
+from heft.diagrams.progress import ProgressBar
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import MakeSlavePlant
 from heft.diagrams.load_estimate import estimate_record, write_load_estimate
