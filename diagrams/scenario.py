@@ -20,7 +20,7 @@ from pydrake.common.yaml import yaml_load_typed
 from pydrake.multibody.plant import MultibodyPlantConfig
 from pydrake.systems.analysis import SimulatorConfig
 
-from heft.systems.estimator_gate import EstimatorSpec
+from heft.systems.load_estimation_params import LoadEstimationParams
 from heft.systems.feedback_mapping import FeedbackMappingParams
 from heft.systems.force_scaling import ForceScalingParams
 from heft.systems.motion_scaling import MotionScalingParams
@@ -149,7 +149,7 @@ class ControllerSpec:
     feedback: FeedbackMappingParams = dataclasses.field(default_factory=FeedbackMappingParams)
     passivity: PassivityParams = dataclasses.field(default_factory=PassivityParams)
     offsets: OffsetTrackingParams = dataclasses.field(default_factory=OffsetTrackingParams)
-    estimator: EstimatorSpec = dataclasses.field(default_factory=EstimatorSpec)
+    estimator: LoadEstimationParams = dataclasses.field(default_factory=LoadEstimationParams)
     # One-way communication delay (s) between controller and station, in each direction;
     # a whole number of controller periods.
     delay: float = 0.0

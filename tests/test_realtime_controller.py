@@ -109,7 +109,7 @@ def both_runs():
     offsets = scenario.controller.offsets
     offsets.rezero_window = 40 * PERIOD
     # The sequence's wrench is not a load at rest; wide gates let the re-zero and tracking run.
-    offsets.rezero_force = offsets.rezero_torque = offsets.track_force = offsets.track_torque = 1e3
+    offsets.rezero_force = offsets.rezero_torque = offsets.contact.force = offsets.contact.torque = 1e3
     load, _ = true_load(scenario)
     assert scenario.accelerometer.convention().displaced  # displaced from S: the transport runs in both
     assert scenario.controller.force.mount_notch > 0  # and so does the notch on the contact
