@@ -1,5 +1,5 @@
 """The load estimator in the loop of Fig. 4, wired into the controller Diagram
-(``MakeTeleopController`` with ``controller.estimator.mode: online``; DESIGN §3)."""
+(``MakeTeleopController`` with ``controller.estimator.mode: online``; docs/design.md §3)."""
 
 from pydrake.systems.framework import DiagramBuilder, OutputPort
 from pydrake.systems.primitives import Adder

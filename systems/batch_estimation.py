@@ -1,6 +1,6 @@
 """Batch estimation of a load's inertial parameters and the sensor's offsets (Kubus & Wahl, Sec. IV).
 
-Plain numpy/scipy, no Drake types. Conventions as in ``load_dynamics`` (DESIGN §4): all
+Plain numpy/scipy, no Drake types. Conventions as in ``load_dynamics`` (docs/design.md §4): all
 signals in the sensor frame S; the wrench [f; τ] (N, N·m) is what the sensor exerts on the
 load; a, α, ω, g in m/s², rad/s², rad/s, m/s². The unknowns are θ = [offsets (6); φ (10)]
 (Eq. 7), with measured wrench = offsets + V(a, α, ω, g)·φ (Eqs. 8, 13), or φ alone.

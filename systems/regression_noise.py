@@ -5,7 +5,7 @@ functions here carry it through the regressor V(a, α, ω, g) of ``load_dynamics
 covariance of a sample's equation error, and the expected Gram matrix of the noise in V's
 columns that total least squares and errors-in-variables estimation correct for
 (``batch_estimation``, ``recursive_estimation``). Signals in the sensor frame S; units as
-``load_dynamics`` (DESIGN §4).
+``load_dynamics`` (docs/design.md §4).
 """
 
 import dataclasses
@@ -18,7 +18,7 @@ from heft.systems.load_dynamics import regressor
 
 @dataclasses.dataclass
 class NoiseLevels:
-    """RMS noise per axis of the measured signals; defaults are DESIGN §6's sensor model.
+    """RMS noise per axis of the measured signals; defaults are docs/design.md §6's sensor model.
     Loadable with ``yaml_load_typed``; the estimators check it (``checked``) when they take it.
 
     force (N) and torque (N·m) of the wrench; linear_acceleration (m/s²) and

@@ -1,4 +1,4 @@
-"""The layering of DESIGN §2, read from the source's imports with ``ast``: no module imports a
+"""The layering of docs/design.md §2, read from the source's imports with ``ast``: no module imports a
 layer above its own, and every import of heft's own code is absolute (``heft.…``).
 
 Between the top-level folders, each imports only those to its left:
