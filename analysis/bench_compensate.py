@@ -24,7 +24,7 @@ import yaml
 from heft.systems.load_dynamics import GRAVITY_W, noncontact_wrench
 
 RATES = {"wrench": 8000.0, "accelerometer": 1000.0, "orientation": 500.0}
-"""Hz: the wrench at the JR3's 8 kHz (DESIGN §6), a fast IMU, a robot's pose stream."""
+"""Hz: the wrench at the JR3's 8 kHz (docs/design.md §6), a fast IMU, a robot's pose stream."""
 PHI = np.array([3.13, 0.0, 0.0, 0.199, 0.0249, 0.0, 0.0, 0.0263, 0.0, 0.00477])
 """A load of the paper's tool's mass and size (kg, kg·m, kg·m² about S); only its order of magnitude matters."""
 AXIS = np.array([1.0, 2.0, 2.0]) / 3.0

@@ -31,7 +31,7 @@ from heft.analysis.plotting import plt
 AXES = ("fx", "fy", "fz", "tx", "ty", "tz")
 COLUMNS = ("t",) + tuple(f"noncontact_{a}" for a in AXES) + tuple(f"contact_{a}" for a in AXES)
 MIN_THRESHOLD = 0.5
-"""N: five times the JR3's force noise (0.1 N RMS, DESIGN §6), the least default contact threshold."""
+"""N: five times the JR3's force noise (0.1 N RMS, docs/design.md §6), the least default contact threshold."""
 ROBUST_SIGMAS = 6.0
 MERGE_GAP = 0.02
 """s: contact samples closer than this belong to one interval."""

@@ -48,7 +48,7 @@ class Clock:
 @dataclasses.dataclass
 class WrenchStream:
     """The force-torque sensor: [f; τ] (N, N·m) at S in S. ``exerted_on``: ``sensor`` (what the load
-    exerts on the sensor, what drivers report) or ``load`` (heft's own sign, DESIGN §4)."""
+    exerts on the sensor, what drivers report) or ``load`` (heft's own sign, docs/design.md §4)."""
     file: str = ""
     time: Clock = dataclasses.field(default_factory=Clock)
     columns: list[str] = dataclasses.field(default_factory=lambda: ["fx", "fy", "fz", "tx", "ty", "tz"])

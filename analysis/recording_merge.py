@@ -31,7 +31,7 @@ JointOrientation = Callable[[np.ndarray], np.ndarray]
 @dataclasses.dataclass
 class MergedSamples:
     """Per wrench sample, all in S: t (N,) s on the wrench's clock; ``wrench`` (N, 6) measured [f; τ]
-    on the load (heft's sign, DESIGN §4); S's kinematic a, α, ω and g (N, 3 each; m/s², rad/s², rad/s,
+    on the load (heft's sign, docs/design.md §4); S's kinematic a, α, ω and g (N, 3 each; m/s², rad/s², rad/s,
     m/s²). Without an orientation g is 0 and a is the specific force a − g (V needs only a − g)."""
     t: np.ndarray
     wrench: np.ndarray

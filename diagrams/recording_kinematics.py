@@ -10,7 +10,7 @@ from heft.diagrams.plants import MakeArmPlant
 
 def joint_orientation(robot: str):
     """A function q (N, 6) rad → R_WS (N, 3, 3) for the arm ``robot`` (rx90 | rx60) with the JR3 on its
-    flange, the arm's base frame taken as W (it stands level, DESIGN §4)."""
+    flange, the arm's base frame taken as W (it stands level, docs/design.md §4)."""
     plant, S = MakeArmPlant(robot)
     context = plant.CreateDefaultContext()
     world = plant.world_frame()

@@ -4,7 +4,7 @@ Load with :func:`resolve_scenario` (a bundled name or a file, optionally with
 YAML text layered over it); change one with :func:`layered` (YAML text) or
 :func:`overrides_text` (dotted field names → that text): the one override path
 of the CLI, the sweeps and the tests. A malformed file or override gets a
-ValueError naming the field. Units are SI; frames as DESIGN §4 (W world, R slave
+ValueError naming the field. Units are SI; frames as docs/design.md §4 (W world, R slave
 base, B master base).
 """
 
@@ -20,6 +20,8 @@ from pydrake.common.yaml import yaml_load_typed
 from pydrake.multibody.plant import MultibodyPlantConfig
 from pydrake.systems.analysis import SimulatorConfig
 
+from heft.hardware_interface.channels import LcmChannels
+from heft.hardware_interface.hardware_station import HardwareStationParams
 from heft.systems.load_estimation_params import LoadEstimationParams
 from heft.systems.feedback_mapping import FeedbackMappingParams
 from heft.systems.force_scaling import ForceScalingParams
@@ -137,11 +139,11 @@ class ControllerSpec:
     """The teleoperation controller's settings (its rate is ``Scenario.controller_period``).
 
     ``load_estimate``: an estimate.yaml written by ``heft identify``; empty means the
-    load is identified in simulation first (as in the paper's Sec. VI-B).
-    ``sigmas``: the σ values one ``heft simulate`` run compares (the paper's 1, 0.5, 0).
+    load is identified in simulation first (as in the paper's Sec. VI-B). The run's σ is
+    ``force.sigma``, its one home (the σ values ``heft simulate`` compares are that command's
+    study axis, laid over it run by run: ``diagrams.running.simulation``).
     """
     load_estimate: str = ""
-    sigmas: list[float] = dataclasses.field(default_factory=lambda: [1.0, 0.5, 0.0])
     motion: MotionScalingParams = dataclasses.field(default_factory=MotionScalingParams)
     # The contact fed back through a notch at the default mount's rocking mode (``MOUNT_ROCKING_HZ``).
     force: ForceScalingParams = dataclasses.field(
@@ -153,6 +155,18 @@ class ControllerSpec:
     # One-way communication delay (s) between controller and station, in each direction;
     # a whole number of controller periods.
     delay: float = 0.0
+
+
+@dataclasses.dataclass
+class LabSpec:
+    """The lab's hardware, for the commands that talk to it over LCM (``teleop --hardware``,
+    ``identify --hardware``, ``stand-in``, ``load``, ``bench lcm``): the LCM URLs and channels, and
+    the hardware station's limits (its watchdog). One scenario file per lab, as Drake's
+    ``hardware_sim`` keeps its ``lcm_buses`` and drivers in its scenario; the controller's rate is
+    ``Scenario.controller_period``, and the limits the drivers' messages are checked against come
+    from the scenario's robot models and sensors (``diagrams.device_limits``)."""
+    lcm: LcmChannels = dataclasses.field(default_factory=LcmChannels)
+    station: HardwareStationParams = dataclasses.field(default_factory=HardwareStationParams)
 
 
 @dataclasses.dataclass
@@ -170,6 +184,7 @@ class Scenario:
     accelerometer: AccelerometerParams = dataclasses.field(default_factory=AccelerometerParams)
     operator: OperatorSpec = dataclasses.field(default_factory=OperatorSpec)
     controller: ControllerSpec = dataclasses.field(default_factory=ControllerSpec)
+    lab: LabSpec = dataclasses.field(default_factory=LabSpec)
     # The slave's discrete MultibodyPlant (Drake's config; its time_step is the master plant's too):
     # SAP with the lagged approximation, point contact (ContactWrenchAtSensor sums point contacts).
     plant: MultibodyPlantConfig = dataclasses.field(default_factory=lambda: MultibodyPlantConfig(
@@ -178,7 +193,7 @@ class Scenario:
     # How a simulation runs (Drake's config, ApplySimulatorConfig): target_realtime_rate 1 paces it
     # to the wall clock; the defaults run as fast as they can.
     simulator: SimulatorConfig = dataclasses.field(default_factory=SimulatorConfig)
-    controller_period: float = 0.0005       # s, 2 kHz
+    controller_period: float = 0.0005       # s, 2 kHz (on hardware too: the loop's rate)
     slave_servo_stiffness: list[float] = dataclasses.field(
         default_factory=lambda: [4e4, 4e4, 2e4, 2e3, 2e3, 5e2])  # N·m/rad, the robot's own joint loop
     slave_servo_damping_ratio: float = 1.0
@@ -196,8 +211,6 @@ class Scenario:
                 raise ValueError(f"scenario field '{field}' {what}")
         need(self.experiment in ("", "fig6", "fig7", "fig8"), "experiment",
              f"must be '', 'fig6', 'fig7' or 'fig8', not {self.experiment!r}")
-        need(len(self.controller.sigmas) >= 1 and min(self.controller.sigmas) >= 0, "controller.sigmas",
-             "needs at least one σ >= 0")
         force = self.controller.force
         need(force.eta == 1.0 or force.phi_gripper is not None or math.isfinite(self.load.grasp_at)
              or self.controller.estimator.mode == "online",
@@ -244,7 +257,7 @@ class Scenario:
         need(math.isfinite(self.slave_velocity_filter) and self.slave_velocity_filter >= 0, "slave_velocity_filter",
              "must be >= 0 (Hz; 0: the true velocity)")
         for name, params in (("ft_sensor", self.ft_sensor), ("accelerometer", self.accelerometer),
-                             ("load.mount", self.load.mount)):
+                             ("load.mount", self.load.mount), ("lab.station.watchdog", self.lab.station.watchdog)):
             try:
                 params.validate()
             except ValueError as error:  # its message starts with the field's name
@@ -269,6 +282,10 @@ def _check_fields(data, schema, path=""):
         hint = hints[key]
         if dataclasses.is_dataclass(hint):
             _check_fields(value, hint, name + ".")
+        elif typing.get_origin(hint) is list and typing.get_origin(typing.get_args(hint)[0]) is list:  # rows
+            if not isinstance(value, list) or not all(isinstance(row, list) and all(
+                    isinstance(v, (int, float)) and not isinstance(v, bool) for v in row) for row in value):
+                raise ValueError(f"field '{name}' must be a list of rows of numbers, got {value!r}")
         elif typing.get_origin(hint) is list:
             if not isinstance(value, list) or not all(
                     isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):

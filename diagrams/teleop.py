@@ -1,7 +1,7 @@
 """The bilateral teleoperation controller of Fig. 4.
 
 ``MakeTeleopController`` knows nothing of the station: its inputs and outputs
-carry the station port names of DESIGN §3, so it connects unchanged to
+carry the station port names of docs/design.md §3, so it connects unchanged to
 ``MakeSimStation`` (``teleop_simulation``) or to the hardware station; this
 module imports no simulation. ``MakeRealtimeTeleopController`` is the same
 controller as one computation per tick, for the hardware's real-time loop.
@@ -62,7 +62,7 @@ def MakeRealtimeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot
 
 def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, period: float, slave_initial_q, *,
                          accelerometer: AccelerometerConvention):
-    """The hardware-agnostic controller Diagram of Fig. 4 (DESIGN §3), ticking every ``period`` s.
+    """The hardware-agnostic controller Diagram of Fig. 4 (docs/design.md §3), ticking every ``period`` s.
     ``accelerometer``: the convention of ``ft.acceleration_measured`` (``accelerometer_reading``;
     the scenario's ``accelerometer.convention()``).
 
@@ -83,7 +83,7 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     ik = builder.AddNamedSystem("slave_ik", SlaveInverseKinematics(kinematics, X_FS, slave_initial_q, period))
     force = builder.AddNamedSystem("force_scaling", ForceScalingElimination(
         spec.force, period, accelerometer))
-    feedback = builder.AddNamedSystem("feedback_mapping", FeedbackMapping(spec.feedback))
+    feedback = builder.AddNamedSystem("feedback_mapping", FeedbackMapping(spec.feedback, spec.motion.R_RB))
     passivity = builder.AddNamedSystem("passivity", PassivityController(
         spec.passivity, spec.feedback.max_force, spec.feedback.max_torque, period))
     spec.estimator.validate()

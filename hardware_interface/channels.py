@@ -1,4 +1,4 @@
-"""LCM channel names and nominal rates of the lab hardware (DESIGN §5, §6).
+"""LCM channel names and nominal rates of the lab hardware (docs/design.md §6, §7).
 
 Message types: the master uses ``heft_haptic_state`` / ``heft_haptic_command``,
 the wrist sensor ``heft_ft_sample`` and the gripper ``heft_gripper_state``; the

@@ -1,6 +1,6 @@
 """The wrist sensor's LCM samples → heft's wrench and acceleration.
 
-The one place where the sensor's sign becomes DESIGN §4's: a JR3 reports the
+The one place where the sensor's sign becomes docs/design.md §4's: a JR3 reports the
 wrench the load exerts on it; heft carries the wrench the sensor exerts on the
 load, [f; τ] at S, in S (N, N·m).
 """
@@ -11,9 +11,14 @@ import math
 
 import numpy as np
 
+from heft.hardware_interface.fixed_layout import FixedLayout
 from heft.hardware_interface.lcmtypes import heft_ft_sample
 from heft.hardware_interface.message_checks import RANGE_MARGIN, Rejections
 from heft.hardware_interface.message_order import SourceClock
+
+
+_LAYOUT = FixedLayout(heft_ft_sample)
+"""A ``heft_ft_sample`` has one size: a payload of another, or of another type's fingerprint, is not one."""
 
 
 class FtSampleReader:
@@ -47,47 +52,50 @@ class FtSampleReader:
         self.clock = SourceClock(silence)
         self._range = (RANGE_MARGIN * np.asarray(full_scale, dtype=float)).tolist()
         self._counter = -1  # the last accepted sample's counter
+        self._at = tuple(_LAYOUT.field(name) for name in ("utime", "sample_counter", "wrench", "acceleration",
+                                                          "saturated", "error"))
 
     def take(self, payloads, now: float) -> None:
         """Reads ``payloads`` (bytes, oldest first) at station time ``now`` (s), newest first:
         the newest sample that is in order and good is kept and older ones are not decoded."""
         rejections, clock, newest = self.rejections, self.clock, True
+        at = self._at
         for payload in reversed(payloads):
-            try:
-                sample = heft_ft_sample.decode(payload)
-            except Exception:  # whatever a malformed payload makes the generated decoder raise
+            values = _LAYOUT.unpack(payload)  # the generated decoder raises on anything else
+            if values is None:
                 rejections.add("undecodable")
                 continue
-            if sample.utime <= 0:
+            utime, counter, saturated, error = values[at[0]], values[at[1]], values[at[4]], values[at[5]]
+            if utime <= 0:
                 continue
-            stamp = sample.utime * 1e-6
+            stamp = utime * 1e-6
             reason = clock.rejection(stamp, now)
             if reason is not None:
                 rejections.add(reason)
                 continue
-            if sample.sample_counter <= self._counter and not clock.starts_source(now):
+            if counter <= self._counter and not clock.starts_source(now):
                 clock.foreign(stamp, now)
                 rejections.add("discontinuous")
                 continue
-            wrench, acceleration = sample.wrench, sample.acceleration
+            wrench, acceleration = values[at[2]], values[at[3]]
             non_finite = not math.isfinite(sum(wrench) + sum(acceleration))
             if newest:
                 newest = False
-                self.non_finite, self.saturated, self.error = non_finite, sample.saturated != 0, bool(sample.error)
+                self.non_finite, self.saturated, self.error = non_finite, saturated != 0, bool(error)
             if non_finite:
                 rejections.add("non_finite")
                 continue
-            if sample.error:
+            if error:
                 rejections.add("driver_error")
                 continue
             if not self._within_range(wrench, acceleration):
                 rejections.add("out_of_range")
                 continue
-            if sample.saturated != 0:
+            if saturated != 0:
                 continue
             clock.accept(stamp, now)
-            self._counter, self.t_good, self.utime = sample.sample_counter, now, sample.utime
-            # The sign flip of DESIGN §4: sensor-on-load = −(load-on-sensor).
+            self._counter, self.t_good, self.utime = counter, now, utime
+            # The sign flip of docs/design.md §4: sensor-on-load = −(load-on-sensor).
             for i in range(6):
                 self.wrench[i] = -wrench[i]
                 self.acceleration[i] = acceleration[i]

@@ -1,7 +1,7 @@
 """The hardware station: the lab's LCM channels, read and written once per controller tick.
 
 ``HardwareStation`` holds what the controller reads — the station quantities of
-DESIGN §3 (master and slave joint state, the wrist wrench and acceleration) plus
+docs/design.md §3 (master and slave joint state, the wrist wrench and acceleration) plus
 the clutch button — and gates what goes back. Every age, timeout and rate limit
 is measured on the caller's clock (s, wall-clock, monotonic), never in ticks:
 
@@ -22,23 +22,22 @@ is measured on the caller's clock (s, wall-clock, monotonic), never in ticks:
   speed limits × the time since the last send.
 """
 
-from __future__ import annotations
-
 import dataclasses
 import math
 
 import lcm
 import numpy as np
-from drake import lcmt_iiwa_command, lcmt_iiwa_status
+from drake import lcmt_iiwa_command
 
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
 from heft.hardware_interface.channels import LcmChannels
+from heft.hardware_interface.fixed_layout import FixedLayout
 from heft.hardware_interface.ft_receiver import FtSampleReader
 from heft.hardware_interface.gripper_state_reader import GripperStateReader
-from heft.hardware_interface.joint_state_reader import JointStateReader, haptic_state_fields, iiwa_status_fields
+from heft.hardware_interface.joint_state_reader import HAPTIC_STATE, IIWA_STATUS, JointStateReader
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
-from heft.hardware_interface.lcmtypes import heft_haptic_command, heft_haptic_state, heft_station_status
+from heft.hardware_interface.lcmtypes import heft_haptic_command, heft_station_status
 from heft.hardware_interface.message_checks import REASONS, DeviceLimits, JointRange
 from heft.hardware_interface.message_order import SILENCE_PER_TIMEOUT
 from heft.hardware_interface.watchdog import WatchdogParams, watchdog_step
@@ -99,10 +98,10 @@ class HardwareStation:
                       LcmMailbox(bus, channels.ft_sample.name, keep=FT_KEEP),
                       LcmMailbox(bus, channels.gripper_state.name, keep=JOINT_KEEP))
         silence = SILENCE_PER_TIMEOUT * params.watchdog.timeout
-        self._master = JointStateReader(heft_haptic_state, haptic_state_fields,
+        self._master = JointStateReader(HAPTIC_STATE,
                                         JointRange(limits.master_lower, limits.master_upper, limits.master_velocity),
                                         silence)
-        self._slave = JointStateReader(lcmt_iiwa_status, iiwa_status_fields,
+        self._slave = JointStateReader(IIWA_STATUS,
                                        JointRange(limits.slave_lower, limits.slave_upper, limits.slave_velocity),
                                        silence)
         self._ft = FtSampleReader(np.concatenate([limits.wrench_full_scale, limits.acceleration_full_scale]), silence)
@@ -124,10 +123,8 @@ class HardwareStation:
         self._ever_healthy, self._was_healthy = False, False
         self._position, self._hold = np.zeros(NUM_JOINTS), np.zeros(NUM_JOINTS)
         self._last_send = None
-        self._master_msg = heft_haptic_command()
-        self._master_msg.num_joints = NUM_JOINTS
-        self._slave_msg = lcmt_iiwa_command()
-        self._slave_msg.num_joints = NUM_JOINTS
+        self._master_command = FixedLayout(heft_haptic_command, num_joints=NUM_JOINTS)
+        self._slave_command = FixedLayout(lcmt_iiwa_command, num_joints=NUM_JOINTS, num_torques=0)
         status = self._status_msg = heft_station_status()
         status.num_channels, status.num_reasons = len(CHECKED_CHANNELS), len(REASONS)
         status.channels, status.reasons = list(CHECKED_CHANNELS), list(REASONS)
@@ -226,9 +223,8 @@ class HardwareStation:
         torque = np.asarray(torque, dtype=float)
         enable = self.healthy and math.isfinite(sum(torque.tolist()))
         self.torque_sent[:] = self.gain * torque if enable else 0.0
-        msg = self._master_msg
-        msg.utime, msg.torque, msg.enable = utime, self.torque_sent.tolist(), enable
-        self._command_bus.publish(self._channels.master_command.name, msg.encode())
+        self._command_bus.publish(self._channels.master_command.name, self._master_command.pack(
+            utime, NUM_JOINTS, *self.torque_sent.tolist(), enable))
 
         dt = 0.0 if self._last_send is None else min(now - self._last_send, self._params.watchdog.timeout)
         self._last_send = now
@@ -252,6 +248,5 @@ class HardwareStation:
         self._ever_healthy = self._ever_healthy or self.healthy
         self._was_healthy = self.healthy
         self.position_sent = command
-        slave = self._slave_msg
-        slave.utime, slave.joint_position = utime, command.tolist()
-        self._command_bus.publish(self._channels.slave_command.name, slave.encode())
+        self._command_bus.publish(self._channels.slave_command.name, self._slave_command.pack(
+            utime, NUM_JOINTS, *command.tolist(), 0))

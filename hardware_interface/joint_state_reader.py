@@ -11,36 +11,59 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from drake import lcmt_iiwa_status
 
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
+from heft.hardware_interface.fixed_layout import FixedLayout
+from heft.hardware_interface.lcmtypes import heft_haptic_state
 from heft.hardware_interface.message_checks import JointRange, Rejections
 from heft.hardware_interface.message_order import LATE_TOLERANCE, SourceClock
 
 
-def haptic_state_fields(msg) -> tuple:
-    """(utime, num_joints, position, velocity, error, buttons) of a ``heft_haptic_state``."""
-    return msg.utime, msg.num_joints, msg.position, msg.velocity, msg.error, msg.buttons
+class JointStateFields:
+    """Where a joint-state type carries (utime, num_joints, position, velocity, error, buttons): the
+    fields named ``position`` and ``velocity``, and ``error`` / ``buttons`` if it has them (else
+    False / 0); read off a decoded message or, for a message of the type's ``layout`` (6 joints), off
+    its unpacked values."""
+
+    def __init__(self, lcm_type, position: str, velocity: str, error: str | None = None,
+                 buttons: str | None = None):
+        self.lcm_type = lcm_type
+        self.layout = FixedLayout(lcm_type, num_joints=NUM_JOINTS)
+        self._names = (position, velocity, error, buttons)
+        self._at = tuple(None if name is None else self.layout.field(name)
+                         for name in ("utime", "num_joints", position, velocity, error, buttons))
+
+    def of_message(self, msg) -> tuple:
+        position, velocity, error, buttons = self._names
+        return (msg.utime, msg.num_joints, getattr(msg, position), getattr(msg, velocity),
+                False if error is None else getattr(msg, error), 0 if buttons is None else getattr(msg, buttons))
+
+    def of_values(self, values: tuple) -> tuple:
+        utime, num_joints, position, velocity, error, buttons = self._at
+        return (values[utime], values[num_joints], values[position], values[velocity],
+                False if error is None else values[error], 0 if buttons is None else values[buttons])
 
 
-def iiwa_status_fields(msg) -> tuple:
-    """(utime, num_joints, position, velocity, error, buttons) of an ``lcmt_iiwa_status``
-    (it carries no error flag and no buttons)."""
-    return msg.utime, msg.num_joints, msg.joint_position_measured, msg.joint_velocity_estimated, False, 0
+HAPTIC_STATE = JointStateFields(heft_haptic_state, "position", "velocity", "error", "buttons")
+IIWA_STATUS = JointStateFields(lcmt_iiwa_status, "joint_position_measured", "joint_velocity_estimated")
+"""The arm driver's status carries no error flag and no buttons."""
 
 
 class JointStateReader:
     """Takes one driver's payloads and holds its newest accepted state.
 
-    ``lcm_type`` decodes a payload and ``fields`` reads it (``haptic_state_fields``,
-    ``iiwa_status_fields``); ``joint_range`` is what the device can report; a source
+    ``fields`` says where its type carries the state (``HAPTIC_STATE``, ``IIWA_STATUS``): a
+    six-joint message is unpacked by its layout, anything else decoded by the generated decoder
+    (which then tells a wrong joint count from garbage); ``joint_range`` is what the device can report; a source
     silent for ``silence`` s gives way to the next (``SourceClock``). After ``take``:
     ``position``, ``velocity`` (rad, rad/s; updated in place), ``buttons``, ``t_good`` (the
     station time, s, of the last accepted message; −inf before the first), ``utime`` (its
     stamp, µs on the driver's clock; 0 before the first), ``rejections`` and ``clock``."""
 
-    def __init__(self, lcm_type, fields, joint_range: JointRange, silence: float):
-        self._decode, self._fields, self._range = lcm_type.decode, fields, joint_range
+    def __init__(self, fields: JointStateFields, joint_range: JointRange, silence: float):
+        self._fields, self._range = fields, joint_range
         self.position, self.velocity = np.zeros(NUM_JOINTS), np.zeros(NUM_JOINTS)
         self.buttons = 0
         self.t_good = -math.inf
@@ -59,10 +82,16 @@ class JointStateReader:
 
     def _rejection(self, payload: bytes, now: float) -> str | None:
         """Accepts ``payload`` and returns None, or returns why it is rejected."""
-        try:
-            utime, num_joints, position, velocity, error, buttons = self._fields(self._decode(payload))
-        except Exception:  # whatever a malformed payload makes the generated decoder raise
-            return "undecodable"
+        fields = self._fields
+        values = fields.layout.unpack(payload)
+        if values is not None:
+            utime, num_joints, position, velocity, error, buttons = fields.of_values(values)
+        else:
+            try:
+                utime, num_joints, position, velocity, error, buttons = fields.of_message(
+                    fields.lcm_type.decode(payload))
+            except Exception:  # whatever a malformed payload makes the generated decoder raise
+                return "undecodable"
         if num_joints != NUM_JOINTS or len(position) != NUM_JOINTS or len(velocity) != NUM_JOINTS:
             return "joint_count"
         stamp, clock = utime * 1e-6, self.clock

@@ -18,6 +18,7 @@ import time
 import lcm
 import numpy as np
 
+from heft.systems.accelerometer_reading import bias_at_rest
 from heft.systems.load_dynamics import checked_load
 from heft.systems.offset_tracking import COLLECTING, DONE, STATUS_TEXT
 
@@ -55,11 +56,15 @@ class LoadCommandServer:
         self._channel, self._controller = channels.load_status.name, controller
         self._mail = LcmMailbox(bus, channels.load_command.name, keep=16)
         self._waiting: list[int] = []  # utimes of the re-zero commands whose outcome is not yet told
+        self._at_rest = np.zeros(10)  # over the re-zero window: Σ accelerometer reading (6), Σ g_S (3), ticks
+        self._window = 0.0  # the re-zero window's length (s) at the last tick
         self._requests_seen = controller.rezero_requests_seen
         self._grasps: list[int] = []  # utimes of the grasps whose object is still being learned
         self.events: list[tuple[int, str]] = []
 
-    def serve(self, now_utime: int, healthy: bool) -> None:
+    def serve(self, now_utime: int, healthy: bool, reading) -> None:
+        """Once per tick, after the controller's step on the accelerometer's ``reading`` (6, as the driver
+        sent it): carries out and answers the commands that arrived, and tells how a re-zero ended."""
         for payload in self._mail.take():
             try:
                 command = heft_load_command.decode(payload)
@@ -69,18 +74,45 @@ class LoadCommandServer:
             accepted, message = self._apply(command, healthy)
             self._answer(now_utime, command.utime, accepted, message)
         controller = self._controller
+        if healthy and controller.rezero_status == COLLECTING:  # the window advances with the steps
+            self._average_at_rest(reading)
         seen = controller.rezero_requests_seen
         if seen > self._requests_seen and controller.rezero_status != COLLECTING:  # a re-zero ended
             self._requests_seen = seen
             status = controller.rezero_status
+            message = STATUS_TEXT[status] + (self._calibrate_accelerometer() if status == DONE else "")
             for utime in self._waiting:
-                self._answer(now_utime, utime, status == DONE, STATUS_TEXT[status])
+                self._answer(now_utime, utime, status == DONE, message)
             self._waiting.clear()
+            self._at_rest[:], self._window = 0.0, 0.0
         if self._grasps and controller.estimator.since_reset >= controller.estimator.learning_window:
             message = self._object_learned()
             for utime in self._grasps:
                 self._answer(now_utime, utime, True, message)
             self._grasps.clear()
+
+    def _average_at_rest(self, reading) -> None:
+        """Adds this tick's accelerometer reading and g_S to the re-zero window's sums (restarted with it)."""
+        controller, sums = self._controller, self._at_rest
+        if controller.rezero_elapsed < self._window:
+            sums[:] = 0.0
+        self._window = controller.rezero_elapsed
+        sums[:6] += reading
+        sums[6:9] += controller.gravity_S
+        sums[9] += 1.0
+
+    def _calibrate_accelerometer(self) -> str:
+        """The accelerometer's bias measured over the re-zero window (``bias_at_rest``), set in the
+        controller; what was done, for the answer."""
+        controller, sums = self._controller, self._at_rest
+        if sums[9] == 0:
+            return ""
+        reading, gravity_S = sums[:6] / sums[9], sums[6:9] / sums[9]
+        convention = controller.accelerometer
+        bias = bias_at_rest(convention, reading, gravity_S)
+        controller.set_accelerometer_bias(bias, reading, gravity_S)
+        return (f"; accelerometer bias [{', '.join(f'{x:.4g}' for x in bias)}] {convention.unit} (was "
+                f"[{', '.join(f'{x:.4g}' for x in convention.bias)}]) over {sums[9]:.0f} ticks")
 
     def gripper(self, now_utime: int, event: str) -> None:
         """Serves a grasp or release (``gripper_state_reader.GRASP``/``RELEASE``) the gripper's driver

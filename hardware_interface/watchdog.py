@@ -1,5 +1,5 @@
 """Receive watchdog over the hardware's LCM channels, in wall-clock time
-(DESIGN §6: UR 20 ms, dVRK 30 ms).
+(docs/design.md §6: UR 20 ms, dVRK 30 ms).
 
 A channel is stale when its age (s of the station's clock since its last good
 message; inf before the first) exceeds the timeout; the controller itself is
@@ -29,7 +29,7 @@ class WatchdogParams:
         for name in ("timeout", "ramp_time"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"watchdog {name} must be a positive number of seconds; got {value}")
+                raise ValueError(f"{name} must be a positive number of seconds; got {value}")
 
 
 def watchdog_step(ages, gain: float, timeout: float, ramp_step: float,

@@ -24,50 +24,106 @@ leave gravity alone.
 """
 
 import dataclasses
+import functools
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
+from heft.systems.accelerometer_calibration import AccelerometerCalibration, checked_rotation, unit_factor
+from heft.systems.compiled import compiled, float_array
+
+
+_IDENTITY = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+
 
 @dataclasses.dataclass(frozen=True)
 class AccelerometerConvention:
-    """How a reading relates to S's motion: whether it holds gravity (specific force) and
-    where the accelerometer sits, p_SA (m, in S; axes parallel to S)."""
+    """How a reading relates to S's motion: whether it holds gravity (specific force), where the
+    accelerometer sits, p_SA (m, in S), and how it is mounted and reports (``accelerometer_calibration``):
+    its axes A in S, ``R_SA`` (v_S = R_SA·v_A; rows), the ``unit`` of its linear channels ("m/s^2" or
+    "g"; the angular ones report rad/s²), their ``bias`` (A's axes, its unit) and ``scale`` (their gain).
+    A reading r = [r_a; r_α] is in A's axes: s_S = R_SA·(r_a − bias)·u/scale, α_S = R_SA·r_α."""
     includes_gravity: bool = True
     p_SA: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    R_SA: tuple = _IDENTITY
+    unit: str = "m/s^2"
+    bias: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    scale: float = 1.0
 
     def __post_init__(self):
         p = tuple(float(x) for x in self.p_SA)
         if len(p) != 3 or not np.isfinite(p).all():
             raise ValueError(f"the accelerometer's position p_SA needs 3 finite numbers (m, in S); got {self.p_SA}")
         object.__setattr__(self, "p_SA", p)
+        R = checked_rotation("the accelerometer's R_SA", self.R_SA)
+        object.__setattr__(self, "R_SA", tuple(tuple(float(x) for x in row) for row in R))
+        unit_factor(self.unit)
+        bias = tuple(float(x) for x in self.bias)
+        if len(bias) != 3 or not np.isfinite(bias).all():
+            raise ValueError(f"the accelerometer's bias needs 3 finite numbers (its own axes and unit); "
+                             f"got {self.bias}")
+        object.__setattr__(self, "bias", bias)
+        if not (np.isfinite(self.scale) and self.scale > 0.0):
+            raise ValueError(f"the accelerometer's scale must be finite and > 0; got {self.scale}")
+        object.__setattr__(self, "scale", float(self.scale))
 
     @property
     def displaced(self) -> bool:
         return any(self.p_SA)
 
+    @functools.cached_property
+    def calibration(self) -> AccelerometerCalibration:
+        """The mounting as ``accelerometer_calibration``'s model of the linear channels."""
+        return AccelerometerCalibration(np.array(self.R_SA), np.array(self.bias), self.scale, self.unit)
+
+    @property
+    def mounted(self) -> bool:
+        """Whether the reading is not already S's axes in m/s² without a bias."""
+        return self.R_SA != _IDENTITY or self.unit != "m/s^2" or any(self.bias) or self.scale != 1.0
+
     def __str__(self) -> str:
         what = "specific force a − g" if self.includes_gravity else "gravity-free a"
-        return (f"accelerometer reads {what} at p_SA = [{', '.join(f'{x:g}' for x in self.p_SA)}] m in S "
-                "(scenario accelerometer.includes_gravity, accelerometer.position)")
+        text = f"accelerometer reads {what} at p_SA = [{', '.join(f'{x:g}' for x in self.p_SA)}] m in S"
+        if self.mounted:
+            rows = "; ".join(", ".join(f"{x:.4g}" for x in row) for row in self.R_SA)
+            text += (f", its axes R_SA = [{rows}], in {self.unit} with a bias of "
+                     f"[{', '.join(f'{x:.4g}' for x in self.bias)}] {self.unit}")
+        return text + " (scenario accelerometer)"
 
 
 AT_S = AccelerometerConvention()
 """A specific-force reading at S's origin."""
 
 
+@functools.cache
+def kernel_convention(convention: AccelerometerConvention) -> tuple:
+    """(includes_gravity, p_SA, R_SA (3, 3), m/s² per unit of reading (the unit over the scale), bias): the
+    convention as the kernels take it."""
+    return (convention.includes_gravity, np.array(convention.p_SA), np.array(convention.R_SA),
+            unit_factor(convention.unit) / convention.scale, np.array(convention.bias))
+
+
+_NO_ROTATION = np.zeros(3)
+
+
 def _transport(linear, alpha, omega, p, sign: float) -> None:
     """``linear`` (…, 3) += sign·(α × p + ω × (ω × p)), in place: the acceleration of the point p
-    from that of the origin (sign 1) or back (sign −1). One sample in scalar arithmetic (it runs
-    every tick of the real-time controller), a batch with numpy."""
+    from that of the origin (sign 1) or back (sign −1). One sample by ``transport_one``, a batch
+    with numpy."""
     if omega is None:
         raise ValueError("a displaced accelerometer's reading moves to or from S only with ω (rad/s, in S)")
     if np.ndim(linear) > 1:
         linear += sign * (np.cross(alpha, p) + np.cross(omega, np.cross(omega, p)))
         return
-    px, py, pz = p
-    ax, ay, az = float(alpha[0]), float(alpha[1]), float(alpha[2])
-    wx, wy, wz = float(omega[0]), float(omega[1]), float(omega[2])
+    transport_one(linear, float_array(alpha), float_array(omega), float_array(p), sign)
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64[:], float64)")
+def transport_one(linear, alpha, omega, p, sign) -> None:
+    """``_transport`` of one sample (3,) in scalar arithmetic (it runs every tick of the controller)."""
+    px, py, pz = p[0], p[1], p[2]
+    ax, ay, az = alpha[0], alpha[1], alpha[2]
+    wx, wy, wz = omega[0], omega[1], omega[2]
     vx, vy, vz = wy * pz - wz * py, wz * px - wx * pz, wx * py - wy * px  # ω × p
     linear[0] += sign * (ay * pz - az * py + wy * vz - wz * vy)
     linear[1] += sign * (az * px - ax * pz + wz * vx - wx * vz)
@@ -78,26 +134,62 @@ def reading_from_motion(acceleration, gravity, omega=None,
                         convention: AccelerometerConvention = AT_S) -> np.ndarray:
     """What the accelerometer reports, (6,) or (N, 6), for S's kinematic [a; α], gravity g and
     angular velocity ω ((3,) or (N, 3); only needed for a displaced accelerometer), all in S:
-    [a_A − g; α], or [a_A; α] when the driver removes gravity."""
+    [a_A − g; α], or [a_A; α] when the driver removes gravity, in its own axes and unit with its bias."""
     reading = np.array(acceleration, dtype=float)
     if convention.displaced:
         _transport(reading[..., :3], reading[..., 3:], omega, convention.p_SA, 1.0)
     if convention.includes_gravity:
         reading[..., :3] -= gravity
+    if convention.mounted:
+        calibration = convention.calibration
+        reading[..., :3] = calibration.reading_of(reading[..., :3])
+        reading[..., 3:] = reading[..., 3:] @ calibration.R_SA
     return reading
+
+
+def bias_at_rest(convention: AccelerometerConvention, reading, gravity) -> np.ndarray:
+    """The linear channels' bias (3, the accelerometer's axes and unit) under which the convention explains
+    ``reading`` (its mean at rest, 3 or 6) under ``gravity`` (3, m/s² in S): the reading less what the
+    instrument without a bias reports with S at rest."""
+    unbiased = dataclasses.replace(convention, bias=(0.0, 0.0, 0.0))
+    return np.asarray(reading, dtype=float)[:3] - reading_from_motion(np.zeros(6), gravity, np.zeros(3), unbiased)[:3]
 
 
 def motion_from_reading(out: np.ndarray, reading, gravity, omega=None,
                         convention: AccelerometerConvention = AT_S) -> np.ndarray:
     """S's kinematic [a; α] into ``out``, (6,) or (N, 6), from the accelerometer's ``reading`` (same
     shape), the gravity g that goes with it into the dynamics and the angular velocity ω ((3,) or
-    (N, 3); only needed for a displaced accelerometer), all in S; returns ``out``."""
-    out[...] = reading
+    (N, 3); only needed for a displaced accelerometer), all in S; returns ``out``. One sample by
+    ``motion_from_reading_into``."""
+    if np.ndim(out) == 1 and (omega is not None or not convention.displaced):
+        motion_from_reading_into(out, float_array(reading), float_array(gravity),
+                                 _NO_ROTATION if omega is None else float_array(omega), *kernel_convention(convention))
+        return out
+    calibration = convention.calibration
+    reading = np.asarray(reading, dtype=float)
+    out[..., :3] = calibration.to_sensor_axes(reading[..., :3])
+    out[..., 3:] = reading[..., 3:] @ calibration.R_SA.T
     if convention.includes_gravity:
         out[..., :3] += gravity
     if convention.displaced:
         _transport(out[..., :3], out[..., 3:], omega, convention.p_SA, -1.0)
     return out
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64[:], boolean, float64[:], float64[:, :], float64, "
+          "float64[:])")
+def motion_from_reading_into(out, reading, gravity, omega, includes_gravity, p_SA, R_SA, u, bias) -> None:
+    """``motion_from_reading`` of one sample, the convention as ``kernel_convention`` gives it (the
+    mounting as ``AccelerometerCalibration.to_sensor_axes``, in scalar arithmetic)."""
+    for i in range(3):
+        out[i] = u * (R_SA[i, 0] * (reading[0] - bias[0]) + R_SA[i, 1] * (reading[1] - bias[1])
+                      + R_SA[i, 2] * (reading[2] - bias[2]))
+        out[3 + i] = R_SA[i, 0] * reading[3] + R_SA[i, 1] * reading[4] + R_SA[i, 2] * reading[5]
+    if includes_gravity:
+        for i in range(3):
+            out[i] += gravity[i]
+    if p_SA[0] != 0.0 or p_SA[1] != 0.0 or p_SA[2] != 0.0:
+        transport_one(out[:3], out[3:], omega, p_SA, -1.0)
 
 
 class AccelerometerToMotion(LeafSystem):

@@ -1,4 +1,4 @@
-"""The one place where Drake's spatial vectors meet heft's conventions (DESIGN §4).
+"""The one place where Drake's spatial vectors meet heft's conventions (docs/design.md §4).
 
 Drake orders a SpatialForce as [τ; f], a SpatialAcceleration as [α; a] and a
 spatial-velocity Jacobian's rows as [ω; v]; heft orders wrenches [f; τ],

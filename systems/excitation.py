@@ -37,7 +37,7 @@ Default: ``"d_optimal"``. Measured on the RX90 with the 3.13 kg tool about the
 scenario's start pose (default settings, seed 0, positions within q0 ± 0.5 rad,
 half the URDF velocities, 10 rad/s²), as (κ, log det, σ_min): random start
 (11.2, −23.7, 0.137); cond (2.00, −2.1, 0.637); d_optimal (3.25, 15.5, 0.455);
-e_optimal (2.17, 3.2, 0.654). Then 10 s at 2 kHz through the DESIGN §6 sensor
+e_optimal (2.17, 3.2, 0.654). Then 10 s at 2 kHz through the docs/design.md §6 sensor
 model (FT 0.1 N / 0.005 N·m, accelerometer 0.05 m/s² / 0.5 rad/s²) and least
 squares, 10 trials: RMS error of Ixx, Iyy 2.4e-3, 4.0e-3 kg·m² (cond),
 4.4e-4, 5.1e-4 (d_optimal), 1.6e-3, 2.0e-3 (e_optimal), of true 0.024, 0.026;

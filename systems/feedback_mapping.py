@@ -1,6 +1,6 @@
 """Force feedback to the master (Fig. 4: f′ → f̄_M, τ̄_M → m̄_M = J_Mᵀ·[f̄_M; τ̄_M]).
 
-Sign: f′ = [f; τ] is what the sensor exerts ON THE LOAD (DESIGN §4). The operator
+Sign: f′ = [f; τ] is what the sensor exerts ON THE LOAD (docs/design.md §4). The operator
 must feel what the environment does to the tool, and the environment's (and
 gravity's) wrench on the load is, in equilibrium, minus the sensor's. So
 
@@ -20,6 +20,7 @@ import numpy as np
 from pydrake.math import RollPitchYaw, RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
+from heft.systems.compiled import compiled, float_array
 from heft.systems.pose_vectors import POSE_SIZE, rigid_transform
 
 WRENCH_SIZE = 6
@@ -37,14 +38,10 @@ class FeedbackMappingParams:
     """k_τ (master N·m per slave N·m)."""
 
     max_force: float = 8.5
-    """Largest force magnitude rendered (N): Phantom Premium 1.5 6DoF, CHAI3D's table (DESIGN §6)."""
+    """Largest force magnitude rendered (N): Phantom Premium 1.5 6DoF, CHAI3D's table (docs/design.md §6)."""
 
     max_torque: float = 0.188
     """Largest torque magnitude rendered (N·m): same source."""
-
-    R_RB: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
-    """The fixed rotation from the master base B to the slave base R as roll-pitch-yaw (rad),
-    as in MotionScalingParams."""
 
     def validate(self) -> None:
         """Raises ValueError naming the first field out of range."""
@@ -57,24 +54,36 @@ class FeedbackMappingParams:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be finite and > 0; got {value}")
-        if len(self.R_RB) != 3 or not all(math.isfinite(x) for x in self.R_RB):
-            raise ValueError(f"R_RB must be 3 finite roll-pitch-yaw angles (rad); got {self.R_RB}")
 
 
-def clamp_norm(v: np.ndarray, limit: float) -> np.ndarray:
-    """``v`` scaled down to magnitude ``limit`` if longer, same direction (``v`` itself if not)."""
-    norm = math.sqrt(float(v @ v))
-    return v * (limit / norm) if norm > limit else v
+@compiled("float64(float64, float64, float64, float64)")
+def clamp_factor(x: float, y: float, z: float, limit: float) -> float:
+    """The factor that scales (x, y, z) down to magnitude ``limit`` if longer (1.0 if not)."""
+    norm = math.sqrt(x * x + y * y + z * z)
+    return limit / norm if norm > limit else 1.0
 
 
 def rendered_wrench(wrench_S, R_BS: np.ndarray, force_scale: float, torque_scale: float, max_force: float,
                     max_torque: float) -> np.ndarray:
     """[f_E; τ_E] (6, N and N·m, in B) rendered on the hand from the sensor-on-load wrench
-    [f; τ] at S in S (module docstring); R_BS (3×3) = R_BR·R_RS."""
-    wrench_S = np.asarray(wrench_S, dtype=float)
-    f = clamp_norm(-force_scale * (R_BS @ wrench_S[:3]), max_force)
-    tau = clamp_norm(-torque_scale * (R_BS @ wrench_S[3:]), max_torque)
-    return np.concatenate((f, tau))
+    [f; τ] at S in S (module docstring; ``rendered_wrench_into``); R_BS (3×3) = R_BR·R_RS."""
+    out = np.empty(WRENCH_SIZE)
+    rendered_wrench_into(float_array(wrench_S), float_array(R_BS), force_scale, torque_scale, max_force, max_torque,
+                         out)
+    return out
+
+
+@compiled("void(float64[:], float64[:, :], float64, float64, float64, float64, float64[:])")
+def rendered_wrench_into(wrench_S, R_BS, force_scale, torque_scale, max_force, max_torque, out) -> None:
+    """``rendered_wrench`` into ``out`` (6): f_E = −k_f·R_BS·f and τ_E = −k_τ·R_BS·τ, each clamped
+    to its limit."""
+    for part, scale, limit in ((0, force_scale, max_force), (3, torque_scale, max_torque)):
+        for r in range(3):
+            out[part + r] = -scale * (R_BS[r, 0] * wrench_S[part] + R_BS[r, 1] * wrench_S[part + 1]
+                                      + R_BS[r, 2] * wrench_S[part + 2])
+        factor = clamp_factor(out[part], out[part + 1], out[part + 2], limit)
+        for r in range(3):
+            out[part + r] *= factor
 
 
 def joint_torque(jacobian, wrench_E) -> np.ndarray:
@@ -98,12 +107,14 @@ class FeedbackMapping(LeafSystem):
     plant's state (e.g. a discrete MultibodyPlant) to break it.
     """
 
-    def __init__(self, params: FeedbackMappingParams | None = None):
+    def __init__(self, params: FeedbackMappingParams | None = None, R_RB=(0.0, 0.0, 0.0)):
+        """``R_RB``: the rotation from the master base B to the slave base R as roll-pitch-yaw (rad),
+        the motion scaling's (``MotionScalingParams.R_RB``, its one home)."""
         super().__init__()
         params = params or FeedbackMappingParams()
         params.validate()
         self._params = params
-        self._R_BR = RotationMatrix(RollPitchYaw(params.R_RB)).inverse()
+        self._R_BR = RotationMatrix(RollPitchYaw(list(R_RB))).inverse()
         self._wrench_S = self.DeclareVectorInputPort("wrench_S", WRENCH_SIZE)
         self._pose_RS = self.DeclareVectorInputPort("pose_RS", POSE_SIZE)
         self._jacobian = self.DeclareVectorInputPort("jacobian", JACOBIAN_SIZE)

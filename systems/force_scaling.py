@@ -1,6 +1,6 @@
 """Scaling and elimination of non-contact wrenches (Kubus & Wahl, Sec. V, Fig. 2).
 
-All vectors are expressed in the sensor frame S (DESIGN §4): wrenches [f; τ]
+All vectors are expressed in the sensor frame S (docs/design.md §4): wrenches [f; τ]
 (N, N·m) that the sensor exerts on the load, torque about S's origin;
 accelerations [a; α] (m/s², rad/s²) of S; ω (rad/s) of S; g (m/s²) in S. The
 block's ``acceleration`` input is the accelerometer's reading, converted by
@@ -34,8 +34,10 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
 from scipy.signal import iirnotch, lfilter_zi
 
-from heft.systems.accelerometer_reading import AT_S, AccelerometerConvention, motion_from_reading
-from heft.systems.load_dynamics import regressor
+from heft.systems.accelerometer_reading import (
+    AT_S, AccelerometerConvention, kernel_convention, motion_from_reading_into)
+from heft.systems.compiled import compiled, float_array
+from heft.systems.load_dynamics import regressor_into
 from heft.systems.sample_period import DEFAULT_PERIOD, require_period
 
 
@@ -113,27 +115,47 @@ def scale_wrench(wrench, offsets, phi, acceleration, omega, gravity, sigma: floa
                  eta: float, phi_gripper=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(f′, contact c (Eq. 13), non-contact V·φ̂ (Eq. 12)), each (6,) in S, from one
     finite sample: wrench, offsets (6,), phi (10,), acceleration [a; α] (6,), omega,
-    gravity (3,), all float arrays. The law is the module docstring's."""
-    acceleration = np.asarray(acceleration, dtype=float)
-    V = regressor(acceleration[:3], acceleration[3:], np.asarray(omega, dtype=float),
-                  np.asarray(gravity, dtype=float))
-    noncontact = V @ phi
-    contact = wrench - offsets
-    contact -= noncontact
-    if phi_gripper is None:
-        feedback = gamma * contact + sigma * noncontact
-    else:
-        gripper = V @ phi_gripper
-        feedback = gamma * contact + sigma * gripper + eta * (noncontact - gripper)
-    return feedback, contact, noncontact
+    gravity (3,). The law is the module docstring's (``scale_wrench_into``)."""
+    out = np.empty((3, 6))
+    acceleration = float_array(acceleration)
+    scale_wrench_into(float_array(wrench), float_array(offsets), float_array(phi), acceleration[:3],
+                      acceleration[3:], float_array(omega), float_array(gravity), sigma, gamma, eta,
+                      _NO_GRIPPER if phi_gripper is None else float_array(phi_gripper), phi_gripper is not None,
+                      np.empty((6, 10)), out[0], out[1], out[2])
+    return out[0], out[1], out[2]
 
 
+@compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64, "
+          "float64, float64, float64[:], boolean, float64[:, :], float64[:], float64[:], float64[:])")
+def scale_wrench_into(wrench, offsets, phi, a, alpha, omega, gravity, sigma, gamma, eta, phi_gripper, split, V,
+                      feedback, contact, noncontact) -> None:
+    """The law of the module docstring for one sample of S's kinematic ``a``, ``alpha``: n = V·φ̂,
+    c = f − o − n, f′ = γ·c + σ·n, or with the ``split`` (φ_gr = ``phi_gripper``)
+    f′ = γ·c + σ·V·φ_gr + η·V·(φ̂ − φ_gr); ``V`` (6, 10) is scratch."""
+    regressor_into(a, alpha, omega, gravity, V)
+    for r in range(6):
+        n = 0.0
+        for k in range(10):
+            n += V[r, k] * phi[k]
+        c = wrench[r] - offsets[r] - n
+        if split:
+            n_gripper = 0.0
+            for k in range(10):
+                n_gripper += V[r, k] * phi_gripper[k]
+            feedback[r] = gamma * c + sigma * n_gripper + eta * (n - n_gripper)
+        else:
+            feedback[r] = gamma * c + sigma * n
+        contact[r], noncontact[r] = c, n
+
+
+@compiled("UniTuple(float64, 3)(float64, float64, float64)")
 def clamp_scales(sigma: float, gamma: float, eta: float) -> tuple[float, float, float]:
     """The request limited to its meaningful range: σ, γ ≥ 0 (a negative σ would
     render a negative mass, an active element), η ∈ [0, 1] (Eq. 14)."""
     return max(sigma, 0.0), max(gamma, 0.0), min(max(eta, 0.0), 1.0)
 
 
+@compiled("float64(float64, float64, float64)")
 def slew(current: float, target: float, max_step: float) -> float:
     """``current`` moved toward ``target`` by at most ``max_step`` (landing on it exactly)."""
     if abs(target - current) <= max_step:
@@ -165,10 +187,13 @@ FEEDBACK, CONTACT, NONCONTACT, FAULT, CONTACT_FED_BACK = (slice(0, 6), slice(6, 
                                                           slice(19, 25))
 EVALUATION_SIZE = 25
 # Layout of the memory: the f′ in effect during the last tick, the flag a non-finite request
-# raised, the mount notch's state (2 × 6, transposed direct form II; NaN: to start in the
-# steady state of the next contact wrench).
+# raised, the mount notch's state (2 × 6, transposed direct form II, rows z1 and z2; NaN: to start
+# in the steady state of the next contact wrench).
 LAST_FEEDBACK, REQUEST_FAULT, NOTCH_STATE = slice(0, 6), 6, slice(7, 19)
 MEMORY_SIZE = 19
+_Z1, _Z2 = 7, 13  # where the notch's z1 and z2 of axis 0 lie in the memory
+_NO_GRIPPER, _NO_NOTCH = np.zeros(10), np.zeros(7)
+_SCRATCH = np.empty((7, 10))  # V (6, 10) and S's kinematic [a; α] of one evaluation
 
 
 def initial_memory() -> np.ndarray:
@@ -176,13 +201,6 @@ def initial_memory() -> np.ndarray:
     memory = np.zeros(MEMORY_SIZE)
     memory[NOTCH_STATE] = np.nan
     return memory
-
-
-def notch_state(memory: np.ndarray, notch: np.ndarray, contact: np.ndarray) -> np.ndarray:
-    """The notch's state (2, 6) in ``memory`` (read only), or, if the notch has not started, its
-    steady state for ``contact``."""
-    state = memory[NOTCH_STATE].reshape(2, 6)
-    return np.outer(notch[5:], contact) if math.isnan(state[0, 0]) else state
 
 
 def evaluate(out: np.ndarray, wrench, reading, omega, gravity, phi, offsets, scales, memory,
@@ -193,25 +211,48 @@ def evaluate(out: np.ndarray, wrench, reading, omega, gravity, phi, offsets, sca
     (``accelerometer_reading``, ``accelerometer`` its convention), ``scales`` (3) are σ, γ,
     η in effect, ``memory`` (``MEMORY_SIZE``) the block's, ``decay`` the factor applied to the
     last f′ while faulted (``decay_factor``), ``notch`` the mount notch (``notch_coefficients``)."""
-    if memory[REQUEST_FAULT] == 0.0 and math.isfinite(
-            sum(wrench.tolist()) + sum(reading.tolist()) + sum(omega.tolist()) + sum(gravity.tolist())
-            + sum(phi.tolist()) + sum(offsets.tolist())):
-        sigma, gamma, eta = scales
-        acceleration = motion_from_reading(np.empty(6), reading, gravity, omega, accelerometer)
-        out[FEEDBACK], out[CONTACT], out[NONCONTACT] = scale_wrench(
-            wrench, offsets, phi, acceleration, omega, gravity, sigma, gamma, eta, phi_gripper)
-        out[CONTACT_FED_BACK] = out[CONTACT]
-        if notch is not None:
-            out[CONTACT_FED_BACK] = notch[0] * out[CONTACT] + notch_state(memory, notch, out[CONTACT])[0]
-            out[FEEDBACK] += gamma * (out[CONTACT_FED_BACK] - out[CONTACT])
+    includes_gravity, p_SA, R_SA, u, bias = kernel_convention(accelerometer)
+    _evaluate(out, float_array(wrench), float_array(reading), float_array(omega), float_array(gravity),
+              float_array(phi), float_array(offsets), float_array(scales), float_array(memory), decay,
+              _NO_GRIPPER if phi_gripper is None else phi_gripper, phi_gripper is not None, includes_gravity, p_SA,
+              R_SA, u, bias, _NO_NOTCH if notch is None else notch, notch is not None, _SCRATCH)
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], "
+          "float64[:], float64, float64[:], boolean, boolean, float64[:], float64[:, :], float64, float64[:], "
+          "float64[:], boolean, float64[:, :])")
+def _evaluate(out, wrench, reading, omega, gravity, phi, offsets, scales, memory, decay, phi_gripper, split,
+              includes_gravity, p_SA, R_SA, u, bias, notch, notched, scratch) -> None:
+    """``evaluate`` with the optional parts as flags: ``split`` (φ_gr given), ``notched``."""
+    total = 0.0
+    for i in range(6):
+        total += wrench[i] + reading[i] + offsets[i]
+    for i in range(3):
+        total += omega[i] + gravity[i]
+    for i in range(10):
+        total += phi[i]
+    if memory[REQUEST_FAULT] == 0.0 and math.isfinite(total):
+        motion = scratch[6, :6]
+        motion_from_reading_into(motion, reading, gravity, omega, includes_gravity, p_SA, R_SA, u, bias)
+        scale_wrench_into(wrench, offsets, phi, motion[:3], motion[3:], omega, gravity, scales[0], scales[1],
+                          scales[2], phi_gripper, split, scratch[:6], out[0:6], out[6:12], out[12:18])
+        gamma, finite = scales[1], 0.0
+        for r in range(6):
+            contact = out[6 + r]
+            if notched:  # the notch's output for this contact, from its state (or its steady state)
+                z1 = notch[5] * contact if math.isnan(memory[_Z1]) else memory[_Z1 + r]
+                out[19 + r] = notch[0] * contact + z1
+                out[r] += gamma * (out[19 + r] - contact)
+            else:
+                out[19 + r] = contact
+            finite += out[r] + out[6 + r] + out[12 + r] + out[19 + r]
         out[FAULT] = 0.0
-        if math.isfinite(sum(out.tolist())):
+        if math.isfinite(finite):
             return
-    out[FEEDBACK] = decay * memory[LAST_FEEDBACK]
-    out[CONTACT] = 0.0
-    out[NONCONTACT] = 0.0
+    for r in range(6):
+        out[r] = decay * memory[r]
+        out[6 + r] = out[12 + r] = out[19 + r] = 0.0
     out[FAULT] = 1.0
-    out[CONTACT_FED_BACK] = 0.0
 
 
 def next_memory_and_scales(memory: np.ndarray, scales: np.ndarray, evaluation: np.ndarray, requested,
@@ -220,19 +261,33 @@ def next_memory_and_scales(memory: np.ndarray, scales: np.ndarray, evaluation: n
     ``requested`` (σ, γ, η) is non-finite; the notch advanced by the evaluation's contact wrench,
     or restarted after a fault]; a finite request moves ``scales`` toward its clamped value by at
     most ``max_step`` each (``slew_rate``·dt)."""
-    memory[LAST_FEEDBACK] = evaluation[FEEDBACK]
-    if notch is not None:
+    sigma, gamma, eta = requested
+    _next_memory_and_scales(memory, scales, float_array(evaluation), float(sigma), float(gamma), float(eta), max_step,
+                            _NO_NOTCH if notch is None else notch, notch is not None)
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64, float64, float64, float64, float64[:], boolean)")
+def _next_memory_and_scales(memory, scales, evaluation, sigma, gamma, eta, max_step, notch, notched) -> None:
+    """``next_memory_and_scales`` with the request as three numbers and the notch as a flag."""
+    for r in range(6):
+        memory[r] = evaluation[r]
+    if notched:
         if evaluation[FAULT] > 0.5:
-            memory[NOTCH_STATE] = np.nan
+            for i in range(12):
+                memory[_Z1 + i] = math.nan
         else:
-            x, y = evaluation[CONTACT], evaluation[CONTACT_FED_BACK]
-            z2 = notch_state(memory, notch, x)[1]
-            memory[NOTCH_STATE] = np.concatenate((notch[1] * x - notch[3] * y + z2, notch[2] * x - notch[4] * y))
-    request_ok = math.isfinite(sum(requested))
+            started = not math.isnan(memory[_Z1])
+            for r in range(6):  # transposed direct form II
+                x, y = evaluation[6 + r], evaluation[19 + r]
+                z2 = memory[_Z2 + r] if started else notch[6] * x
+                memory[_Z1 + r] = notch[1] * x - notch[3] * y + z2
+                memory[_Z2 + r] = notch[2] * x - notch[4] * y
+    request_ok = math.isfinite(sigma + gamma + eta)
     memory[REQUEST_FAULT] = 0.0 if request_ok else 1.0
     if request_ok:
-        for i, target in enumerate(clamp_scales(*requested)):
-            scales[i] = slew(float(scales[i]), target, max_step)
+        targets = clamp_scales(sigma, gamma, eta)
+        for i in range(3):
+            scales[i] = slew(scales[i], targets[i], max_step)
 
 
 # --- Drake system -----------------------------------------------------------------

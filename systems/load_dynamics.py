@@ -1,6 +1,6 @@
 """Rigid-load dynamics at a wrist force-torque sensor (Kubus & Wahl, Sec. III).
 
-Plain numpy, no Drake types. Conventions (DESIGN §4):
+Plain numpy, no Drake types. Conventions (docs/design.md §4):
 
 * Everything is expressed in the sensor frame S, origin at its measuring point.
 * ``a`` is the translational acceleration of S's origin in the world, ``alpha``
@@ -20,6 +20,8 @@ import math
 
 import numpy as np
 from scipy.spatial.transform import Rotation
+
+from heft.systems.compiled import compiled
 
 GRAVITY_W = (0.0, 0.0, -9.81)
 """Gravity in the world frame W (m/s²). The slave's base R stands level, so it is also g in R."""
@@ -104,24 +106,34 @@ def regressor(a, alpha, omega, g) -> np.ndarray:
 
 
 def _single_sample_regressor(a, alpha, omega, g):
-    """The (6, 10) V of one sample in scalar arithmetic (a few µs, for per-tick use),
-    or None when the inputs are not four finite (3,) arrays (the general path then
-    handles or rejects them)."""
+    """The (6, 10) V of one sample (``regressor_into``, a few µs, for per-tick use), or None when the
+    inputs are not four finite (3,) arrays (the general path then handles or rejects them)."""
     if not all(isinstance(x, np.ndarray) and x.shape == (3,) for x in (a, alpha, omega, g)):
         return None
-    ax, ay, az = (a - g).tolist()
-    alx, aly, alz = alpha.tolist()
-    wx, wy, wz = omega.tolist()
-    if not math.isfinite(ax + ay + az + alx + aly + alz + wx + wy + wz):
+    if not math.isfinite(a.sum() + alpha.sum() + omega.sum() + g.sum()):
         return None
+    V = np.empty((6, 10))
+    regressor_into(*(np.asarray(x, dtype=float) for x in (a, alpha, omega, g)), V)
+    return V
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:, :])")
+def regressor_into(a, alpha, omega, g, V) -> None:
+    """``regressor`` of one sample, (6, 10), written into ``V``, in scalar arithmetic."""
+    ax, ay, az = a[0] - g[0], a[1] - g[1], a[2] - g[2]
+    alx, aly, alz = alpha[0], alpha[1], alpha[2]
+    wx, wy, wz = omega[0], omega[1], omega[2]
     wxx, wyy, wzz, wxy, wxz, wyz = wx * wx, wy * wy, wz * wz, wx * wy, wx * wz, wy * wz
-    return np.array((
-        (ax, -wyy - wzz, wxy - alz, wxz + aly, 0, 0, 0, 0, 0, 0),
-        (ay, wxy + alz, -wxx - wzz, wyz - alx, 0, 0, 0, 0, 0, 0),
-        (az, wxz - aly, wyz + alx, -wxx - wyy, 0, 0, 0, 0, 0, 0),
-        (0, 0, az, -ay, alx, aly - wxz, alz + wxy, -wyz, wyy - wzz, wyz),
-        (0, -az, 0, ax, wxz, alx + wyz, wzz - wxx, aly, alz - wxy, -wxz),
-        (0, ay, -ax, 0, -wxy, wxx - wyy, alx - wyz, wxy, aly + wxz, alz)))
+    V[:, :] = 0.0
+    V[0, 0], V[0, 1], V[0, 2], V[0, 3] = ax, -wyy - wzz, wxy - alz, wxz + aly
+    V[1, 0], V[1, 1], V[1, 2], V[1, 3] = ay, wxy + alz, -wxx - wzz, wyz - alx
+    V[2, 0], V[2, 1], V[2, 2], V[2, 3] = az, wxz - aly, wyz + alx, -wxx - wyy
+    V[3, 2], V[3, 3], V[3, 4], V[3, 5], V[3, 6], V[3, 7], V[3, 8], V[3, 9] = \
+        az, -ay, alx, aly - wxz, alz + wxy, -wyz, wyy - wzz, wyz
+    V[4, 1], V[4, 3], V[4, 4], V[4, 5], V[4, 6], V[4, 7], V[4, 8], V[4, 9] = \
+        -az, ax, wxz, alx + wyz, wzz - wxx, aly, alz - wxy, -wxz
+    V[5, 1], V[5, 2], V[5, 4], V[5, 5], V[5, 6], V[5, 7], V[5, 8], V[5, 9] = \
+        ay, -ax, -wxy, wxx - wyy, alx - wyz, wxy, aly + wxz, alz
 
 
 def regressor_with_offsets(a, alpha, omega, g) -> np.ndarray:

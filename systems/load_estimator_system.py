@@ -1,4 +1,4 @@
-"""The load estimator of DESIGN §3 as a Drake LeafSystem around the recursive estimators."""
+"""The load estimator of docs/design.md §3 as a Drake LeafSystem around the recursive estimators."""
 
 from __future__ import annotations
 
@@ -30,7 +30,7 @@ QUALITY_NAMES = (
 class LoadEstimatorSystem(LeafSystem):
     """Estimates φ (Eq. 6) and the sensor offsets online, one sample every ``period`` s.
 
-    Input ports (all in the sensor frame S, DESIGN §4):
+    Input ports (all in the sensor frame S, docs/design.md §4):
       wrench (6) [f; τ] the sensor exerts on the load (N, N·m); acceleration (6) [a; α]
       (m/s², rad/s²; kinematic: ``accelerometer_reading.AccelerometerToMotion`` converts the
       sensor's reading); omega (3) (rad/s); gravity (3) (m/s²); enable (1): > 0.5 takes the

@@ -27,6 +27,7 @@ import numpy as np
 from pydrake.math import RollPitchYaw, RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
+from heft.systems.compiled import compiled, float_array
 from heft.systems.pose_vectors import POSE_SIZE
 from heft.systems.sample_period import DEFAULT_PERIOD, require_period
 
@@ -59,59 +60,91 @@ class MotionScalingParams:
 
 
 def valid_scale(k: float) -> bool:
-    """True if ``k`` is a usable motion scale: finite and ≥ 0."""
+    """True if ``k`` is a usable motion scale: finite and ≥ 0 (as ``motion_scaling_step`` checks it)."""
     return math.isfinite(k) and k >= 0
 
 
+@compiled("boolean(float64[:])")
 def valid_pose(pose) -> bool:
     """True if ``pose`` is 7 finite numbers with a non-zero quaternion."""
-    return (len(pose) == POSE_SIZE and math.isfinite(sum(pose))
-            and pose[3] * pose[3] + pose[4] * pose[4] + pose[5] * pose[5] + pose[6] * pose[6] > 1e-18)
+    if pose.shape[0] != POSE_SIZE:
+        return False
+    total = 0.0
+    for i in range(POSE_SIZE):
+        total += pose[i]
+    norm2 = pose[3] * pose[3] + pose[4] * pose[4] + pose[5] * pose[5] + pose[6] * pose[6]
+    return math.isfinite(total) and norm2 > 1e-18
 
 
-def _unit(pose) -> np.ndarray:
-    """``pose`` (valid) with its quaternion normalised and w ≥ 0."""
+@compiled("void(float64[:], float64[:])")
+def unit_pose_into(pose, out) -> None:
+    """``pose`` (valid) with its quaternion normalised and w ≥ 0, into ``out`` (may be ``pose``)."""
     w, x, y, z = pose[3], pose[4], pose[5], pose[6]
     scale = math.copysign(1.0 / math.sqrt(w * w + x * x + y * y + z * z), w)
-    return np.array((pose[0], pose[1], pose[2], w * scale, x * scale, y * scale, z * scale))
+    out[0], out[1], out[2] = pose[0], pose[1], pose[2]
+    out[3], out[4], out[5], out[6] = w * scale, x * scale, y * scale, z * scale
 
 
-def _product(a, b):
+@compiled("UniTuple(float64, 4)(float64, float64, float64, float64, float64, float64, float64, float64)")
+def _product(aw, ax, ay, az, bw, bx, by, bz):
     """The Hamilton product a ⊗ b of quaternions (w, x, y, z): the rotation R_a·R_b."""
-    aw, ax, ay, az = a
-    bw, bx, by, bz = b
     return (aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
             aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw)
 
 
-def scaled_pose(pose_BE, pose_BE0, pose_RT0, R_RB: np.ndarray, translation_scale: float,
-                rotation_scale: float) -> np.ndarray:
-    """X_RT* of the module docstring as a pose vector (w ≥ 0): the stylus motion since the
-    anchor ``pose_BE0``, scaled and mapped into R (``R_RB``, 3×3), applied to the tool's
-    anchor ``pose_RT0``. Poses are unit pose vectors."""
+@compiled("void(float64[:], float64[:], float64[:], float64[:, :], float64, float64, float64[:])")
+def scaled_pose_into(pose_BE, pose_BE0, pose_RT0, R_RB, translation_scale, rotation_scale, pose) -> None:
+    """X_RT* of the module docstring as a pose vector (w ≥ 0) into ``pose``: the stylus motion since
+    the anchor ``pose_BE0``, scaled and mapped into R (``R_RB``, 3×3), applied to the tool's anchor
+    ``pose_RT0``. Poses are unit pose vectors."""
     # ΔR = R_BE·R_BE0ᵀ as a quaternion, w ≥ 0 so that its angle θ = 2·atan2(|v|, w) is in [0, π].
-    dw, dx, dy, dz = _product(pose_BE[3:], (pose_BE0[3], -pose_BE0[4], -pose_BE0[5], -pose_BE0[6]))
+    dw, dx, dy, dz = _product(pose_BE[3], pose_BE[4], pose_BE[5], pose_BE[6],
+                              pose_BE0[3], -pose_BE0[4], -pose_BE0[5], -pose_BE0[6])
     if dw < 0.0:
         dw, dx, dy, dz = -dw, -dx, -dy, -dz
     sine = math.sqrt(dx * dx + dy * dy + dz * dz)
+    sw, sx, sy, sz = 1.0, 0.0, 0.0, 0.0
     if sine > 0.0:
         half = rotation_scale * math.atan2(sine, dw)  # (k_r·θ)/2
-        axis = R_RB @ (dx / sine, dy / sine, dz / sine)
-        factor = math.sin(half)
-        scaled = (math.cos(half), factor * axis[0], factor * axis[1], factor * axis[2])
-    else:
-        scaled = (1.0, 0.0, 0.0, 0.0)
+        factor = math.sin(half) / sine
+        sw = math.cos(half)  # the axis mapped into R: R_RB·(dx, dy, dz)/sine
+        sx = factor * (R_RB[0, 0] * dx + R_RB[0, 1] * dy + R_RB[0, 2] * dz)
+        sy = factor * (R_RB[1, 0] * dx + R_RB[1, 1] * dy + R_RB[1, 2] * dz)
+        sz = factor * (R_RB[2, 0] * dx + R_RB[2, 1] * dy + R_RB[2, 2] * dz)
+    for r in range(3):
+        moved = 0.0
+        for c in range(3):
+            moved += R_RB[r, c] * (pose_BE[c] - pose_BE0[c])
+        pose[r] = pose_RT0[r] + translation_scale * moved
+    w, x, y, z = _product(sw, sx, sy, sz, pose_RT0[3], pose_RT0[4], pose_RT0[5], pose_RT0[6])
+    sign = -1.0 if w < 0.0 else 1.0
+    pose[3], pose[4], pose[5], pose[6] = sign * w, sign * x, sign * y, sign * z
+
+
+def scaled_pose(pose_BE, pose_BE0, pose_RT0, R_RB: np.ndarray, translation_scale: float,
+                rotation_scale: float) -> np.ndarray:
+    """``scaled_pose_into`` as a new pose vector."""
     pose = np.empty(POSE_SIZE)
-    pose[:3] = pose_RT0[:3] + translation_scale * (R_RB @ (pose_BE[:3] - pose_BE0[:3]))
-    pose[3:] = _product(scaled, pose_RT0[3:])
-    if pose[3] < 0.0:
-        pose[3:] = -pose[3:]
+    scaled_pose_into(float_array(pose_BE), float_array(pose_BE0), float_array(pose_RT0), float_array(R_RB),
+                     translation_scale, rotation_scale, pose)
     return pose
 
 
 def motion_scaling_update(memory, desired, pose_BE, engaged: bool, pose_RT_measured, translation_scale: float,
                           rotation_scale: float, R_RB: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """One tick of the clutch logic: (memory, desired pose) → the new (memory, desired pose).
+    """One tick of the clutch logic (``motion_scaling_step``): (memory, desired pose) → the new (memory,
+    desired pose), new arrays."""
+    memory, desired = np.array(memory, dtype=float), np.array(desired, dtype=float)
+    motion_scaling_step(memory, desired, float_array(pose_BE), engaged, float_array(pose_RT_measured),
+                        translation_scale, rotation_scale, float_array(R_RB), np.empty(POSE_SIZE))
+    return memory, desired
+
+
+@compiled("void(float64[:], float64[:], float64[:], boolean, float64[:], float64, float64, float64[:, :], "
+          "float64[:])")
+def motion_scaling_step(memory, desired, pose_BE, engaged, pose_RT_measured, translation_scale, rotation_scale,
+                        R_RB, scratch) -> None:
+    """One tick of the clutch logic, in place on ``memory`` and ``desired`` (``scratch``: 7 floats).
 
     ``memory`` is [engaged, k_t, k_r, pose_BE0, pose_RT0] (17), ``desired`` the pose of
     the last tick (7), ``R_RB`` the 3×3 rotation from B to R. Disengaged, or an invalid
@@ -120,23 +153,23 @@ def motion_scaling_update(memory, desired, pose_BE, engaged: bool, pose_RT_measu
     (held if the latter is invalid). Engaged: the scaled pose with the stored scales; if
     the scales changed, re-anchor at ``pose_BE`` and that pose, and store the new scales.
     """
-    memory = np.array(memory, dtype=float)
-    desired = np.array(desired, dtype=float)
-    usable = engaged and valid_pose(pose_BE) and valid_scale(translation_scale) and valid_scale(rotation_scale)
-    if not usable or (memory[_ENGAGED] < 0.5 and not valid_pose(pose_RT_measured)):
+    usable = (engaged and valid_pose(pose_BE) and math.isfinite(translation_scale) and translation_scale >= 0
+              and math.isfinite(rotation_scale) and rotation_scale >= 0)
+    anchored = memory[_ENGAGED] >= 0.5
+    if not usable or (not anchored and not valid_pose(pose_RT_measured)):
         memory[_ENGAGED] = 0.0
-        return memory, desired
-    pose_BE = _unit(pose_BE)
-    if memory[_ENGAGED] < 0.5:
-        desired = _unit(pose_RT_measured)
+        return
+    BE0, RT0 = memory[3:10], memory[10:17]
+    unit_pose_into(pose_BE, scratch)
+    if anchored:
+        scaled_pose_into(scratch, BE0, RT0, R_RB, memory[1], memory[2], desired)
+        if memory[1] == translation_scale and memory[2] == rotation_scale:
+            return
     else:
-        desired = scaled_pose(pose_BE, memory[_BE0], memory[_RT0], R_RB, memory[1], memory[2])
-    if memory[_ENGAGED] < 0.5 or (memory[1], memory[2]) != (translation_scale, rotation_scale):
-        memory[_ENGAGED] = 1.0
-        memory[_SCALES] = translation_scale, rotation_scale
-        memory[_BE0] = pose_BE
-        memory[_RT0] = desired
-    return memory, desired
+        unit_pose_into(pose_RT_measured, desired)
+    memory[_ENGAGED], memory[1], memory[2] = 1.0, translation_scale, rotation_scale
+    BE0[:] = scratch
+    RT0[:] = desired
 
 
 class MotionScaling(LeafSystem):
@@ -190,8 +223,10 @@ class MotionScaling(LeafSystem):
     def _initialize(self, context, discrete_state):
         memory = context.get_discrete_state(self._memory).get_value().copy()
         memory[_ENGAGED] = 0.0
-        measured = self._measured.Eval(context)
-        desired = _unit(measured) if valid_pose(measured) else context.get_discrete_state(self._desired).get_value()
+        measured = float_array(self._measured.Eval(context))
+        desired = context.get_discrete_state(self._desired).get_value().copy()
+        if valid_pose(measured):
+            unit_pose_into(measured, desired)
         self._tick(context, discrete_state, memory, desired)
 
     def _update(self, context, discrete_state):

@@ -20,7 +20,7 @@ A passive network keeps E ≥ 0 for all n (it never returns more than it
 received); E < 0 flags active behaviour. Each channel is observed apart, so
 energy the network carries from one channel into the other (the load's moment
 m·c × a, made by translation, turning the stylus) reads as a deficit in the
-receiving channel; DESIGN §3 has fig7's numbers. The PC is the series damper of the
+receiving channel; docs/design.md §3 has fig7's numbers. The PC is the series damper of the
 impedance-type port (velocity in, force out): the applied wrench is
 f − α_t·v, τ − α_r·ω, which adds α·|v|²·T to E. When E would go negative,
 α = −E / (T·|v|²), clamped to [0, α_max], so the PC dissipates exactly the
@@ -28,7 +28,7 @@ observed deficit as far as the bound allows (a deficit beyond it is carried
 forward).
 
 The device's limits come last: the applied wrench is clamped to the master's
-force and torque magnitudes (``clamp_norm``, keeping the direction), so the PC's
+force and torque magnitudes (``clamp_factor``, keeping the direction), so the PC's
 damping can never push the command past what the device may render, and the
 observer counts the wrench actually applied.
 """
@@ -39,7 +39,8 @@ import math
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from heft.systems.feedback_mapping import clamp_norm
+from heft.systems.compiled import compiled, float_array
+from heft.systems.feedback_mapping import clamp_factor
 from heft.systems.sample_period import DEFAULT_PERIOD, require_period
 
 
@@ -68,6 +69,7 @@ class PassivityParams:
 
 # --- pure numpy core ----------------------------------------------------------
 
+@compiled("UniTuple(float64, 3)(float64, float64, float64, float64, float64)")
 def passivity_channel(energy: float, power: float, speed_squared: float, period: float,
                       max_damping: float) -> tuple[float, float, float]:
     """One PO/PC step of one channel → (energy after the PC (J), α, energy the PC
@@ -88,46 +90,87 @@ def passivity_channel(energy: float, power: float, speed_squared: float, period:
 
 def passivity_step(wrench, twist, energy, period: float, max_damping) -> tuple[
         np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """One PO/PC step of both channels.
+    """One PO/PC step of both channels (``passivity_step_into``).
 
     ``wrench`` (6) desired [f; τ] on the hand, ``twist`` (6) [v; ω] of the stylus,
     ``energy`` (2) [E_t, E_r] after the last step, ``max_damping`` (2) [α_t max,
     α_r max]. Returns (applied wrench [f − α_t v; τ − α_r ω] (6), energy (2), α (2),
     energy dissipated in this step (2))."""
-    fx, fy, fz, tx, ty, tz = np.asarray(wrench, dtype=float).tolist()
-    vx, vy, vz, wx, wy, wz = np.asarray(twist, dtype=float).tolist()
-    e_t, a_t, d_t = passivity_channel(float(energy[0]), fx * vx + fy * vy + fz * vz,
-                                      vx * vx + vy * vy + vz * vz, period, max_damping[0])
-    e_r, a_r, d_r = passivity_channel(float(energy[1]), tx * wx + ty * wy + tz * wz,
-                                      wx * wx + wy * wy + wz * wz, period, max_damping[1])
-    applied = np.array((fx - a_t * vx, fy - a_t * vy, fz - a_t * vz,
-                        tx - a_r * wx, ty - a_r * wy, tz - a_r * wz))
-    return applied, np.array((e_t, e_r)), np.array((a_t, a_r)), np.array((d_t, d_r))
+    applied, energy = np.empty(6), np.array(energy, dtype=float)
+    damping, dissipated = np.empty(2), np.empty(2)
+    passivity_step_into(float_array(wrench), float_array(twist), energy, period, float_array(max_damping), applied,
+                        damping, dissipated)
+    return applied, energy, damping, dissipated
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64, float64[:], float64[:], float64[:], float64[:])")
+def passivity_step_into(wrench, twist, energy, period, max_damping, applied, damping, dissipated) -> None:
+    """``passivity_step`` into ``applied`` (6), ``damping`` (2) and ``dissipated`` (2); ``energy`` (2)
+    is advanced in place."""
+    for channel in range(2):
+        k = 3 * channel
+        power = wrench[k] * twist[k] + wrench[k + 1] * twist[k + 1] + wrench[k + 2] * twist[k + 2]
+        speed_squared = twist[k] * twist[k] + twist[k + 1] * twist[k + 1] + twist[k + 2] * twist[k + 2]
+        energy[channel], damping[channel], dissipated[channel] = passivity_channel(
+            energy[channel], power, speed_squared, period, max_damping[channel])
+        for i in range(k, k + 3):
+            applied[i] = wrench[i] - damping[channel] * twist[i]
 
 
 def master_torque(wrench, velocity, jacobian, energy, period: float, max_damping, max_force: float,
                   max_torque: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """One sample of the block: (τ_M (6, N·m), the wrench applied on the hand (6, [f; τ] at E
-    in B, N and N·m), energy (2, J), α (2), energy dissipated (2, J)).
+    """One sample of the block (``master_torque_into``): (τ_M (6, N·m), the wrench applied on the hand
+    (6, [f; τ] at E in B, N and N·m), energy (2, J), α (2), energy dissipated (2, J)), new arrays."""
+    torque, applied, damping, dissipated = np.empty(6), np.empty(6), np.empty(2), np.empty(2)
+    energy = np.array(energy, dtype=float)
+    master_torque_into(float_array(wrench), float_array(velocity), float_array(np.reshape(jacobian, (6, 6))),
+                       energy, period, float_array(max_damping), max_force, max_torque, torque, applied, damping,
+                       dissipated, np.empty(6))
+    return torque, applied, energy, damping, dissipated
+
+
+@compiled("void(float64[:], float64[:], float64[:, :], float64[:], float64, float64[:], float64, float64, "
+          "float64[:], float64[:], float64[:], float64[:], float64[:])")
+def master_torque_into(wrench, velocity, jacobian, energy, period, max_damping, max_force, max_torque, torque,
+                       applied, damping, dissipated, twist) -> None:
+    """One sample of the block into ``torque`` (6, τ_M), ``applied`` (6), ``damping`` (2) and
+    ``dissipated`` (2); ``energy`` (2) advanced in place; ``twist`` (6) is scratch.
 
     ``wrench`` (6) desired [f; τ] on the hand, ``velocity`` q̇_M (6, rad/s), ``jacobian``
     J_M (6×6, rows [v_E; ω_E]), ``energy`` [E_t, E_r] before, ``period`` the hold T (s),
     ``max_damping`` [α_t max, α_r max]. The PC's wrench is clamped to ``max_force`` (N)
     and ``max_torque`` (N·m) and the energy counts the clamped wrench. Any non-finite
     input gives zero torque, α = 0 and the energy unchanged."""
-    if not math.isfinite(sum(wrench.tolist()) + sum(velocity.tolist()) + sum(jacobian.ravel().tolist())):
-        return np.zeros(6), np.zeros(6), np.array(energy, dtype=float), np.zeros(2), np.zeros(2)
-    twist = jacobian @ velocity
-    applied, energy, damping, dissipated = passivity_step(wrench, twist, energy, period, max_damping)
-    force, torque = applied[:3], applied[3:]
-    force_clamped, torque_clamped = clamp_norm(force, max_force), clamp_norm(torque, max_torque)
-    if force_clamped is force and torque_clamped is torque:
-        return jacobian.T @ applied, applied, energy, damping, dissipated
-    # The power the clamp withheld from the hand, per channel, goes back to the observer.
-    energy[0] += float((force - force_clamped) @ twist[:3]) * period
-    energy[1] += float((torque - torque_clamped) @ twist[3:]) * period
-    clamped = np.concatenate((force_clamped, torque_clamped))
-    return jacobian.T @ clamped, clamped, energy, damping, dissipated
+    total = 0.0
+    for i in range(6):
+        total += wrench[i] + velocity[i]
+        for j in range(6):
+            total += jacobian[i, j]
+    if not math.isfinite(total):
+        torque[:] = 0.0
+        applied[:] = 0.0
+        damping[:] = 0.0
+        dissipated[:] = 0.0
+        return
+    for i in range(6):
+        twist[i] = 0.0
+        for j in range(6):
+            twist[i] += jacobian[i, j] * velocity[j]
+    passivity_step_into(wrench, twist, energy, period, max_damping, applied, damping, dissipated)
+    for channel, limit in ((0, max_force), (1, max_torque)):
+        k = 3 * channel
+        factor = clamp_factor(applied[k], applied[k + 1], applied[k + 2], limit)
+        if factor != 1.0:  # the power the clamp withheld from the hand goes back to the observer
+            withheld = 0.0
+            for i in range(k, k + 3):
+                clamped = applied[i] * factor
+                withheld += (applied[i] - clamped) * twist[i]
+                applied[i] = clamped
+            energy[channel] += withheld * period
+    for j in range(6):
+        torque[j] = 0.0
+        for i in range(6):
+            torque[j] += jacobian[i, j] * applied[i]
 
 
 # --- Drake system -------------------------------------------------------------

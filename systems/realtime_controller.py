@@ -21,13 +21,16 @@ command leaves one tick earlier; the master torque is the same tick in both.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
 
 from heft.systems.accelerometer_reading import AccelerometerConvention, motion_from_reading
 from heft.systems.load_estimation_params import LoadEstimationParams as EstimatorSpec
-from heft.systems.feedback_mapping import FeedbackMappingParams, rendered_wrench
+from heft.systems.compiled import float_array
+from heft.systems.feedback_mapping import FeedbackMappingParams, rendered_wrench_into
 from heft.systems.force_scaling import (
     CONTACT,
     EVALUATION_SIZE,
@@ -41,16 +44,17 @@ from heft.systems.force_scaling import (
     next_memory_and_scales,
     notch_coefficients,
 )
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, pose_and_jacobian
-from heft.systems.motion_scaling import IDENTITY_POSE, MotionScalingParams, motion_scaling_update
+from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
+from heft.systems.serial_chain import GRAVITY, OMEGA, SerialChain
+from heft.systems.motion_scaling import IDENTITY_POSE, MotionScalingParams, motion_scaling_step
 from heft.systems.online_estimator import OnlineLoadEstimator
-from heft.systems.load_dynamics import GRAVITY_W, checked_load
-from heft.systems.offset_tracking import (OFFSETS, REQUESTS, STATUS, TRACKING, OffsetTrackingParams, initial_state,
-                                          offsets_update, restart_rezero_window)
-from heft.systems.passivity_controller import PassivityParams, master_torque
-from heft.systems.pose_vectors import pose_vector
-from heft.systems.rx_inverse_kinematics import RxKinematics
-from heft.systems.slave_inverse_kinematics import flange_target, ik_step
+from heft.systems.load_dynamics import GRAVITY_W, checked_load, regressor
+from heft.systems.offset_tracking import (OFFSETS, REQUESTS, STATUS, TRACKING, WINDOW_TIME, OffsetTrackingParams,
+                                          initial_state, offsets_update, restart_rezero_window)
+from heft.systems.passivity_controller import PassivityParams, master_torque_into
+from heft.systems.pose_vectors import POSE_SIZE, pose_into
+from heft.systems.rx_inverse_kinematics import UNREACHABLE, RxKinematics
+from heft.systems.slave_inverse_kinematics import IkStep
 from heft.systems.slave_kinematics import NUM_JOINTS
 
 
@@ -64,8 +68,8 @@ class RealtimeTeleopController:
     load model φ̂ and [f_o; τ_o] (N, N·m). Every step brings its own ``dt``; the mount notch
     is designed for the nominal ``period`` (s), kept as ``period``.
 
-    After ``step``: ``torque`` τ_M (6, N·m) and ``position`` q̄_S (6, rad), plus what the
-    per-block Diagram logs: ``wrench_feedback``/``wrench_contact``/``wrench_noncontact``
+    After ``step``: ``torque`` τ_M (6, N·m) and ``position`` q̄_S (6, rad; one array, overwritten by each
+    step), plus what the per-block Diagram logs: ``wrench_feedback``/``wrench_contact``/``wrench_noncontact``
     (6 each, at S in S), ``master_wrench`` (6, on the hand at E in B, as mapped),
     ``applied_wrench`` (6, as applied after the passivity controller and the device
     limits), ``pose_RS_desired`` (7), ``energy``/``damping`` (2 each, the passivity
@@ -83,14 +87,11 @@ class RealtimeTeleopController:
         for params in (motion, force, feedback, passivity, offsets_tracking):
             params.validate()
         phi, offsets = checked_load(phi, offsets)
-        self._master, self._master_context = master, master.CreateDefaultContext()
-        self._B, self._E = master.GetFrameByName(BASE_FRAME), master.GetFrameByName(STYLUS_FRAME)
-        self._slave, self._slave_context = slave, slave.CreateDefaultContext()
-        self._R, self._S = slave.GetFrameByName(base_frame), slave.GetFrameByName("S")
-        self._arm = self._R.model_instance()
-        self._g_R = np.array(GRAVITY_W)  # R = W
-        X_SF = X_FS.inverse()
-        self._kinematics, self._R_SF, self._p_SF = kinematics, X_SF.rotation().matrix(), X_SF.translation()
+        self._master = SerialChain(master, master.GetFrameByName(BASE_FRAME), master.GetFrameByName(STYLUS_FRAME))
+        self._slave = SerialChain(slave, slave.GetFrameByName(base_frame), slave.GetFrameByName("S"),
+                                  GRAVITY_W)  # R = W
+        self._pose_BE, self._pose_RS, self._pose_scratch = np.zeros((3, POSE_SIZE))
+        self._kinematics, self._ik_step = kinematics, IkStep(kinematics, X_FS.inverse())
         online = estimator is not None and estimator.mode == "online"
         self.estimator = OnlineLoadEstimator(estimator, phi, period) if online else None
         self._phi = self.estimator.phi if online else phi.copy()  # the estimator's, updated in place
@@ -106,9 +107,10 @@ class RealtimeTeleopController:
         self._phi_gripper_held = np.zeros(10)  # φ_gr while an object is held
         self._motion, self._force, self._feedback = motion, force, feedback
         self._R_RB_motion = RotationMatrix(RollPitchYaw(motion.R_RB)).matrix()
-        self._R_BR = RotationMatrix(RollPitchYaw(feedback.R_RB)).inverse().matrix()
-        self._max_damping = ((passivity.max_translational_damping, passivity.max_rotational_damping)
-                             if passivity.enabled else (0.0, 0.0))
+        self._R_BR = self._R_RB_motion.T  # R_RB's one home is the motion scaling's
+        self._max_damping = np.array((passivity.max_translational_damping, passivity.max_rotational_damping)
+                                     if passivity.enabled else (0.0, 0.0))
+        self._R_BS, self._twist, self._dissipated = np.zeros((3, 3)), np.zeros(6), np.zeros(2)
         self._requested = (force.sigma, force.gamma, force.eta)
         self._accelerometer = accelerometer
         self._evaluation = np.zeros(EVALUATION_SIZE)
@@ -124,8 +126,9 @@ class RealtimeTeleopController:
         if slave_position.shape != (NUM_JOINTS,) or not np.isfinite(slave_position).all():
             raise ValueError(f"the slave's start position must be {NUM_JOINTS} finite joint angles; "
                              f"got {slave_position}")
-        self._slave.SetPositions(self._slave_context, self._arm, slave_position)
-        self.pose_RS_desired = pose_vector(self._slave.CalcRelativeTransform(self._slave_context, self._R, self._S))
+        self._slave.update(slave_position)
+        self.pose_RS_desired = np.empty(POSE_SIZE)
+        pose_into(self._slave.R, self._slave.p, self.pose_RS_desired)
         self._motion_memory = np.concatenate(([0.0, self._motion.translation_scale, self._motion.rotation_scale],
                                               IDENTITY_POSE, IDENTITY_POSE))
         self.position = np.clip(slave_position, self._kinematics.lower, self._kinematics.upper)
@@ -147,23 +150,18 @@ class RealtimeTeleopController:
         if not self.started:
             raise RuntimeError("RealtimeTeleopController.step before start(): start it from the measured "
                                "slave position once the station is healthy")
-        X_BE, J_M = pose_and_jacobian(self._master, self._master_context, self._B, self._E, master_position)
-        slave, scratch = self._slave, self._slave_context
-        slave.SetPositions(scratch, self._arm, slave_position)
-        slave.SetVelocities(scratch, self._arm, slave_velocity)
-        X_RS = slave.CalcRelativeTransform(scratch, self._R, self._S)
-        R_RS = X_RS.rotation().matrix()
-        omega_S = self._S.CalcAngularVelocity(scratch, self._R, self._S)
-        gravity_S = R_RS.T @ self._g_R
+        master, slave = self._master, self._slave
+        master.update(master_position)
+        slave.update(slave_position, slave_velocity)
+        J_M, R_RS, omega_S, gravity_S = master.J, slave.R, slave.motion[OMEGA], slave.motion[GRAVITY]
+        pose_into(master.R, master.p, self._pose_BE)
+        pose_into(R_RS, slave.p, self._pose_RS)
 
         # Motion scaling, then the slave IK on this tick's desired pose.
         motion = self._motion
-        self._motion_memory, self.pose_RS_desired = motion_scaling_update(
-            self._motion_memory, self.pose_RS_desired, pose_vector(X_BE), clutch, pose_vector(X_RS),
-            motion.translation_scale, motion.rotation_scale, self._R_RB_motion)
-        self.position, self.reachable, _ = ik_step(
-            self._kinematics, flange_target(self.pose_RS_desired, self._R_SF, self._p_SF), self.position,
-            self._kinematics.velocity * dt)
+        motion_scaling_step(self._motion_memory, self.pose_RS_desired, self._pose_BE, clutch, self._pose_RS,
+                            motion.translation_scale, motion.rotation_scale, self._R_RB_motion, self._pose_scratch)
+        self.reachable = not self._ik_step(self.pose_RS_desired, self.position, dt, self.position) & UNREACHABLE
 
         # Force scaling/elimination, feedback mapping, passivity controller.
         force = self._force
@@ -180,11 +178,12 @@ class RealtimeTeleopController:
                 self._motion_S, acceleration, gravity_S, omega_S, self._accelerometer), omega_S, gravity_S,
                 evaluation[FAULT] > 0.5)
         feedback = self._feedback
-        self.master_wrench = rendered_wrench(evaluation[FEEDBACK], self._R_BR @ R_RS, feedback.force_scale,
-                                             feedback.torque_scale, feedback.max_force, feedback.max_torque)
-        self.torque, self.applied_wrench, self.energy, self.damping, _ = master_torque(
-            self.master_wrench, np.asarray(master_velocity, dtype=float), J_M, self.energy, dt, self._max_damping,
-            feedback.max_force, feedback.max_torque)
+        np.dot(self._R_BR, R_RS, out=self._R_BS)
+        rendered_wrench_into(evaluation[FEEDBACK], self._R_BS, feedback.force_scale, feedback.torque_scale,
+                             feedback.max_force, feedback.max_torque, self.master_wrench)
+        master_torque_into(self.master_wrench, float_array(master_velocity), J_M, self.energy, dt, self._max_damping,
+                           feedback.max_force, feedback.max_torque, self.torque, self.applied_wrench, self.damping,
+                           self._dissipated, self._twist)
 
     @property
     def wrench_feedback(self) -> np.ndarray:
@@ -223,6 +222,33 @@ class RealtimeTeleopController:
     def rezero_requests_seen(self) -> int:
         """How many re-zero requests a step has taken up so far."""
         return int(self._offset_state[REQUESTS])
+
+    @property
+    def rezero_elapsed(self) -> float:
+        """How long (s) the re-zero window under way has averaged (it restarts at 0)."""
+        return float(self._offset_state[WINDOW_TIME])
+
+    @property
+    def gravity_S(self) -> np.ndarray:
+        """Gravity in S (3, m/s²) at the slave's joints of the last step."""
+        return self._slave.motion[GRAVITY]
+
+    @property
+    def accelerometer(self) -> AccelerometerConvention:
+        """The accelerometer's convention in use, its bias as last measured (``set_accelerometer_bias``)."""
+        return self._accelerometer
+
+    def set_accelerometer_bias(self, bias, reading, gravity_S) -> None:
+        """The accelerometer's linear bias (3, its own axes and unit) from the next step on. The offsets
+        measured at rest with the old bias, over readings averaging ``reading`` (6) under ``gravity_S``
+        (3, m/s² in S), hold the load's wrench of that bias: they give it back, o += (V_old − V_new)·φ̂
+        there, so the contact wrench at rest stays what it was."""
+        new = dataclasses.replace(self._accelerometer, bias=tuple(float(x) for x in bias))
+        gravity_S, at_rest = np.asarray(gravity_S, dtype=float), np.zeros(3)
+        for convention, sign in ((self._accelerometer, 1.0), (new, -1.0)):
+            motion = motion_from_reading(np.empty(6), reading, gravity_S, at_rest, convention)
+            self._offsets += sign * (regressor(motion[:3], motion[3:], at_rest, gravity_S) @ self._phi)
+        self._accelerometer = new
 
     @property
     def tracking(self) -> bool:

@@ -1,6 +1,6 @@
 """Sampled orientations R_WS(t): interpolation between samples and angular motion from them.
 
-Plain numpy on batches of unit quaternions (w, x, y, z), Drake's order (DESIGN §4), vectorised
+Plain numpy on batches of unit quaternions (w, x, y, z), Drake's order (docs/design.md §4), vectorised
 over the millions of samples of a recording (per-sample pydrake objects would cost µs each).
 A quaternion q describes R_WS: v_W = q ⊗ v_S ⊗ q*. ω and α are S's angular velocity and
 acceleration in the world, expressed in S (rad/s, rad/s²), as ``load_dynamics`` takes them.

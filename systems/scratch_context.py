@@ -1,7 +1,7 @@
 """A plant Context for a LeafSystem's own calculations, kept in the system's cache.
 
 Not on ``self``: a Context there would be shared by every clone of the diagram's
-Context (DESIGN §5). The cache gives each Context of the system its own.
+Context (docs/design.md §5). The cache gives each Context of the system its own.
 """
 
 from pydrake.common.value import AbstractValue

@@ -33,7 +33,7 @@ alternative, but in pydrake 1.51 its seed can only be drawn from
 `SetRandomContext` on the whole diagram (`set_fixed_seed` is not bound), not
 set per sensor.
 
-Port conventions (DESIGN §4): the wrench is [f; τ] that the sensor exerts on
+Port conventions (docs/design.md §4): the wrench is [f; τ] that the sensor exerts on
 the load, at S, expressed in S; the accelerometer's input is its ideal reading
 (``accelerometer_reading``: [a − g; α] of its point A, in S's axes). The sign flip of
 real sensors belongs to the hardware interface.
@@ -44,9 +44,10 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
-from scipy.signal import butter, lfilter, lfilter_zi
+from scipy.signal import butter, lfilter_zi
 
 from heft.systems.accelerometer_reading import AccelerometerConvention
+from heft.systems.compiled import compiled, float_array
 
 NUM_AXES = 6
 
@@ -143,7 +144,7 @@ class ForceTorqueSensorParams(SixAxisSensorParams):
 
     noise_rms: list[float] = dataclasses.field(
         default_factory=lambda: [0.1, 0.1, 0.1, 0.005, 0.005, 0.005])
-    """RMS of the white noise (N, N·m): the project's floor (DESIGN §6)."""
+    """RMS of the white noise (N, N·m): the project's floor (docs/design.md §6)."""
 
     full_scale: list[float] = dataclasses.field(
         default_factory=lambda: [200.0, 200.0, 200.0, 12.0, 12.0, 12.0])
@@ -183,7 +184,7 @@ class AccelerometerParams(SixAxisSensorParams):
 
     noise_rms: list[float] = dataclasses.field(
         default_factory=lambda: [0.05, 0.05, 0.05, 0.5, 0.5, 0.5])
-    """RMS of the white noise (m/s², rad/s²): the project's floor (DESIGN §6)."""
+    """RMS of the white noise (m/s², rad/s²): the project's floor (docs/design.md §6)."""
 
     full_scale: list[float] = dataclasses.field(
         default_factory=lambda: [100.0, 100.0, 100.0, 1000.0, 1000.0, 1000.0])
@@ -201,16 +202,36 @@ class AccelerometerParams(SixAxisSensorParams):
         default_factory=lambda: [0.001, 0.001, 0.001, 0.01, 0.01, 0.01])
     """Random-walk intensity q of the biases (m/s²/√s, rad/s²/√s) (assumed)."""
 
+    R_SA: list[list[float]] = dataclasses.field(default_factory=lambda: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0],
+                                                                          [0.0, 0.0, 1.0]])
+    """Its axes A in S, rows of R_SA (v_S = R_SA·v_A): identity for one aligned with S, as the JR3's.
+    The station reports in A's axes; the consumers turn the reading into S's."""
+
+    unit: str = "m/s^2"
+    """The unit of the linear channels: "m/s^2" or "g" (9.80665 m/s²); the angular ones are rad/s².
+    ``noise_rms``, ``full_scale`` and the offsets are in the reading's own axes and units."""
+
+    bias: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    """The linear channels' bias as the lab knows it (A's axes, ``unit``): from its calibration
+    (``heft identify --recording`` of static poses), or measured at rest by ``heft load --rezero``
+    on hardware. The consumers subtract it; what the sensor model adds beside it (``initial_offsets``
+    …) is what no calibration knows."""
+
+    scale: float = 1.0
+    """The linear channels' gain against the truth (1: as the datasheet says), from a calibration."""
+
     def validate(self) -> None:
         super().validate()
         try:
             self.convention()
-        except (ValueError, TypeError):
-            raise ValueError(f"position needs 3 finite numbers (m, in S); got {self.position}") from None
+        except (ValueError, TypeError) as error:
+            raise ValueError(f"accelerometer: {error}") from None
 
     def convention(self) -> AccelerometerConvention:
-        """What a reading means, for the consumers: gravity in it or not, and where it is taken."""
-        return AccelerometerConvention(self.includes_gravity, tuple(self.position))
+        """What a reading means, for the consumers: gravity in it or not, where it is taken, how the
+        instrument is mounted and what it reports in."""
+        return AccelerometerConvention(self.includes_gravity, tuple(self.position), tuple(map(tuple, self.R_SA)),
+                                       self.unit, tuple(self.bias), self.scale)
 
 
 # --- pure helpers -------------------------------------------------------------
@@ -221,12 +242,17 @@ def quantize(value, step) -> np.ndarray:
     return step * np.round(np.asarray(value, dtype=float) / step)
 
 
-def saturate(value, limit) -> tuple[np.ndarray, np.ndarray]:
-    """(``value`` clipped to ±``limit``, 1.0 on each axis that reached or passed its
-    limit, else 0.0), per axis."""
-    value = np.asarray(value, dtype=float)
-    limit = np.asarray(limit, dtype=float)
-    return np.minimum(np.maximum(value, -limit), limit), (np.abs(value) >= limit).astype(float)
+@compiled("void(float64[:, :], float64[:], float64[:], float64[:, :], float64[:, :])")
+def measure_rows(values, full_scale, step, out, saturated) -> None:
+    """Q(sat(v)) of each disturbed value v in ``values`` (m, 6) into ``out``, and into ``saturated``
+    1.0 on each axis that reached or passed its limit ±``full_scale`` (inf: no limit), else 0.0;
+    Q rounds to the nearest multiple of ``step`` (0: no rounding), as ``quantize``."""
+    for j in range(values.shape[0]):
+        for k in range(values.shape[1]):
+            v, limit = values[j, k], full_scale[k]
+            saturated[j, k] = 1.0 if abs(v) >= limit else 0.0
+            v = min(max(v, -limit), limit)
+            out[j, k] = step[k] * np.round(v / step[k]) if step[k] > 0.0 else v
 
 
 def drift_offsets(t, initial_offsets, drifted_offsets, time_constant: float) -> np.ndarray:
@@ -252,11 +278,26 @@ def lowpass(coefficients: np.ndarray, state: np.ndarray, values: np.ndarray) -> 
     """The filter (transposed direct form II, ``scipy.signal.lfilter``) on ``values`` (count, n),
     one sample a row, each column alone: returns the outputs and advances ``state`` (2, n) in
     place. A NaN state (a filter not started) starts in the steady state of the first row."""
-    b, a = coefficients[:3], np.concatenate(([1.0], coefficients[3:]))
     if np.isnan(state[0, 0]):
-        state[:] = lfilter_zi(b, a)[:, np.newaxis] * values[0]
-    out, state[:] = lfilter(b, a, values, axis=0, zi=state)
+        state[:] = lfilter_zi(coefficients[:3], np.concatenate(([1.0], coefficients[3:])))[:, np.newaxis] * values[0]
+    out = np.empty(np.shape(values))
+    _lowpass_rows(coefficients, state, float_array(values), out)
     return out
+
+
+@compiled("void(float64[:], float64[:, :], float64[:, :], float64[:, :])")
+def _lowpass_rows(coefficients, state, values, out) -> None:
+    """``lowpass`` of a started filter: y = b0·x + z1, z1 ← b1·x − a1·y + z2, z2 ← b2·x − a2·y."""
+    b0, b1, b2, a1, a2 = coefficients[0], coefficients[1], coefficients[2], coefficients[3], coefficients[4]
+    for k in range(values.shape[1]):
+        z1, z2 = state[0, k], state[1, k]
+        for j in range(values.shape[0]):
+            x = values[j, k]
+            y = b0 * x + z1
+            z1 = b1 * x - a1 * y + z2
+            z2 = b2 * x - a2 * y
+            out[j, k] = y
+        state[0, k], state[1, k] = z1, z2
 
 
 class HeldLowpass:
@@ -278,13 +319,23 @@ class HeldLowpass:
             accumulated, power = accumulated + power @ B, A @ power
         self._advance, self._input = power, accumulated[:, np.newaxis]
 
-    def __call__(self, state: np.ndarray, value: np.ndarray) -> np.ndarray:
-        """The ``count`` outputs (count, n) for ``value`` (n,) held; advances ``state`` (2, n, started:
-        not NaN) in place."""
-        out = self._free @ state
-        out += self._forced[:, np.newaxis] * value
-        state[:] = self._advance @ state + self._input * value
+    def __call__(self, state: np.ndarray, value: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """The ``count`` outputs (count, n) for ``value`` (n,) held, into ``out`` if given; advances
+        ``state`` (2, n, started: not NaN) in place."""
+        out = np.empty((self.count, len(value))) if out is None else out
+        _held_lowpass(self._free, self._forced, self._advance, self._input[:, 0], state, value, out)
         return out
+
+
+@compiled("void(float64[:, :], float64[:], float64[:, :], float64[:], float64[:, :], float64[:], float64[:, :])")
+def _held_lowpass(free, forced, advance, gain, state, value, out) -> None:
+    """``HeldLowpass.__call__``: out_j = free_j·z + forced_j·u, then z ← advance·z + gain·u, per column."""
+    for k in range(value.shape[0]):
+        z0, z1, u = state[0, k], state[1, k], value[k]
+        for j in range(out.shape[0]):
+            out[j, k] = free[j, 0] * z0 + free[j, 1] * z1 + forced[j] * u
+        state[0, k] = advance[0, 0] * z0 + advance[0, 1] * z1 + gain[0] * u
+        state[1, k] = advance[1, 0] * z0 + advance[1, 1] * z1 + gain[1] * u
 
 
 def _mix64(z: np.ndarray) -> np.ndarray:
@@ -335,6 +386,8 @@ class SixAxisMeasurement:
         self.step = (np.array(params.full_scale, dtype=float) / params.counts_per_full_scale
                      if effects and params.quantization else None)
         self.draws_noise = self.white_noise_rms is not None or self.drift_on
+        self._limits = np.full(NUM_AXES, np.inf) if self.full_scale is None else self.full_scale
+        self._steps = np.zeros(NUM_AXES) if self.step is None else self.step
         self.key = noise_key(params.seed, stream)
 
     def normals(self, sample_index) -> np.ndarray | None:
@@ -360,15 +413,16 @@ class SixAxisMeasurement:
             return offsets, offsets, walk
         return offsets, offsets + self.white_noise_rms * normals[:, :NUM_AXES], walk
 
-    def measure(self, value) -> tuple[np.ndarray, np.ndarray]:
-        """(Q(sat(value)), the saturation flags (0/1)) of disturbed values (…, 6)."""
+    def measure(self, value, out: np.ndarray | None = None,
+                saturated: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(Q(sat(value)), the saturation flags (0/1)) of disturbed values (…, 6), into ``out`` and
+        ``saturated`` (same shape, float) if given (``measure_rows``)."""
         value = np.asarray(value, dtype=float)
-        saturated = np.zeros(value.shape)
-        if self.full_scale is not None:
-            value, saturated = saturate(value, self.full_scale)
-        if self.step is not None:
-            value = quantize(value, self.step)
-        return value, saturated
+        out = np.empty(value.shape) if out is None else out
+        saturated = np.empty(value.shape) if saturated is None else saturated
+        measure_rows(value.reshape(-1, NUM_AXES), self._limits, self._steps, out.reshape(-1, NUM_AXES),
+                     saturated.reshape(-1, NUM_AXES))
+        return out, saturated
 
 
 # --- Drake systems ------------------------------------------------------------

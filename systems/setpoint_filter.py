@@ -7,6 +7,8 @@ import numpy as np
 from pydrake.systems.framework import EventStatus, LeafSystem
 from scipy.linalg import expm
 
+from heft.systems.compiled import compiled
+
 
 def critically_damped_step_matrices(bandwidth_hz: float, period: float):
     """Exact zero-order-hold discretisation (A_d, B_d) of q̈ = ω²(u − q) − 2ωq̇ for one joint,
@@ -15,6 +17,16 @@ def critically_damped_step_matrices(bandwidth_hz: float, period: float):
     continuous = np.array([[0.0, 1.0, 0.0], [-w * w, -2 * w, w * w], [0.0, 0.0, 0.0]])
     step = expm(continuous * period)
     return step[:2, :2], step[:2, 2]
+
+
+@compiled("void(float64[:, :], float64[:], float64[:, :], float64[:])")
+def setpoint_step(A, B, state, u) -> None:
+    """One step of the filter ``critically_damped_step_matrices`` gives, in place on every joint:
+    [q; q̇] ← A·[q; q̇] + B·u with ``state`` (2, n) and the setpoint ``u`` (n,)."""
+    for k in range(u.shape[0]):
+        q, qd = state[0, k], state[1, k]
+        state[0, k] = A[0, 0] * q + A[0, 1] * qd + B[0] * u[k]
+        state[1, k] = A[1, 0] * q + A[1, 1] * qd + B[1] * u[k]
 
 
 class SetpointFilter(LeafSystem):
@@ -32,7 +44,7 @@ class SetpointFilter(LeafSystem):
             raise ValueError(f"bandwidth_hz and period must be > 0; got {bandwidth_hz}, {period}")
         A, B = critically_damped_step_matrices(bandwidth_hz, period)
         # The same 2×2 filter on every joint, applied to the (2, n) array [q_f; q̇_f].
-        self._A, self._B = A, B[:, None]
+        self._A, self._B = A, B
         initial_position = np.asarray(initial_position, dtype=float)
         size = self._size = initial_position.size
         self._input = self.DeclareVectorInputPort("position", size)
@@ -46,6 +58,6 @@ class SetpointFilter(LeafSystem):
         return EventStatus.Succeeded()
 
     def _update(self, context, discrete_state):
-        x = context.get_discrete_state(self._state).get_value().reshape(2, self._size)
-        u = self._input.Eval(context)
-        discrete_state.set_value(self._state, (self._A @ x + self._B * u).ravel())
+        x = context.get_discrete_state(self._state).get_value().reshape(2, self._size).copy()
+        setpoint_step(self._A, self._B, x, self._input.Eval(context))
+        discrete_state.set_value(self._state, x.ravel())

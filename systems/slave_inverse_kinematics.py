@@ -6,32 +6,76 @@ import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import EventStatus, LeafSystem
 
-from heft.systems.pose_vectors import POSE_SIZE, rotation_matrix
-from heft.systems.rx_inverse_kinematics import RxKinematics
+from heft.systems.compiled import compiled, float_array
+from heft.systems.pose_vectors import POSE_SIZE, rotation_into
+from heft.systems.rx_inverse_kinematics import NON_FINITE, UNREACHABLE, WORK_ROWS, RxKinematics, nearest_solution
 from heft.systems.slave_kinematics import NUM_JOINTS
 
+SLEWING = 1 << 12
+"""``ik_step``'s status bit: the speed limits held the command back from the solution."""
+
+# ``ik_step``'s scratch rows beyond ``nearest_solution``'s: R_RT, R_RF (3 rows each), p_RF, the solution.
+_R_RT, _R_RF, _P_RF, _SOLUTION = WORK_ROWS, WORK_ROWS + 3, WORK_ROWS + 6, WORK_ROWS + 7
+STEP_WORK_ROWS = WORK_ROWS + 8
 
 
-def flange_target(pose, R_TF: np.ndarray, p_TF: np.ndarray):
-    """(R_RF, p_RF (m)) of the flange for the desired tool pose vector ``pose`` (X_RT*), the
-    flange F sitting at (R_TF, p_TF) in the tool frame T; None if ``pose`` is not a pose
-    (non-finite, or a zero quaternion)."""
-    R_RT = rotation_matrix(pose)
-    if R_RT is None:
-        return None
-    return R_RT @ R_TF, pose[:3] + R_RT @ p_TF
+@compiled("boolean(float64[:], float64[:, :], float64[:], float64[:, :], float64[:, :], float64[:])")
+def flange_target(pose, R_TF, p_TF, R_RT, R_RF, p_RF):
+    """Writes (R_RF, p_RF (m)) of the flange for the desired tool pose vector ``pose`` (X_RT*), the
+    flange F sitting at (R_TF, p_TF) in the tool frame T, and R_RT; False if ``pose`` is not a pose
+    (``rotation_into``)."""
+    if not rotation_into(pose, R_RT):
+        return False
+    for r in range(3):
+        for c in range(3):
+            R_RF[r, c] = R_RT[r, 0] * R_TF[0, c] + R_RT[r, 1] * R_TF[1, c] + R_RT[r, 2] * R_TF[2, c]
+        p_RF[r] = pose[r] + (R_RT[r, 0] * p_TF[0] + R_RT[r, 1] * p_TF[1] + R_RT[r, 2] * p_TF[2])
+    return True
 
 
-def ik_step(kinematics: RxKinematics, target, q_last: np.ndarray, max_step: np.ndarray):
-    """One tick: (command (6, rad), reachable, slewing) from the last command toward the nearest
-    IK solution for ``target`` (``flange_target``'s (R_RF, p_RF), or None), each joint moving at
-    most ``max_step`` (rad: speed limit × dt). Unreachable or None: the command stays."""
-    result = None if target is None else kinematics.solve_nearest(*target, q_last)
-    if result is None or not result.reachable:
-        return q_last, False, False
-    step = result.q - q_last
-    limited = np.minimum(np.maximum(step, -max_step), max_step)  # np.clip's wrapper costs 1 µs more
-    return q_last + limited, True, bool((limited != step).any())
+@compiled("int64(float64[:], float64[:], float64[:], float64[:], float64, float64[:], float64[:, :], float64[:], "
+          "float64[:], float64, float64[:], float64[:, :])")
+def ik_step(dh, lower, upper, velocity, band, pose, R_TF, p_TF, q_last, dt, command, work):
+    """One tick: writes into ``command`` (6, rad) the last command ``q_last`` moved toward the IK
+    solution nearest it (``nearest_solution``) for the desired tool pose ``pose`` (X_RT*, the flange
+    at (R_TF, p_TF) in T), each joint by at most velocity × dt (rad/s × s). Unreachable or not a
+    pose: command = q_last. Returns ``nearest_solution``'s status, with ``SLEWING`` when a speed
+    limit held a joint back. The arm: ``dh``, ``lower``, ``upper``, ``velocity``, ``band`` as in
+    ``RxKinematics``; ``work`` (``STEP_WORK_ROWS``, 6): scratch. command may be q_last itself."""
+    R_RF, p_RF, solution = work[_R_RF:_R_RF + 3, 0:3], work[_P_RF, 0:3], work[_SOLUTION]
+    if flange_target(pose, R_TF, p_TF, work[_R_RT:_R_RT + 3, 0:3], R_RF, p_RF):
+        status = nearest_solution(dh, lower, upper, band, R_RF, p_RF, q_last, solution, work)
+    else:
+        status = NON_FINITE
+    if status & UNREACHABLE:
+        for j in range(6):
+            command[j] = q_last[j]
+        return status
+    for j in range(6):
+        step, limit = solution[j] - q_last[j], velocity[j] * dt
+        limited = min(max(step, -limit), limit)
+        if limited != step:
+            status |= SLEWING
+        command[j] = q_last[j] + limited
+    return status
+
+
+class IkStep:
+    """``ik_step`` for one arm and tool frame, its scratch preallocated: a call allocates nothing.
+
+    ``X_TF``: the flange F in the tool frame T."""
+
+    def __init__(self, kinematics: RxKinematics, X_TF: RigidTransform):
+        self._dh, self._lower, self._upper = kinematics.dh, kinematics.lower, kinematics.upper
+        self._velocity, self._band = kinematics.velocity, kinematics.wrist_band
+        self._R_TF, self._p_TF = X_TF.rotation().matrix().copy(), X_TF.translation().copy()
+        self._work = np.zeros((STEP_WORK_ROWS, 6))
+
+    def __call__(self, pose: np.ndarray, q_last: np.ndarray, dt: float, command: np.ndarray) -> int:
+        """``ik_step``'s status; ``command`` (6, rad) written, from ``q_last`` (6, rad) toward the desired
+        tool pose vector ``pose`` (7, X_RT*) over ``dt`` s. The arrays: float64, writeable (``float_array``)."""
+        return ik_step(self._dh, self._lower, self._upper, self._velocity, self._band, pose, self._R_TF,
+                       self._p_TF, q_last, dt, command, self._work)
 
 
 class SlaveInverseKinematics(LeafSystem):
@@ -42,7 +86,7 @@ class SlaveInverseKinematics(LeafSystem):
     Input ``position_measured`` (6, rad), optional: when connected (and finite), the command
     starts there at initialization, clipped to the joint limits; else at ``q_initial``.
 
-    Every tick the nearest IK branch to the last command is taken (RxKinematics.solve_nearest)
+    Every tick the nearest IK branch to the last command is taken (``ik_step``)
     and the command moves toward it by at most velocity limit × period per joint. An
     unreachable or non-finite pose leaves the command where it is.
 
@@ -59,10 +103,8 @@ class SlaveInverseKinematics(LeafSystem):
             raise ValueError(f"q_initial must be 6 joint angles within the limits; got {q_initial}")
         if not (np.isfinite(period) and period > 0):
             raise ValueError(f"period must be finite and > 0 (s); got {period}")
-        self._kinematics = kinematics
-        X_TF = X_FT.inverse()
-        self._R_TF, self._p_TF = X_TF.rotation().matrix(), X_TF.translation()
-        self._max_step = kinematics.velocity * period  # rad per tick
+        self._kinematics, self._period = kinematics, period
+        self._ik_step = IkStep(kinematics, X_FT.inverse())
         self._pose = self.DeclareVectorInputPort("pose_desired", POSE_SIZE)
         self._measured = self.DeclareVectorInputPort("position_measured", NUM_JOINTS)
         self._command = self.DeclareDiscreteState(q_initial)
@@ -84,11 +126,11 @@ class SlaveInverseKinematics(LeafSystem):
         return EventStatus.Succeeded()
 
     def _update(self, context, discrete_state) -> EventStatus:
-        q_last = context.get_discrete_state(self._command).get_value()
+        # Drake hands the update the current state: the command holds q_last until ik_step moves it.
+        command = discrete_state.get_mutable_vector(self._command).get_mutable_value()
         rejected = context.get_discrete_state(self._status).get_value()[1]
-        target = flange_target(self._pose.Eval(context), self._R_TF, self._p_TF)
-        command, reachable, slewing = ik_step(self._kinematics, target, q_last, self._max_step)
-        discrete_state.set_value(self._command, command)
+        status = self._ik_step(float_array(self._pose.Eval(context)), command, self._period, command)
+        reachable = not status & UNREACHABLE
         discrete_state.set_value(self._status, [1.0, rejected] if reachable else [0.0, rejected + 1])
-        discrete_state.set_value(self._slewing, [float(slewing)])
+        discrete_state.set_value(self._slewing, [1.0 if status & SLEWING else 0.0])
         return EventStatus.Succeeded()

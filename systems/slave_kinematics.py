@@ -6,11 +6,11 @@ from collections.abc import Callable
 
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.systems.framework import Context, LeafSystem
+from pydrake.systems.framework import LeafSystem
 
 from heft.systems.load_dynamics import GRAVITY_W
-from heft.systems.pose_vectors import POSE_SIZE, pose_vector
-from heft.systems.scratch_context import declare_plant_scratch
+from heft.systems.pose_vectors import POSE_SIZE, pose_into
+from heft.systems.serial_chain import GRAVITY, OMEGA, SerialChain
 
 NUM_JOINTS = 6
 
@@ -35,38 +35,31 @@ class SlaveKinematics(LeafSystem):
         plant = model if isinstance(model, MultibodyPlant) else model()
         if not plant.is_finalized():
             raise ValueError("SlaveKinematics needs a finalized plant")
-        self._plant = plant
-        self._R = plant.GetFrameByName(base_frame)
-        self._S = plant.GetFrameByName(sensor_frame)
-        self._arm = self._R.model_instance()
-        if plant.num_positions(self._arm) != NUM_JOINTS or plant.num_velocities(self._arm) != NUM_JOINTS:
+        R, S = plant.GetFrameByName(base_frame), plant.GetFrameByName(sensor_frame)
+        arm = R.model_instance()
+        if plant.num_positions(arm) != NUM_JOINTS or plant.num_velocities(arm) != NUM_JOINTS:
             raise ValueError(f"the model instance of '{base_frame}' must have {NUM_JOINTS} positions and velocities")
-        self._g_R = np.asarray(gravity_R, dtype=float).reshape(3)
+        self._chain = SerialChain(plant, R, S, np.asarray(gravity_R, dtype=float).reshape(3))
         self._position = self.DeclareVectorInputPort("position", NUM_JOINTS)
         self._velocity = self.DeclareVectorInputPort("velocity", NUM_JOINTS)
-        self._scratch = declare_plant_scratch(self, plant)
         position = {self._position.ticket()}
         self.DeclareVectorOutputPort("pose_RS", POSE_SIZE, self._calc_pose, prerequisites_of_calc=position)
         self.DeclareVectorOutputPort("omega_S", 3, self._calc_omega,
                                      prerequisites_of_calc=position | {self._velocity.ticket()})
         self.DeclareVectorOutputPort("gravity_S", 3, self._calc_gravity, prerequisites_of_calc=position)
 
-    def _scratch_at_position(self, context) -> Context:
-        """The scratch plant context, with q_S from the input port."""
-        scratch = self._scratch(context)
-        self._plant.SetPositions(scratch, self._arm, self._position.Eval(context))
-        return scratch
-
     def _calc_pose(self, context, output):
-        scratch = self._scratch_at_position(context)
-        output.SetFromVector(pose_vector(self._plant.CalcRelativeTransform(scratch, self._R, self._S)))
+        chain = self._chain
+        chain.update(self._position.Eval(context))
+        pose = output.get_mutable_value()
+        pose_into(chain.R, chain.p, pose)
 
     def _calc_omega(self, context, output):
-        scratch = self._scratch_at_position(context)
-        self._plant.SetVelocities(scratch, self._arm, self._velocity.Eval(context))
-        output.SetFromVector(self._S.CalcAngularVelocity(scratch, self._R, self._S))
+        chain = self._chain
+        chain.update(self._position.Eval(context), self._velocity.Eval(context))
+        output.SetFromVector(chain.motion[OMEGA])
 
     def _calc_gravity(self, context, output):
-        scratch = self._scratch_at_position(context)
-        R_SR = self._plant.CalcRelativeRotationMatrix(scratch, self._S, self._R)
-        output.SetFromVector(R_SR @ self._g_R)
+        chain = self._chain
+        chain.update(self._position.Eval(context))
+        output.SetFromVector(chain.motion[GRAVITY])

@@ -3,7 +3,7 @@ calibration data there is (KTH force_torque_tools, ros2 control_toolbox, Vougiou
 dozen poses, each an averaged wrench with gravity's direction in S, and where the poses carry an
 accelerometer's readings, its calibration too (``accelerometer_calibration``).
 
-Plain numpy, no Drake types; conventions of ``load_dynamics`` (DESIGN §4). At rest a = α = ω = 0
+Plain numpy, no Drake types; conventions of ``load_dynamics`` (docs/design.md §4). At rest a = α = ω = 0
 and Eq. 5 keeps f = o_f − m·g and τ = o_τ − (m·c) × g: the 6 offsets, m and m·c are linear in the
 poses' wrenches, and the estimate is ``batch_estimation.batch_estimate`` with the motion at zero. The
 inertia never enters (reported unidentifiable); ``point_mass_phi`` completes φ with the inertia of a

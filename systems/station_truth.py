@@ -2,7 +2,7 @@
 MultibodyPlant's output ports: the weld's reaction wrench, the sensor frame's
 motion, and the contact wrench from the plant's contact results.
 
-All outputs in DESIGN §4 conventions: at S's origin, expressed in S (but the
+All outputs in docs/design.md §4 conventions: at S's origin, expressed in S (but the
 accelerometer's reading, taken at its own point); wrenches [f; τ] as the sensor
 exerts them on the load.
 """

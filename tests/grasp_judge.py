@@ -22,7 +22,8 @@ from __future__ import annotations
 import numpy as np
 
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, pose_and_jacobian
+from drake_reference import pose_and_jacobian
+from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 
 WINDOW = 0.01
 """s: the averages judged."""

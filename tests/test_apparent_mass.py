@@ -67,13 +67,11 @@ def test_short_sigma_one_run_renders_the_scaled_mass(fig6):
     """One 0.8 s closed-loop run, σ = 1: the force at the handle over the sensor's true
     acceleration mapped back (÷ s) is k_f·s·m to 1 %; over the handle's own acceleration
     (slave tracking lag included) to 10 %."""
-    import dataclasses
-
+    from heft.diagrams.scenario import layered
     from heft.diagrams.studies.apparent_mass import fit_run
     from heft.diagrams.running.simulation import true_load
     from heft.diagrams.running.simulation import run_teleop, with_sigma
-    scenario = dataclasses.replace(fig6, duration=0.8, operator=dataclasses.replace(
-        fig6.operator, amplitude=[0.0, 0.0, 0.028])).validate()
+    scenario = layered(fig6, "{duration: 0.8, operator: {amplitude: [0.0, 0.0, 0.028]}}")
     load, _ = true_load(scenario)
     fits = fit_run(scenario, run_teleop(with_sigma(scenario, 1.0), load, quiet=True))
     expected = hand_mass(1.0, 3.13, 1 / 17.5, 2.0)

@@ -179,3 +179,136 @@ def test_on_hardware_the_lab_states_its_sensor_and_mount(tmp_path, capsys):
     lab.write_text("accelerometer: {position: [0.0, 0.0, 0.012]}\n")
     require_lab_settings(argparse.Namespace(scenario=str(lab), set="{controller: {force: {mount_notch: 55}}}"),
                          "accelerometer.position", "controller.force.mount_notch")
+
+
+def test_simulate_set_sigma_reaches_the_run(tmp_path, capsys):
+    """`--set` of controller.force.sigma is the run's σ: one run, at that σ, and the wrench fed back
+    is that share of the load's true non-contact wrench (the plant's, at rest before the hand moves:
+    its weight). The σ values `heft simulate` compares never lay themselves over it; `--sigmas`
+    beside it is an error naming both."""
+    import numpy as np
+    import yaml
+
+    from heft.diagrams.scenario import resolve_scenario
+    from heft.diagrams.stations.sim_station import MakeSimStation
+
+    station = MakeSimStation(resolve_scenario("fig6"))
+    phi = station.GetOutputPort("truth.phi").Eval(station.CreateDefaultContext())
+    estimate = tmp_path / "estimate.yaml"
+    estimate.write_text(yaml.safe_dump({"phi": np.asarray(phi).tolist(), "offsets": [0.0] * 6}))
+    out = tmp_path / "run"
+    assert main(["simulate", "fig6", "--noise", "off", "--duration", "0.15", "--estimate", str(estimate),
+                 "--out", str(out), "--set", "{controller: {force: {sigma: 0.3}}}"]) == 0
+    assert sorted(p.name for p in out.glob("log_sigma*.npz")) == ["log_sigma0.3.npz"]
+    log = np.load(out / "log.npz")
+    assert float(log["sigma"]) == 0.3
+    late = log["t"] > 0.1  # the σ slew (from 0.3 at the start) and the sensor filter settled; the hand starts at 0.2 s
+    np.testing.assert_allclose(log["scales"][late, 0], 0.3)
+    noncontact = log["wrench_noncontact_true"][late, :3]
+    assert np.linalg.norm(noncontact, axis=1).min() > 25.0  # the 3.13 kg tool's weight
+    # Sample by sample the estimate follows the mount's ringing through the sensor's filter; on average
+    # (σ = 1 would feed back 30 N, 0.5 15 N, 0 none):
+    np.testing.assert_allclose(log["wrench_feedback"][late, :3].mean(axis=0), 0.3 * noncontact.mean(axis=0),
+                               atol=0.02 * 0.3 * 30.7)
+
+    assert main(["simulate", "fig6", "--sigmas", "1,0", "--set", "{controller: {force: {sigma: 0.3}}}"]) == 2
+    error = capsys.readouterr().err
+    assert "--sigmas" in error and "controller.force.sigma" in error
+
+
+def test_the_labs_flags_lay_over_its_scenario_file(tmp_path):
+    """A lab's file holds its URLs, rate and watchdog; the flags are overrides laid over it and
+    `--set` over them, through the one path; a bad value names its field."""
+    import argparse
+    from heft.diagrams.commands.options import scenario_from
+
+    lab = tmp_path / "lab.yaml"
+    lab.write_text("lab: {lcm: {lcm_url: 'udpm://239.255.76.70:7000?ttl=0'}, station: {watchdog: {timeout: 0.03}}}\n"
+                   "controller_period: 0.001\n")
+
+    def scenario(set=None, **flags):
+        return scenario_from(argparse.Namespace(scenario=str(lab), set=set, **flags))
+
+    plain = scenario()
+    assert plain.lab.lcm.lcm_url == "udpm://239.255.76.70:7000?ttl=0"
+    assert plain.lab.lcm.command_lcm_url() == "udpm://239.255.76.70:7001?ttl=0"
+    assert (plain.lab.station.watchdog.timeout, plain.controller_period) == (0.03, 0.001)
+    flagged = scenario(lcm_url="memq://", command_url=None, watchdog_timeout=0.04, rate=4000.0)
+    assert (flagged.lab.lcm.lcm_url, flagged.lab.lcm.command_lcm_url()) == ("memq://", "memq://")
+    assert (flagged.lab.station.watchdog.timeout, flagged.controller_period) == (0.04, 0.00025)
+    last = scenario(set="{lab: {station: {watchdog: {timeout: 0.05}}}}", watchdog_timeout=0.04)
+    assert last.lab.station.watchdog.timeout == 0.05
+    with pytest.raises(ValueError, match="lab.station.watchdog.timeout"):
+        scenario(watchdog_timeout=-1.0)
+
+
+def test_simulate_compares_the_papers_sigmas_unless_a_sigma_is_stated(capsys):
+    """No σ stated: the paper's 1, 0.5, 0. A σ in the scenario file (grasp: 0) or on the command
+    line: that one run. `--sigmas` over the file's σ: the list, and it says so."""
+    import argparse
+
+    from heft.diagrams.commands.options import scenario_from
+    from heft.diagrams.commands.simulate import compared_sigmas
+    from heft.diagrams.scenario import overrides_text
+
+    def sigmas(scenario, set=None, sigma=None, sigmas=None):
+        args = argparse.Namespace(scenario=scenario, set=set, sigma=sigma, sigmas=sigmas)
+        return compared_sigmas(args, scenario_from(args, overrides_text({"controller.force.sigma": sigma})))
+
+    assert sigmas("fig6") == [1.0, 0.5, 0.0]
+    assert sigmas("grasp") == [0.0]
+    assert sigmas("fig6", sigma=0.2) == [0.2]
+    assert sigmas("fig6", set="{controller: {force: {sigma: 0.3}}}") == [0.3]
+    assert sigmas("grasp", sigmas="1,0") == [1.0, 0.0]
+    assert "in place of the scenario file's σ = 0" in capsys.readouterr().out
+    with pytest.raises(ValueError, match="--sigmas compares"):
+        sigmas("fig6", sigma=0.2, sigmas="1,0")
+
+
+def test_bench_step_ticks_the_diagram_as_the_fused_step_ticks():
+    """The bench's per-block Diagram, ticked by its periodic update alone, commands the torque the fused step
+    commands on the same readings (a tick that skipped the blocks' updates would command none)."""
+    import numpy as np
+
+    from heft.diagrams.commands import bench_step
+    from heft.diagrams.running.simulation import true_load
+    from heft.diagrams.scenario import Scenario
+    from heft.diagrams.teleop import MakeRealtimeTeleopController, MakeTeleopController
+
+    scenario = Scenario()
+    load, _ = true_load(scenario)
+    period, convention = scenario.controller_period, scenario.accelerometer.convention()
+    sequence = bench_step.readings(scenario, 60, period)
+    fused, blocks = [], []
+    bench_step.time_fused(MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, period,
+                                                       accelerometer=convention), sequence, period, fused)
+    bench_step.time_diagram(MakeTeleopController(scenario.controller, load, scenario.robot, period,
+                                                 scenario.slave_initial_q, accelerometer=convention), sequence, blocks)
+    assert np.abs(fused).max() > 0.01
+    np.testing.assert_allclose(blocks, fused, rtol=0, atol=1e-9)
+
+
+def test_teleop_uses_the_accelerometer_calibration_of_its_estimate(tmp_path, capsys):
+    """An estimate.yaml that carries the accelerometer's calibration (from static poses) sets the
+    accelerometer the hardware controller reads, under --set; the run says which it uses."""
+    from scipy.spatial.transform import Rotation
+
+    from heft.diagrams.load_estimate import write_load_estimate
+    from heft.systems.accelerometer_calibration import AccelerometerCalibration
+    from heft.systems.static_calibration import point_mass_phi
+
+    calibration = AccelerometerCalibration(R_SA=Rotation.from_rotvec([0.2, -0.4, 1.0]).as_matrix(),
+                                           bias=[0.0, 0.08, 0.01], scale=0.99, unit="g")
+    estimate = tmp_path / "estimate.yaml"
+    write_load_estimate(estimate, {"phi": point_mass_phi(3.13, [0.0, 0.0, 0.063]).tolist(), "offsets": [0.0] * 6},
+                        {"ok": True, "causes": []}, calibration)
+    lab = "{accelerometer: {position: [0.0, 0.0, 0.0]}, controller: {force: {mount_notch: 0}}}"
+    assert main(["teleop", "--hardware", "--scenario", "fig6", "--set", lab, "--estimate", str(estimate),
+                 "--lcm-url", "memq://", "--duration", "0.05", "--rt-priority", "0"]) == 0
+    out = capsys.readouterr().out
+    assert "the accelerometer as" in out and "in g with a bias of [0, 0.08, 0.01] g" in out
+    unbiased = ("{accelerometer: {position: [0.0, 0.0, 0.0], bias: [0.0, 0.0, 0.0]}, "
+                "controller: {force: {mount_notch: 0}}}")
+    assert main(["teleop", "--hardware", "--scenario", "fig6", "--set", unbiased, "--estimate", str(estimate),
+                 "--lcm-url", "memq://", "--duration", "0.05", "--rt-priority", "0"]) == 0
+    assert "in g with a bias of [0, 0, 0] g" in capsys.readouterr().out

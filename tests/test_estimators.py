@@ -16,7 +16,7 @@ from heft.systems.recursive_estimation import (
 from heft.systems.regression_noise import NoiseLevels
 
 RECURSIVE = (RecursiveLeastSquares, RecursiveInstrumentalVariables, RecursiveTotalLeastSquares)
-WRENCH_NOISE = np.repeat([0.1, 0.005], 3)  # N, N·m: DESIGN §6
+WRENCH_NOISE = np.repeat([0.1, 0.005], 3)  # N, N·m: docs/design.md §6
 
 
 def unit_gravity(rng, n):

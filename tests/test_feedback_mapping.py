@@ -2,6 +2,8 @@
 scaling, clamping that keeps the direction, τ_M = J_Mᵀ·w against virtual work by
 finite differences, and safe handling of non-finite inputs."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 from pydrake.common.yaml import yaml_load_typed
@@ -82,7 +84,7 @@ def test_a_twist_on_the_tool_twists_the_stylus_the_same_way(loop):
 def test_R_RB_maps_slave_directions_to_master_directions():
     """R_RB = yaw 90°: the master's +x is the slave's +y. A push along +y_R on the tool
     pushes the stylus along +x_B."""
-    mapping = FeedbackMapping(FeedbackMappingParams(force_scale=1.0, torque_scale=1.0, R_RB=[0, 0, np.pi / 2]))
+    mapping = FeedbackMapping(FeedbackMappingParams(force_scale=1.0, torque_scale=1.0), R_RB=[0, 0, np.pi / 2])
     context = mapping.CreateDefaultContext()
     mapping.GetInputPort("wrench_S").FixValue(context, sensor_on_load(f_R=[0, -2.0, 0], tau_R=[0, -0.1, 0]))
     mapping.GetInputPort("pose_RS").FixValue(context, POSE_RS)
@@ -92,7 +94,7 @@ def test_R_RB_maps_slave_directions_to_master_directions():
 
 
 def test_scaling_is_per_part():
-    mapping = FeedbackMapping(FeedbackMappingParams(force_scale=0.1, torque_scale=0.02, R_RB=[0.2, 0.5, -1.0]))
+    mapping = FeedbackMapping(FeedbackMappingParams(force_scale=0.1, torque_scale=0.02), R_RB=[0.2, 0.5, -1.0])
     context = mapping.CreateDefaultContext()
     rng = np.random.default_rng(1)
     f_R, tau_R = rng.normal(size=3) * 20, rng.normal(size=3)
@@ -196,9 +198,20 @@ def test_params_defaults_yaml_and_validation():
     defaults = FeedbackMappingParams()
     assert (defaults.force_scale, defaults.torque_scale) == (1 / 17.5, 1 / 17.5)
     assert (defaults.max_force, defaults.max_torque) == (8.5, 0.188)
-    params = yaml_load_typed(schema=FeedbackMappingParams, data="{force_scale: 0.1, max_torque: 0.1, R_RB: [0, 0, 1]}")
-    assert params == FeedbackMappingParams(force_scale=0.1, max_torque=0.1, R_RB=[0.0, 0.0, 1.0])
+    params = yaml_load_typed(schema=FeedbackMappingParams, data="{force_scale: 0.1, max_torque: 0.1}")
+    assert params == FeedbackMappingParams(force_scale=0.1, max_torque=0.1)
     with pytest.raises(ValueError, match="force_scale"):
         FeedbackMapping(FeedbackMappingParams(force_scale=-0.1))
     with pytest.raises(ValueError, match="max_torque"):
         FeedbackMapping(FeedbackMappingParams(max_torque=0.0))
+
+
+def test_R_RB_has_one_home_the_motion_scalings():
+    """The rotation between the bases is set once, in ``controller.motion.R_RB``, and the feedback
+    maps back through it: a scenario cannot give the feedback another one."""
+    from heft.diagrams.scenario import Scenario, layered
+
+    with pytest.raises(ValueError, match="unknown field 'controller.feedback.R_RB'"):
+        layered(Scenario(), "{controller: {feedback: {R_RB: [0, 0, 1]}}}")
+    assert "R_RB" not in {f.name for f in dataclasses.fields(FeedbackMappingParams)}
+    assert layered(Scenario(), "{controller: {motion: {R_RB: [0, 0, 1]}}}").controller.motion.R_RB == [0, 0, 1]

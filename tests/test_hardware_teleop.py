@@ -8,8 +8,9 @@ import lcm
 import numpy as np
 import pytest
 from pydrake.multibody.plant import MultibodyPlant
+from scipy.spatial.transform import Rotation
 
-from heft.diagrams.scenario import Scenario
+from heft.diagrams.scenario import Scenario, layered, overrides_text
 from heft.diagrams.plants import AddArmWithSensor
 from heft.diagrams.scenario import resolve_scenario
 from heft.diagrams.running.simulation import true_load
@@ -19,10 +20,12 @@ from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import HardwareStationParams
 from heft.hardware_interface.lcmtypes import heft_load_command, heft_load_status
 from heft.diagrams.load_estimate import LoadEstimate
+from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.load_dynamics import InertialParameters
 from heft.systems.offset_tracking import DONE, REFUSED_MOVING
+from drake_reference import stylus_jacobian
 from heft.diagrams.plants import MakeMasterPlant
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, stylus_jacobian
+from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 
 PERIOD = 0.0005
 TIMEOUT = HardwareStationParams().watchdog.timeout
@@ -32,11 +35,12 @@ MAX_FORCE, MAX_TORQUE = 8.5, 0.188  # the Phantom Premium 1.5 6DoF's continuous 
 class Lab:
     """Stand-in and controller on one memq:// bus, ticking together every ``PERIOD`` s."""
 
-    def __init__(self, scenario: Scenario, faults=None, clutch_at=np.inf, load=None, publish_state=False):
+    def __init__(self, scenario: Scenario, faults=None, clutch_at=np.inf, load=None, publish_state=False,
+                 controller_scenario: Scenario | None = None):
         bus = self.bus = lcm.LCM("memq://")
         self.stand_in = StandIn(scenario, bus, LcmChannels(), faults or FaultInjection(), clutch_at=clutch_at)
-        self.teleop = HardwareTeleop(scenario, load or true_load(scenario)[0], bus, LcmChannels(),
-                                     publish_state=publish_state)
+        self.teleop = HardwareTeleop(controller_scenario or scenario, load or true_load(scenario)[0], bus,
+                                     LcmChannels(), publish_state=publish_state)
         self.now = 0.0
         self.commands, self.torques, self.master_q, self.gains, self.stylus_wrenches = [], [], [], [], []
 
@@ -115,10 +119,11 @@ def test_a_tool_hanging_still_is_weighed_once(sigma):
     np.testing.assert_allclose(settled[:3], [0.0, 0.0, expected], atol=0.05)
 
 
-def still_lab(load_of, clutch_at=np.inf, amplitude=0.0, configure=None):
+def still_lab(load_of, clutch_at=np.inf, amplitude=0.0, configure=None, overrides=None, controller_overrides=None):
     """fig6 with σ = 0, no white noise nor accelerometer bias, the operator's hand at rest (or
     moving by ``amplitude`` m), the controller given ``load_of(true load)`` and no offset
-    tracking, then changed by ``configure(scenario)``; answers on the load status channel are kept."""
+    tracking, then changed by ``configure(scenario)`` and ``overrides`` (a dict of dotted fields; the
+    controller's by ``controller_overrides`` besides); answers on the load status channel are kept."""
     scenario = resolve_scenario("fig6")
     scenario.operator.amplitude = [0.0, 0.0, amplitude]
     scenario.ft_sensor.white_noise = scenario.accelerometer.white_noise = False
@@ -127,8 +132,11 @@ def still_lab(load_of, clutch_at=np.inf, amplitude=0.0, configure=None):
     scenario.controller.offsets.tracking = False
     if configure is not None:
         configure(scenario)
+    if overrides:
+        scenario = layered(scenario, overrides_text(overrides))
     true = true_load(scenario)[0]
-    lab = Lab(scenario, load=load_of(true), clutch_at=clutch_at)
+    controller_scenario = layered(scenario, overrides_text(controller_overrides)) if controller_overrides else None
+    lab = Lab(scenario, load=load_of(true), clutch_at=clutch_at, controller_scenario=controller_scenario)
     lab.answers = []
     lab.bus.subscribe(LcmChannels().load_status.name,
                       lambda _, payload: lab.answers.append(heft_load_status.decode(payload)))
@@ -185,6 +193,40 @@ def test_rezero_over_lcm_measures_the_offsets_and_refuses_while_moving():
     assert moving.answers[1].command_utime == moving.answers[0].command_utime != moving.answers[3].command_utime
 
 
+def test_a_rezero_measures_the_accelerometers_bias_too():
+    """The lab's IMU is mounted at an angle, reports in g and has a bias of 0.08 g the controller does not
+    know: at rest it takes S to accelerate by that much, which an object grasped would turn into a force
+    (Δm·b; here, with the true load and offsets given, the stylus feels m·b). A re-zero measures the bias
+    beside the offsets; afterwards S is at rest for the controller too, and that force is gone, without
+    a jolt on the way."""
+    mounting = {"accelerometer.R_SA": Rotation.from_rotvec([0.5, -0.9, 1.7]).as_matrix().tolist(),
+                "accelerometer.unit": "g", "accelerometer.full_scale": [10.0, 10.0, 10.0, 1000.0, 1000.0, 1000.0]}
+    bias = np.array([0.0, 0.08, -0.02])
+    lab, true, scenario = still_lab(lambda true: true, overrides={**mounting, "accelerometer.bias": bias.tolist()},
+                                    controller_overrides={"accelerometer.bias": [0.0, 0.0, 0.0]})
+
+    def acceleration_of_S() -> np.ndarray:
+        controller = lab.teleop.controller
+        return motion_from_reading(np.empty(6), lab.teleop.station.acceleration, controller.gravity_S, np.zeros(3),
+                                   controller.accelerometer)[:3]
+
+    lab.run(0.3)
+    assert np.linalg.norm(acceleration_of_S()) == pytest.approx(np.linalg.norm(bias) * 9.80665, rel=0.01)
+    before = stylus_force(lab)  # m·b·k_f: the bias's force, as the controller knows the true load and offsets
+    assert before == pytest.approx(true.phi[0] * np.linalg.norm(bias) * 9.80665
+                                   * scenario.controller.feedback.force_scale, rel=0.05)
+    ticks = len(lab.stylus_wrenches)
+    send(lab, heft_load_command.REZERO)
+    lab.run(0.7)
+    assert [a.accepted for a in lab.answers] == [True, True] and lab.answers[-1].rezero_status == DONE
+    assert "accelerometer bias [" in lab.answers[-1].message and "] g (was [0, 0, 0])" in lab.answers[-1].message
+    count = 10.0 / scenario.accelerometer.counts_per_full_scale  # g: the reading is rounded to it
+    np.testing.assert_allclose(lab.teleop.controller.accelerometer.bias, bias, rtol=0, atol=count / 2)
+    assert np.linalg.norm(acceleration_of_S()) < 9.80665 * count
+    assert stylus_force(lab) < 0.03 * before
+    assert max(np.linalg.norm(np.array(lab.stylus_wrenches[ticks:])[:, :3], axis=1)) < 1.05 * before  # no jolt
+
+
 def test_a_malformed_load_command_is_answered_and_the_loop_goes_on():
     lab, _, _ = still_lab(lambda true: true)
     lab.run(0.2)
@@ -238,10 +280,8 @@ def test_with_the_clutch_held_the_slave_moves_by_the_scaled_stylus_motion():
 def test_master_command_within_device_limits_under_faults():
     """σ = 1 and force scale 1: the tool's 31 N weight asks for more than the Phantom may render;
     with 5 % drops and 5 % NaN samples no command is non-finite or beyond its limits."""
-    scenario = resolve_scenario("fig6")
-    scenario.controller.force.sigma = 1.0
-    scenario.controller.feedback.force_scale = 1.0
-    scenario.controller.feedback.torque_scale = 1.0
+    scenario = resolve_scenario("fig6", "{controller: {force: {sigma: 1.0},"
+                                        " feedback: {force_scale: 1.0, torque_scale: 1.0}}}")
     lab = Lab(scenario, FaultInjection(drop_rate=0.05, nan_rate=0.05, seed=3), clutch_at=0.1)
     lab.run(1.0)
     assert np.all(np.isfinite(lab.torques)) and lab.teleop.torque_finite
@@ -289,13 +329,21 @@ def test_a_stalled_controller_cuts_forces_and_ramps_back():
 
 
 def test_the_controller_is_designed_for_the_rate_the_loop_runs_at():
-    """`--rate` sets the loop's period, and the mount notch is designed for it (at 4 kHz a notch
-    designed for the scenario's 2 kHz would sit at twice its frequency)."""
-    scenario = Scenario()
+    """`--rate` lays the loop's period over the scenario's ``controller_period``, and the controller,
+    its mount notch among it, is designed for that period (at 4 kHz a notch designed for the
+    scenario's 2 kHz would sit at twice its frequency)."""
+    import argparse
+
+    from heft.diagrams.commands.options import scenario_from
+
     bus = lcm.LCM("memq://")
-    load = true_load(scenario)[0]
-    assert HardwareTeleop(scenario, load, bus, LcmChannels()).controller.period == scenario.controller_period
-    assert HardwareTeleop(scenario, load, bus, LcmChannels(), period=0.00025).controller.period == 0.00025
+    load = true_load(Scenario())[0]
+    assert HardwareTeleop(Scenario(), load, bus, LcmChannels()).controller.period == Scenario().controller_period
+    scenario = scenario_from(argparse.Namespace(scenario="fig6", set=None, rate=4000.0))
+    assert scenario.controller_period == 0.00025
+    assert HardwareTeleop(scenario, load, bus, LcmChannels()).controller.period == 0.00025
+    with pytest.raises(ValueError, match="--rate must be a positive number of Hz"):
+        scenario_from(argparse.Namespace(scenario="fig6", set=None, rate=0.0))
 
 
 def test_a_grasp_and_release_over_lcm_split_the_load_and_are_answered():

@@ -105,6 +105,7 @@ def run_both(scenario: Scenario, load, sequence: list[dict]):
 def both_runs():
     scenario = Scenario()
     scenario.controller.motion.translation_scale = 2.0
+    scenario.controller.motion.R_RB = [0.0, 0.0, 0.4]  # the master's base turned: both map the feedback back through it
     scenario.controller.force.sigma = 0.5
     offsets = scenario.controller.offsets
     offsets.rezero_window = 40 * PERIOD

@@ -1,7 +1,6 @@
 """The contact loop's stability by simulation, the communication delay, and the maps."""
 
 import argparse
-import dataclasses
 import json
 
 import numpy as np
@@ -13,7 +12,7 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from heft.analysis.stability_map import draw_stability_map, stability_limits
 from heft.diagrams.commands.analyze_stability import add_arguments, axis_values, run
-from heft.diagrams.scenario import resolve_scenario
+from heft.diagrams.scenario import overrides_text, resolve_scenario
 from heft.diagrams.studies.stability_sweep import grid, point_scenario, simulate_point
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop_simulation import AddDelay, MakeTeleopSimulation
@@ -22,7 +21,7 @@ PERIOD = 0.0005
 
 
 def wall(duration):
-    return dataclasses.replace(resolve_scenario("stability_wall"), duration=duration)
+    return resolve_scenario("stability_wall", overrides_text({"duration": duration}))
 
 
 def run_point(point, duration):

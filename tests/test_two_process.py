@@ -2,7 +2,7 @@
 
 Both run inside a network namespace this test creates (only its own `lo`, with
 the multicast route on it) on ``udpm://239.255.76.67:7667?ttl=0``, so no packet
-can leave the machine (DESIGN §5). Needs root and `ip`; skipped otherwise.
+can leave the machine (docs/design.md §5). Needs root and `ip`; skipped otherwise.
 No assertion here depends on how fast the machine is: each process is waited for by
 what it prints when it is up ("stand-in: publishing", "teleop: running"), the controller
 runs until the test has seen what it needs and then stops it with SIGTERM (it stops as at
@@ -317,3 +317,42 @@ def test_hostile_traffic_never_reaches_the_motors(netns, tmp_path):
     settled = [enable for t, enable in after if t >= enabled]
     # Mostly enabled since (a busy machine's stalls fault single ticks).
     assert sum(settled) > 0.5 * len(settled), "mostly faulted after the traffic stopped"
+
+
+def test_a_labs_scenario_file_runs_teleop_with_no_other_flag(netns, tmp_path):
+    """One file per lab: its LCM URLs (not the defaults: another group, the command URL given), the
+    controller's rate, the watchdog's timeout and its sensor and mount. `heft stand-in --scenario
+    lab.yaml` and `heft teleop --hardware --scenario lab.yaml`, no other flag, find each other on
+    them; the controller says what it runs on, runs its default 10 s, exits 0 and heard the lab."""
+    lab_url, command_url = "udpm://239.255.76.69:7701?ttl=0", "udpm://239.255.76.69:7705?ttl=0"
+    lab = tmp_path / "lab.yaml"
+    lab.write_text(
+        "# The lab: where its drivers publish and listen, the loop's rate, the watchdog.\n"
+        f"lab:\n  lcm: {{lcm_url: '{lab_url}', command_url: '{command_url}'}}\n"
+        "  station: {watchdog: {timeout: 0.05}}\n"
+        "controller_period: 0.001\n"
+        + yaml.safe_dump(yaml.safe_load(STAND_IN_SENSOR), default_flow_style=False))
+    scenario = resolve_scenario(str(lab))
+    assert (scenario.lab.lcm.lcm_url, scenario.lab.lcm.command_lcm_url()) == (lab_url, command_url)
+    stand_in = teleop = None
+    try:
+        stand_in = _Process(netns, tmp_path, "stand_in", "stand-in", "--scenario", str(lab), "--duration", FOREVER)
+        stand_in.wait_for("stand-in: publishing")
+        teleop = _Process(netns, tmp_path, "teleop", "teleop", "--hardware", "--scenario", str(lab))
+        teleop.wait_for("teleop: running")
+        assert teleop.wait() == 0, teleop.text()
+        assert stand_in.finish() == 0, stand_in.text()
+    finally:
+        _stop_all(teleop, stand_in)
+    text = teleop.text()
+    print(text, stand_in.text())
+    assert (f"teleop: controller on {lab_url} (commands on {command_url}) at 1000 Hz for 10 s of wall time; "
+            "watchdog timeout 0.05 s") in text
+    assert f"stand-in: {lab} on {lab_url} (commands on {command_url})" in stand_in.text()
+    ran = re.search(r"ran [\d.]+ s at 1000 Hz: (\d+) ticks, healthy in (\d+) \(first at ([\d.]+)\)", text)
+    assert ran is not None and int(ran.group(2)) > 0, text
+    received = dict(re.findall(r"(\w+) (\d+)", re.search(r"messages per second: received ([^;]*);", text).group(1)))
+    for channel in ("master_state", "slave_status", "ft_sample"):
+        assert int(received[channel]) > 0, received
+    heard = re.search(r"received Hz ([^;]*);", stand_in.text()).group(1)  # the controller's commands reached the lab
+    assert int(dict(re.findall(r"(\w+) (\d+)", heard))[scenario.lab.lcm.master_command.name]) > 0, heard

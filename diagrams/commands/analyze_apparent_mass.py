@@ -7,22 +7,9 @@ apparent_mass.png and apparent_mass.json to ``--out``.
 import sys
 from pathlib import Path
 
+from heft.diagrams.commands.options import parse_numbers
 from heft.diagrams.studies.apparent_mass import apparent_mass_study, write_study
 from heft.diagrams.scenario import NOISE_OFF, overrides_text, resolve_scenario
-
-
-def parse_numbers(text: str, option: str) -> list[float]:
-    """Comma-separated numbers ≥ 0 of ``option``; a ValueError names the bad one."""
-    values = []
-    for item in (part.strip() for part in text.split(",")):
-        try:
-            value = float(item)
-        except ValueError:
-            raise ValueError(f"{option} takes comma-separated numbers, e.g. 0,0.5,1; got {item!r}") from None
-        if not value >= 0:
-            raise ValueError(f"{option} values must be >= 0; got {item}")
-        values.append(value)
-    return values
 
 
 def add_arguments(parser) -> None:

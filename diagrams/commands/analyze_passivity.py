@@ -32,34 +32,37 @@ from heft.analysis.passivity_analysis import (CHANNELS, passivity_controller_sum
                                               port_energy, port_power, sample_periods)
 from heft.analysis.run_log import KINDS, RunLog, complete_rows, longest_start, read_run_log
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, pose_and_jacobian
+from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
+from heft.systems.serial_chain import SerialChain
 
 REQUIRED_KEYS = ("t", "master_q", "master_v", "master_force", "passivity_energy", "passivity_damping")
 ENVIRONMENT_KEYS = ("slave_q", "wrench_contact_true")
 
 
 def read_log(path, kind: str | None = None) -> RunLog:
-    """The run in a log.npz or a hardware LCM log (`read_run_log`; on hardware its longest
-    stretch between controller restarts, the rows with the master's state); a ValueError names
-    a missing file or key."""
-    run = longest_start(read_run_log(path, kind))
+    """The run in a log.npz or a hardware LCM log (`read_run_log`): the rows with the master's
+    state and, on hardware, of those the longest stretch between controller restarts; a
+    ValueError names a missing file or key."""
+    run = read_run_log(path, kind)
     missing = [key for key in REQUIRED_KEYS if key not in run.arrays]
     if missing:
         raise ValueError(f"{path} lacks {', '.join(missing)}: the passivity analysis needs {', '.join(REQUIRED_KEYS)}")
     if np.asarray(run.arrays["t"]).size < 3:
         raise ValueError(f"{path} holds fewer than 3 samples")
-    return complete_rows(run, ("master_q", "master_v"), "without the master's state their energy is not counted "
-                                                        "(the observer identity gap shows it)")
+    with_master = complete_rows(run, ("master_q", "master_v"), "without the master's state their energy is not "
+                                                               "counted (the observer identity gap shows it)")
+    return longest_start(with_master)
 
 
 def stylus_twists(master_q, master_v) -> np.ndarray:
     """[v_E; ω_E] (N, 6; m/s, rad/s, in B) = J_M(q)·q̇ of the master at each logged sample."""
     plant = MakeMasterPlant()
-    context = plant.CreateDefaultContext()
-    B, E = plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME)
-    return np.array([pose_and_jacobian(plant, context, B, E, q)[1] @ v
-                     for q, v in zip(np.asarray(master_q, dtype=float), np.asarray(master_v, dtype=float),
-                                     strict=True)])
+    chain = SerialChain(plant, plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME))
+    twists = []
+    for q, v in zip(np.asarray(master_q, dtype=float), np.asarray(master_v, dtype=float), strict=True):
+        chain.update(q)
+        twists.append(chain.J @ v)
+    return np.array(twists).reshape(-1, 6)
 
 
 def sensor_twists(robot: str, t, slave_q) -> np.ndarray:

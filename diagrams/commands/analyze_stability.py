@@ -7,7 +7,6 @@ stability_map.json (``analysis.stability_map``).
 
 from __future__ import annotations
 
-import dataclasses
 import sys
 from pathlib import Path
 
@@ -15,7 +14,7 @@ import numpy as np
 
 from heft.analysis.stability_map import draw_stability_map, stability_limits
 from heft.diagrams.progress import ProgressBar
-from heft.diagrams.scenario import resolve_scenario
+from heft.diagrams.scenario import layered, overrides_text, resolve_scenario
 from heft.diagrams.studies.stability_sweep import AXES, point_scenario, sweep
 
 
@@ -58,7 +57,7 @@ def add_arguments(parser) -> None:
 def run(args) -> int:
     base = resolve_scenario(args.scenario)
     if args.duration is not None:
-        base = dataclasses.replace(base, duration=args.duration).validate()
+        base = layered(base, overrides_text({"duration": args.duration}))
     names = [a.strip() for a in args.axes.split(",") if a.strip()]
     if not 1 <= len(names) <= 2 or "passivity" in names:
         raise ValueError(f"--axes takes one or two parameters other than passivity; got {args.axes!r}")

@@ -2,7 +2,8 @@
 
 ``regressor``: V·φ per sample and per batch against Drake; ``identify``: Monte Carlo accuracy
 of every estimator against the Cramér–Rao bound, and update costs; ``lcm``: the controller
-against a driver probe and the stand-in over LCM in two processes; ``compensate``: rate and peak
+against a driver probe and the stand-in over LCM in two processes; ``step``: one controller tick,
+the fused step against the per-block Diagram; ``compensate``: rate and peak
 memory of `heft compensate` on long recordings."""
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from heft.diagrams.commands.options import add_lcm_urls, lcm_channels
+from heft.diagrams.commands.options import add_lcm_urls, scenario_from
 
 HELP = "benchmarks, each printed beside a reference measured in the same run"
 
@@ -36,14 +37,13 @@ def _bench_identify(args) -> int:
     from heft.diagrams.identify import ALL_METHODS, design_excitation, kinematic_signals
     from heft.diagrams.running.sim_identification import record_excitation
     from heft.diagrams.progress import ProgressBar
-    from heft.diagrams.scenario import Scenario
+    from heft.diagrams.scenario import NOISE_OFF, Scenario, layered, overrides_text
     from heft.systems.load_dynamics import PARAMETER_NAMES
     from heft.systems.regression_noise import NoiseLevels
     from heft.systems.excitation import ExcitationSettings
     from heft.systems.load_dynamics import noncontact_wrench
 
-    scenario = Scenario()  # the paper's tool, ideal sensors: noise is added per run below
-    scenario.ft_sensor.noise = scenario.accelerometer.noise = False
+    scenario = layered(Scenario(), overrides_text(NOISE_OFF))  # the paper's tool; noise is added per run below
     settings = dataclasses.replace(ExcitationSettings.quick(), base_frequency=0.5, duration=2.0)
     excitation = design_excitation(scenario, settings)
     recording = record_excitation(scenario, excitation.trajectory, settings.duration)
@@ -86,7 +86,28 @@ def _bench_lcm(args) -> int:
     from heft.diagrams.commands.bench_lcm import run
 
     rates = [float(r) for r in args.rates.split(",")]
-    results = run(rates, args.duration, args.scenario, lcm_channels(args))
+    results = run(rates, args.duration, args.scenario, scenario_from(args).lab.lcm)
+    if args.out:
+        Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
+    return 0
+
+
+def _bench_step(args) -> int:
+    from heft.diagrams.commands import bench_step as bench
+    from heft.diagrams.running.simulation import true_load
+    from heft.diagrams.teleop import MakeRealtimeTeleopController, MakeTeleopController
+
+    scenario = scenario_from(args)
+    load, _ = true_load(scenario)
+    period, convention = scenario.controller_period, scenario.accelerometer.convention()
+    sequence = bench.readings(scenario, args.ticks, period)
+    results = {"ticks": args.ticks,
+               "fused": bench.time_fused(MakeRealtimeTeleopController(
+                   scenario.controller, load, scenario.robot, period, accelerometer=convention), sequence, period),
+               "diagram": bench.time_diagram(MakeTeleopController(
+                   scenario.controller, load, scenario.robot, period, scenario.slave_initial_q,
+                   accelerometer=convention), sequence)}
+    bench.report(results, period)
     if args.out:
         Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
     return 0
@@ -132,6 +153,12 @@ def add_arguments(parser) -> None:
     add_lcm_urls(lcm_parser)
     lcm_parser.add_argument("--out", help="write every number as JSON here")
     lcm_parser.set_defaults(bench=_bench_lcm)
+    step_parser = benches.add_parser("step", help="one controller tick in one process: the fused step against the "
+                                                  "per-block Diagram ticked by a forced update")
+    step_parser.add_argument("--scenario", default="fig6", help="controller settings (default fig6)")
+    step_parser.add_argument("--ticks", type=int, default=4000, help="ticks timed (default 4000)")
+    step_parser.add_argument("--out", help="write every number as JSON here")
+    step_parser.set_defaults(bench=_bench_step)
     compensate_parser = benches.add_parser(
         "compensate", help="`heft compensate` on synthetic 8 kHz recordings written to a temporary folder: rate and "
                            "peak memory on one CPU, the hour extrapolated from the two longest")

@@ -18,7 +18,7 @@ def run(args) -> int:
     """Identify the paper's tool, then replay Fig. 6 with σ = 1, 0.5, 0."""
     from heft.diagrams.running.sim_identification import identify_in_simulation
     from heft.diagrams.scenario import resolve_scenario
-    from heft.diagrams.running.simulation import simulate
+    from heft.diagrams.running.simulation import PAPER_SIGMAS, simulate
     from heft.systems.excitation import ExcitationSettings
 
     out = Path(args.out)
@@ -27,7 +27,7 @@ def run(args) -> int:
     settings = dataclasses.replace(ExcitationSettings.quick(), base_frequency=0.25, duration=4.0)
     load = identify_in_simulation(scenario, out / "identify", settings)
     print("2/2 fast vertical motion (Fig. 6): feeding back σ = 1, 0.5, 0 of the non-contact force")
-    metrics = simulate(scenario, load, out / "fig6", scenario.controller.sigmas, name="fig6")
+    metrics = simulate(scenario, load, out / "fig6", PAPER_SIGMAS, name="fig6")
     k_f = scenario.controller.feedback.force_scale
     print(f"non-contact force at the slave up to {metrics['noncontact_peak_N']:.1f} N "
           f"({metrics['master_noncontact_peak_N']:.2f} N at the operator's hand); after elimination "

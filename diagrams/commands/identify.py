@@ -3,8 +3,7 @@ in simulation or on the hardware, or from a lab's recording."""
 
 from __future__ import annotations
 
-from heft.diagrams.commands.options import (add_lcm_urls, add_set, add_station, lcm_channels, require_lab_settings,
-                                            scenario_from, station_params)
+from heft.diagrams.commands.options import add_lcm_urls, add_set, add_station, require_lab_settings, scenario_from
 
 HELP = ("identify the load's inertial parameters and the sensor "
        "offsets from an excitation motion (Sec. IV)")
@@ -34,7 +33,8 @@ def add_arguments(parser) -> None:
     add_lcm_urls(parser, "with --hardware: ")
     parser.add_argument("--record", help="with --hardware: record the LCM traffic to this file (lcm-logger format)")
     parser.add_argument("--watchdog-timeout", type=float,
-                          help="with --hardware: stale-channel timeout (s, default 0.02)")
+                          help="with --hardware: stale-channel timeout (s; default: the scenario's "
+                               "lab.station.watchdog.timeout, 0.02)")
     parser.add_argument("--rt-priority", type=int, default=50,
                           help="with --hardware: SCHED_FIFO priority of the loop, pinned to the last CPU "
                                "(default 50; 0: normal)")
@@ -58,8 +58,7 @@ def run(args) -> int:
     if args.hardware:
         from heft.diagrams.running.hardware_identify import hardware_recorder
         print(f"identify: {scenario.accelerometer.convention()}", flush=True)
-        recorder = hardware_recorder(scenario, lcm_channels(args), args.record, station_params(args.watchdog_timeout),
-                                     args.rt_priority)
+        recorder = hardware_recorder(scenario, scenario.lab.lcm, args.record, scenario.lab.station, args.rt_priority)
         wrote = f"estimate.yaml, metrics.json{f', {args.record}' if args.record else ''}"
     else:
         from heft.diagrams.running.sim_identification import simulated_recorder

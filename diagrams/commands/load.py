@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 
 
-from heft.diagrams.commands.options import add_lcm_urls, lcm_channels
+from heft.diagrams.commands.options import add_lcm_urls, add_set, scenario_from
 
 HELP = ("re-zero the sensor, switch offset tracking, change the tool or tell a grasp or release "
         "to a running `heft teleop --hardware`")
@@ -20,6 +20,9 @@ def add_arguments(parser) -> None:
                         help="the gripper closed on an object: keep the gripper's φ, learn the object's "
                              "(needs controller.estimator.mode: online); answered again once it is learned")
     parser.add_argument("--release", action="store_true", help="the gripper let go: back to the gripper's φ")
+    parser.add_argument("--scenario", default="fig6",
+                        help="the lab's scenario, for its LCM URLs (lab.lcm; default fig6)")
+    add_set(parser)
     add_lcm_urls(parser)
     parser.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for the answers (default 5)")
 
@@ -33,7 +36,7 @@ def run(args) -> int:
                                        ("release", args.release)) if given]
     if len(chosen) != 1:
         raise ValueError("give exactly one of --rezero, --tracking on|off, --estimate FILE, --grasp, --release")
-    channels = lcm_channels(args)
+    channels = scenario_from(args).lab.lcm
     try:
         if args.estimate:
             load = read_load_estimate(args.estimate)

@@ -1,5 +1,6 @@
-"""Options several `heft` subcommands share: the LCM URLs, ``--set`` and the scenario it makes,
-the hardware station's watchdog timeout."""
+"""Options several `heft` subcommands share: ``--set`` and the scenario it makes, and the lab's
+settings as flags (the LCM URLs, the watchdog timeout, the rate), each laid over the scenario's
+``lab`` (or ``controller_period``) through ``layered``, the one override path, before ``--set``."""
 
 from __future__ import annotations
 
@@ -9,22 +10,45 @@ import math
 
 import yaml
 
-from heft.hardware_interface.channels import DEFAULT_LCM_URL, LcmChannels
+from heft.hardware_interface.channels import DEFAULT_LCM_URL
 
 
 def add_lcm_urls(parser: argparse.ArgumentParser, when: str = "") -> None:
     """``--lcm-url`` (what the drivers and ``heft load`` send to the controller) and
-    ``--command-url`` (what the controller sends back); ``when``: a note such as "with --hardware: "."""
-    parser.add_argument("--lcm-url", default=DEFAULT_LCM_URL,
-                        help=f"{when}LCM URL of the drivers' messages to the controller (default {DEFAULT_LCM_URL})")
-    parser.add_argument("--command-url", default="",
-                        help=f"{when}LCM URL of the controller's commands to the drivers (default: --lcm-url's "
-                             "group one port up; a memq:// URL itself)")
+    ``--command-url`` (what the controller sends back), over the scenario's ``lab.lcm``; ``when``: a
+    note such as "with --hardware: "."""
+    parser.add_argument("--lcm-url", help=f"{when}LCM URL of the drivers' messages to the controller (default: the "
+                                          f"scenario's lab.lcm.lcm_url, by default {DEFAULT_LCM_URL})")
+    parser.add_argument("--command-url", help=f"{when}LCM URL of the controller's commands to the drivers (default: "
+                                              "the scenario's lab.lcm.command_url, by default --lcm-url's group one "
+                                              "port up; a memq:// URL itself)")
 
 
-def lcm_channels(args) -> LcmChannels:
-    """The ``LcmChannels`` of ``--lcm-url`` and ``--command-url``."""
-    return LcmChannels(lcm_url=args.lcm_url, command_url=args.command_url)
+def lab_options(args) -> dict:
+    """The dotted scenario fields the lab's flags set (``overrides_text``): ``--lcm-url``,
+    ``--command-url``, ``--watchdog-timeout`` and ``--rate`` (Hz, as ``controller_period``), those
+    the command has and the user gave."""
+    rate = getattr(args, "rate", None)
+    if rate is not None and not (math.isfinite(rate) and rate > 0):
+        raise ValueError(f"--rate must be a positive number of Hz; got {rate}")
+    return {"lab.lcm.lcm_url": getattr(args, "lcm_url", None),
+            "lab.lcm.command_url": getattr(args, "command_url", None),
+            "lab.station.watchdog.timeout": getattr(args, "watchdog_timeout", None),
+            "controller_period": None if rate is None else 1.0 / rate}
+
+
+def parse_numbers(text: str, option: str) -> list[float]:
+    """Comma-separated numbers ≥ 0 of ``option``; a ValueError names the bad one."""
+    values = []
+    for item in (part.strip() for part in text.split(",")):
+        try:
+            value = float(item)
+        except ValueError:
+            raise ValueError(f"{option} takes comma-separated numbers, e.g. 0,0.5,1; got {item!r}") from None
+        if not value >= 0:
+            raise ValueError(f"{option} values must be >= 0; got {item}")
+        values.append(value)
+    return values
 
 
 def add_set(parser: argparse.ArgumentParser) -> None:
@@ -41,14 +65,16 @@ def add_station(parser: argparse.ArgumentParser) -> None:
 
 def scenario_from(args, options: str = ""):
     """The scenario of ``--scenario`` with ``--station ideal`` (``IDEAL_STATION``), the command's own
-    ``options`` (YAML text) and then ``--set`` laid over it (``scenario.layered``: the one override path)."""
+    ``options`` (YAML text), the lab's flags it has (``lab_options``) and then ``--set`` laid over it
+    (``scenario.layered``: the one override path)."""
     from heft.diagrams.scenario import IDEAL_STATION, layered, overrides_text, resolve_scenario
 
     ideal = getattr(args, "station", None) == "ideal"
     scenario = resolve_scenario(args.scenario, overrides_text(IDEAL_STATION) if ideal else "")
-    if options:
-        scenario = layered(scenario, options)
-    return layered(scenario, args.set) if args.set else scenario
+    for text in (options, overrides_text(lab_options(args)), getattr(args, "set", None)):
+        if text:
+            scenario = layered(scenario, text)
+    return scenario
 
 
 LAB_SETTINGS = {
@@ -60,7 +86,7 @@ LAB_SETTINGS = {
 """Fields whose defaults describe the simulated lab: how a real lab finds its value, and an example."""
 
 
-def _stated(text: str) -> set[str]:
+def stated_fields(text: str) -> set[str]:
     """The dotted names of the leaves a scenario YAML ``text`` sets."""
     def leaves(node, prefix):
         if not isinstance(node, dict):
@@ -76,7 +102,7 @@ def require_lab_settings(args, *fields: str) -> None:
     how to find it, and how to give it."""
     from heft.diagrams.scenario import overrides_text, scenario_path
 
-    stated = _stated(scenario_path(args.scenario).read_text()) | _stated(args.set or "")
+    stated = stated_fields(scenario_path(args.scenario).read_text()) | stated_fields(args.set or "")
     missing = [name for name in fields if name not in stated]
     if missing:
         example = overrides_text({name: LAB_SETTINGS[name][1] for name in missing})
@@ -91,15 +117,3 @@ def lab_settings_text(scenario) -> str:
     from heft.diagrams.scenario import overrides_text
 
     return overrides_text({name: functools.reduce(getattr, name.split("."), scenario) for name in LAB_SETTINGS})
-
-
-def station_params(timeout):
-    """HardwareStationParams with the watchdog ``timeout`` (s) if given."""
-    from heft.hardware_interface.hardware_station import HardwareStationParams
-    from heft.hardware_interface.watchdog import WatchdogParams
-
-    if timeout is None:
-        return HardwareStationParams()
-    if not (math.isfinite(timeout) and timeout > 0):
-        raise ValueError(f"--watchdog-timeout must be a positive number of seconds; got {timeout}")
-    return HardwareStationParams(watchdog=WatchdogParams(timeout=timeout))

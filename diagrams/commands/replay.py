@@ -166,7 +166,7 @@ def write_replay(log, scenario: Scenario, path, fps: float = 30.0, slave_metres_
         X_WS, X_WE = scene.frames_in_world()
         for name, (_, key, side) in ARROWS.items():
             force = np.asarray(log[key][i][:3], dtype=float)
-            # Sensor wrenches are what S exerts on the load: the load pushes back with −f (DESIGN §4).
+            # Sensor wrenches are what S exerts on the load: the load pushes back with −f (docs/design.md §4).
             force_W = -(X_WS.rotation() @ force) if side == "slave" else R_WB @ force
             origin_W = X_WS.translation() if side == "slave" else X_WE.translation()
             _record_arrow(meshcat, f"{ARROW_ROOT}/{name}", origin_W, scale[side] * force_W, time)

@@ -7,7 +7,7 @@ import math
 from pathlib import Path
 
 
-from heft.diagrams.commands.options import add_set, add_station, scenario_from
+from heft.diagrams.commands.options import add_set, add_station, parse_numbers, scenario_from, stated_fields
 
 HELP = ("replay one of the paper's experiments (fig6, fig7, fig8) "
        "or a scenario file in the simulated station")
@@ -17,7 +17,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("scenario", help="fig6 | fig7 | fig8 | path to a scenario YAML")
     add_set(parser)
     add_station(parser)
-    parser.add_argument("--sigma", type=float, help="σ: non-contact scale (default: the scenario's set)")
+    parser.add_argument("--sigma", type=float, help="σ: non-contact scale, controller.force.sigma (one run)")
+    parser.add_argument("--sigmas", help="σ values to compare, comma separated, one run each (default: the "
+                                         "scenario's σ if it states one, else the paper's 1,0.5,0)")
     parser.add_argument("--gamma", type=float, help="γ: contact scale")
     parser.add_argument("--eta", type=float, help="η: share of the gripped object's non-contact wrench kept")
     parser.add_argument("--noise", choices=("on", "off"), help="sensor noise, offsets, drift, quantisation")
@@ -33,10 +35,10 @@ def run(args) -> int:
     from heft.diagrams.running.simulation import simulate
 
     noise = {} if args.noise is None else {name: args.noise == "on" for name in NOISE_OFF}
-    options = overrides_text({"controller.force.gamma": args.gamma, "controller.force.eta": args.eta, **noise,
-                              "duration": args.duration,
-                              "controller.sigmas": None if args.sigma is None else [args.sigma]})
+    options = overrides_text({"controller.force.sigma": args.sigma, "controller.force.gamma": args.gamma,
+                              "controller.force.eta": args.eta, **noise, "duration": args.duration})
     scenario = scenario_from(args, options)
+    sigmas = compared_sigmas(args, scenario)
     out = Path(args.out or f"out/{Path(args.scenario).stem}")
     estimate = args.estimate or scenario.controller.load_estimate
     if estimate:
@@ -50,7 +52,6 @@ def run(args) -> int:
         # Before the grasp the gripper holds nothing: the estimate is the gripper's, Eq. 14's φ_gr.
         scenario = layered(scenario, overrides_text({"controller.force.phi_gripper": load.phi.tolist()}))
         print(f"gripper alone: m = {load.phi[0]:.4g} kg (φ_gr of Eq. 14); the object is learned after the grasp")
-    sigmas = scenario.controller.sigmas
     meshcat = None
     if args.meshcat:
         from pydrake.geometry import Meshcat
@@ -60,3 +61,28 @@ def run(args) -> int:
     print(json.dumps(metrics, indent=2))
     print(f"wrote {out}/log.npz, metrics.json, figure.png")
     return 0
+
+
+SIGMA = "controller.force.sigma"
+
+
+def compared_sigmas(args, scenario) -> list[float]:
+    """The σ values to run, one run each. A σ stated by ``--sigma`` or ``--set`` is the run's own,
+    and ``--sigmas`` beside it is an error (the one would silently undo the other); ``--sigmas``
+    replaces, run by run, a σ the scenario file states, saying so; otherwise a σ the scenario
+    states is the one run, and the paper's 1, 0.5, 0 (``PAPER_SIGMAS``) are compared."""
+    from heft.diagrams.running.simulation import PAPER_SIGMAS
+    from heft.diagrams.scenario import scenario_path
+
+    on_command_line = args.sigma is not None or SIGMA in stated_fields(args.set or "")
+    in_file = SIGMA in stated_fields(scenario_path(args.scenario).read_text())
+    if args.sigmas is not None:
+        if on_command_line:
+            raise ValueError(f"--sigmas compares σ values, so it cannot go with a σ of its own (--sigma or --set "
+                             f"{SIGMA}); give one or the other")
+        sigmas = parse_numbers(args.sigmas, "--sigmas")
+        if in_file:
+            print(f"--sigmas {args.sigmas}: run by run in place of the scenario file's σ = "
+                  f"{scenario.controller.force.sigma:g} ({SIGMA})")
+        return sigmas
+    return [scenario.controller.force.sigma] if on_command_line or in_file else list(PAPER_SIGMAS)

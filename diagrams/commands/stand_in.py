@@ -7,13 +7,14 @@ import math
 from pathlib import Path
 
 
-from heft.diagrams.commands.options import add_lcm_urls, add_set, lcm_channels, scenario_from
+from heft.diagrams.commands.options import add_lcm_urls, add_set, scenario_from
 
 HELP = ("a lightweight lab behind the drivers' LCM channels, at real time")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--scenario", default="fig6", help="fig6 | fig7 | fig8 | path to a scenario YAML")
+    parser.add_argument("--scenario", default="fig6", help="fig6 | fig7 | fig8 | path to a scenario YAML (the lab's "
+                                                           "LCM URLs too: lab.lcm)")
     add_set(parser)
     add_lcm_urls(parser)
     parser.add_argument("--duration", type=float, default=10.0, help="seconds (default 10)")
@@ -54,7 +55,7 @@ def run(args) -> int:
     faults = FaultInjection(drop_rate=args.drop_rate, burst_loss_s=args.burst_loss, added_delay_s=args.added_delay,
                             nan_rate=args.nan_rate, saturate_at_s=args.saturate_at, die_at_s=args.die_at,
                             seed=args.seed, reorder_rate=args.reorder_rate)
-    channels = lcm_channels(args)
+    channels = scenario.lab.lcm
     print(f"stand-in: {args.scenario} on {channels.lcm_url} (commands on {channels.command_lcm_url()}) for "
           f"{args.duration:g} s at real time", flush=True)
     with StopOnSignal() as stop:

@@ -5,7 +5,7 @@ inertia that the URDF files in this folder carry; the files hold these numbers
 (rounded to 9 significant digits), and ``tests/test_models.py`` checks that
 they still agree. Pure numpy, no Drake, so it runs anywhere.
 
-Conventions (see ../../DESIGN.md): SI units; a body's inertia is the 3×3
+Conventions (see docs/design.md §4): SI units; a body's inertia is the 3×3
 tensor about its centre of mass, expressed in the body frame, with products of
 inertia as tensor entries (I_xy = −∫ x y dm), which is what URDF and Drake's
 ``RotationalInertia`` expect.

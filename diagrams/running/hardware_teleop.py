@@ -56,17 +56,17 @@ class HardwareTeleop:
     """The controller closed around ``HardwareStation``, hearing ``bus`` and publishing on
     ``command_bus`` (default ``bus``; module docstring).
 
-    ``tick(now, dt)`` runs one tick at ``now`` (s, monotonic) ``dt`` s after the last, nominally
-    ``period`` s (default the scenario's ``controller_period``); ``summary(elapsed)`` reports the
+    ``tick(now, dt)`` runs one tick at ``now`` (s, monotonic) ``dt`` s after the last, nominally the
+    scenario's ``controller_period``; ``summary(elapsed)`` reports the
     run so far. ``publish_state``: publish ``heft_teleop_state`` each tick the controller steps."""
 
     def __init__(self, scenario: Scenario, load: LoadEstimate, bus: lcm.LCM, channels: LcmChannels,
                  params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None,
-                 period: float | None = None, publish_state: bool = False):
+                 publish_state: bool = False):
         # The controller's models first (about a second): the station's subscriptions then
         # start receiving only when the loop is about to pump them.
         self.controller = MakeRealtimeTeleopController(
-            scenario.controller, load, scenario.robot, period or scenario.controller_period,
+            scenario.controller, load, scenario.robot, scenario.controller_period,
             accelerometer=scenario.accelerometer.convention())
         limits = device_limits(scenario)
         self.station = HardwareStation(bus, channels, limits, params, command_bus)
@@ -116,7 +116,7 @@ class HardwareTeleop:
         utime = round((station.epoch + now) * 1e6)
         for event in station.gripper_events:
             self.load_commands.gripper(utime, event)
-        self.load_commands.serve(utime, healthy)
+        self.load_commands.serve(utime, healthy, station.acceleration)
         station.publish_status(now)
         self._observe(now, healthy)
         self._was_healthy = healthy
@@ -225,9 +225,10 @@ class HardwareTeleop:
         return summary
 
 
-def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, channels: LcmChannels, duration: float, rate: float,
-                        record=None, params: HardwareStationParams | None = None, priority: int = 50) -> dict:
-    """Runs ``HardwareTeleop`` on ``channels``' two URLs (``open_buses``) at ``rate`` Hz for
+def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float, record=None,
+                        priority: int = 50) -> dict:
+    """Runs ``HardwareTeleop`` on the scenario's lab (``scenario.lab``: the LCM channels' two URLs,
+    ``open_buses``, and the station's watchdog) at its rate (``controller_period``) for
     ``duration`` s of wall time, with real-time ``priority`` (``claim_realtime``: after the
     recorder's loggers start, which keep normal scheduling, and before the buses open, so that
     LCM's receive thread shares it); returns its summary with ``timing`` (``timing_summary``),
@@ -243,11 +244,12 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, channels: LcmCha
         f"learned online ({estimator.method}, forgetting {estimator.forgetting:g} per tick, prefilter "
         f"{estimator.prefilter:g} Hz; `heft load --grasp`/`--release` or the gripper's driver split it into the "
         "gripper's and the object's, η of the object's fed back)"), flush=True)
+    channels, rate = scenario.lab.lcm, 1.0 / scenario.controller_period
     with contextlib.nullcontext() if record is None else LcmTrafficRecorder(channels, record):
         scheduling = claim_realtime(priority)
         print(f"teleop: {scheduling}", flush=True)
         bus, command_bus = open_buses(channels)
-        teleop = HardwareTeleop(scenario, load, bus, channels, params, command_bus, period=1.0 / rate,
+        teleop = HardwareTeleop(scenario, load, bus, channels, scenario.lab.station, command_bus,
                                 publish_state=record is not None)
         teleop.station.epoch = time.time()
         with StopOnSignal() as stop:

@@ -1,7 +1,6 @@
 """Identification in simulation: the excitation run on the simulated station (free space,
 the gripper alone for a load with a grasp), recorded sample-aligned for ``identify``."""
 
-import dataclasses
 import math
 from pathlib import Path
 
@@ -13,14 +12,14 @@ from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, Tr
 from heft.diagrams.identify import FitRefused, Recording, identify
 from heft.diagrams.load_estimate import LoadEstimate, read_load_estimate
 from heft.diagrams.progress import ProgressBar
-from heft.diagrams.scenario import Scenario
+from heft.diagrams.scenario import Scenario, layered, overrides_text
 from heft.diagrams.stations.sim_station import MakeSimStation, set_holding
 from heft.systems.excitation import ExcitationSettings
 
 
 def record_excitation(scenario: Scenario, trajectory, duration: float) -> Recording:
     """Drives the simulated slave through ``trajectory`` for ``duration`` s (free space)."""
-    scenario = dataclasses.replace(scenario, environment=dataclasses.replace(scenario.environment, kind="none"))
+    scenario = layered(scenario, overrides_text({"environment.kind": "none"}))
     period = scenario.controller_period
     builder = DiagramBuilder()
     station = builder.AddNamedSystem("station", MakeSimStation(scenario))

@@ -41,6 +41,10 @@ def true_load(scenario: Scenario) -> tuple[LoadEstimate, np.ndarray]:
     return LoadEstimate(phi=phi, offsets=offsets), phi_gripper
 
 
+PAPER_SIGMAS = (1.0, 0.5, 0.0)
+"""The σ values the paper's Fig. 6–8 compare: what ``heft simulate`` compares when no σ is stated."""
+
+
 def with_sigma(scenario: Scenario, sigma: float) -> Scenario:
     """``scenario`` with σ = ``sigma`` in effect from the start (``controller.force.sigma``)."""
     return layered(scenario, overrides_text({"controller.force.sigma": float(sigma)}))
@@ -92,8 +96,9 @@ def run_teleop(scenario: Scenario, load: LoadEstimate, label: str = "", meshcat=
 
 
 def simulate(scenario: Scenario, load: LoadEstimate, out_dir, sigmas, name: str, meshcat=None) -> dict:
-    """Runs every σ, writes log.npz (the first σ) and log_sigma<σ>.npz (each), metrics.json
-    and figure.png into ``out_dir``; returns the metrics. A ``meshcat`` shows each run live."""
+    """Runs ``scenario`` once per σ of ``sigmas`` (the study's axis, laid over ``controller.force.sigma``
+    by ``with_sigma``: the one override path), writes log.npz (the first σ) and log_sigma<σ>.npz
+    (each), metrics.json and figure.png into ``out_dir``; returns the metrics. A ``meshcat`` shows each run live."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     runs = {}

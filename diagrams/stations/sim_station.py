@@ -2,7 +2,7 @@
 Phantom master with a simulated operator; sensor and encoder models.
 
 ``MakeSimStation(scenario)`` returns a Diagram whose exported ports are the
-station ports of DESIGN §3, plus ``truth.*`` outputs for analysis.
+station ports of docs/design.md §3, plus ``truth.*`` outputs for analysis.
 """
 
 from __future__ import annotations

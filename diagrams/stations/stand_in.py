@@ -10,7 +10,7 @@ and obeys ``heft_haptic_command`` and ``lcmt_iiwa_command`` from another
 exercised against a misbehaving lab. ``run_stand_in`` runs it in wall-clock
 real time, as a separate process would.
 
-Models (frames as DESIGN §4: W world = R slave base, B master base, S wrist sensor):
+Models (frames as docs/design.md §4: W world = R slave base, B master base, S wrist sensor):
 
 * Slave (arm driver): the joints follow the last valid command, approached no
   faster than the arm's joint speed limits (its controller's own limit: a command
@@ -22,7 +22,7 @@ Models (frames as DESIGN §4: W world = R slave base, B master base, S wrist sen
   estimate from those encoder readings (``EncoderVelocityEstimator``, the simulated
   station's ``slave_velocity_filter``; the filter's own q̇ when that is 0).
 * Sensor frame S: pose, ω, and the kinematic acceleration [a; α] of S in S from
-  the filter's state by Drake: A_WS = J·q̈ + J̇·q̇, with q̈ the filter's own
+  the filter's state (``SerialChain``, from the plant's URDF): A_WS = J·q̈ + J̇·q̇, with q̈ the filter's own
   acceleration after each step. Gravity in S is R_SW·g_W. The accelerometer
   reports what a real one does (``accelerometer_reading``: specific force a − g
   unless the scenario's ``accelerometer.includes_gravity`` is False) at its
@@ -88,14 +88,16 @@ from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
 from heft.diagrams.stations.sim_station import MASTER_ENCODER_COUNTS_PER_REV
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import CLUTCH_BUTTON
+from heft.hardware_interface.fixed_layout import FixedLayout
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, open_buses, pump
 from heft.diagrams.stations.stand_in_wrist import GraspTimes, SixAxisSampler, TruthRecord, Wrist
 from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_gripper_state, heft_haptic_command, heft_haptic_state
 from heft.systems.encoders import EncoderVelocityEstimator
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, pose_and_jacobian
+from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 from heft.systems.operator_hand import smooth_sine_offset
+from heft.systems.serial_chain import SerialChain
 from heft.systems.sensor_models import ACCELEROMETER_STREAM, FORCE_TORQUE_STREAM, NUM_AXES, quantize
-from heft.systems.setpoint_filter import critically_damped_step_matrices
+from heft.systems.setpoint_filter import critically_damped_step_matrices, setpoint_step
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
 """Joints of the master and of the slave."""
@@ -109,6 +111,9 @@ driver judges the force a command renders at the positions it published within t
 stand-in running late publishes its backlog at once: then all of it)."""
 _NO_TORQUE = np.zeros(NUM_JOINTS)
 _NO_TORQUE.flags.writeable = False
+_NO_TORQUE_VALUES = (0.0,) * NUM_JOINTS
+"""The arm driver's torques (measured, commanded, external), which the stand-in does not model."""
+_NAN_WRENCH = (math.nan,) * 6
 _MASK64 = (1 << 64) - 1
 _MASTER, _SLAVE, _FT, _GRIPPER = range(4)
 """Channel indices; channel i loses messages on random stream i and reorders them on 4 + i, but the
@@ -210,23 +215,23 @@ class _Master:
     Jacobian at its start pose: q = q₀ + J_M(q₀)⁻¹·[Δp; Δrpy](t), q̇ = its derivative."""
 
     def __init__(self, scenario: Scenario):
-        plant = self._plant = MakeMasterPlant()
+        plant = MakeMasterPlant()
         self.effort_limits = np.array([plant.get_joint_actuator(i).effort_limit()
                                        for i in plant.GetJointActuatorIndices()])
         self._initial = np.array(scenario.master_initial_q, dtype=float)
-        self._context, self._B, self._E = (plant.CreateDefaultContext(), plant.GetFrameByName(BASE_FRAME),
-                                           plant.GetFrameByName(STYLUS_FRAME))
-        _, J = pose_and_jacobian(plant, self._context, self._B, self._E, self._initial)
+        self._chain = SerialChain(plant, plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME))
+        self._chain.update(self._initial)
         operator = self._operator = scenario.operator
         # The reference's offset is amplitude × one shape in time, so the joints' is J⁻¹·amplitude × it.
-        self._amplitude = np.linalg.solve(J, np.concatenate((operator.amplitude, operator.rotation_amplitude)))
+        self._amplitude = np.linalg.solve(self._chain.J, np.concatenate((operator.amplitude,
+                                                                         operator.rotation_amplitude)))
         self.position, self.velocity = self._initial.copy(), np.zeros(NUM_JOINTS)
 
     def stylus_force(self, torque, position) -> float:
         """|f| (N) of the wrench that joint ``torque`` (N·m) renders on the hand at joint
         ``position`` (rad): τ = J_Mᵀ·[f; τ_E]."""
-        _, J = pose_and_jacobian(self._plant, self._context, self._B, self._E, position)
-        return float(np.linalg.norm(np.linalg.solve(J.T, torque)[:3]))
+        self._chain.update(position)
+        return float(np.linalg.norm(np.linalg.solve(self._chain.J.T, torque)[:3]))
 
     def update(self, t: float) -> None:
         """Moves the joints to the operator's reference at time ``t`` (s)."""
@@ -236,12 +241,21 @@ class _Master:
         self.position = self._initial + offset
 
 
-def _decode(message_type, payload: bytes):
-    """The decoded message, or None if ``payload`` is not one."""
-    try:
-        return message_type.decode(payload)
-    except (ValueError, struct.error):
-        return None
+def _command_values(layout: FixedLayout, message_type, payload: bytes, *names: str):
+    """The fields ``names`` of a command for ``NUM_JOINTS`` joints (one value, or a tuple of them), or None
+    if ``payload`` is not one: unpacked by ``layout``, or decoded when of another size."""
+    values = layout.unpack(payload)
+    if values is not None:
+        fields = tuple(values[layout.field(name)] for name in names)
+    else:
+        try:
+            msg = message_type.decode(payload)
+        except (ValueError, struct.error):
+            return None
+        if msg.num_joints != NUM_JOINTS:
+            return None
+        fields = tuple(getattr(msg, name) for name in names)
+    return fields[0] if len(fields) == 1 else fields
 
 
 class StandIn:
@@ -291,8 +305,7 @@ class StandIn:
 
         # Slave: the setpoint filter on the (2, 6) state [q; q̇], and S's motion.
         slave_period = 1.0 / channels.slave_status.rate
-        self._A, B = critically_damped_step_matrices(scenario.slave_setpoint_bandwidth, slave_period)
-        self._B = B[:, None]
+        self._A, self._B = critically_damped_step_matrices(scenario.slave_setpoint_bandwidth, slave_period)
         self._w = 2 * math.pi * scenario.slave_setpoint_bandwidth  # rad/s, the filter's ω
         self._slave = np.zeros((2, NUM_JOINTS))
         self._slave[0] = scenario.slave_initial_q
@@ -326,12 +339,11 @@ class StandIn:
         self._torque_until = -math.inf  # the driver's watchdog: no torque from this time on (s)
         self.master_torque = np.zeros(NUM_JOINTS)
 
-        self._messages = (heft_haptic_state(), lcmt_iiwa_status(), heft_ft_sample(), heft_gripper_state())
-        for msg in self._messages[:2]:
-            msg.num_joints = NUM_JOINTS
-        zeros = [0.0] * NUM_JOINTS
-        status = self._messages[_SLAVE]
-        status.joint_torque_measured = status.joint_torque_commanded = status.joint_torque_external = zeros
+        self._command_layouts = {_MASTER: FixedLayout(heft_haptic_command, num_joints=NUM_JOINTS),
+                                 _SLAVE: FixedLayout(lcmt_iiwa_command, num_joints=NUM_JOINTS, num_torques=0)}
+        self._layouts = (FixedLayout(heft_haptic_state, num_joints=NUM_JOINTS),
+                         FixedLayout(lcmt_iiwa_status, num_joints=NUM_JOINTS), FixedLayout(heft_ft_sample),
+                         FixedLayout(heft_gripper_state))
 
     @property
     def slave_position(self) -> np.ndarray:
@@ -391,19 +403,19 @@ class StandIn:
         return end < die_at
 
     def _take_commands(self, now: float) -> None:
-        """Applies the commands that arrived by ``now`` (s)."""
+        """Applies the commands that arrived by ``now`` (s): a six-joint one unpacked by its layout, any
+        other decoded (and a wrong joint count or garbage refused)."""
         pump(self._command_bus)
         for payload in self._slave_commands.take():
-            msg = _decode(lcmt_iiwa_command, payload)
-            if (msg is not None and msg.num_joints == NUM_JOINTS
-                    and math.isfinite(sum(msg.joint_position))):
-                self.slave_command[:] = msg.joint_position
+            position = _command_values(self._command_layouts[_SLAVE], lcmt_iiwa_command, payload, "joint_position")
+            if position is not None and math.isfinite(sum(position)):
+                self.slave_command[:] = position
         for payload in self._haptic_commands.take():
-            msg = _decode(heft_haptic_command, payload)
-            if (msg is not None and msg.enable and msg.num_joints == NUM_JOINTS
-                    and math.isfinite(sum(msg.torque))):
+            values = _command_values(self._command_layouts[_MASTER], heft_haptic_command, payload, "torque",
+                                     "enable")
+            if values is not None and values[1] and math.isfinite(sum(values[0])):
                 limits = self._master.effort_limits
-                self._torque_commanded = np.clip(msg.torque, -limits, limits)
+                self._torque_commanded = np.clip(values[0], -limits, limits)
                 self._torque_until = now + HAPTIC_WATCHDOG_S
                 self._observe_stylus_force(self._torque_commanded)
             else:
@@ -431,7 +443,7 @@ class StandIn:
     def _slave_tick(self, tick: int, t: float) -> None:
         x, u, w = self._slave, self._setpoint, self._w
         u += np.minimum(np.maximum(self.slave_command - u, -self._max_setpoint_step), self._max_setpoint_step)
-        x[:] = self._A @ x + self._B * u
+        setpoint_step(self._A, self._B, x, u)
         q, qd = x
         self._wrist.update(t, q, qd, w * w * (u - q) - 2 * w * qd)  # q̈ of the filter's ODE
         measured = quantize(q, self._slave_step)
@@ -439,12 +451,9 @@ class StandIn:
         outlet = self._outlets[_SLAVE]
         if outlet.lost(tick, t):
             return
-        msg = self._messages[_SLAVE]
-        msg.utime = round(t * 1e6)
-        msg.joint_position_measured = measured.tolist()
-        msg.joint_velocity_estimated = velocity.tolist()
-        msg.joint_position_commanded, msg.joint_position_ipo = self.slave_command.tolist(), u.tolist()
-        outlet.send(tick, msg.encode())
+        outlet.send(tick, self._layouts[_SLAVE].pack(round(t * 1e6), NUM_JOINTS, *measured.tolist(),
+                                                     *velocity.tolist(), *self.slave_command.tolist(), *u.tolist(),
+                                                     *_NO_TORQUE_VALUES * 3))
 
     def _master_tick(self, tick: int, t: float) -> None:
         master = self._master
@@ -452,17 +461,15 @@ class StandIn:
         outlet = self._outlets[_MASTER]
         if outlet.lost(tick, t):
             return
-        msg = self._messages[_MASTER]
-        msg.utime = round(t * 1e6)
-        msg.position = quantize(master.position, self._master_step).tolist()
+        position = quantize(master.position, self._master_step).tolist()
         published = self._published_master
-        published.append((self._now, msg.position))
+        published.append((self._now, position))
         while published[0][0] < self._now - RENDERED_WITHIN_S:
             published.popleft()
-        msg.velocity = master.velocity.tolist()
-        msg.torque_applied = self._applied_torque(t).tolist()
-        msg.buttons = CLUTCH_BUTTON if self._clutch[0] <= t < self._clutch[1] else 0
-        outlet.send(tick, msg.encode())
+        buttons = CLUTCH_BUTTON if self._clutch[0] <= t < self._clutch[1] else 0
+        outlet.send(tick, self._layouts[_MASTER].pack(round(t * 1e6), NUM_JOINTS, *position,
+                                                      *master.velocity.tolist(),
+                                                      *self._applied_torque(t).tolist(), buttons, False))
 
     def _sample_sensor(self, first: int) -> None:
         """Samples the wrist sensor from sample ``first`` until the next slave step, all on
@@ -485,28 +492,22 @@ class StandIn:
         faults, outlet = self._faults, self._outlets[_FT]
         if outlet.lost(tick, t):
             return
-        msg = self._messages[_FT]
-        msg.utime = round(t * 1e6)
-        msg.sample_counter = tick
-        if faults.nan_rate > 0.0 and _uniform(faults.seed, _NAN_STREAM, tick) < faults.nan_rate:
-            msg.wrench = [math.nan] * 6
-        else:
-            msg.wrench = wrenches[row]  # the sensor's sign: the load on the sensor
-        msg.acceleration = accelerations[row]
-        msg.saturated = (saturations[row] | 0x3F) if t >= faults.saturate_at_s else saturations[row]
+        nan = faults.nan_rate > 0.0 and _uniform(faults.seed, _NAN_STREAM, tick) < faults.nan_rate
+        payload = self._layouts[_FT].pack(
+            round(t * 1e6), tick, *(_NAN_WRENCH if nan else wrenches[row]),  # the sensor's sign: the load on it
+            *accelerations[row], (saturations[row] | 0x3F) if t >= faults.saturate_at_s else saturations[row], False)
         if faults.added_delay_s > 0.0:
-            self._delayed.append((t + faults.added_delay_s, tick, msg.encode()))
+            self._delayed.append((t + faults.added_delay_s, tick, payload))
         else:
-            outlet.send(tick, msg.encode())
+            outlet.send(tick, payload)
 
 
     def _gripper_tick(self, tick: int, t: float) -> None:
         outlet = self._outlets[_GRIPPER]
         if outlet.lost(tick, t):
             return
-        msg, grasp = self._messages[_GRIPPER], self._grasp
-        msg.utime, msg.state, msg.width = round(t * 1e6), grasp.state(t), grasp.width(t)
-        outlet.send(tick, msg.encode())
+        grasp = self._grasp
+        outlet.send(tick, self._layouts[_GRIPPER].pack(round(t * 1e6), grasp.state(t), grasp.width(t), False))
 
 
 def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,

@@ -1,8 +1,8 @@
-"""The stand-in lab's wrist: the JR3's sampled measurement, the motion of its frame S by Drake,
+"""The stand-in lab's wrist: the JR3's sampled measurement, the motion of its frame S (``SerialChain``),
 the load on its compliant mount (``mount.MountUnderMovingSensor``), the gripper that grasps and
 releases the scenario's object, and the truth of every sensor sample (``TruthRecord``).
 
-Wrenches here are heft's (DESIGN §4): [f; τ] the sensor exerts on the load, at S, in S (N, N·m);
+Wrenches here are heft's (docs/design.md §4): [f; τ] the sensor exerts on the load, at S, in S (N, N·m);
 the JR3 driver publishes them negated (``stand_in``).
 """
 
@@ -12,14 +12,14 @@ import dataclasses
 import math
 
 import numpy as np
-from pydrake.multibody.tree import JacobianWrtVariable
 
 from heft.diagrams import mount
 from heft.diagrams.plants import MakeSlavePlant, mount_for, phi_about_S
 from heft.diagrams.scenario import Scenario
 from heft.hardware_interface.lcmtypes import heft_gripper_state
 from heft.systems.accelerometer_reading import reading_from_motion
-from heft.systems.load_dynamics import GRAVITY_W, regressor
+from heft.systems.load_dynamics import GRAVITY_W, regressor_into
+from heft.systems.serial_chain import SerialChain
 from heft.systems.sensor_models import (NUM_AXES, HeldLowpass, SixAxisMeasurement, SixAxisSensorParams, lowpass,
                                         lowpass_coefficients)
 from heft.systems.slave_kinematics import NUM_JOINTS
@@ -51,6 +51,7 @@ class SixAxisSampler:
         self._walk = np.zeros(NUM_AXES)
         # Offsets and offsets + noise of samples start, start + 1, ...
         self._start, self._offsets, self._disturbance = 1, np.zeros((0, NUM_AXES)), np.zeros((0, NUM_AXES))
+        self._filtered, self._measured, self._saturated = np.empty((3, held_count, NUM_AXES))
 
     def _draw_block(self, keep_from: int) -> None:
         """Appends the next ``_NOISE_BLOCK`` samples, forgetting those before ``keep_from``."""
@@ -65,17 +66,23 @@ class SixAxisSampler:
 
     def sample(self, first: int, count: int, value: np.ndarray):
         """(measured, offsets o_j, saturated flags (0/1)), each (count, 6), of samples
-        j = first … first + count − 1 of the true ``value`` (6,); ``first`` ≥ 1 never decreases."""
+        j = first … first + count − 1 of the true ``value`` (6,); ``first`` ≥ 1 never decreases.
+        The arrays are overwritten by the next call."""
         while first + count > self._start + len(self._offsets):
             self._draw_block(first)
         rows = slice(first - self._start, first - self._start + count)
-        if self._lowpass is not None:
-            if count == self._held_lowpass.count and not np.isnan(self._lowpass_state[0, 0]):
-                value = self._held_lowpass(self._lowpass_state, value)
-            else:
-                value = lowpass(self._lowpass, self._lowpass_state, np.repeat(value[np.newaxis], count, axis=0))
-        measured, saturated = self._model.measure(value + self._disturbance[rows])
-        return measured, self._offsets[rows], saturated
+        if count != len(self._filtered):
+            self._filtered, self._measured, self._saturated = np.empty((3, count, NUM_AXES))
+        filtered = self._filtered
+        if self._lowpass is None:
+            filtered[:] = value
+        elif count == self._held_lowpass.count and not np.isnan(self._lowpass_state[0, 0]):
+            self._held_lowpass(self._lowpass_state, value, filtered)
+        else:
+            filtered[:] = lowpass(self._lowpass, self._lowpass_state, np.repeat(value[np.newaxis], count, axis=0))
+        filtered += self._disturbance[rows]
+        self._model.measure(filtered, self._measured, self._saturated)
+        return self._measured, self._offsets[rows], self._saturated
 
 
 @dataclasses.dataclass(frozen=True)
@@ -119,7 +126,7 @@ class GraspTimes:
 
 
 class Wrist:
-    """The slave arm with its wrist sensor and load, evaluated by Drake at each of the arm's steps
+    """The slave arm with its wrist sensor and load, evaluated at each of the arm's steps
     (``period`` s): the motion of S from the joint state, the load on its compliant mount (the
     scenario's ``MountSpec``, sized to the load as the simulated station's, ``mount_for``; welded at S
     for ``load.mount.rigid``), the gripper holding the object per ``grasp``.
@@ -133,8 +140,7 @@ class Wrist:
 
     def __init__(self, scenario: Scenario, period: float, grasp: GraspTimes, q0):
         plant, parts = MakeSlavePlant(scenario)
-        self._plant, self._context = plant, plant.CreateDefaultContext()
-        self._W, self._S = plant.world_frame(), parts.S
+        self._chain = SerialChain(plant, plant.world_frame(), parts.S, GRAVITY_W)
         self._accelerometer = scenario.accelerometer.convention()
         self._grasp = grasp
         phi_load = phi_about_S(plant, parts.S, parts.load_bodies)
@@ -147,9 +153,7 @@ class Wrist:
         self._phi_object = phi_load - self.phi_gripper if parts.gripper_bodies else None  # a tool: none
         if self._phi_object is not None:
             self._object_inertia = mount.inertia_in_wrench_order(self._phi_object)
-        self._origin = np.zeros(3)
-        self._x = np.zeros(2 * NUM_JOINTS)
-        self.wrench, self.wrench_object = np.zeros(6), np.zeros(6)
+        self.wrench, self.wrench_object, self._V = np.zeros(6), np.zeros(6), np.zeros((6, 10))
         self.acceleration, self.reading = np.zeros(6), np.zeros(6)
         self._rigid, self._deflection_acceleration = np.zeros(6), np.zeros(6)
         if scenario.load.mount.rigid:
@@ -163,20 +167,13 @@ class Wrist:
 
     def _motion(self, q, qd, qdd) -> np.ndarray:
         """Sets ``acceleration``, ``reading`` and the rigid wrench V·φ from the joint state; returns V."""
-        plant, context, W, S = self._plant, self._context, self._W, self._S
-        self._x[:NUM_JOINTS], self._x[NUM_JOINTS:] = q, qd
-        plant.SetPositionsAndVelocities(context, self._x)
-        R_SW = plant.CalcRelativeTransform(context, W, S).rotation().matrix().T
-        J = plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV, S, self._origin, W, W)
-        bias = plant.CalcBiasSpatialAcceleration(context, JacobianWrtVariable.kV, S, self._origin, W, W)
-        A_WS_W = J @ qdd + bias.get_coeffs()  # [α; a] in W
-        alpha_a = A_WS_W.reshape(2, 3) @ R_SW.T  # rows α, a in S
-        self.acceleration[:3], self.acceleration[3:] = alpha_a[1], alpha_a[0]
-        a, alpha = self.acceleration[:3], self.acceleration[3:]
-        omega = R_SW @ (J[:3] @ qd)
-        gravity = R_SW @ GRAVITY_W
+        chain = self._chain
+        chain.update(q, qd, qdd)
+        self.acceleration[:] = chain.motion[:6]
+        omega, gravity = chain.motion[6:9], chain.motion[9:]
         self.reading[:] = reading_from_motion(self.acceleration, gravity, omega, self._accelerometer)
-        V = regressor(a, alpha, omega, gravity)
+        V = self._V
+        regressor_into(self.acceleration[:3], self.acceleration[3:], omega, gravity, V)
         np.dot(V, self.phi, out=self._rigid)
         return V
 

@@ -19,7 +19,6 @@ gripper and η the share of the gripped object.
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import tempfile
 from pathlib import Path
@@ -123,8 +122,8 @@ def apparent_mass_study(scenario: Scenario, sigmas=(0.0, 0.5, 1.0, 1.5, 2.0), et
     if not amplitude_scale > 0:
         raise ValueError(f"amplitude_scale must be > 0; got {amplitude_scale}")
     sigmas = sorted({float(s) for s in sigmas} | {0.0})
-    scenario = dataclasses.replace(scenario, operator=dataclasses.replace(
-        scenario.operator, amplitude=[amplitude_scale * a for a in scenario.operator.amplitude])).validate()
+    scenario = layered(scenario, overrides_text(
+        {"operator.amplitude": [amplitude_scale * a for a in scenario.operator.amplitude]}))
     k_f, s = scenario.controller.feedback.force_scale, scenario.controller.motion.translation_scale
     step = progress or (lambda label: None)
 

@@ -87,9 +87,9 @@ def simulate_point(base: Scenario, point: dict, seed_sequence: np.random.SeedSeq
     """One point: simulate ``base`` with the point's parameters, return the point and its
     classification. The sensor noise (when the scenario has it on) is seeded from
     ``seed_sequence``. Module-level, so worker processes can run it."""
-    scenario = point_scenario(base, point)
     noise_seed = int(seed_sequence.generate_state(1, dtype=np.uint64)[0])
-    scenario.ft_sensor.seed = scenario.accelerometer.seed = noise_seed
+    scenario = layered(point_scenario(base, point),
+                       overrides_text({"ft_sensor.seed": noise_seed, "accelerometer.seed": noise_seed}))
     load, _ = true_load(scenario)
     log = run_teleop(scenario, load, quiet=True)
     result = classify(log, scenario.controller.feedback.max_force)

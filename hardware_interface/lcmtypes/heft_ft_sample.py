@@ -13,7 +13,7 @@ class heft_ft_sample(object):
     accelerometer (JR3 85M35A3-I40-D), as the driver reads it.
     
     Sign: `wrench` is what the sensor reports, i.e. the wrench the load exerts
-    ON THE SENSOR. heft's ports carry the opposite (DESIGN §4); the flip happens
+    ON THE SENSOR. heft's ports carry the opposite (docs/design.md §4); the flip happens
     in heft.hardware_interface.ft_receiver and nowhere else.
     """
 

@@ -13,7 +13,7 @@ class heft_teleop_state(object):
     commands it sent in that tick (same utime): published on the command URL each
     tick the controller steps, so that a recording (--record) can be analysed as a
     simulation's log is (`heft analyze passivity|replay`). Frames and signs as the
-    controller's (DESIGN §3, §4): B the master's base, E the stylus, S the sensor.
+    controller's (docs/design.md §3, §4): B the master's base, E the stylus, S the sensor.
     """
 
     __slots__ = ["utime", "dt", "starts", "master_utime", "slave_utime", "ft_utime", "master_wrench", "applied_wrench", "gain", "energy", "damping", "wrench_contact", "wrench_noncontact"]

@@ -1,0 +1,68 @@
+"""LCM messages of a fixed size, encoded in one ``struct`` call.
+
+lcm-gen's Python classes encode and decode field by field, through a ``BytesIO`` and one ``struct``
+call per field. Once its length fields are fixed (``lengths``), a message's wire format
+is one big-endian record: the type's 8-byte fingerprint, then every field in declaration order,
+arrays flattened row-major. ``FixedLayout`` reads that record off the generated class itself
+(``__slots__``, ``__typenames__``, ``__dimensions__``), so the two cannot disagree, and packs a
+message from its values in one call, or unpacks one into them (README "Compiled kernels": the
+arm's status in 1.8 and 0.9 µs against 6.0 and 4.8 µs), for the drivers and loops
+that send and read at kHz rates. A payload of another size or fingerprint is not of the layout:
+``unpack`` says so with None, and the generated decoder can tell what else it is.
+"""
+
+from __future__ import annotations
+
+import struct
+
+_CODES = {"int8_t": "b", "int16_t": "h", "int32_t": "i", "int64_t": "q", "float": "f", "double": "d",
+          "boolean": "b", "byte": "B"}
+"""``struct`` codes of LCM's primitive types (LCM type specification: big-endian, booleans as int8)."""
+
+
+class FixedLayout:
+    """The wire record of ``message_type`` (an lcm-gen Python class) with its length fields set to
+    ``lengths`` (e.g. ``num_joints=6``). ``fields`` names the values ``pack`` takes, in order, each
+    with its count (an array's values are passed flattened)."""
+
+    def __init__(self, message_type, **lengths: int):
+        self.fields: list[tuple[str, int]] = []
+        self._slices: dict[str, slice] = {}
+        codes, start = ">8s", 1  # the values after the fingerprint
+        for name, typename, dimensions in zip(message_type.__slots__, message_type.__typenames__,
+                                              message_type.__dimensions__, strict=True):
+            if typename not in _CODES:
+                raise ValueError(f"{message_type.__name__}.{name} is a {typename}: a FixedLayout takes primitive "
+                                 "fields only")
+            count = 1
+            for dimension in dimensions or ():
+                if isinstance(dimension, str) and dimension not in lengths:
+                    raise ValueError(f"{message_type.__name__}.{name} is sized by {dimension}: give "
+                                     f"FixedLayout({message_type.__name__}, {dimension}=...)")
+                count *= lengths[dimension] if isinstance(dimension, str) else dimension
+            self.fields.append((name, count))
+            self._slices[name] = slice(start, start + count) if dimensions else start
+            codes += f"{count}{_CODES[typename]}"
+            start += count
+        unused = set(lengths) - set(message_type.__slots__)
+        if unused:
+            raise ValueError(f"{message_type.__name__} has no length field {', '.join(sorted(unused))}")
+        self._record = struct.Struct(codes)
+        self._fingerprint = message_type._get_packed_fingerprint()
+        self.size = self._record.size
+        """Bytes per message."""
+
+    def pack(self, *values) -> bytes:
+        """The encoded message of ``values``: every field of ``fields`` in order, arrays flattened."""
+        return self._record.pack(self._fingerprint, *values)
+
+    def unpack(self, payload: bytes) -> tuple | None:
+        """The fingerprint and every value of ``payload`` (index them with ``field``), or None if it is
+        not a message of this layout (another size or type)."""
+        if len(payload) != self.size or not payload.startswith(self._fingerprint):
+            return None
+        return self._record.unpack(payload)
+
+    def field(self, name: str) -> int | slice:
+        """Where field ``name`` lies in ``unpack``'s tuple: an index, or a slice for an array."""
+        return self._slices[name]

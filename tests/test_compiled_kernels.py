@@ -1,0 +1,151 @@
+"""The compiled per-tick kernels equal the plain Python they are written in (``HEFT_PURE_PYTHON=1``,
+the fallback where numba is missing), run in a process of its own on the same inputs."""
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+from heft.systems import compiled
+from heft.systems.rx_inverse_kinematics import (JOINT_LIMIT, NON_FINITE, OUT_OF_REACH, SHOULDER_SINGULARITY,
+                                                WRIST_SINGULARITY)
+from heft.systems.slave_inverse_kinematics import SLEWING
+
+_KERNELS = r"""
+import sys
+import numpy as np
+from heft.diagrams.plants import MakeArmPlant
+from heft.systems import compiled
+from heft.systems.load_dynamics import GRAVITY_W, regressor_into
+from heft.systems.sensor_models import (ForceTorqueSensorParams, HeldLowpass, SixAxisMeasurement, lowpass,
+                                        lowpass_coefficients)
+from heft.systems.serial_chain import SerialChain
+from heft.systems.setpoint_filter import critically_damped_step_matrices, setpoint_step
+
+rng = np.random.default_rng(11)
+plant, S = MakeArmPlant("rx90")
+chain = SerialChain(plant, plant.world_frame(), S, GRAVITY_W)
+out = {"pure_python": np.array(compiled.PURE_PYTHON), "motion": [], "J": [], "V": []}
+for _ in range(10):
+    q, qd, qdd = rng.uniform(-2, 2, (3, 6))
+    chain.update(q, qd, qdd)
+    out["motion"].append(chain.motion.copy())
+    out["J"].append(chain.J.copy())
+    V = np.empty((6, 10))
+    regressor_into(*rng.normal(0, 5, (4, 3)), V)
+    out["V"].append(V)
+params = ForceTorqueSensorParams()
+out["measured"], out["saturated"] = SixAxisMeasurement(params, 0, 1 / 8000).measure(
+    rng.normal(0, 1, (64, 6)) * np.array(params.full_scale))
+held, state = HeldLowpass(lowpass_coefficients(500.0, 1 / 8000), 4), rng.normal(0, 1, (2, 6))
+out["held"] = np.concatenate([held(state, value) for value in rng.normal(0, 50, (20, 6))])
+out["lowpass"] = lowpass(lowpass_coefficients(500.0, 1 / 8000), np.full((2, 6), np.nan), rng.normal(0, 50, (40, 6)))
+A, B = critically_damped_step_matrices(10.0, 5e-4)
+x = np.zeros((2, 6))
+for u in rng.uniform(-1, 1, (50, 6)):
+    setpoint_step(A, B, x, u)
+out["setpoint"] = x
+from heft.systems.accelerometer_reading import AccelerometerConvention, motion_from_reading
+from heft.systems.force_scaling import (EVALUATION_SIZE, evaluate, initial_memory, next_memory_and_scales,
+                                        notch_coefficients)
+from heft.systems.pose_vectors import pose_into
+
+displaced = AccelerometerConvention(True, (0.01, -0.02, 0.03))
+phi, phi_gripper = rng.normal(0, 1, 10), rng.normal(0, 0.5, 10)
+notch, memory, scales = notch_coefficients(30.0, 2.0, 5e-4), initial_memory(), np.array([0.0, 1.0, 0.5])
+out["evaluation"], out["memory"], out["motion_S"], out["pose"] = [], [], [], []
+for k in range(30):
+    evaluation = np.empty(EVALUATION_SIZE)
+    wrench = rng.normal(0, 10, 6) if k != 12 else np.full(6, np.nan)  # one fault: decay, notch restarted
+    reading, omega, gravity = rng.normal(0, 3, 6), rng.normal(0, 1, 3), rng.normal(0, 5, 3)
+    evaluate(evaluation, wrench, reading, omega, gravity, phi, rng.normal(0, 1, 6), scales, memory, 0.9,
+             phi_gripper, displaced, notch)
+    next_memory_and_scales(memory, scales, evaluation, (1.0, 1.0, 0.3), 0.01, notch)
+    out["evaluation"].append(evaluation)
+    out["memory"].append(np.nan_to_num(memory, nan=-1.0))
+    out["motion_S"].append(motion_from_reading(np.empty(6), reading, gravity, omega, displaced))
+    pose = np.empty(7)
+    chain.update(rng.uniform(-3, 3, 6))
+    pose_into(chain.R, chain.p, pose)
+    out["pose"].append(pose)
+from heft.systems.motion_scaling import IDENTITY_POSE, motion_scaling_update
+
+memory = np.concatenate(([0.0, 1.0, 1.0], IDENTITY_POSE, IDENTITY_POSE))
+desired, R_RB, out["desired"] = IDENTITY_POSE.copy(), chain.R.copy(), []
+for k in range(40):  # engaged, released at 10-14, the scales changed at 25
+    pose_BE = np.concatenate((rng.normal(0, 0.1, 3), rng.normal(0, 1, 4)))
+    scale = 1.0 if k < 25 else 0.5
+    memory, desired = motion_scaling_update(memory, desired, pose_BE, not 10 <= k < 15, out["pose"][k % 30],
+                                            2.0 * scale, scale, R_RB)
+    out["desired"].append(desired)
+from heft.systems.feedback_mapping import rendered_wrench
+from heft.systems.passivity_controller import master_torque
+
+energy, out["torque"], out["energy"] = np.zeros(2), [], []
+for k in range(40):  # the clamps act on about half of the samples
+    wrench = rendered_wrench(rng.normal(0, 8, 6), chain.R, 1.0, 1.0, 8.5, 0.188)
+    torque, applied, energy, damping, dissipated = master_torque(
+        rng.normal(0, 6, 6), rng.normal(0, 2, 6), out["J"][k % 10], energy, 5e-4, (20.0, 0.2), 8.5, 0.188)
+    out["torque"].append(np.concatenate((wrench, torque, applied, damping, dissipated)))
+    out["energy"].append(energy)
+
+# The slave IK: seeded targets reachable, out of reach, past a limit, near the wrist, elbow and
+# shoulder singularities and on the J1 axis; the rich API's kernels and one tick's.
+from pydrake.math import RigidTransform, RotationMatrix
+from heft.systems.pose_vectors import pose_into
+from heft.systems.rx_inverse_kinematics import WORK_ROWS, RxKinematics, all_solutions, nearest_solution
+from heft.systems.slave_inverse_kinematics import IkStep
+
+work, q, solutions, pose = np.empty((WORK_ROWS, 6)), np.empty(6), np.empty((8, 6)), np.empty(7)
+for name in ("ik_q", "ik_status", "ik_all", "ik_count", "step_command", "step_status"):
+    out[name] = []
+for robot in ("rx90", "rx60"):
+    kin = getattr(RxKinematics, robot)()
+    step = IkStep(kin, RigidTransform(RotationMatrix.MakeXRotation(0.4), [0.01, -0.02, 0.15]))
+    for n in range(300):
+        q_target = rng.uniform(kin.lower - 0.2, kin.upper + 0.2)  # some beyond the limits
+        q_target[[4, 2][n % 2]] *= 0.02 if n % 3 == 0 else 1.0  # near the wrist or the elbow singularity
+        R, p = kin.forward(q_target)
+        if n % 5 == 1:  # the wrist centre on (or 1 µm from) the J1 axis
+            p_C = p - kin.d6 * R[:, 2]
+            p = p - np.array([p_C[0], p_C[1], 0.0]) * (1.0 + 1e-6 * (n % 2))
+        if n % 5 == 2:
+            p = p + rng.normal(0.0, 0.5, 3)  # often out of reach
+        q_reference = np.clip(q_target + rng.normal(0.0, [0.01, 0.3, 2.0][n % 3], 6), kin.lower, kin.upper)
+        out["ik_status"].append(nearest_solution(kin.dh, kin.lower, kin.upper, kin.wrist_band, R, p, q_reference,
+                                                 q, work))
+        out["ik_q"].append(q.copy())
+        out["ik_count"].append(all_solutions(kin.dh, kin.lower, kin.upper, R, p, q_reference, solutions, work))
+        out["ik_all"].append(solutions[:out["ik_count"][-1]].copy())
+        pose_into(R, p, pose)
+        pose[4] = np.nan if n % 7 == 6 else pose[4]
+        command = np.empty(6)
+        out["step_status"].append(step(pose, q_reference, [5e-4, 0.01, 1.0][n % 3], command))
+        out["step_command"].append(command)
+out["ik_all"] = np.concatenate(out["ik_all"])
+np.savez(sys.argv[1], **{name: np.asarray(value) for name, value in out.items()})
+"""
+
+
+def run_kernels(path, pure_python: bool) -> dict:
+    env = dict(os.environ, HEFT_PURE_PYTHON="1" if pure_python else "0")
+    subprocess.run([sys.executable, "-c", _KERNELS, str(path)], env=env, check=True, timeout=300)
+    with np.load(path) as data:
+        return dict(data)
+
+
+def test_the_plain_python_kernels_equal_the_compiled_ones(tmp_path):
+    assert not compiled.PURE_PYTHON, "numba is a dependency: the test suite runs the compiled kernels"
+    fallback = run_kernels(tmp_path / "python.npz", pure_python=True)
+    machine_code = run_kernels(tmp_path / "compiled.npz", pure_python=False)
+    assert fallback.pop("pure_python") and not machine_code.pop("pure_python")
+    assert fallback.keys() == machine_code.keys()
+    ik_status, step_status = fallback["ik_status"], fallback["step_status"]
+    assert (ik_status == 0).any() and (ik_status & OUT_OF_REACH).any() and (ik_status & JOINT_LIMIT).any()
+    assert (ik_status & SHOULDER_SINGULARITY).any() and (ik_status & WRIST_SINGULARITY).any()
+    assert (step_status & NON_FINITE).any() and (step_status & SLEWING).any() and (step_status == 0).any()
+    for name, expected in fallback.items():
+        assert np.abs(expected).max() > 0, name
+        assert machine_code[name].shape == expected.shape, name
+        np.testing.assert_allclose(machine_code[name], expected, rtol=1e-13, atol=1e-13, err_msg=name)
