@@ -221,11 +221,15 @@ class AccelerometerParams(SixAxisSensorParams):
     """The linear channels' gain against the truth (1: as the datasheet says), from a calibration."""
 
     def validate(self) -> None:
+        """Raises ValueError starting with the first wrong field's name."""
         super().validate()
-        try:
-            self.convention()
-        except (ValueError, TypeError) as error:
-            raise ValueError(f"accelerometer: {error}") from None
+        fields = {"position": {"p_SA": self.position}, "R_SA": {"R_SA": self.R_SA}, "unit": {"unit": self.unit},
+                  "bias": {"bias": self.bias}, "scale": {"scale": self.scale}}
+        for name, value in fields.items():
+            try:
+                AccelerometerConvention(**value)
+            except (ValueError, TypeError) as error:
+                raise ValueError(f"{name} is wrong: {error}") from None
 
     def convention(self) -> AccelerometerConvention:
         """What a reading means, for the consumers: gravity in it or not, where it is taken, how the

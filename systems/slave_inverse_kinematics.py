@@ -38,7 +38,8 @@ def flange_target(pose, R_TF, p_TF, R_RT, R_RF, p_RF):
 def ik_step(dh, lower, upper, velocity, band, pose, R_TF, p_TF, q_last, dt, command, work):
     """One tick: writes into ``command`` (6, rad) the last command ``q_last`` moved toward the IK
     solution nearest it (``nearest_solution``) for the desired tool pose ``pose`` (X_RT*, the flange
-    at (R_TF, p_TF) in T), each joint by at most velocity × dt (rad/s × s). Unreachable or not a
+    at (R_TF, p_TF) in T), each joint by at most velocity × dt (rad/s × s; a dt that is NaN or negative
+    moves none). Unreachable or not a
     pose: command = q_last. Returns ``nearest_solution``'s status, with ``SLEWING`` when a speed
     limit held a joint back. The arm: ``dh``, ``lower``, ``upper``, ``velocity``, ``band`` as in
     ``RxKinematics``; ``work`` (``STEP_WORK_ROWS``, 6): scratch. command may be q_last itself."""
@@ -51,6 +52,8 @@ def ik_step(dh, lower, upper, velocity, band, pose, R_TF, p_TF, q_last, dt, comm
         for j in range(6):
             command[j] = q_last[j]
         return status
+    if not dt >= 0.0:  # NaN or negative: no time to move in
+        dt = 0.0
     for j in range(6):
         step, limit = solution[j] - q_last[j], velocity[j] * dt
         limited = min(max(step, -limit), limit)

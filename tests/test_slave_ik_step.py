@@ -76,6 +76,18 @@ def test_far_commands_move_at_the_speed_limits_until_they_arrive(slave):
         assert slave.pose(command).IsNearlyEqualTo(slave.pose(q), 1e-9)
 
 
+def test_a_tick_of_no_time_moves_nothing(slave):
+    """A dt that is NaN or negative (a clock gone wrong) gives the joints no time to move in: the command
+    stays where it was, and the speed limit says so."""
+    rng = np.random.default_rng(23)
+    command = np.empty(6)
+    for q in slave.regular_q(rng, 5):
+        q_last = np.clip(q + 0.05, slave.kin.lower, slave.kin.upper)
+        for dt in (np.nan, -1e-3):
+            assert slave.ik_step(pose_vector(slave.pose(q)), q_last, dt, command) == SLEWING
+            np.testing.assert_array_equal(command, q_last)
+
+
 def test_a_pose_it_cannot_reach_holds_the_command_and_says_why():
     slave = Slave("rx90")
     q_last = np.array([0.3, 0.4, 1.0, 0.2, 0.7, 0.1])
