@@ -18,15 +18,16 @@ import numpy as np
 
 from heft.analysis.fit_verdict import FitEvidence, fit_verdict, noise_floor
 from heft.analysis.identification_report import convergence_figure, estimate_errors, verdict_report
-from heft.diagrams.running.progress import ProgressBar
+from heft.diagrams.progress import ProgressBar
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import MakeSlavePlant
 from heft.diagrams.load_estimate import estimate_record, write_load_estimate
 from heft.diagrams.models.make_tool_inertia import RX60, RX90
 from heft.systems.accelerometer_reading import motion_from_reading
-from heft.systems.estimators import (
-    METHODS, NoiseLevels, RecursiveInstrumentalVariables, RecursiveLeastSquares, RecursiveTotalLeastSquares,
-    batch_estimate, feed)
+from heft.systems.batch_estimation import METHODS, batch_estimate
+from heft.systems.recursive_estimation import (
+    RecursiveInstrumentalVariables, RecursiveLeastSquares, RecursiveTotalLeastSquares, feed)
+from heft.systems.regression_noise import NoiseLevels
 from heft.systems.load_dynamics import regressor_with_offsets
 from heft.systems.excitation import ExcitationSettings, JointLimits, SensorFrameMotion, optimize_excitation
 from heft.systems.periodic_differentiation import differentiate_periodic

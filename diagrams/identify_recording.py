@@ -27,7 +27,9 @@ from heft.diagrams.load_estimate import estimate_record, write_load_estimate
 from heft.diagrams.recordings import open_recording
 from heft.diagrams.recording_kinematics import joint_orientation
 from heft.diagrams.scenario import Scenario
-from heft.systems.estimators import PARAMETER_NAMES, NoiseLevels, batch_estimate
+from heft.systems.batch_estimation import batch_estimate
+from heft.systems.load_dynamics import PARAMETER_NAMES
+from heft.systems.regression_noise import NoiseLevels
 from heft.systems.static_calibration import STATIC_NAMES, StaticCalibration, calibrate_static, point_mass_phi
 
 SIGNALS = "recording"

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import (LinearBushingRollPitchYaw, QuaternionFloatingJoint, RotationalInertia,
@@ -19,7 +20,7 @@ from heft.diagrams import mount
 from heft.diagrams.models import model_path
 from heft.diagrams.scenario import LoadSpec, MountSpec, Scenario
 from heft.systems.load_dynamics import GRAVITY_W, InertialParameters, inertia_entries, inertia_matrix
-from heft.systems.master_kinematics import master_plant
+from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 
 MASTER_URDF = "phantom_premium_6dof.urdf"
 
@@ -162,9 +163,22 @@ def phi_about_S(plant: MultibodyPlant, S, bodies, context=None) -> np.ndarray:
                            inertia_entries(M.CalcRotationalInertia().CopyToFullMatrix3())))
 
 
+def AddMaster(plant: MultibodyPlant, X_WB: RigidTransform | None = None):
+    """Adds the master, the Phantom Premium 1.5 6DoF, with its base B welded at ``X_WB`` (default:
+    B = W); returns (its model instance, B, the stylus frame E)."""
+    (master,) = Parser(plant).AddModels(model_path(MASTER_URDF))
+    B = plant.GetFrameByName(BASE_FRAME, master)
+    plant.WeldFrames(plant.world_frame(), B, X_WB or RigidTransform())
+    return master, B, plant.GetFrameByName(STYLUS_FRAME, master)
+
+
 def MakeMasterPlant() -> MultibodyPlant:
-    """The master, the Phantom Premium 1.5 6DoF, as a finalized continuous plant (``master_plant``)."""
-    return master_plant(model_path(MASTER_URDF))
+    """The master (``AddMaster``) alone, as a finalized continuous plant: the kinematic model of
+    the controller and the analyses."""
+    plant = MultibodyPlant(time_step=0.0)
+    AddMaster(plant)
+    plant.Finalize()
+    return plant
 
 
 def MakeArmPlant(robot: str) -> tuple[MultibodyPlant, object]:

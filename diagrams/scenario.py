@@ -22,7 +22,7 @@ from pydrake.systems.analysis import SimulatorConfig
 
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import HardwareStationParams
-from heft.systems.estimator_gate import EstimatorSpec
+from heft.systems.load_estimation_params import LoadEstimationParams
 from heft.systems.feedback_mapping import FeedbackMappingParams
 from heft.systems.force_scaling import ForceScalingParams
 from heft.systems.motion_scaling import MotionScalingParams
@@ -151,7 +151,7 @@ class ControllerSpec:
     feedback: FeedbackMappingParams = dataclasses.field(default_factory=FeedbackMappingParams)
     passivity: PassivityParams = dataclasses.field(default_factory=PassivityParams)
     offsets: OffsetTrackingParams = dataclasses.field(default_factory=OffsetTrackingParams)
-    estimator: EstimatorSpec = dataclasses.field(default_factory=EstimatorSpec)
+    estimator: LoadEstimationParams = dataclasses.field(default_factory=LoadEstimationParams)
     # One-way communication delay (s) between controller and station, in each direction;
     # a whole number of controller periods.
     delay: float = 0.0

@@ -12,16 +12,14 @@ import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import Adder, ConstantVectorSource
+from pydrake.systems.primitives import ConstantVectorSource
 
 from heft.diagrams.load_estimate import LoadEstimate
+from heft.diagrams.online_estimation import AddOnlineLoadEstimator
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
 from heft.diagrams.scenario import ControllerSpec
-from heft.systems.accelerometer_reading import AccelerometerConvention, AccelerometerToMotion
-from heft.systems.estimator_gate import EstimatorGate
-from heft.systems.estimator_prefilter import EstimatorPrefilter
+from heft.systems.accelerometer_reading import AccelerometerConvention
 from heft.systems.feedback_mapping import FeedbackMapping
-from heft.systems.load_estimator_system import LoadEstimatorSystem
 from heft.systems.force_scaling import ForceScalingElimination
 from heft.systems.master_kinematics import MasterKinematics
 from heft.systems.motion_scaling import MotionScaling
@@ -72,8 +70,7 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     optional ``sigma``, ``gamma``, ``eta`` (1 each; unconnected → ``spec.force``'s values),
     ``rezero`` (1, a request counter: ``OffsetTracker``) and, with ``spec.estimator.mode``
     "online", ``estimator_reset`` (1, a request counter: a new load). φ̂ is ``load.phi`` or,
-    online, the load estimator's (Fig. 4; ``EstimatorGate`` decides which samples it takes, after
-    ``EstimatorPrefilter``).
+    online, the load estimator's (``AddOnlineLoadEstimator``).
     Outputs: ``master.torque_commanded`` (6, N·m), ``slave.position_commanded`` (6, rad),
     and the ``CONTROLLER_LOG`` signals. The slave's tool frame T of the motion mapping is S.
     """
@@ -89,18 +86,7 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     feedback = builder.AddNamedSystem("feedback_mapping", FeedbackMapping(spec.feedback, spec.motion.R_RB))
     passivity = builder.AddNamedSystem("passivity", PassivityController(
         spec.passivity, spec.feedback.max_force, spec.feedback.max_torque, period))
-    estimation = spec.estimator
-    estimation.validate()
-    if estimation.mode == "online":
-        to_motion = builder.AddNamedSystem("accelerometer_to_motion",
-                                           AccelerometerToMotion(accelerometer))
-        # φ alone is estimated, from f − ô = c + V·φ̂ (force scaling's outputs): the offsets are
-        # the OffsetTracker's, so the weight cannot trade against the force offsets.
-        phi = builder.AddNamedSystem("phi_hat", LoadEstimatorSystem(
-            method=estimation.method, offsets=False, period=period, forgetting=estimation.forgetting,
-            initial_theta=load.phi))
-        unbiased = builder.AddNamedSystem("wrench_without_offsets", Adder(2, 6))
-        gate = builder.AddNamedSystem("estimator_gate", EstimatorGate(estimation, period))
+    spec.estimator.validate()
     offsets = builder.AddNamedSystem("offsets_hat", OffsetTracker(load.offsets, spec.offsets, period))
 
     def export_input(name, *ports):
@@ -114,36 +100,14 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
                  ik.GetInputPort("position_measured"))
     export_input("slave.velocity_estimated", slave_kinematics.GetInputPort("velocity"),
                  offsets.GetInputPort("slave_velocity"))
-    if estimation.mode == "online":
-        export_input("ft.wrench_measured", force.GetInputPort("wrench"))
-        builder.Connect(force.GetOutputPort("wrench_contact"), unbiased.get_input_port(0))
-        builder.Connect(force.GetOutputPort("wrench_noncontact"), unbiased.get_input_port(1))
-        export_input("ft.acceleration_measured", force.GetInputPort("acceleration"), to_motion.GetInputPort("reading"))
-        export_input("estimator_reset", phi.GetInputPort("reset"), gate.GetInputPort("reset"))
-        builder.Connect(slave_kinematics.GetOutputPort("gravity_S"), to_motion.GetInputPort("gravity"))
-        builder.Connect(slave_kinematics.GetOutputPort("omega_S"), to_motion.GetInputPort("omega"))
-        builder.Connect(to_motion.GetOutputPort("acceleration"), gate.GetInputPort("acceleration"))
-        builder.Connect(slave_kinematics.GetOutputPort("omega_S"), gate.GetInputPort("omega"))
-        estimator_inputs = {"wrench": unbiased.get_output_port(),
-                            "acceleration": to_motion.GetOutputPort("acceleration"),
-                            "omega": slave_kinematics.GetOutputPort("omega_S"),
-                            "gravity": slave_kinematics.GetOutputPort("gravity_S")}
-        if estimation.prefilter > 0:
-            prefilter = builder.AddNamedSystem("estimator_prefilter", EstimatorPrefilter(estimation.prefilter, period))
-            for name, source in estimator_inputs.items():
-                builder.Connect(source, prefilter.GetInputPort(name))
-            estimator_inputs = {name: prefilter.GetOutputPort(name) for name in estimator_inputs}
-        for name, source in estimator_inputs.items():
-            builder.Connect(source, phi.GetInputPort(name))
-        builder.Connect(force.GetOutputPort("wrench_contact"), gate.GetInputPort("wrench_contact"))
-        builder.Connect(force.GetOutputPort("fault"), gate.GetInputPort("fault"))
-        builder.Connect(gate.GetOutputPort("enable"), phi.GetInputPort("enable"))
-        phi_hat = phi.GetOutputPort("phi")
+    export_input("ft.wrench_measured", force.GetInputPort("wrench"))
+    export_input("ft.acceleration_measured", force.GetInputPort("acceleration"))
+    if spec.estimator.mode == "online":
+        phi_hat = AddOnlineLoadEstimator(builder, spec.estimator, load.phi, period, accelerometer, force,
+                                         slave_kinematics)
     else:
         phi_hat = builder.AddNamedSystem(
             "phi_hat", ConstantVectorSource(np.asarray(load.phi, dtype=float))).get_output_port()
-        export_input("ft.wrench_measured", force.GetInputPort("wrench"))
-        export_input("ft.acceleration_measured", force.GetInputPort("acceleration"))
     export_input("clutch", motion.GetInputPort("clutch"))
     for name in ("sigma", "gamma", "eta"):
         export_input(name, force.GetInputPort(name))

@@ -11,10 +11,10 @@ import math
 
 import numpy as np
 
-from .fixed_layout import FixedLayout
-from .lcmtypes import heft_ft_sample
-from .message_checks import RANGE_MARGIN, Rejections
-from .message_order import SourceClock
+from heft.hardware_interface.fixed_layout import FixedLayout
+from heft.hardware_interface.lcmtypes import heft_ft_sample
+from heft.hardware_interface.message_checks import RANGE_MARGIN, Rejections
+from heft.hardware_interface.message_order import SourceClock
 
 
 _LAYOUT = FixedLayout(heft_ft_sample)

@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import math
 
-from .lcmtypes import heft_gripper_state
-from .message_checks import Rejections
-from .message_order import SourceClock
+from heft.hardware_interface.lcmtypes import heft_gripper_state
+from heft.hardware_interface.message_checks import Rejections
+from heft.hardware_interface.message_order import SourceClock
 
 GRASP, RELEASE = "grasp", "release"
 """The events ``GripperStateReader.take`` returns."""

@@ -31,16 +31,16 @@ from drake import lcmt_iiwa_command
 
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
-from .channels import LcmChannels
-from .fixed_layout import FixedLayout
-from .ft_receiver import FtSampleReader
-from .gripper_state_reader import GripperStateReader
-from .joint_state_reader import HAPTIC_STATE, IIWA_STATUS, JointStateReader
-from .lcm_mailbox import LcmMailbox, pump
-from .lcmtypes import heft_haptic_command, heft_station_status
-from .message_checks import REASONS, DeviceLimits, JointRange
-from .message_order import SILENCE_PER_TIMEOUT
-from .watchdog import WatchdogParams, watchdog_step
+from heft.hardware_interface.channels import LcmChannels
+from heft.hardware_interface.fixed_layout import FixedLayout
+from heft.hardware_interface.ft_receiver import FtSampleReader
+from heft.hardware_interface.gripper_state_reader import GripperStateReader
+from heft.hardware_interface.joint_state_reader import HAPTIC_STATE, IIWA_STATUS, JointStateReader
+from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
+from heft.hardware_interface.lcmtypes import heft_haptic_command, heft_station_status
+from heft.hardware_interface.message_checks import REASONS, DeviceLimits, JointRange
+from heft.hardware_interface.message_order import SILENCE_PER_TIMEOUT
+from heft.hardware_interface.watchdog import WatchdogParams, watchdog_step
 
 WATCHED_CHANNELS = ("master_state", "slave_status", "ft_sample")
 """Channels the watchdog watches; channel i is bit i of the fault bitmask (stale), bit 3 a

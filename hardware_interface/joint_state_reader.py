@@ -15,10 +15,10 @@ from drake import lcmt_iiwa_status
 
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
-from .fixed_layout import FixedLayout
-from .lcmtypes import heft_haptic_state
-from .message_checks import JointRange, Rejections
-from .message_order import LATE_TOLERANCE, SourceClock
+from heft.hardware_interface.fixed_layout import FixedLayout
+from heft.hardware_interface.lcmtypes import heft_haptic_state
+from heft.hardware_interface.message_checks import JointRange, Rejections
+from heft.hardware_interface.message_order import LATE_TOLERANCE, SourceClock
 
 
 class JointStateFields:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import lcm
 
-from .channels import LcmChannels
+from heft.hardware_interface.channels import LcmChannels
 
 
 LCM_QUEUE = 1000

@@ -22,11 +22,11 @@ from heft.systems.accelerometer_reading import bias_at_rest
 from heft.systems.load_dynamics import checked_load
 from heft.systems.offset_tracking import COLLECTING, DONE, STATUS_TEXT
 
-from .gripper_state_reader import GRASP
+from heft.hardware_interface.gripper_state_reader import GRASP
 
-from .channels import LcmChannels
-from .lcm_mailbox import LcmMailbox, open_buses
-from .lcmtypes import heft_load_command, heft_load_status
+from heft.hardware_interface.channels import LcmChannels
+from heft.hardware_interface.lcm_mailbox import LcmMailbox, open_buses
+from heft.hardware_interface.lcmtypes import heft_load_command, heft_load_status
 
 ACTIONS = {"rezero": heft_load_command.REZERO, "tracking_on": heft_load_command.TRACKING_ON,
            "tracking_off": heft_load_command.TRACKING_OFF, "new_estimate": heft_load_command.NEW_ESTIMATE,

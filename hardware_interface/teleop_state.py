@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import lcm
 
-from .channels import LcmChannels
-from .fixed_layout import FixedLayout
-from .lcmtypes import heft_teleop_state
+from heft.hardware_interface.channels import LcmChannels
+from heft.hardware_interface.fixed_layout import FixedLayout
+from heft.hardware_interface.lcmtypes import heft_teleop_state
 
 
 class TeleopStatePublisher:

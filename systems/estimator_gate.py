@@ -7,9 +7,9 @@ taken when
 * excitation: ‖V(a, α, ω, 0)‖ (the regressor of Eq. 5 without its static part,
   a the kinematic acceleration) reaches ``min_excitation``: at rest or in slow
   motion only gravity's direction is seen, which the stabilized forgetting of
-  ``estimators`` already holds; and
+  ``recursive_estimation`` already holds; and
 * no contact: the eliminated wrench c (Eq. 13, from force scaling) is within
-  ``contact_force``/``contact_torque``, except during ``learning_window`` s
+  ``contact`` (``ContactThresholdParams``), except during ``learning_window`` s
   after a reset (a new load), when c holds the not yet learned load itself,
 * force scaling is not faulted, and
 * no contact or fault for 2/``prefilter`` s before: the estimator's prefilter
@@ -19,66 +19,13 @@ taken when
 Units: m/s², rad/s², rad/s for the motion, N and N·m for the wrench; all in S.
 """
 
-import dataclasses
 import math
 
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from .load_dynamics import regressor, wrench_norms
-
-ESTIMATOR_MODES = ("fixed", "online")
-ONLINE_METHODS = ("rls",)
-
-
-@dataclasses.dataclass
-class EstimatorSpec:
-    """The load estimate the controller uses: ``fixed`` (the estimate file's φ̂) or ``online``
-    (``method`` updating φ̂ every tick while ``EstimatorGate`` allows, starting from the
-    estimate file's and, on a new load, forgetting the data but keeping the estimate)."""
-
-    mode: str = "fixed"
-    method: str = "rls"
-    forgetting: float = 0.9995
-    """λ per tick: a memory of 1/(1 − λ) = 2000 ticks, 1 s at 2 kHz."""
-
-    min_excitation: float = 2.0
-    """Least ‖V(a, α, ω, 0)‖ (Frobenius; m/s², rad/s², rad²/s² mixed) of a sample taken."""
-
-    contact_force: float = 2.0
-    """|c_f| (N) above which a sample counts as contact."""
-
-    contact_torque: float = 0.2
-    """|c_τ| (N·m) above which a sample counts as contact."""
-
-    learning_window: float = 1.5
-    """Time (s) after a reset during which contact is not judged (the new load is learned)."""
-
-    new_load_wait: float = 0.0
-    """Time (s) after a reset before a sample is taken: the prefilter still carries the old load
-    for some 2/``prefilter`` s, and a load that lands on a compliant mount rings meanwhile; 0
-    learns at once (the simulation's grasp, made at rest, learns fastest so)."""
-
-    prefilter: float = 10.0
-    """Cut-off (Hz) of the low-pass on both sides of W = V·φ before the estimator
-    (``EstimatorPrefilter``): below the load's mount modes and above the operator's motion;
-    0: none. The gate judges the unfiltered samples."""
-
-    def validate(self) -> None:
-        if self.mode not in ESTIMATOR_MODES:
-            raise ValueError(f"estimator mode must be one of {ESTIMATOR_MODES}; got {self.mode!r}")
-        if self.method not in ONLINE_METHODS:
-            raise ValueError(f"online estimator method must be one of {ONLINE_METHODS}: it starts from the "
-                             f"estimate and keeps it as the prior on a new load (RIV would need encoder-derived "
-                             f"instruments, RTLS a prior mean); got {self.method!r}")
-        if not 0.5 <= self.forgetting <= 1.0:
-            raise ValueError(f"estimator forgetting must lie in [0.5, 1]; got {self.forgetting}")
-        for name in ("min_excitation", "contact_force", "contact_torque", "learning_window", "new_load_wait",
-                     "prefilter"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0):
-                raise ValueError(f"estimator {name} must be finite and >= 0; got {value}")
-
+from heft.systems.load_dynamics import regressor, wrench_norms
+from heft.systems.load_estimation_params import LoadEstimationParams
 
 _ZERO = np.zeros(3)
 
@@ -88,24 +35,23 @@ def excitation(acceleration, omega) -> float:
     return float(np.linalg.norm(regressor(acceleration[:3], acceleration[3:], omega, _ZERO)))
 
 
-def spoiled(spec: EstimatorSpec, contact, fault: bool, since_reset: float) -> bool:
+def spoiled(params: LoadEstimationParams, contact, fault: bool, since_reset: float) -> bool:
     """Whether this sample holds a fault, or contact (judged only ``learning_window`` s after a
     reset; ``since_reset`` in s): the estimator must not learn from it or its filtered echo."""
     if fault:
         return True
-    if since_reset < spec.learning_window:
+    if since_reset < params.learning_window:
         return False
-    force, torque = wrench_norms(contact.tolist())
-    return force > spec.contact_force or torque > spec.contact_torque
+    return params.contact.exceeded(*wrench_norms(contact.tolist()))
 
 
-def gate_open(spec: EstimatorSpec, acceleration, omega, contact, fault: bool, since_reset: float,
+def gate_open(params: LoadEstimationParams, acceleration, omega, contact, fault: bool, since_reset: float,
               since_spoiled: float = math.inf) -> bool:
     """Whether this sample may update the estimator (module docstring); ``since_reset`` and
     ``since_spoiled`` (the time since the last ``spoiled`` sample) in s."""
-    hold = 2.0 / spec.prefilter if spec.prefilter > 0 else 0.0
-    return (not spoiled(spec, contact, fault, since_reset) and since_spoiled >= hold
-            and since_reset >= spec.new_load_wait and excitation(acceleration, omega) >= spec.min_excitation)
+    hold = 2.0 / params.prefilter if params.prefilter > 0 else 0.0
+    return (not spoiled(params, contact, fault, since_reset) and since_spoiled >= hold
+            and since_reset >= params.new_load_wait and excitation(acceleration, omega) >= params.min_excitation)
 
 
 CLOCKS_START = (0.0, 0.0, math.inf)
@@ -122,12 +68,12 @@ def clocks_now(clocks, requests: float) -> tuple[float, float, float]:
     return since_reset, seen, since_spoiled
 
 
-def advance_clocks(out, spec: EstimatorSpec, now: tuple[float, float, float], contact, fault: bool,
+def advance_clocks(out, params: LoadEstimationParams, now: tuple[float, float, float], contact, fault: bool,
                    dt: float) -> None:
     """The clocks after this sample into ``out`` (3): ``now`` (``clocks_now``) advanced by ``dt`` s,
     the time since a spoiled sample restarted if this one is (``spoiled``)."""
     since_reset, seen, since_spoiled = now
-    if spoiled(spec, contact, fault, since_reset):
+    if spoiled(params, contact, fault, since_reset):
         since_spoiled = 0.0
     out[0], out[1], out[2] = since_reset + dt, seen, since_spoiled + dt
 
@@ -141,10 +87,10 @@ class EstimatorGate(LeafSystem):
     the time since the last spoiled sample (s), advanced every ``period`` s.
     """
 
-    def __init__(self, spec: EstimatorSpec, period: float):
+    def __init__(self, params: LoadEstimationParams, period: float):
         super().__init__()
-        spec.validate()
-        self._spec, self._period = spec, period
+        params.validate()
+        self._params, self._period = params, period
         self._acceleration = self.DeclareVectorInputPort("acceleration", 6)
         self._omega = self.DeclareVectorInputPort("omega", 3)
         self._contact = self.DeclareVectorInputPort("wrench_contact", 6)
@@ -162,12 +108,12 @@ class EstimatorGate(LeafSystem):
 
     def _calc_enable(self, context, output):
         since_reset, _, since_spoiled = self._clocks(context)
-        open_ = gate_open(self._spec, self._acceleration.Eval(context), self._omega.Eval(context),
+        open_ = gate_open(self._params, self._acceleration.Eval(context), self._omega.Eval(context),
                           self._contact.Eval(context), self._fault.Eval(context)[0] > 0.5, since_reset,
                           since_spoiled)
         output.SetAtIndex(0, 1.0 if open_ else 0.0)
 
     def _update(self, context, discrete_state):
-        advance_clocks(discrete_state.get_mutable_vector(self._clock).get_mutable_value(), self._spec,
+        advance_clocks(discrete_state.get_mutable_vector(self._clock).get_mutable_value(), self._params,
                        self._clocks(context), self._contact.Eval(context), self._fault.Eval(context)[0] > 0.5,
                        self._period)

@@ -14,8 +14,8 @@ import math
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from .sample_period import require_period
-from .sensor_models import lowpass_coefficients
+from heft.systems.sample_period import require_period
+from heft.systems.sensor_models import lowpass_coefficients
 
 # The signals filtered, in the order of the state's columns: name, size.
 SIGNALS = (("wrench", 6), ("acceleration", 6), ("omega", 3), ("gravity", 3))

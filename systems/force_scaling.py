@@ -34,10 +34,11 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem, ValueProducer
 from scipy.signal import iirnotch, lfilter_zi
 
-from .accelerometer_reading import AT_S, AccelerometerConvention, kernel_convention, motion_from_reading_into
-from .compiled import compiled, float_array
-from .load_dynamics import regressor_into
-from .sample_period import DEFAULT_PERIOD, require_period
+from heft.systems.accelerometer_reading import (
+    AT_S, AccelerometerConvention, kernel_convention, motion_from_reading_into)
+from heft.systems.compiled import compiled, float_array
+from heft.systems.load_dynamics import regressor_into
+from heft.systems.sample_period import DEFAULT_PERIOD, require_period
 
 
 @dataclasses.dataclass

@@ -28,6 +28,7 @@ GRAVITY_W = (0.0, 0.0, -9.81)
 
 PHI_NAMES = ("m", "m*cx", "m*cy", "m*cz", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz")
 OFFSET_NAMES = ("fx_o", "fy_o", "fz_o", "tx_o", "ty_o", "tz_o")
+PARAMETER_NAMES = OFFSET_NAMES + PHI_NAMES  # the unknowns θ = [offsets; φ] of Eq. 7, in order
 
 # Rows of the symmetric inertia matrix as indices into the 6 inertia entries
 # [Ixx, Ixy, Ixz, Iyy, Iyz, Izz] of phi.
@@ -137,7 +138,11 @@ def regressor_into(a, alpha, omega, g, V) -> None:
 
 def regressor_with_offsets(a, alpha, omega, g) -> np.ndarray:
     """The extended matrix [E₆ V] of Eq. 8, (6, 16) or (N, 6, 16); unknowns as Eq. 7."""
-    V = regressor(a, alpha, omega, g)
+    return with_offsets(regressor(a, alpha, omega, g))
+
+
+def with_offsets(V: np.ndarray) -> np.ndarray:
+    """[E₆ V] (6, 16) or (N, 6, 16) of a regressor V (6, 10) or (N, 6, 10) already computed."""
     out = np.zeros(V.shape[:-1] + (16,))
     out[..., :, :6] = np.eye(6)
     out[..., :, 6:] = V

@@ -8,8 +8,9 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus, LeafSystem, ValueProducer
 
-from heft.systems.estimators import (
-    NoiseLevels, RecursiveInstrumentalVariables, RecursiveLeastSquares, RecursiveTotalLeastSquares)
+from heft.systems.recursive_estimation import (
+    RecursiveInstrumentalVariables, RecursiveLeastSquares, RecursiveTotalLeastSquares)
+from heft.systems.regression_noise import NoiseLevels
 
 ESTIMATORS = {
     "rls": RecursiveLeastSquares,
@@ -43,9 +44,9 @@ class LoadEstimatorSystem(LeafSystem):
     estimator never closes an algebraic loop): phi (10); offsets (6) [f_o; τ_o], zeros when
     not estimated; quality (5), see ``QUALITY_NAMES``.
 
-    ``method`` is "rls", "riv" or "rtls" (``estimators.Recursive*``); ``initial_theta`` (RLS
+    ``method`` is "rls", "riv" or "rtls" (``recursive_estimation.Recursive*``); ``initial_theta`` (RLS
     only) the estimate it starts from, [offsets; φ] (or φ); ``forgetting``,
-    ``noise`` (``estimators.NoiseLevels``, None for its defaults) and ``offsets`` go to the
+    ``noise`` (``regression_noise.NoiseLevels``, None for its defaults) and ``offsets`` go to the
     estimator, and so do ``estimator_options``
     (``initial_covariance`` for rls/riv, ``prior_weight`` for rtls, ``rcond``). The
     estimator's state is the discrete state vector [estimator.state_vector(), num_skipped,

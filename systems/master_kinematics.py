@@ -8,10 +8,7 @@ wrench applied at E's origin, expressed in B.
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
-from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import LeafSystem
 
@@ -22,15 +19,6 @@ NUM_JOINTS = 6
 JACOBIAN_SIZE = 6 * NUM_JOINTS
 BASE_FRAME = "phantom_base"
 STYLUS_FRAME = "stylus"
-
-
-def master_plant(urdf_path: str | os.PathLike) -> MultibodyPlant:
-    """A finalized continuous plant of the master URDF with its base frame welded to the world."""
-    plant = MultibodyPlant(time_step=0.0)
-    Parser(plant).AddModels(os.fspath(urdf_path))
-    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(BASE_FRAME))
-    plant.Finalize()
-    return plant
 
 
 def master_pose(chain: SerialChain) -> np.ndarray:
@@ -44,9 +32,9 @@ class MasterKinematics(LeafSystem):
     """Input ``position`` q_M (6, rad) → outputs ``pose_BE`` (7: [p_BE (m); quaternion
     w, x, y, z]) and ``jacobian`` (36: J_M row-major, rows [v_E; ω_E] in B, columns q̇_M).
 
-    ``model`` is a finalized MultibodyPlant holding the frames ``phantom_base`` (B) and
-    ``stylus`` (E) and exactly 6 positions (e.g. the station's master plant), or the
-    path of the Phantom URDF, from which the system builds its own plant.
+    ``plant`` is a finalized MultibodyPlant holding the frames ``phantom_base`` (B) and
+    ``stylus`` (E) and exactly 6 positions (``diagrams.plants.MakeMasterPlant``, or the
+    station's master plant).
 
     ``period`` None: outputs are computed from the input (direct feedthrough from
     ``position`` only). ``period`` T > 0: q_M is sampled at initialization and every T
@@ -54,9 +42,8 @@ class MasterKinematics(LeafSystem):
     sampled haptic loop would hold them.
     """
 
-    def __init__(self, model: MultibodyPlant | str | os.PathLike, period: float | None = None):
+    def __init__(self, plant: MultibodyPlant, period: float | None = None):
         super().__init__()
-        plant = model if isinstance(model, MultibodyPlant) else master_plant(model)
         if not plant.is_finalized():
             raise ValueError("MasterKinematics needs a finalized plant")
         if plant.num_positions() != NUM_JOINTS or plant.num_velocities() != NUM_JOINTS:

@@ -10,7 +10,7 @@ noise, so there c + o = f − V·φ̂ measures the offsets. Two ways to use it:
   contact (|c| beyond ``rezero_force``/``rezero_torque``: larger than any drift),
   or a sample is faulted.
 * Tracking (optional, on by default): at rest and out of contact (|c| within
-  ``track_force``/``track_torque``), o moves toward c + o with time constant
+  ``contact``, ``ContactThresholdParams``), o moves toward c + o with time constant
   ``time_constant``, by at most ``max_force_rate``/``max_torque_rate`` per second
   (so a light contact held still leaks into o at that rate at most).
 
@@ -27,7 +27,8 @@ import math
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from .load_dynamics import wrench_norms
+from heft.systems.contact_threshold import ContactThresholdParams
+from heft.systems.load_dynamics import wrench_norms
 
 # Layout of the state: offsets, the re-zero window's sum of (c + o)·dt and its length (s),
 # the re-zero status, tracking on (1) or off (0), the last re-zero request counter seen.
@@ -64,11 +65,8 @@ class OffsetTrackingParams:
     max_torque_rate: float = 0.002
     """Largest tracking step of each torque offset (N·m/s)."""
 
-    track_force: float = 2.0
-    """|c_f| (N) above which tracking pauses: contact, or a φ̂ that no longer fits."""
-
-    track_torque: float = 0.2
-    """|c_τ| (N·m) above which tracking pauses."""
+    contact: ContactThresholdParams = dataclasses.field(default_factory=ContactThresholdParams)
+    """|c| beyond which tracking pauses: contact, or a φ̂ that no longer fits."""
 
     rezero_window: float = 0.5
     """Length (s) of the re-zero average."""
@@ -83,11 +81,13 @@ class OffsetTrackingParams:
     """Every slave joint below this speed (rad/s) counts as at rest."""
 
     def validate(self) -> None:
-        """Raises ValueError naming the first field that is not finite and > 0."""
+        """Raises ValueError naming the first field that is not finite and > 0 (the contact
+        thresholds: >= 0)."""
         for field in dataclasses.fields(self):
             value = getattr(self, field.name)
-            if field.name != "tracking" and not (math.isfinite(value) and value > 0):
+            if field.name not in ("tracking", "contact") and not (math.isfinite(value) and value > 0):
                 raise ValueError(f"offset tracking: {field.name} must be finite and > 0; got {value}")
+        self.contact.validate("offsets")
 
 
 def initial_state(offsets, params: OffsetTrackingParams) -> np.ndarray:
@@ -131,8 +131,7 @@ def offsets_update(state: np.ndarray, contact, fault: bool, slave_velocity, dt: 
                 state[OFFSETS] = state[WINDOW_SUM] / state[WINDOW_TIME]
                 state[STATUS] = DONE
         return
-    if (state[TRACKING] > 0.5 and not fault and at_rest and force <= params.track_force
-            and torque <= params.track_torque):
+    if state[TRACKING] > 0.5 and not fault and at_rest and not params.contact.exceeded(force, torque):
         gain = dt / params.time_constant
         for i in range(6):
             step = (params.max_force_rate if i < 3 else params.max_torque_rate) * dt

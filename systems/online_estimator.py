@@ -5,7 +5,7 @@ The per-block Diagram (``diagrams.teleop.MakeTeleopController`` with
 ``EstimatorGate``, ``EstimatorPrefilter`` and ``LoadEstimatorSystem`` (RLS, φ alone).
 ``OnlineLoadEstimator.step`` does what they do in one tick, calling the same cores
 (``estimator_gate.gate_open``/``clocks_now``/``advance_clocks``,
-``estimator_prefilter.prefilter_step``, ``estimators.RecursiveLeastSquares``), in the
+``estimator_prefilter.prefilter_step``, ``recursive_estimation.RecursiveLeastSquares``), in the
 order a Diagram's discrete update sees them: the gate decides from this tick's
 samples and the clocks before them, the estimator learns from the prefilter's output
 of the last tick, then the prefilter takes this tick's sample. All state is
@@ -18,9 +18,10 @@ import math
 
 import numpy as np
 
-from .estimator_gate import CLOCKS_START, EstimatorSpec, advance_clocks, clocks_now, gate_open
-from .estimator_prefilter import STATE_SIZE, WIDTH, prefilter_coefficients, prefilter_step
-from .estimators import RecursiveLeastSquares
+from heft.systems.estimator_gate import CLOCKS_START, advance_clocks, clocks_now, gate_open
+from heft.systems.load_estimation_params import LoadEstimationParams
+from heft.systems.estimator_prefilter import STATE_SIZE, WIDTH, prefilter_coefficients, prefilter_step
+from heft.systems.recursive_estimation import RecursiveLeastSquares
 
 # Where the prefilter's sample and output hold each signal (``estimator_prefilter.SIGNALS``).
 _WRENCH, _A, _ALPHA, _OMEGA, _GRAVITY = slice(0, 6), slice(6, 9), slice(9, 12), slice(12, 15), slice(15, 18)
@@ -29,7 +30,7 @@ _WRENCH, _A, _ALPHA, _OMEGA, _GRAVITY = slice(0, 6), slice(6, 9), slice(9, 12), 
 class OnlineLoadEstimator:
     """φ̂ (10; Eq. 6) learned from f − ô = c + V·φ̂ while ``EstimatorGate``'s rule allows (module
     docstring), starting from ``phi``, for a controller of nominal ``period`` (s; the prefilter's
-    design). ``spec`` is ``controller.estimator``; its method must be RLS (``EstimatorSpec``).
+    design). ``params`` is ``controller.estimator``; its method must be RLS (``LoadEstimationParams``).
 
     ``new_load()`` (the grasp, a release, a new tool) forgets the data at the next step but keeps
     the estimate as the prior, and reopens the gate's learning window; ``start_from(phi)`` does the
@@ -37,15 +38,15 @@ class OnlineLoadEstimator:
     was taken), ``num_skipped`` (enabled ticks whose filtered inputs were not finite: the
     prefilter's first tick, or a restart after a fault), ``since_reset`` (s)."""
 
-    def __init__(self, spec: EstimatorSpec, phi, period: float):
-        spec.validate()
-        if spec.mode != "online":
-            raise ValueError(f"OnlineLoadEstimator needs controller.estimator.mode 'online'; got {spec.mode!r}")
-        self._spec = spec
-        self._rls = RecursiveLeastSquares(offsets=False, forgetting=spec.forgetting)  # as LoadEstimatorSystem's
+    def __init__(self, params: LoadEstimationParams, phi, period: float):
+        params.validate()
+        if params.mode != "online":
+            raise ValueError(f"OnlineLoadEstimator needs controller.estimator.mode 'online'; got {params.mode!r}")
+        self._params = params
+        self._rls = RecursiveLeastSquares(offsets=False, forgetting=params.forgetting)  # as LoadEstimatorSystem's
         self._rls.start_from(phi)
         self.phi = self._rls.phi
-        self._coefficients = prefilter_coefficients(spec.prefilter, period) if spec.prefilter > 0 else None
+        self._coefficients = prefilter_coefficients(params.prefilter, period) if params.prefilter > 0 else None
         self._filter = np.full(STATE_SIZE, np.nan)
         self._sample = np.empty(WIDTH)
         self._scratch = np.empty(WIDTH)
@@ -61,8 +62,8 @@ class OnlineLoadEstimator:
 
     @property
     def learning_window(self) -> float:
-        """s after a new load during which contact does not close the gate (``EstimatorSpec``)."""
-        return self._spec.learning_window
+        """s after a new load during which contact does not close the gate (``LoadEstimationParams``)."""
+        return self._params.learning_window
 
     @property
     def num_samples(self) -> int:
@@ -88,13 +89,13 @@ class OnlineLoadEstimator:
         """One tick of ``dt`` s: force scaling's ``contact`` c and ``noncontact`` V·φ̂ (6 each: their sum
         is f − ô) and ``fault``, S's kinematic ``acceleration`` [a; α] (6; ``motion_from_reading``),
         ``omega`` and ``gravity`` (3 each), all in S."""
-        spec, sample = self._spec, self._sample
+        params, sample = self._params, self._sample
         now = clocks_now(self._clocks, self._requests)
-        self.enabled = gate_open(spec, acceleration, omega, contact, fault, now[0], now[2])
+        self.enabled = gate_open(params, acceleration, omega, contact, fault, now[0], now[2])
         rls = self._rls
         if now[1] > self._clocks[1]:  # a new load: forget the data before this sample
             rls.start_from(self.phi)
-        advance_clocks(self._clocks, spec, now, contact, fault, dt)
+        advance_clocks(self._clocks, params, now, contact, fault, dt)
         np.add(contact, noncontact, out=sample[_WRENCH])
         sample[6:12] = acceleration
         sample[_OMEGA] = omega

@@ -28,7 +28,7 @@ from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
 
 from heft.systems.accelerometer_reading import AccelerometerConvention, motion_from_reading
-from heft.systems.estimator_gate import EstimatorSpec
+from heft.systems.load_estimation_params import LoadEstimationParams as EstimatorSpec
 from heft.systems.compiled import float_array
 from heft.systems.feedback_mapping import FeedbackMappingParams, rendered_wrench_into
 from heft.systems.force_scaling import (

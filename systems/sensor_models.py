@@ -46,7 +46,7 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 from scipy.signal import butter, lfilter_zi
 
-from .accelerometer_reading import AccelerometerConvention
+from heft.systems.accelerometer_reading import AccelerometerConvention
 from heft.systems.compiled import compiled, float_array
 
 NUM_AXES = 6

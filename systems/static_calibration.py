@@ -5,7 +5,7 @@ accelerometer's readings, its calibration too (``accelerometer_calibration``).
 
 Plain numpy, no Drake types; conventions of ``load_dynamics`` (docs/design.md §4). At rest a = α = ω = 0
 and Eq. 5 keeps f = o_f − m·g and τ = o_τ − (m·c) × g: the 6 offsets, m and m·c are linear in the
-poses' wrenches, and the estimate is ``estimators.batch_estimate`` with the motion at zero. The
+poses' wrenches, and the estimate is ``batch_estimation.batch_estimate`` with the motion at zero. The
 inertia never enters (reported unidentifiable); ``point_mass_phi`` completes φ with the inertia of a
 point mass at the centre of mass so that the controller can load it.
 """
@@ -15,7 +15,7 @@ import dataclasses
 import numpy as np
 
 from heft.systems.accelerometer_calibration import GravityFit, fit_to_gravity
-from heft.systems.estimators import Estimate, batch_estimate
+from heft.systems.batch_estimation import Estimate, batch_estimate
 from heft.systems.load_dynamics import OFFSET_NAMES, PHI_NAMES
 
 STATIC_NAMES = OFFSET_NAMES + PHI_NAMES[:4]

@@ -10,9 +10,11 @@ import pytest
 
 from pydrake.systems.analysis import Simulator
 
-from heft.systems.estimator_gate import EstimatorGate, EstimatorSpec, excitation, gate_open
+from heft.systems.contact_threshold import ContactThresholdParams
+from heft.systems.estimator_gate import EstimatorGate, excitation, gate_open
+from heft.systems.load_estimation_params import LoadEstimationParams
 
-SPEC = EstimatorSpec()
+SPEC = LoadEstimationParams()
 MOVING = np.array([3.0, 0.0, 0.0, 0.0, 0.0, 0.0])  # m/s² along x, no rotation
 STILL = np.zeros(6)
 FREE, PUSHED, TWISTED = np.zeros(6), np.array([0, 0, 2.5, 0, 0, 0.0]), np.array([0, 0, 0, 0.25, 0, 0.0])
@@ -59,6 +61,7 @@ def test_after_contact_the_gate_waits_for_the_prefilter_to_forget_it():
 
 def test_bad_settings_are_named():
     for field, value, message in (("mode", "kalman", "mode"), ("method", "riv", "instruments"),
-                                  ("forgetting", 1.5, "forgetting"), ("contact_force", -1.0, "contact_force")):
+                                  ("forgetting", 1.5, "forgetting"),
+                                  ("contact", ContactThresholdParams(force=-1.0), "estimator.contact.force")):
         with pytest.raises(ValueError, match=message):
             dataclasses.replace(SPEC, **{field: value}).validate()

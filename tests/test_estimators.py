@@ -1,5 +1,5 @@
 """Estimators against independent references: the true load, Drake's simulated wrench,
-scipy's least squares, closed-form IV, Monte Carlo spread, point-mass pseudo-inertias."""
+scipy's least squares, closed-form IV, Monte Carlo spread."""
 
 import copy
 
@@ -9,10 +9,11 @@ import scipy.linalg
 
 from heft.analysis.bench_identify import cramer_rao_bound
 from heft.diagrams.stations.load_on_sensor import simulate_random_motion
-from heft.systems.estimators import (
-    PARAMETER_NAMES, NoiseLevels, RecursiveInstrumentalVariables, RecursiveLeastSquares,
-    RecursiveTotalLeastSquares, batch_estimate, phi_from_pseudo_inertia, project_to_physical, stack)
-from heft.systems.load_dynamics import PHI_NAMES, InertialParameters, pseudo_inertia, regressor
+from heft.systems.batch_estimation import batch_estimate, stack
+from heft.systems.load_dynamics import PARAMETER_NAMES, PHI_NAMES, InertialParameters, regressor
+from heft.systems.recursive_estimation import (
+    RecursiveInstrumentalVariables, RecursiveLeastSquares, RecursiveTotalLeastSquares)
+from heft.systems.regression_noise import NoiseLevels
 
 RECURSIVE = (RecursiveLeastSquares, RecursiveInstrumentalVariables, RecursiveTotalLeastSquares)
 WRENCH_NOISE = np.repeat([0.1, 0.005], 3)  # N, N·m: docs/design.md §6
@@ -482,52 +483,6 @@ def test_rls_with_forgetting_stays_sound_over_200k_samples_with_idle_stretches()
     assert rls.num_samples == 200_000
 
 
-# --- physical consistency ---------------------------------------------------------------
-
-def test_pseudo_inertia_equals_the_point_mass_sum():
-    """J = Σ mᵢ [rᵢ; 1][rᵢ; 1]ᵀ for a cloud of point masses, whose φ is summed directly."""
-    rng = np.random.default_rng(22)
-    masses, points = rng.uniform(0.1, 1.0, 20), rng.normal(scale=0.1, size=(20, 3))
-    inertia = sum(m * (p @ p * np.eye(3) - np.outer(p, p)) for m, p in zip(masses, points))
-    phi = np.concatenate(([masses.sum()], masses @ points, inertia[np.triu_indices(3)]))
-    homogeneous = np.column_stack((points, np.ones(20)))
-    expected = (homogeneous * masses[:, None]).T @ homogeneous
-    np.testing.assert_allclose(pseudo_inertia(phi), expected, atol=1e-14)
-    np.testing.assert_allclose(phi_from_pseudo_inertia(expected), phi, atol=1e-14)
-
-
-def test_projection_leaves_physical_loads_unchanged_and_repairs_others():
-    rng = np.random.default_rng(23)
-    for _ in range(100):
-        phi = InertialParameters.random(rng).to_phi()
-        np.testing.assert_allclose(project_to_physical(phi), phi, rtol=0, atol=1e-12)
-        broken = phi + rng.normal(size=10) * np.r_[1.0, [0.1] * 3, [0.02] * 6]
-        repaired = project_to_physical(broken)
-        assert InertialParameters.from_phi(repaired).violations() == []
-    # a massless, inside-out "body": all of J's eigenvalues negative
-    repaired = project_to_physical(-np.array([1.0, 0, 0, 0, 1, 0, 0, 1, 0, 1]))
-    assert InertialParameters.from_phi(repaired).violations() == []
-
-
-def test_projection_is_nearest_in_the_scaled_pseudo_inertia_metric():
-    """No physical candidate near the projection is closer to the input (‖L(J' − J)L‖_F)."""
-    rng = np.random.default_rng(24)
-    ell = 0.1
-    L = np.diag([1 / ell] * 3 + [1.0])
-    phi = InertialParameters.random(rng).to_phi() + rng.normal(size=10) * np.r_[0.5, [0.05] * 3, [0.01] * 6]
-    assert InertialParameters.from_phi(phi).violations() or phi[0] <= 0
-    projected = project_to_physical(phi, length_scale=ell)
-
-    def distance(candidate):
-        return np.linalg.norm(L @ (pseudo_inertia(candidate) - pseudo_inertia(phi)) @ L)
-
-    best = distance(projected)
-    for _ in range(2000):
-        candidate = projected + rng.normal(size=10) * 1e-3 * np.abs(projected).max()
-        if np.linalg.eigvalsh(L @ pseudo_inertia(candidate) @ L).min() >= 0:
-            assert distance(candidate) >= best * (1 - 1e-9)
-
-
 # --- bad input ----------------------------------------------------------------------------
 
 def test_batch_estimate_rejects_bad_input_naming_the_argument():
@@ -588,7 +543,7 @@ def test_recursive_update_rejects_bad_samples_and_keeps_its_state():
 
 
 def test_feed_runs_every_sample_and_requires_instruments_for_riv():
-    from heft.systems.estimators import feed
+    from heft.systems.recursive_estimation import feed
     rng = np.random.default_rng(11)
     signals = [rng.normal(size=(50, 3)) for _ in range(4)]
     wrench = rng.normal(size=(50, 6))

@@ -15,6 +15,7 @@ from scipy.spatial.transform import Rotation
 
 from heft.diagrams.models import model_path
 from heft.systems.feedback_mapping import FeedbackMapping, FeedbackMappingParams
+from heft.diagrams.plants import MakeMasterPlant
 from heft.systems.master_kinematics import MasterKinematics
 
 URDF = model_path("phantom_premium_6dof.urdf")
@@ -34,7 +35,7 @@ def sensor_on_load(f_R=np.zeros(3), tau_R=np.zeros(3)) -> np.ndarray:
 def loop():
     """q_M → MasterKinematics → jacobian → FeedbackMapping, built once; inputs exported."""
     builder = DiagramBuilder()
-    kinematics = builder.AddSystem(MasterKinematics(URDF))
+    kinematics = builder.AddSystem(MasterKinematics(MakeMasterPlant()))
     mapping = builder.AddSystem(FeedbackMapping())
     builder.Connect(kinematics.GetOutputPort("jacobian"), mapping.GetInputPort("jacobian"))
     builder.ExportInput(kinematics.get_input_port(), "q_M")

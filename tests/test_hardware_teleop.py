@@ -10,7 +10,6 @@ import pytest
 from pydrake.multibody.plant import MultibodyPlant
 from scipy.spatial.transform import Rotation
 
-from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario, layered, overrides_text
 from heft.diagrams.plants import AddArmWithSensor
 from heft.diagrams.scenario import resolve_scenario
@@ -25,7 +24,8 @@ from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.load_dynamics import InertialParameters
 from heft.systems.offset_tracking import DONE, REFUSED_MOVING
 from drake_reference import stylus_jacobian
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant
+from heft.diagrams.plants import MakeMasterPlant
+from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 
 PERIOD = 0.0005
 TIMEOUT = HardwareStationParams().watchdog.timeout
@@ -76,7 +76,7 @@ def sensor_position(q) -> np.ndarray:
 
 
 def stylus_position(q) -> np.ndarray:
-    plant = master_plant(model_path("phantom_premium_6dof.urdf"))
+    plant = MakeMasterPlant()
     context = plant.CreateDefaultContext()
     plant.SetPositions(context, q)
     return plant.CalcRelativeTransform(context, plant.GetFrameByName(BASE_FRAME),
@@ -281,7 +281,7 @@ def test_master_command_within_device_limits_under_faults():
     lab.run(1.0)
     assert np.all(np.isfinite(lab.torques)) and lab.teleop.torque_finite
     # The wrench on the hand each sent torque renders, τ_M = J_Mᵀ·[f; τ], with Drake's Jacobian.
-    plant = master_plant(model_path("phantom_premium_6dof.urdf"))
+    plant = MakeMasterPlant()
     context = plant.CreateDefaultContext()
     forces, torques = [], []
     for q, tau in zip(lab.master_q[::10], lab.torques[::10]):

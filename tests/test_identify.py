@@ -116,7 +116,7 @@ def test_a_method_that_refuses_the_data_leaves_the_others_their_estimates():
     from test_estimators import smooth_record
 
     from heft.diagrams.identify import estimate_all
-    from heft.systems.estimators import NoiseLevels
+    from heft.systems.regression_noise import NoiseLevels
     from heft.systems.load_dynamics import regressor
 
     rng = np.random.default_rng(5)

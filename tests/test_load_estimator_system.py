@@ -11,7 +11,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Adder, Demultiplexer, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from heft.systems.estimators import RecursiveLeastSquares
+from heft.systems.recursive_estimation import RecursiveLeastSquares
 from heft.systems.load_dynamics import InertialParameters, regressor
 from heft.systems.load_estimator_system import ESTIMATORS, QUALITY_NAMES, LoadEstimatorSystem
 

@@ -15,6 +15,7 @@ from pydrake.trajectories import PiecewisePolynomial
 from scipy.spatial.transform import Rotation
 
 from heft.diagrams.models import model_path
+from heft.diagrams.plants import MakeMasterPlant
 from heft.systems.master_kinematics import MasterKinematics
 from heft.systems.pose_vectors import rigid_transform
 
@@ -50,7 +51,7 @@ def random_q(rng, n=None):
 
 @pytest.fixture(scope="module")
 def system():
-    mk = MasterKinematics(URDF)
+    mk = MasterKinematics(MakeMasterPlant())
     return mk, mk.CreateDefaultContext()
 
 
@@ -132,13 +133,13 @@ def test_rejects_bad_arguments():
     with pytest.raises(ValueError, match="finalized"):
         MasterKinematics(MultibodyPlant(time_step=0.0))
     with pytest.raises(ValueError, match="period"):
-        MasterKinematics(URDF, period=0.0)
+        MasterKinematics(MakeMasterPlant(), period=0.0)
 
 
 def test_direct_feedthrough():
-    assert MasterKinematics(URDF).HasDirectFeedthrough(0, 0)
-    assert MasterKinematics(URDF).HasDirectFeedthrough(0, 1)
-    sampled = MasterKinematics(URDF, period=PERIOD)
+    assert MasterKinematics(MakeMasterPlant()).HasDirectFeedthrough(0, 0)
+    assert MasterKinematics(MakeMasterPlant()).HasDirectFeedthrough(0, 1)
+    sampled = MasterKinematics(MakeMasterPlant(), period=PERIOD)
     assert not sampled.HasAnyDirectFeedthrough()
 
 
@@ -151,8 +152,8 @@ def sampled_run():
     trajectory = PiecewisePolynomial.CubicShapePreserving(times, knots)
     builder = DiagramBuilder()
     source = builder.AddSystem(TrajectorySource(trajectory))
-    continuous = builder.AddSystem(MasterKinematics(URDF))
-    sampled = builder.AddSystem(MasterKinematics(URDF, period=PERIOD))
+    continuous = builder.AddSystem(MasterKinematics(MakeMasterPlant()))
+    sampled = builder.AddSystem(MasterKinematics(MakeMasterPlant(), period=PERIOD))
     logs = {}
     for name, mk in (("continuous", continuous), ("sampled", sampled)):
         builder.Connect(source.get_output_port(), mk.get_input_port())

@@ -12,7 +12,6 @@ from scipy.signal import butter, lfilter, lfilter_zi
 import pytest
 from drake import lcmt_iiwa_command, lcmt_iiwa_status
 from heft.diagrams.cli import main
-from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario, layered, overrides_text, resolve_scenario
 from heft.diagrams.plants import AddArmWithSensor, AddSlave
 from heft.diagrams.stations.stand_in import HAPTIC_WATCHDOG_S, FaultInjection, StandIn, _uniform, run_stand_in
@@ -22,7 +21,8 @@ from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
 from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_command, heft_haptic_state
 from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.load_dynamics import noncontact_wrench
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME, master_plant
+from heft.diagrams.plants import MakeMasterPlant
+from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 from heft.systems.operator_hand import smooth_sine_offset
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
@@ -303,7 +303,7 @@ def test_master_follows_the_operator_reference():
     integrated = q[0] + np.concatenate(([np.zeros(6)], np.cumsum((v[1:] + v[:-1]) / 2 * np.diff(t)[:, None], axis=0)))
     np.testing.assert_allclose(q, integrated, atol=2e-4)  # encoder counts plus the trapezoid's error
 
-    plant = master_plant(model_path("phantom_premium_6dof.urdf"))
+    plant = MakeMasterPlant()
     context = plant.CreateDefaultContext()
     B, E = plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME)
 
@@ -321,7 +321,7 @@ def test_the_driver_judges_the_rendered_force_at_its_own_positions():
     """A torque clamped to 8.5 N at a position the driver published renders 8.5 N; one computed
     at a position it never reported (0.3 rad off: another publisher's) renders another force,
     by Drake's Jacobian of the Phantom."""
-    plant = master_plant(model_path("phantom_premium_6dof.urdf"))
+    plant = MakeMasterPlant()
     context = plant.CreateDefaultContext()
     B, E = plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME)
 

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from heft.analysis.stability_map import draw_stability_map, stability_limits
-from heft.diagrams.running.progress import ProgressBar
+from heft.diagrams.progress import ProgressBar
 from heft.diagrams.scenario import layered, overrides_text, resolve_scenario
 from heft.diagrams.studies.stability_sweep import AXES, point_scenario, sweep
 

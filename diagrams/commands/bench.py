@@ -36,9 +36,10 @@ def _bench_identify(args) -> int:
     from heft.analysis import bench_identify as bench
     from heft.diagrams.identify import ALL_METHODS, design_excitation, kinematic_signals
     from heft.diagrams.running.sim_identification import record_excitation
-    from heft.diagrams.running.progress import ProgressBar
+    from heft.diagrams.progress import ProgressBar
     from heft.diagrams.scenario import NOISE_OFF, Scenario, layered, overrides_text
-    from heft.systems.estimators import PARAMETER_NAMES, NoiseLevels
+    from heft.systems.load_dynamics import PARAMETER_NAMES
+    from heft.systems.regression_noise import NoiseLevels
     from heft.systems.excitation import ExcitationSettings
     from heft.systems.load_dynamics import noncontact_wrench
 

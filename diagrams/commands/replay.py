@@ -23,9 +23,8 @@ from pathlib import Path
 
 import numpy as np
 from heft.analysis.run_log import KINDS, complete_rows, read_run_log
-from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.plants import AddSlave
+from heft.diagrams.plants import AddMaster, AddSlave
 from heft.diagrams.stations.sim_station import AddSheetSpring
 from heft.diagrams.scenario import resolve_scenario
 from pydrake.geometry import (
@@ -38,7 +37,6 @@ from pydrake.geometry import (
     Rgba,
 )
 from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.framework import DiagramBuilder
 
@@ -121,10 +119,7 @@ class ReplayScene:
         self.slave = AddSlave(plant, scenario)
         if scenario.environment.kind == "sheet_spring":
             AddSheetSpring(plant, scenario.environment)
-        (self.phantom,) = Parser(plant).AddModels(model_path("phantom_premium_6dof.urdf"))
-        self.B = plant.GetFrameByName("phantom_base", self.phantom)
-        plant.WeldFrames(plant.world_frame(), self.B, MASTER_BASE_IN_W)
-        self.E = plant.GetFrameByName("stylus", self.phantom)
+        self.phantom, self.B, self.E = AddMaster(plant, MASTER_BASE_IN_W)
         plant.Finalize()
         self.visualizer = MeshcatVisualizer.AddToBuilder(
             builder, scene_graph, meshcat, MeshcatVisualizerParams(publish_period=1.0 / fps))

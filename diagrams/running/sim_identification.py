@@ -11,7 +11,7 @@ from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, Tr
 
 from heft.diagrams.identify import FitRefused, Recording, identify
 from heft.diagrams.load_estimate import LoadEstimate, read_load_estimate
-from heft.diagrams.running.progress import ProgressBar
+from heft.diagrams.progress import ProgressBar
 from heft.diagrams.scenario import Scenario, layered, overrides_text
 from heft.diagrams.stations.sim_station import MakeSimStation, set_holding
 from heft.systems.excitation import ExcitationSettings

@@ -16,7 +16,7 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
 from heft.analysis.experiment_metrics import experiment_metrics, grasp_metrics
 from heft.analysis.figures import paper_figure
-from heft.diagrams.running.progress import ProgressBar
+from heft.diagrams.progress import ProgressBar
 from heft.diagrams.scenario import Scenario, layered, overrides_text
 from heft.diagrams.stations.sim_station import MakeSimStation, set_holding
 from heft.diagrams.load_estimate import LoadEstimate

@@ -11,7 +11,6 @@ from __future__ import annotations
 import numpy as np
 from pydrake.common.eigen_geometry import AngleAxis
 from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, MultibodyPlant
 from pydrake.multibody.tree import (FixedOffsetFrame, JointActuatorIndex, MultibodyForces, PdControllerGains,
                                     PrismaticJoint, PrismaticSpring, SpatialInertia)
@@ -19,8 +18,7 @@ from pydrake.geometry import AddContactMaterial, Box, MeshcatVisualizer, Proximi
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, Saturation
 
-from heft.diagrams.models import model_path
-from heft.diagrams.plants import MASTER_URDF, AddSlave, SlaveParts, phi_about_S
+from heft.diagrams.plants import AddMaster, AddSlave, SlaveParts, phi_about_S
 from heft.diagrams.scenario import Scenario
 from heft.systems.encoders import AddEncoderVelocityEstimate, EncoderQuantizer
 from heft.systems.gravity_compensation import GravityCompensation
@@ -215,9 +213,8 @@ def _add_master(builder: DiagramBuilder, scenario: Scenario):
     counterbalanced) with the operator's hand mass on the stylus and its impedance."""
     master = builder.AddSystem(MultibodyPlant(time_step=scenario.plant.time_step))
     master.set_name("master_plant")
-    (phantom,) = Parser(master).AddModels(model_path(MASTER_URDF))
-    master.WeldFrames(master.world_frame(), master.GetFrameByName("phantom_base", phantom))
-    stylus = master.GetBodyByName("stylus", phantom)
+    phantom, _, E = AddMaster(master)
+    stylus = E.body()
     hand = master.AddRigidBody("operator_hand", phantom,
                                SpatialInertia.SolidSphereWithMass(max(scenario.operator.hand_mass, 1e-6), 0.04))
     master.WeldFrames(stylus.body_frame(), hand.body_frame())

@@ -1,0 +1,54 @@
+"""The load estimator in the loop of Fig. 4, wired into the controller Diagram
+(``MakeTeleopController`` with ``controller.estimator.mode: online``; docs/design.md §3)."""
+
+from pydrake.systems.framework import DiagramBuilder, OutputPort
+from pydrake.systems.primitives import Adder
+
+from heft.systems.accelerometer_reading import AccelerometerConvention, AccelerometerToMotion
+from heft.systems.estimator_gate import EstimatorGate
+from heft.systems.estimator_prefilter import EstimatorPrefilter
+from heft.systems.load_estimation_params import LoadEstimationParams
+from heft.systems.load_estimator_system import LoadEstimatorSystem
+
+
+def AddOnlineLoadEstimator(builder: DiagramBuilder, params: LoadEstimationParams, phi, period: float,
+                           accelerometer: AccelerometerConvention, force_scaling, slave_kinematics) -> OutputPort:
+    """Adds the online estimator of φ̂ (10), starting from ``phi``, to ``builder`` and returns its
+    output: ``AccelerometerToMotion`` (the reading in ``accelerometer``'s convention → S's
+    kinematic [a; α]), ``EstimatorGate`` (which samples it takes), ``EstimatorPrefilter`` (unless
+    ``params.prefilter`` is 0) and ``LoadEstimatorSystem`` (``params.method``), ticking every
+    ``period`` s. φ alone is estimated, from f − ô = c + V·φ̂ (``force_scaling``'s outputs): the
+    offsets are the OffsetTracker's, so the weight cannot trade against the force offsets.
+    ``slave_kinematics`` gives ω and g in S. Reads the Diagram input ``ft.acceleration_measured``
+    (exported already) and exports ``estimator_reset`` (1, a request counter: a new load)."""
+    to_motion = builder.AddNamedSystem("accelerometer_to_motion", AccelerometerToMotion(accelerometer))
+    estimator = builder.AddNamedSystem("phi_hat", LoadEstimatorSystem(
+        method=params.method, offsets=False, period=period, forgetting=params.forgetting, initial_theta=phi))
+    unbiased = builder.AddNamedSystem("wrench_without_offsets", Adder(2, 6))
+    gate = builder.AddNamedSystem("estimator_gate", EstimatorGate(params, period))
+    omega, gravity = slave_kinematics.GetOutputPort("omega_S"), slave_kinematics.GetOutputPort("gravity_S")
+
+    connect = builder.Connect
+    builder.ConnectInput("ft.acceleration_measured", to_motion.GetInputPort("reading"))
+    builder.ExportInput(estimator.GetInputPort("reset"), "estimator_reset")
+    builder.ConnectInput("estimator_reset", gate.GetInputPort("reset"))
+    connect(force_scaling.GetOutputPort("wrench_contact"), unbiased.get_input_port(0))
+    connect(force_scaling.GetOutputPort("wrench_noncontact"), unbiased.get_input_port(1))
+    connect(gravity, to_motion.GetInputPort("gravity"))
+    connect(omega, to_motion.GetInputPort("omega"))
+    connect(to_motion.GetOutputPort("acceleration"), gate.GetInputPort("acceleration"))
+    connect(omega, gate.GetInputPort("omega"))
+    connect(force_scaling.GetOutputPort("wrench_contact"), gate.GetInputPort("wrench_contact"))
+    connect(force_scaling.GetOutputPort("fault"), gate.GetInputPort("fault"))
+    connect(gate.GetOutputPort("enable"), estimator.GetInputPort("enable"))
+
+    inputs = {"wrench": unbiased.get_output_port(), "acceleration": to_motion.GetOutputPort("acceleration"),
+              "omega": omega, "gravity": gravity}
+    if params.prefilter > 0:
+        prefilter = builder.AddNamedSystem("estimator_prefilter", EstimatorPrefilter(params.prefilter, period))
+        for name, source in inputs.items():
+            connect(source, prefilter.GetInputPort(name))
+        inputs = {name: prefilter.GetOutputPort(name) for name in inputs}
+    for name, source in inputs.items():
+        connect(source, estimator.GetInputPort(name))
+    return estimator.GetOutputPort("phi")

@@ -1,0 +1,60 @@
+"""The settings of the load estimator in the loop (Fig. 4): fixed or learned online, and how.
+
+``controller.estimator`` of a scenario. With ``mode`` "online" the per-block controller wires
+``AccelerometerToMotion``, ``EstimatorGate``, ``EstimatorPrefilter`` and ``LoadEstimatorSystem``
+(``diagrams.online_estimation``), the real-time one ``OnlineLoadEstimator`` in one call per tick.
+"""
+
+import dataclasses
+import math
+
+from heft.systems.contact_threshold import ContactThresholdParams
+
+ESTIMATOR_MODES = ("fixed", "online")
+ONLINE_METHODS = ("rls",)
+
+
+@dataclasses.dataclass
+class LoadEstimationParams:
+    """The load estimate the controller uses: ``fixed`` (the estimate file's φ̂) or ``online``
+    (``method`` updating φ̂ every tick while ``EstimatorGate`` allows, starting from the
+    estimate file's and, on a new load, forgetting the data but keeping the estimate)."""
+
+    mode: str = "fixed"
+    method: str = "rls"
+    forgetting: float = 0.9995
+    """λ per tick: a memory of 1/(1 − λ) = 2000 ticks, 1 s at 2 kHz."""
+
+    min_excitation: float = 2.0
+    """Least ‖V(a, α, ω, 0)‖ (Frobenius; m/s², rad/s², rad²/s² mixed) of a sample taken."""
+
+    contact: ContactThresholdParams = dataclasses.field(default_factory=ContactThresholdParams)
+    """|c| beyond which a sample counts as contact and is not taken."""
+
+    learning_window: float = 1.5
+    """Time (s) after a reset during which contact is not judged (the new load is learned)."""
+
+    new_load_wait: float = 0.0
+    """Time (s) after a reset before a sample is taken: the prefilter still carries the old load
+    for some 2/``prefilter`` s, and a load that lands on a compliant mount rings meanwhile; 0
+    learns at once (the simulation's grasp, made at rest, learns fastest so)."""
+
+    prefilter: float = 10.0
+    """Cut-off (Hz) of the low-pass on both sides of W = V·φ before the estimator
+    (``EstimatorPrefilter``): below the load's mount modes and above the operator's motion;
+    0: none. The gate judges the unfiltered samples."""
+
+    def validate(self) -> None:
+        if self.mode not in ESTIMATOR_MODES:
+            raise ValueError(f"estimator mode must be one of {ESTIMATOR_MODES}; got {self.mode!r}")
+        if self.method not in ONLINE_METHODS:
+            raise ValueError(f"online estimator method must be one of {ONLINE_METHODS}: it starts from the "
+                             f"estimate and keeps it as the prior on a new load (RIV would need encoder-derived "
+                             f"instruments, RTLS a prior mean); got {self.method!r}")
+        if not 0.5 <= self.forgetting <= 1.0:
+            raise ValueError(f"estimator forgetting must lie in [0.5, 1]; got {self.forgetting}")
+        for name in ("min_excitation", "learning_window", "new_load_wait", "prefilter"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"estimator {name} must be finite and >= 0; got {value}")
+        self.contact.validate("estimator")
