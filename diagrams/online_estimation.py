@@ -5,27 +5,30 @@ from pydrake.systems.framework import DiagramBuilder, OutputPort
 from pydrake.systems.primitives import Adder
 
 from heft.systems.accelerometer_reading import AccelerometerConvention, AccelerometerToMotion
+from heft.systems.contact_threshold import ContactThresholdParams
 from heft.systems.estimator_gate import EstimatorGate
 from heft.systems.estimator_prefilter import EstimatorPrefilter
 from heft.systems.load_estimation_params import LoadEstimationParams
 from heft.systems.load_estimator_system import LoadEstimatorSystem
 
 
-def AddOnlineLoadEstimator(builder: DiagramBuilder, params: LoadEstimationParams, phi, period: float,
+def AddOnlineLoadEstimator(builder: DiagramBuilder, params: LoadEstimationParams, contact: ContactThresholdParams,
+                           phi, period: float,
                            accelerometer: AccelerometerConvention, force_scaling, slave_kinematics) -> OutputPort:
     """Adds the online estimator of φ̂ (10), starting from ``phi``, to ``builder`` and returns its
     output: ``AccelerometerToMotion`` (the reading in ``accelerometer``'s convention → S's
-    kinematic [a; α]), ``EstimatorGate`` (which samples it takes), ``EstimatorPrefilter`` (unless
-    ``params.prefilter`` is 0) and ``LoadEstimatorSystem`` (``params.method``), ticking every
-    ``period`` s. φ alone is estimated, from f − ô = c + V·φ̂ (``force_scaling``'s outputs): the
-    offsets are the OffsetTracker's, so the weight cannot trade against the force offsets.
-    ``slave_kinematics`` gives ω and g in S. Reads the Diagram input ``ft.acceleration_measured``
-    (exported already) and exports ``estimator_reset`` (1, a request counter: a new load)."""
+    kinematic [a; α]), ``EstimatorGate`` (which samples it takes; contact judged by
+    ``contact``), ``EstimatorPrefilter`` (unless ``params.prefilter`` is 0) and
+    ``LoadEstimatorSystem`` (``params.method``), ticking every ``period`` s. φ alone is
+    estimated, from f − ô = c + V·φ̂ (``force_scaling``'s outputs): the offsets are the
+    OffsetTracker's, so the weight cannot trade against the force offsets. ``slave_kinematics``
+    gives ω and g in S. Reads the Diagram input ``ft.acceleration_measured`` (exported already)
+    and exports ``estimator_reset`` (1, a request counter: a new load)."""
     to_motion = builder.AddNamedSystem("accelerometer_to_motion", AccelerometerToMotion(accelerometer))
     estimator = builder.AddNamedSystem("phi_hat", LoadEstimatorSystem(
         method=params.method, offsets=False, period=period, forgetting=params.forgetting, initial_theta=phi))
     unbiased = builder.AddNamedSystem("wrench_without_offsets", Adder(2, 6))
-    gate = builder.AddNamedSystem("estimator_gate", EstimatorGate(params, period))
+    gate = builder.AddNamedSystem("estimator_gate", EstimatorGate(params, contact, period))
     omega, gravity = slave_kinematics.GetOutputPort("omega_S"), slave_kinematics.GetOutputPort("gravity_S")
 
     connect = builder.Connect

@@ -22,6 +22,7 @@ from pydrake.systems.analysis import SimulatorConfig
 
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import HardwareStationParams
+from heft.systems.contact_threshold import ContactThresholdParams
 from heft.systems.load_estimation_params import LoadEstimationParams
 from heft.systems.feedback_mapping import FeedbackMappingParams
 from heft.systems.force_scaling import ForceScalingParams
@@ -141,7 +142,8 @@ class ControllerSpec:
     ``load_estimate``: an estimate.yaml written by ``heft identify``; empty means the
     load is identified in simulation first (as in the paper's Sec. VI-B). The run's σ is
     ``force.sigma``, its one home (the σ values ``heft simulate`` compares are that command's
-    study axis, laid over it run by run: ``diagrams.running.simulation``).
+    study axis, laid over it run by run: ``diagrams.running.simulation``). ``contact``: when the
+    contact estimate counts as contact, for offset tracking and the online estimator's gate alike.
     """
     load_estimate: str = ""
     motion: MotionScalingParams = dataclasses.field(default_factory=MotionScalingParams)
@@ -151,6 +153,7 @@ class ControllerSpec:
     feedback: FeedbackMappingParams = dataclasses.field(default_factory=FeedbackMappingParams)
     passivity: PassivityParams = dataclasses.field(default_factory=PassivityParams)
     offsets: OffsetTrackingParams = dataclasses.field(default_factory=OffsetTrackingParams)
+    contact: ContactThresholdParams = dataclasses.field(default_factory=ContactThresholdParams)
     estimator: LoadEstimationParams = dataclasses.field(default_factory=LoadEstimationParams)
     # One-way communication delay (s) between controller and station, in each direction;
     # a whole number of controller periods.

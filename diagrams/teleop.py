@@ -57,7 +57,7 @@ def MakeRealtimeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot
     slave, kinematics, X_FS = _slave_ik_model(robot)
     return RealtimeTeleopController(MakeMasterPlant(), slave, f"{robot}_base", kinematics, X_FS, load.phi, load.offsets,
                                     spec.motion, spec.force, spec.feedback, spec.passivity, spec.offsets,
-                                    accelerometer, period, spec.estimator)
+                                    spec.contact, accelerometer, period, spec.estimator)
 
 
 def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, period: float, slave_initial_q, *,
@@ -87,7 +87,7 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     passivity = builder.AddNamedSystem("passivity", PassivityController(
         spec.passivity, spec.feedback.max_force, spec.feedback.max_torque, period))
     spec.estimator.validate()
-    offsets = builder.AddNamedSystem("offsets_hat", OffsetTracker(load.offsets, spec.offsets, period))
+    offsets = builder.AddNamedSystem("offsets_hat", OffsetTracker(load.offsets, spec.offsets, spec.contact, period))
 
     def export_input(name, *ports):
         builder.ExportInput(ports[0], name)
@@ -103,8 +103,8 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     export_input("ft.wrench_measured", force.GetInputPort("wrench"))
     export_input("ft.acceleration_measured", force.GetInputPort("acceleration"))
     if spec.estimator.mode == "online":
-        phi_hat = AddOnlineLoadEstimator(builder, spec.estimator, load.phi, period, accelerometer, force,
-                                         slave_kinematics)
+        phi_hat = AddOnlineLoadEstimator(builder, spec.estimator, spec.contact, load.phi, period, accelerometer,
+                                         force, slave_kinematics)
     else:
         phi_hat = builder.AddNamedSystem(
             "phi_hat", ConstantVectorSource(np.asarray(load.phi, dtype=float))).get_output_port()

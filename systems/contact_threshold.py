@@ -18,12 +18,12 @@ class ContactThresholdParams:
     force: float = 2.0
     torque: float = 0.2
 
-    def validate(self, owner: str) -> None:
-        """Raises ValueError naming ``owner``'s threshold that is not finite and >= 0."""
+    def validate(self) -> None:
+        """Raises ValueError naming the threshold (``controller.contact``) that is not finite and >= 0."""
         for name in ("force", "torque"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
-                raise ValueError(f"{owner}.contact.{name} must be finite and >= 0; got {value}")
+                raise ValueError(f"controller.contact.{name} must be finite and >= 0; got {value}")
 
     def exceeded(self, force: float, torque: float) -> bool:
         """Whether c, of norms ``force`` |c_f| (N) and ``torque`` |c_τ| (N·m), counts as contact."""

@@ -9,7 +9,7 @@ taken when
   motion only gravity's direction is seen, which the stabilized forgetting of
   ``recursive_estimation`` already holds; and
 * no contact: the eliminated wrench c (Eq. 13, from force scaling) is within
-  ``contact`` (``ContactThresholdParams``), except during ``learning_window`` s
+  ``controller.contact`` (``ContactThresholdParams``), except during ``learning_window`` s
   after a reset (a new load), when c holds the not yet learned load itself,
 * force scaling is not faulted, and
 * no contact or fault for 2/``prefilter`` s before: the estimator's prefilter
@@ -24,6 +24,7 @@ import math
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
+from heft.systems.contact_threshold import ContactThresholdParams
 from heft.systems.load_dynamics import regressor, wrench_norms
 from heft.systems.load_estimation_params import LoadEstimationParams
 
@@ -35,22 +36,24 @@ def excitation(acceleration, omega) -> float:
     return float(np.linalg.norm(regressor(acceleration[:3], acceleration[3:], omega, _ZERO)))
 
 
-def spoiled(params: LoadEstimationParams, contact, fault: bool, since_reset: float) -> bool:
+def spoiled(params: LoadEstimationParams, thresholds: ContactThresholdParams, contact, fault: bool,
+            since_reset: float) -> bool:
     """Whether this sample holds a fault, or contact (judged only ``learning_window`` s after a
     reset; ``since_reset`` in s): the estimator must not learn from it or its filtered echo."""
     if fault:
         return True
     if since_reset < params.learning_window:
         return False
-    return params.contact.exceeded(*wrench_norms(contact.tolist()))
+    return thresholds.exceeded(*wrench_norms(contact.tolist()))
 
 
-def gate_open(params: LoadEstimationParams, acceleration, omega, contact, fault: bool, since_reset: float,
+def gate_open(params: LoadEstimationParams, thresholds: ContactThresholdParams, acceleration, omega, contact,
+              fault: bool, since_reset: float,
               since_spoiled: float = math.inf) -> bool:
     """Whether this sample may update the estimator (module docstring); ``since_reset`` and
     ``since_spoiled`` (the time since the last ``spoiled`` sample) in s."""
     hold = 2.0 / params.prefilter if params.prefilter > 0 else 0.0
-    return (not spoiled(params, contact, fault, since_reset) and since_spoiled >= hold
+    return (not spoiled(params, thresholds, contact, fault, since_reset) and since_spoiled >= hold
             and since_reset >= params.new_load_wait and excitation(acceleration, omega) >= params.min_excitation)
 
 
@@ -68,12 +71,12 @@ def clocks_now(clocks, requests: float) -> tuple[float, float, float]:
     return since_reset, seen, since_spoiled
 
 
-def advance_clocks(out, params: LoadEstimationParams, now: tuple[float, float, float], contact, fault: bool,
-                   dt: float) -> None:
+def advance_clocks(out, params: LoadEstimationParams, thresholds: ContactThresholdParams,
+                   now: tuple[float, float, float], contact, fault: bool, dt: float) -> None:
     """The clocks after this sample into ``out`` (3): ``now`` (``clocks_now``) advanced by ``dt`` s,
     the time since a spoiled sample restarted if this one is (``spoiled``)."""
     since_reset, seen, since_spoiled = now
-    if spoiled(params, contact, fault, since_reset):
+    if spoiled(params, thresholds, contact, fault, since_reset):
         since_spoiled = 0.0
     out[0], out[1], out[2] = since_reset + dt, seen, since_spoiled + dt
 
@@ -87,10 +90,11 @@ class EstimatorGate(LeafSystem):
     the time since the last spoiled sample (s), advanced every ``period`` s.
     """
 
-    def __init__(self, params: LoadEstimationParams, period: float):
+    def __init__(self, params: LoadEstimationParams, thresholds: ContactThresholdParams, period: float):
         super().__init__()
         params.validate()
-        self._params, self._period = params, period
+        thresholds.validate()
+        self._params, self._thresholds, self._period = params, thresholds, period
         self._acceleration = self.DeclareVectorInputPort("acceleration", 6)
         self._omega = self.DeclareVectorInputPort("omega", 3)
         self._contact = self.DeclareVectorInputPort("wrench_contact", 6)
@@ -108,12 +112,12 @@ class EstimatorGate(LeafSystem):
 
     def _calc_enable(self, context, output):
         since_reset, _, since_spoiled = self._clocks(context)
-        open_ = gate_open(self._params, self._acceleration.Eval(context), self._omega.Eval(context),
+        open_ = gate_open(self._params, self._thresholds, self._acceleration.Eval(context), self._omega.Eval(context),
                           self._contact.Eval(context), self._fault.Eval(context)[0] > 0.5, since_reset,
                           since_spoiled)
         output.SetAtIndex(0, 1.0 if open_ else 0.0)
 
     def _update(self, context, discrete_state):
         advance_clocks(discrete_state.get_mutable_vector(self._clock).get_mutable_value(), self._params,
-                       self._clocks(context), self._contact.Eval(context), self._fault.Eval(context)[0] > 0.5,
-                       self._period)
+                       self._thresholds, self._clocks(context), self._contact.Eval(context),
+                       self._fault.Eval(context)[0] > 0.5, self._period)

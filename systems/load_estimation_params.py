@@ -8,7 +8,6 @@
 import dataclasses
 import math
 
-from heft.systems.contact_threshold import ContactThresholdParams
 
 ESTIMATOR_MODES = ("fixed", "online")
 ONLINE_METHODS = ("rls",)
@@ -28,8 +27,6 @@ class LoadEstimationParams:
     min_excitation: float = 2.0
     """Least ‖V(a, α, ω, 0)‖ (Frobenius; m/s², rad/s², rad²/s² mixed) of a sample taken."""
 
-    contact: ContactThresholdParams = dataclasses.field(default_factory=ContactThresholdParams)
-    """|c| beyond which a sample counts as contact and is not taken."""
 
     learning_window: float = 1.5
     """Time (s) after a reset during which contact is not judged (the new load is learned)."""
@@ -57,4 +54,3 @@ class LoadEstimationParams:
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"estimator {name} must be finite and >= 0; got {value}")
-        self.contact.validate("estimator")

@@ -10,7 +10,7 @@ noise, so there c + o = f − V·φ̂ measures the offsets. Two ways to use it:
   contact (|c| beyond ``rezero_force``/``rezero_torque``: larger than any drift),
   or a sample is faulted.
 * Tracking (optional, on by default): at rest and out of contact (|c| within
-  ``contact``, ``ContactThresholdParams``), o moves toward c + o with time constant
+  ``controller.contact``, ``ContactThresholdParams``), o moves toward c + o with time constant
   ``time_constant``, by at most ``max_force_rate``/``max_torque_rate`` per second
   (so a light contact held still leaks into o at that rate at most).
 
@@ -65,8 +65,6 @@ class OffsetTrackingParams:
     max_torque_rate: float = 0.002
     """Largest tracking step of each torque offset (N·m/s)."""
 
-    contact: ContactThresholdParams = dataclasses.field(default_factory=ContactThresholdParams)
-    """|c| beyond which tracking pauses: contact, or a φ̂ that no longer fits."""
 
     rezero_window: float = 0.5
     """Length (s) of the re-zero average."""
@@ -85,9 +83,8 @@ class OffsetTrackingParams:
         thresholds: >= 0)."""
         for field in dataclasses.fields(self):
             value = getattr(self, field.name)
-            if field.name not in ("tracking", "contact") and not (math.isfinite(value) and value > 0):
+            if field.name != "tracking" and not (math.isfinite(value) and value > 0):
                 raise ValueError(f"offset tracking: {field.name} must be finite and > 0; got {value}")
-        self.contact.validate("offsets")
 
 
 def initial_state(offsets, params: OffsetTrackingParams) -> np.ndarray:
@@ -104,11 +101,12 @@ def restart_rezero_window(state: np.ndarray) -> None:
     state[WINDOW_TIME] = 0.0
 
 
-def offsets_update(state: np.ndarray, contact, fault: bool, slave_velocity, dt: float,
-                   params: OffsetTrackingParams, requests: float) -> None:
+def offsets_update(state: np.ndarray, contact, fault: bool, slave_velocity, dt: float, params: OffsetTrackingParams,
+                   thresholds: ContactThresholdParams, requests: float) -> None:
     """One tick, in place: ``contact`` c (6) of this tick computed with the state's offsets,
-    ``fault`` (c not computed), ``slave_velocity`` q̇_S (6, rad/s), ``dt`` (s), ``requests``
-    the re-zero request counter (a re-zero starts whenever it exceeds the last one seen)."""
+    ``fault`` (c not computed), ``slave_velocity`` q̇_S (6, rad/s), ``dt`` (s), ``thresholds`` of
+    contact (``controller.contact``), ``requests`` the re-zero request counter (a re-zero starts
+    whenever it exceeds the last one seen)."""
     if requests > state[REQUESTS]:
         state[REQUESTS] = requests
         state[STATUS] = COLLECTING
@@ -131,7 +129,7 @@ def offsets_update(state: np.ndarray, contact, fault: bool, slave_velocity, dt: 
                 state[OFFSETS] = state[WINDOW_SUM] / state[WINDOW_TIME]
                 state[STATUS] = DONE
         return
-    if state[TRACKING] > 0.5 and not fault and at_rest and not params.contact.exceeded(force, torque):
+    if state[TRACKING] > 0.5 and not fault and at_rest and not thresholds.exceeded(force, torque):
         gain = dt / params.time_constant
         for i in range(6):
             step = (params.max_force_rate if i < 3 else params.max_torque_rate) * dt
@@ -149,10 +147,11 @@ class OffsetTracker(LeafSystem):
     tick, computed with the offsets in effect, as the real-time controller does.
     """
 
-    def __init__(self, offsets, params: OffsetTrackingParams, period: float):
+    def __init__(self, offsets, params: OffsetTrackingParams, thresholds: ContactThresholdParams, period: float):
         super().__init__()
         params.validate()
-        self._params, self._period = params, period
+        thresholds.validate()
+        self._params, self._thresholds, self._period = params, thresholds, period
         self._contact = self.DeclareVectorInputPort("wrench_contact", 6)
         self._fault = self.DeclareVectorInputPort("fault", 1)
         self._velocity = self.DeclareVectorInputPort("slave_velocity", 6)
@@ -168,5 +167,5 @@ class OffsetTracker(LeafSystem):
         state = context.get_discrete_state(self._state).get_value().copy()
         requests = self._rezero.Eval(context)[0] if self._rezero.HasValue(context) else 0.0
         offsets_update(state, self._contact.Eval(context), self._fault.Eval(context)[0] > 0.5,
-                       self._velocity.Eval(context), self._period, self._params, requests)
+                       self._velocity.Eval(context), self._period, self._params, self._thresholds, requests)
         discrete_state.set_value(self._state, state)

@@ -18,6 +18,7 @@ import math
 
 import numpy as np
 
+from heft.systems.contact_threshold import ContactThresholdParams
 from heft.systems.estimator_gate import CLOCKS_START, advance_clocks, clocks_now, gate_open
 from heft.systems.load_estimation_params import LoadEstimationParams
 from heft.systems.estimator_prefilter import STATE_SIZE, WIDTH, prefilter_coefficients, prefilter_step
@@ -38,8 +39,10 @@ class OnlineLoadEstimator:
     was taken), ``num_skipped`` (enabled ticks whose filtered inputs were not finite: the
     prefilter's first tick, or a restart after a fault), ``since_reset`` (s)."""
 
-    def __init__(self, params: LoadEstimationParams, phi, period: float):
+    def __init__(self, params: LoadEstimationParams, thresholds: ContactThresholdParams, phi, period: float):
         params.validate()
+        thresholds.validate()
+        self._thresholds = thresholds
         if params.mode != "online":
             raise ValueError(f"OnlineLoadEstimator needs controller.estimator.mode 'online'; got {params.mode!r}")
         self._params = params
@@ -91,11 +94,11 @@ class OnlineLoadEstimator:
         ``omega`` and ``gravity`` (3 each), all in S."""
         params, sample = self._params, self._sample
         now = clocks_now(self._clocks, self._requests)
-        self.enabled = gate_open(params, acceleration, omega, contact, fault, now[0], now[2])
+        self.enabled = gate_open(params, self._thresholds, acceleration, omega, contact, fault, now[0], now[2])
         rls = self._rls
         if now[1] > self._clocks[1]:  # a new load: forget the data before this sample
             rls.start_from(self.phi)
-        advance_clocks(self._clocks, params, now, contact, fault, dt)
+        advance_clocks(self._clocks, params, self._thresholds, now, contact, fault, dt)
         np.add(contact, noncontact, out=sample[_WRENCH])
         sample[6:12] = acceleration
         sample[_OMEGA] = omega

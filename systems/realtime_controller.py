@@ -28,7 +28,8 @@ from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
 
 from heft.systems.accelerometer_reading import AccelerometerConvention, motion_from_reading
-from heft.systems.load_estimation_params import LoadEstimationParams as EstimatorSpec
+from heft.systems.contact_threshold import ContactThresholdParams
+from heft.systems.load_estimation_params import LoadEstimationParams
 from heft.systems.compiled import float_array
 from heft.systems.feedback_mapping import FeedbackMappingParams, rendered_wrench_into
 from heft.systems.force_scaling import (
@@ -76,6 +77,7 @@ class RealtimeTeleopController:
     observer's), ``reachable``, ``force_fault``, ``scales`` (3: σ, γ, η in effect). The
     requested σ, γ, η are ``force``'s; the load model changes at run time through
     ``request_rezero``, ``set_tracking``, ``set_load``, ``grasp`` and ``release``.
+    ``contact`` (``controller.contact``) judges contact for offset tracking and the estimator's gate;
     ``estimator`` (``controller.estimator``) fixes φ̂ or learns it online (``estimator``: the
     ``OnlineLoadEstimator``, None when fixed).
     """
@@ -83,8 +85,9 @@ class RealtimeTeleopController:
     def __init__(self, master: MultibodyPlant, slave: MultibodyPlant, base_frame: str, kinematics: RxKinematics,
                  X_FS: RigidTransform, phi, offsets, motion: MotionScalingParams, force: ForceScalingParams,
                  feedback: FeedbackMappingParams, passivity: PassivityParams, offsets_tracking: OffsetTrackingParams,
-                 accelerometer: AccelerometerConvention, period: float, estimator: EstimatorSpec | None = None):
-        for params in (motion, force, feedback, passivity, offsets_tracking):
+                 contact: ContactThresholdParams, accelerometer: AccelerometerConvention, period: float,
+                 estimator: LoadEstimationParams | None = None):
+        for params in (motion, force, feedback, passivity, offsets_tracking, contact):
             params.validate()
         phi, offsets = checked_load(phi, offsets)
         self._master = SerialChain(master, master.GetFrameByName(BASE_FRAME), master.GetFrameByName(STYLUS_FRAME))
@@ -93,10 +96,10 @@ class RealtimeTeleopController:
         self._pose_BE, self._pose_RS, self._pose_scratch = np.zeros((3, POSE_SIZE))
         self._kinematics, self._ik_step = kinematics, IkStep(kinematics, X_FS.inverse())
         online = estimator is not None and estimator.mode == "online"
-        self.estimator = OnlineLoadEstimator(estimator, phi, period) if online else None
+        self.estimator = OnlineLoadEstimator(estimator, contact, phi, period) if online else None
         self._phi = self.estimator.phi if online else phi.copy()  # the estimator's, updated in place
         self._motion_S = np.zeros(6)
-        self._offset_params = offsets_tracking
+        self._offset_params, self._contact = offsets_tracking, contact
         self._offset_state = initial_state(offsets, offsets_tracking)
         self._offsets = self._offset_state[OFFSETS]  # a view: updated in place by offsets_update
         self._rezero_requests = 0
@@ -172,7 +175,7 @@ class RealtimeTeleopController:
         next_memory_and_scales(self._force_memory, self.scales, evaluation, self._requested,
                                force.slew_rate * dt, self._notch)
         offsets_update(self._offset_state, evaluation[CONTACT], evaluation[FAULT] > 0.5, slave_velocity, dt,
-                       self._offset_params, self._rezero_requests)
+                       self._offset_params, self._contact, self._rezero_requests)
         if self.estimator is not None:  # φ̂ for the next tick
             self.estimator.step(dt, evaluation[CONTACT], evaluation[NONCONTACT], motion_from_reading(
                 self._motion_S, acceleration, gravity_S, omega_S, self._accelerometer), omega_S, gravity_S,

@@ -36,7 +36,7 @@ def test_excitation_is_the_regressors_dynamic_part():
     (MOVING, FREE, True, 10.0, False),       # faulted sample
 ])
 def test_gate(acceleration, contact, fault, since_reset, expected):
-    assert gate_open(SPEC, acceleration, np.zeros(3), contact, fault, since_reset) is expected
+    assert gate_open(SPEC, ContactThresholdParams(), acceleration, np.zeros(3), contact, fault, since_reset) is expected
 
 
 def test_after_contact_the_gate_waits_for_the_prefilter_to_forget_it():
@@ -44,7 +44,7 @@ def test_after_contact_the_gate_waits_for_the_prefilter_to_forget_it():
     contact for 2/10 s, so the gate opens 0.2 s after the last contact sample, not before."""
     spec = dataclasses.replace(SPEC, learning_window=0.0)
     period = 0.0005
-    gate = EstimatorGate(spec, period)
+    gate = EstimatorGate(spec, ContactThresholdParams(), period)
     context = gate.CreateDefaultContext()
     for name, value in (("acceleration", MOVING), ("omega", np.zeros(3)), ("fault", [0.0]), ("reset", [0.0])):
         gate.GetInputPort(name).FixValue(context, value)
@@ -61,7 +61,6 @@ def test_after_contact_the_gate_waits_for_the_prefilter_to_forget_it():
 
 def test_bad_settings_are_named():
     for field, value, message in (("mode", "kalman", "mode"), ("method", "riv", "instruments"),
-                                  ("forgetting", 1.5, "forgetting"),
-                                  ("contact", ContactThresholdParams(force=-1.0), "estimator.contact.force")):
+                                  ("forgetting", 1.5, "forgetting")):
         with pytest.raises(ValueError, match=message):
             dataclasses.replace(SPEC, **{field: value}).validate()

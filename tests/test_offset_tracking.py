@@ -10,7 +10,11 @@ import pytest
 from heft.systems.offset_tracking import (
     DONE, OFFSETS, REFUSED_CONTACT, REFUSED_FAULT, REFUSED_MOVING, STATUS, OffsetTrackingParams, initial_state,
     offsets_update)
+from heft.systems.contact_threshold import ContactThresholdParams
 from heft.systems.sensor_models import FORCE_TORQUE_STREAM, ForceTorqueSensorParams, SixAxisMeasurement
+
+CONTACT = ContactThresholdParams()
+"""The default contact thresholds (``controller.contact``)."""
 
 STILL = np.zeros(6)
 MOVING = np.array([0.0, 0.05, 0.0, 0.0, 0.0, 0.0])  # rad/s on joint 2
@@ -39,7 +43,7 @@ def test_tracking_bounds_the_residual_against_thermal_drift(tracking):
     for k in range(len(t)):
         contact = measured[k] - state[OFFSETS]
         residual[k] = offsets[k] - state[OFFSETS]
-        offsets_update(state, contact, False, STILL, period, params, 0)
+        offsets_update(state, contact, False, STILL, period, params, CONTACT, 0)
     drift = np.abs(offsets[-1] - offsets[0])
     assert drift[2] > 0.8  # the sensor really drifted
     if tracking:
@@ -58,14 +62,14 @@ def test_tracking_moves_at_most_its_rate_and_pauses_in_motion_and_contact():
     dt, state = 0.001, initial_state(np.zeros(6), params)
     light = np.array([1.5, 0.0, 0.0, 0.0, 0.0, 0.15])  # a light contact held still: within the gates
     for _ in range(10_000):
-        offsets_update(state, light - state[OFFSETS], False, STILL, dt, params, 0)
+        offsets_update(state, light - state[OFFSETS], False, STILL, dt, params, CONTACT, 0)
     expected = [params.max_force_rate * 10.0, 0, 0, 0, 0, params.max_torque_rate * 10.0]
     np.testing.assert_allclose(state[OFFSETS], expected, rtol=1e-9)
     before = state.copy()
     for contact, velocity in ((light, MOVING), (np.array([2.5, 0, 0, 0, 0, 0]), STILL),
                               (np.array([0, 0, 0, 0.25, 0, 0]), STILL)):
-        offsets_update(state, contact, False, velocity, dt, params, 0)
-    offsets_update(state, light, True, STILL, dt, params, 0)  # faulted sample
+        offsets_update(state, contact, False, velocity, dt, params, CONTACT, 0)
+    offsets_update(state, light, True, STILL, dt, params, CONTACT, 0)  # faulted sample
     np.testing.assert_array_equal(state, before)
 
 
@@ -79,7 +83,7 @@ def test_rezero_measures_the_offsets_at_rest():
     requests = 1
     while True:
         measured = true + noise * rng.standard_normal(6)
-        offsets_update(state, measured - state[OFFSETS], False, STILL, dt, params, requests)
+        offsets_update(state, measured - state[OFFSETS], False, STILL, dt, params, CONTACT, requests)
         if state[STATUS] == DONE:
             break
     samples = round(params.rezero_window / dt)
@@ -98,7 +102,7 @@ def test_rezero_is_refused_and_keeps_the_offsets(contact, velocity, fault, refus
     for k in range(100):  # at rest and out of contact, then one bad tick
         bad = k == 50
         offsets_update(state, contact if bad else np.zeros(6), fault and bad, velocity if bad else STILL,
-                       0.0005, params, 1)
+                       0.0005, params, CONTACT, 1)
     assert state[STATUS] == refusal
     np.testing.assert_array_equal(state[OFFSETS], offsets)
 

@@ -110,7 +110,8 @@ def both_runs():
         "controller.offsets.rezero_window": 40 * PERIOD,
         # The sequence's wrench is not a load at rest; wide gates let the re-zero and tracking run.
         **{f"controller.offsets.{gate}": 1e3
-           for gate in ("rezero_force", "rezero_torque", "contact.force", "contact.torque")}}))
+           for gate in ("rezero_force", "rezero_torque")},
+        "controller.contact.force": 1e3, "controller.contact.torque": 1e3}))
     load, _ = true_load(scenario)
     assert scenario.accelerometer.convention().displaced  # displaced from S: the transport runs in both
     assert scenario.controller.force.mount_notch > 0  # and so does the notch on the contact
