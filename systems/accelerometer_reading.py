@@ -29,7 +29,7 @@ import functools
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from heft.systems.accelerometer_calibration import AccelerometerCalibration, checked_rotation, unit_factor
+from heft.systems.accelerometer_calibration import AccelerometerCalibration, unit_factor
 from heft.systems.compiled import compiled, float_array
 
 
@@ -55,26 +55,20 @@ class AccelerometerConvention:
         if len(p) != 3 or not np.isfinite(p).all():
             raise ValueError(f"the accelerometer's position p_SA needs 3 finite numbers (m, in S); got {self.p_SA}")
         object.__setattr__(self, "p_SA", p)
-        R = checked_rotation("the accelerometer's R_SA", self.R_SA)
-        object.__setattr__(self, "R_SA", tuple(tuple(float(x) for x in row) for row in R))
-        unit_factor(self.unit)
-        bias = tuple(float(x) for x in self.bias)
-        if len(bias) != 3 or not np.isfinite(bias).all():
-            raise ValueError(f"the accelerometer's bias needs 3 finite numbers (its own axes and unit); "
-                             f"got {self.bias}")
-        object.__setattr__(self, "bias", bias)
-        if not (np.isfinite(self.scale) and self.scale > 0.0):
-            raise ValueError(f"the accelerometer's scale must be finite and > 0; got {self.scale}")
-        object.__setattr__(self, "scale", float(self.scale))
+        calibration = AccelerometerCalibration(self.R_SA, self.bias, self.scale, self.unit)  # checks them
+        object.__setattr__(self, "_calibration", calibration)
+        object.__setattr__(self, "R_SA", tuple(tuple(float(x) for x in row) for row in calibration.R_SA))
+        object.__setattr__(self, "bias", tuple(float(x) for x in calibration.bias))
+        object.__setattr__(self, "scale", calibration.scale)
 
     @property
     def displaced(self) -> bool:
         return any(self.p_SA)
 
-    @functools.cached_property
+    @property
     def calibration(self) -> AccelerometerCalibration:
         """The mounting as ``accelerometer_calibration``'s model of the linear channels."""
-        return AccelerometerCalibration(np.array(self.R_SA), np.array(self.bias), self.scale, self.unit)
+        return self._calibration
 
     @property
     def mounted(self) -> bool:
