@@ -18,7 +18,8 @@ import time
 import lcm
 import numpy as np
 
-from heft.systems.accelerometer_reading import bias_at_rest
+from heft.systems.accelerometer_calibration import unit_factor
+from heft.systems.accelerometer_reading import PLAUSIBLE_BIAS, bias_at_rest
 from heft.systems.load_dynamics import checked_load
 from heft.systems.offset_tracking import COLLECTING, DONE, STATUS_TEXT
 
@@ -110,9 +111,14 @@ class LoadCommandServer:
         reading, gravity_S = sums[:6] / sums[9], sums[6:9] / sums[9]
         convention = controller.accelerometer
         bias = bias_at_rest(convention, reading, gravity_S)
+        text = f"[{', '.join(f'{x:.4g}' for x in bias)}] {convention.unit}"
+        if np.abs(bias).max() * unit_factor(convention.unit) > PLAUSIBLE_BIAS:
+            return (f"; accelerometer bias kept at [{', '.join(f'{x:.4g}' for x in convention.bias)}]: the reading at "
+                    f"rest implies {text}, beyond any bias ({PLAUSIBLE_BIAS / 9.80665:g} g): check the scenario's "
+                    "accelerometer.R_SA and unit against the IMU's mounting")
         controller.set_accelerometer_bias(bias, reading, gravity_S)
-        return (f"; accelerometer bias [{', '.join(f'{x:.4g}' for x in bias)}] {convention.unit} (was "
-                f"[{', '.join(f'{x:.4g}' for x in convention.bias)}]) over {sums[9]:.0f} ticks")
+        return (f"; accelerometer bias {text} (was [{', '.join(f'{x:.4g}' for x in convention.bias)}]) over "
+                f"{sums[9]:.0f} ticks")
 
     def gripper(self, now_utime: int, event: str) -> None:
         """Serves a grasp or release (``gripper_state_reader.GRASP``/``RELEASE``) the gripper's driver

@@ -141,6 +141,12 @@ def reading_from_motion(acceleration, gravity, omega=None,
     return reading
 
 
+PLAUSIBLE_BIAS = 0.25 * 9.80665
+"""The largest bias (m/s², each linear axis) taken for one: MEMS IMUs and the JR3's accelerometer stay
+within a few tenths of a g (0.05–0.1 g class); a larger "bias" at rest is a mounting stated wrong (an axis
+flipped, g taken for m/s²)."""
+
+
 def bias_at_rest(convention: AccelerometerConvention, reading, gravity) -> np.ndarray:
     """The linear channels' bias (3, the accelerometer's axes and unit) under which the convention explains
     ``reading`` (its mean at rest, 3 or 6) under ``gravity`` (3, m/s² in S): the reading less what the

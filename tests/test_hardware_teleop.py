@@ -222,6 +222,25 @@ def test_a_rezero_measures_the_accelerometers_bias_too():
     assert max(np.linalg.norm(np.array(lab.stylus_wrenches[ticks:])[:, :3], axis=1)) < 1.05 * before  # no jolt
 
 
+def test_a_mounting_stated_wrong_is_not_taken_for_a_bias():
+    """The controller's scenario has the IMU turned half a turn about S's x from how it is mounted: at rest
+    that reads as a "bias" of up to 2 g, which no IMU has. With the tool's 3 kg that also looks like contact
+    (tens of newtons) and a re-zero is refused as such; with its gates opened wide here, the re-zero
+    measures the offsets, keeps the bias and says to check the mounting."""
+    mounting = {"accelerometer.R_SA": Rotation.from_rotvec([0.5, -0.9, 1.7]).as_matrix().tolist(),
+                "accelerometer.unit": "g", "accelerometer.full_scale": [10.0, 10.0, 10.0, 1000.0, 1000.0, 1000.0]}
+    wrong = (Rotation.from_rotvec([np.pi, 0.0, 0.0]) * Rotation.from_rotvec([0.5, -0.9, 1.7])).as_matrix().tolist()
+    lab, _, _ = still_lab(lambda true: true, overrides=mounting, controller_overrides={
+        "accelerometer.R_SA": wrong, "controller.offsets.rezero_force": 1e3, "controller.offsets.rezero_torque": 1e3})
+    lab.run(0.3)
+    send(lab, heft_load_command.REZERO)
+    lab.run(0.7)
+    assert [a.accepted for a in lab.answers] == [True, True] and lab.answers[-1].rezero_status == DONE
+    assert "accelerometer bias kept at [0, 0, 0]" in lab.answers[-1].message
+    assert "check the scenario's accelerometer.R_SA and unit" in lab.answers[-1].message
+    assert lab.teleop.controller.accelerometer.bias == (0.0, 0.0, 0.0)
+
+
 def test_a_malformed_load_command_is_answered_and_the_loop_goes_on():
     lab, _, _ = still_lab(lambda true: true)
     lab.run(0.2)
