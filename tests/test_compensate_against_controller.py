@@ -1,5 +1,5 @@
 """`heft compensate` on a lab's export of a contact-free closed-loop run against what heft's controller
-left on the same run (issue 24: within 1.5× per axis, the accelerometer's clock offset within 1 ms).
+left on the same run (within 1.5× per axis, the accelerometer's clock offset within 1 ms).
 
 The run: 3 s of `fig7` (a fast horizontal free-space motion of the paper's tool, `environment: none`,
 σ = 1) in the default (realistic) station, heft's controller holding the load's true φ and the sensor's

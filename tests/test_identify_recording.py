@@ -2,7 +2,7 @@
 
 The fast tests write static poses here from Newton's statics (the weight m·g acting at c) in a
 layout of their own; the slow ones take a run and 24 poses of heft's simulated station exported
-by ``foreign_recording`` (not heft's writers) and hold issue 24's round-trip targets."""
+by ``foreign_recording`` (not heft's writers) and hold the round trip's targets (README "Your own data")."""
 
 import csv
 import json
@@ -101,7 +101,7 @@ def test_recording_options_of_an_excitation_are_refused(tmp_path, capsys):
     assert "needs --scenario (the excitation heft drives) or --recording" in capsys.readouterr().err
 
 
-# --- the round trip in a foreign layout (issue 24) -----------------------------------------------
+# --- the round trip in a foreign layout ----------------------------------------------------------
 
 @pytest.fixture(scope="module")
 def simulated_lab(tmp_path_factory):
