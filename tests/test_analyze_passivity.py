@@ -66,3 +66,35 @@ def test_missing_keys_are_named(tmp_path):
 def test_passivity_params_unchanged_by_scenario():
     # The bounds the test above checks against are the scenario's own.
     assert dataclasses.asdict(resolve_scenario("fig8").controller.passivity) == dataclasses.asdict(PassivityParams())
+
+
+def test_what_the_clamp_withheld_is_counted_where_the_log_has_the_applied_wrench():
+    """A hardware log carries the wrench applied on the hand after the device's clamp. The energy the hand
+    put into the network is then −Σ f_applied·v·T (written out here), which the analysis finds as the port's
+    energy of the desired wrench, plus what the PC dissipated, plus what the clamp withheld; and the
+    observer, which counts the withheld power back, agrees with it."""
+    rng = np.random.default_rng(9)
+    ticks, period = 400, 5e-4
+    q = np.array([0.1, 0.2, -0.3, 0.1, 0.2, 0.1]) + 0.1 * np.sin(np.linspace(0, 3, ticks))[:, None]
+    v = rng.normal(0, 1.0, (ticks, 6))
+    desired = rng.normal(0, 6.0, (ticks, 6)) * np.array([1, 1, 1, 0.02, 0.02, 0.02])
+    damping = np.abs(rng.normal(0, [5.0, 0.01], (ticks, 2))) * (rng.uniform(size=(ticks, 1)) < 0.5)
+    twist = analyze_passivity.stylus_twists(q, v)
+    unclamped = desired - np.repeat(damping, 3, axis=1) * twist
+    applied = unclamped.copy()
+    for part, limit in ((slice(0, 3), 8.5), (slice(3, 6), 0.188)):
+        norm = np.linalg.norm(unclamped[:, part], axis=1, keepdims=True)
+        applied[:, part] *= np.minimum(1.0, limit / norm)
+    assert (applied != unclamped).any(axis=1).mean() > 0.2  # the clamp acts on many ticks
+    delivered = np.stack([-(applied[:, part] * twist[:, part]).sum(1) for part in (slice(0, 3), slice(3, 6))], 1)
+    log = {"t": np.arange(ticks) * period, "hold": np.full(ticks, period), "master_q": q, "master_v": v,
+           "master_force": desired, "master_force_applied": applied, "passivity_damping": damping,
+           "passivity_energy": np.cumsum(delivered * period, axis=0)}
+    report = analyze_passivity.analyze_log(log, wrench_lag=0)
+    for i, channel in enumerate(("translational", "rotational")):
+        pc = report["passivity_controller"]
+        withheld = pc[f"{channel}_clamp_withheld_J"]
+        analysed = report["master_port"][channel]["final_J"] + pc[f"{channel}_dissipated_J"] + withheld
+        assert withheld != 0.0
+        assert analysed == pytest.approx(delivered[:, i].sum() * period, rel=1e-12, abs=1e-15)
+        assert report["master_port"][channel]["observer_identity_gap_J"] < 1e-12

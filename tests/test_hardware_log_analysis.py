@@ -108,7 +108,8 @@ def test_passivity_on_the_hardware_log_agrees_with_the_raw_messages(recording, t
     analysed_report = analyze_log(complete.arrays, wrench_lag=0)
     ports, pc = analysed_report["master_port"], analysed_report["passivity_controller"]
     throughput = sum(port["energy_in_J"] + port["energy_out_J"] for port in ports.values())
-    analysed = sum(ports[c]["final_J"] + pc[f"{c}_dissipated_J"] for c in ("translational", "rotational"))
+    analysed = sum(ports[c]["final_J"] + pc[f"{c}_dissipated_J"] + pc[f"{c}_clamp_withheld_J"]
+                   for c in ("translational", "rotational"))
     print(f"energy into the network over {len(ticks)} ticks: {analysed:.9g} J by the analysis, {flow:.9g} J from "
           f"τ·q̇ (throughput {throughput:.4g} J; PC dissipated {pc['translational_dissipated_J']:.4g} J, "
           f"{pc['rotational_dissipated_J']:.4g} J)")

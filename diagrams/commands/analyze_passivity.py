@@ -98,8 +98,11 @@ def analyze_log(log: dict, robot: str = "rx90", twist=None, wrench_lag: int = 1)
     """The passivity report of a log (keys as `heft simulate` writes them; ``hold`` if the log
     has one): per channel the master port's energy in/out and final value, the PC's summary,
     and the largest gap between the observer's energy and the port energy plus what the PC
-    dissipated (J) (zero up to rounding when the log and the observer agree); with the
-    environment keys, the environment port's energies too. ``twist``: `stylus_twists` of the
+    dissipated (J) (zero up to rounding when the log and the observer agree); where the log has the
+    wrench applied on the hand (``master_force_applied``: a hardware log), what the device's clamp
+    withheld from the hand, Σ (f_PC − f_applied)·v·T (J, ``passivity_controller`` key
+    ``c_clamp_withheld_J``), which the observer counts back; with the environment keys, the
+    environment port's energies too. ``twist``: `stylus_twists` of the
     log, if already computed; ``wrench_lag``: as `paired_wrench`'s ``lag`` (module docstring)."""
     t = np.asarray(log["t"], dtype=float)
     holds = sample_periods(t, log.get("hold"))
@@ -111,7 +114,14 @@ def analyze_log(log: dict, robot: str = "rx90", twist=None, wrench_lag: int = 1)
     port = port_energy(t, wrench, twist, period=holds)
     speed_squared = np.stack(((twist[:, :3] ** 2).sum(1), (twist[:, 3:] ** 2).sum(1)), axis=1)
     dissipated = np.cumsum(damping * speed_squared * holds[:, None], axis=0)
-    gap = np.abs(observed - (port + dissipated)).max(axis=0)
+    withheld = np.zeros_like(dissipated)
+    if "master_force_applied" in log:  # the PC's wrench f − α·v, less what reached the hand
+        unclamped = wrench - np.repeat(damping, 3, axis=1) * twist
+        cut = (unclamped - paired_wrench(log["master_force_applied"], wrench_lag)) * twist
+        withheld = np.cumsum(np.stack((cut[:, :3].sum(1), cut[:, 3:].sum(1)), axis=1) * holds[:, None], axis=0)
+        for i, name in enumerate(CHANNELS):
+            summary[f"{name}_clamp_withheld_J"] = float(withheld[-1, i])
+    gap = np.abs(observed - (port + dissipated + withheld)).max(axis=0)
     power_in = -port_power(wrench, twist)
     report = {"duration_s": float(t[-1] - t[0] + holds[-1]), "master_port": {}, "passivity_controller": summary}
     for i, name in enumerate(CHANNELS):
