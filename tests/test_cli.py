@@ -290,7 +290,8 @@ def test_bench_step_ticks_the_diagram_as_the_fused_step_ticks():
 
 def test_teleop_uses_the_accelerometer_calibration_of_its_estimate(tmp_path, capsys):
     """An estimate.yaml that carries the accelerometer's calibration (from static poses) sets the
-    accelerometer the hardware controller reads, under --set; the run says which it uses."""
+    accelerometer the hardware controller reads, under --set; the run says which it uses. A calibration
+    with a bias no IMU has (0.5 g) is refused before the controller starts."""
     from scipy.spatial.transform import Rotation
 
     from heft.diagrams.load_estimate import write_load_estimate
@@ -312,3 +313,9 @@ def test_teleop_uses_the_accelerometer_calibration_of_its_estimate(tmp_path, cap
     assert main(["teleop", "--hardware", "--scenario", "fig6", "--set", unbiased, "--estimate", str(estimate),
                  "--lcm-url", "memq://", "--duration", "0.05", "--rt-priority", "0"]) == 0
     assert "in g with a bias of [0, 0, 0] g" in capsys.readouterr().out
+    implausible = AccelerometerCalibration(R_SA=calibration.R_SA, bias=[0.0, 0.5, 0.0], unit="g")
+    write_load_estimate(estimate, {"phi": point_mass_phi(3.13, [0.0, 0.0, 0.063]).tolist(), "offsets": [0.0] * 6},
+                        {"ok": True, "causes": []}, implausible)
+    assert main(["teleop", "--hardware", "--scenario", "fig6", "--set", lab, "--estimate", str(estimate),
+                 "--lcm-url", "memq://", "--duration", "0.05", "--rt-priority", "0"]) == 2
+    assert "bias of 0.5 g is beyond any bias (0.25 g)" in capsys.readouterr().err

@@ -39,6 +39,7 @@ def run(args) -> int:
     from heft.diagrams.running.hardware_teleop import format_summary, run_hardware_teleop
     from heft.diagrams.load_estimate import LoadEstimate, read_load_estimate
     from heft.diagrams.scenario import overrides_text
+    from heft.systems.accelerometer_reading import PLAUSIBLE_BIAS
 
     if not args.hardware:
         raise ValueError("only --hardware is supported here; use `heft simulate` for the simulated station")
@@ -48,6 +49,11 @@ def run(args) -> int:
     if estimate:
         load = read_load_estimate(estimate, scenario.ft_sensor.full_scale)
         if load.accelerometer is not None:  # its calibration, under the flags and --set
+            bias = np.abs(load.accelerometer.bias).max() * load.accelerometer.meters_per_second_squared
+            if bias > PLAUSIBLE_BIAS:
+                raise ValueError(f"{estimate}: its accelerometer bias of {bias / 9.80665:.3g} g is beyond any bias "
+                                 f"({PLAUSIBLE_BIAS / 9.80665:g} g): the calibration's unit or R_SA is wrong; "
+                                 "calibrate the accelerometer again from static poses")
             calibration = load.accelerometer.as_dict()
             scenario = scenario_from(args, overrides_text({f"accelerometer.{key}": value
                                                            for key, value in calibration.items()}))
