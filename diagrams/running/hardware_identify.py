@@ -23,7 +23,7 @@ from heft.diagrams.device_limits import device_limits
 from heft.diagrams.identify import Recording
 from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
 from heft.diagrams.running.realtime import (HardwareRunFailed, StopOnSignal, claim_realtime, format_timing,
-                                            run_realtime, timing_summary)
+                                            keep_cpu_for_loop, run_realtime, timing_summary)
 from heft.diagrams.scenario import Scenario
 from heft.systems.slave_kinematics import NUM_JOINTS
 from heft.hardware_interface.channels import LcmChannels
@@ -116,6 +116,8 @@ def record_on_hardware(scenario: Scenario, trajectory, duration: float, channels
         bus, command_bus = open_buses(channels)
         run = HardwareIdentification(trajectory, duration, period, bus, channels, device_limits(scenario), params,
                                      command_bus)
+        if priority:
+            print(f"identify: {keep_cpu_for_loop()}", flush=True)
         with StopOnSignal() as stop:
             try:
                 times = run_realtime(lambda now, dt: run.tick(now, dt) or stop.requested, period, budget)

@@ -34,8 +34,8 @@ import numpy as np
 
 from heft.diagrams.device_limits import device_limits
 from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
-from heft.diagrams.running.realtime import (StopOnSignal, claim_realtime, format_timing, run_realtime,
-                                            timing_summary)
+from heft.diagrams.running.realtime import (StopOnSignal, claim_realtime, format_timing, keep_cpu_for_loop,
+                                            run_realtime, timing_summary)
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop import MakeRealtimeTeleopController
@@ -231,9 +231,10 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float,
     ``open_buses``, and the station's watchdog) at its rate (``controller_period``) for
     ``duration`` s of wall time, with real-time ``priority`` (``claim_realtime``: after the
     recorder's loggers start, which keep normal scheduling, and before the buses open, so that
-    LCM's receive thread shares it); returns its summary with ``timing`` (``timing_summary``),
-    ``scheduling``, ``lcm_log`` and ``epoch`` (wall-clock s since the Unix epoch at the loop's
-    time 0). SIGINT (Ctrl-C) or SIGTERM end the run early as its duration does: the station's
+    LCM's receive thread shares it; then ``keep_cpu_for_loop`` moves that thread off the loop's
+    CPU); returns its summary with ``timing`` (``timing_summary``), ``scheduling``, ``lcm_log``
+    and ``epoch`` (wall-clock s since the Unix epoch at the loop's time 0).
+    SIGINT (Ctrl-C) or SIGTERM end the run early as its duration does: the station's
     last commands turn the forces off and hold the slave (``HardwareStation.stop``).
     ``record``: a path to record the LCM traffic to (``lcm-logger`` format), or None."""
     print(f"teleop: {scenario.accelerometer.convention()}", flush=True)
@@ -251,6 +252,9 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float,
         bus, command_bus = open_buses(channels)
         teleop = HardwareTeleop(scenario, load, bus, channels, scenario.lab.station, command_bus,
                                 publish_state=record is not None)
+        if priority:
+            scheduling += f"; {keep_cpu_for_loop()}"
+            print(f"teleop: {scheduling.split('; ')[-1]}", flush=True)
         teleop.station.epoch = time.time()
         with StopOnSignal() as stop:
             print("teleop: running (Ctrl-C stops with forces off and the slave held)", flush=True)

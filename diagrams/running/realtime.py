@@ -18,6 +18,7 @@ import gc
 import math
 import os
 import signal
+import threading
 import time
 
 import numpy as np
@@ -112,9 +113,9 @@ def claim_realtime(priority: int) -> str:
     (1–99; 0 leaves the scheduling alone), pinned to the last CPU so that other processes
     (the drivers, a stand-in) neither preempt it nor move it between caches. Threads and
     processes started afterwards inherit both: claim it before opening an LCM bus, whose
-    receive thread then runs beside the loop instead of waiting behind every other process
-    for a CPU. Returns what was granted, or why not and how to grant it; never raises for a
-    refusal."""
+    receive thread then runs at the loop's priority instead of waiting behind every other
+    process for a CPU (``keep_cpu_for_loop`` then moves it to another CPU). Returns what was
+    granted, or why not and how to grant it; never raises for a refusal."""
     if priority == 0:
         return "normal scheduling (real-time priority 0)"
     if not 1 <= priority <= 99:
@@ -127,6 +128,31 @@ def claim_realtime(priority: int) -> str:
         return (f"normal scheduling: SCHED_FIFO {priority} was refused (run as root, or allow it with "
                 "`ulimit -r` / an rtprio line in /etc/security/limits.conf); ticks may be preempted")
     return f"SCHED_FIFO priority {priority} on CPU {cpu}"
+
+
+def keep_cpu_for_loop() -> str:
+    """Moves every other thread of this process off the calling (loop) thread's CPU onto the
+    remaining ones, with the scheduling they inherited: call it once the LCM buses have their
+    subscriptions, whose first starts python-lcm's receive thread. That thread, on the loop's
+    CPU with the loop's ``SCHED_FIFO``, added its own load to the loop's; beyond 95 % of the CPU
+    together (Linux's ``sched_rt_runtime_us``) the kernel stalled both for the rest of every second
+    (20–40 ms: a watchdog fault a second). Returns what was done; a process on one CPU, or not
+    pinned, is left alone."""
+    mine = os.sched_getaffinity(0)
+    others = set(range(os.cpu_count() or 1)) - mine
+    if len(mine) != 1 or not others:
+        return "the loop shares its CPU with the process's other threads"
+    loop = threading.get_native_id()
+    moved = 0
+    for task in os.listdir("/proc/self/task"):
+        if int(task) != loop:
+            try:
+                os.sched_setaffinity(int(task), others)
+                moved += 1
+            except OSError:  # a thread that ended meanwhile, or CPUs outside the process's cpuset
+                pass
+    return (f"CPU {min(mine)} for the loop alone: {moved} other thread(s) (LCM's receive thread) on CPU "
+            + ", ".join(str(cpu) for cpu in sorted(others)))
 
 
 def _percentile_us(values, q) -> float:
