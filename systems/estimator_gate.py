@@ -25,15 +25,29 @@ import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from heft.systems.contact_threshold import ContactThresholdParams
-from heft.systems.load_dynamics import regressor, wrench_norms
+from heft.systems.compiled import compiled, float_array
+from heft.systems.load_dynamics import regressor_into, wrench_norms
 from heft.systems.load_estimation_params import LoadEstimationParams
 
 _ZERO = np.zeros(3)
+_V = np.empty((6, 10))
+"""The regressor's scratch: the gate is judged on one thread (the loop's, or the simulator's)."""
+
+
+@compiled("float64(float64[:], float64[:], float64[:], float64[:, :])")
+def _regressor_norm(acceleration, omega, g, V) -> float:
+    """‖V(a, α, ω, g)‖ (Frobenius) of [a; α] (6), ω and g (3), V (6, 10) the scratch."""
+    regressor_into(acceleration[:3], acceleration[3:], omega, g, V)
+    total = 0.0
+    for i in range(6):
+        for j in range(10):
+            total += V[i, j] * V[i, j]
+    return math.sqrt(total)
 
 
 def excitation(acceleration, omega) -> float:
     """‖V(a, α, ω, 0)‖ of the kinematic [a; α] (6) and ω (3), in S."""
-    return float(np.linalg.norm(regressor(acceleration[:3], acceleration[3:], omega, _ZERO)))
+    return _regressor_norm(float_array(acceleration), float_array(omega), _ZERO, _V)
 
 
 def spoiled(params: LoadEstimationParams, thresholds: ContactThresholdParams, contact, fault: bool,

@@ -14,6 +14,7 @@ import math
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
+from heft.systems.compiled import compiled
 from heft.systems.sample_period import require_period
 from heft.systems.sensor_models import lowpass_coefficients
 
@@ -34,29 +35,28 @@ def prefilter_coefficients(cutoff: float, period: float) -> np.ndarray:
     return lowpass_coefficients(cutoff, period)
 
 
-def prefilter_step(coefficients: np.ndarray, state: np.ndarray, sample: np.ndarray, scratch: np.ndarray) -> None:
-    """One sample (``WIDTH``: wrench, acceleration, omega, gravity as ``SIGNALS``) through the filter,
-    in place on ``state`` (``STATE_SIZE``): its first ``WIDTH`` entries become the filtered sample
-    (``sensor_models.lowpass``'s recursion for one row, in scalar-coefficient form: no allocation);
-    a non-finite sample makes the whole state NaN, so that the next finite one restarts the filter
-    in its steady state. ``scratch`` (``WIDTH``) is work space."""
-    if not math.isfinite(sum(sample.tolist())):
-        state[:] = np.nan
-        return
-    b0, b1, b2, a1, a2 = coefficients.tolist()
-    out, z1, z2 = state[:WIDTH], state[WIDTH:2 * WIDTH], state[2 * WIDTH:]
-    if math.isnan(z1[0]):  # the steady state for ``sample``: out = sample (unit DC gain)
-        np.multiply(sample, b1 + b2 - a1 - a2, out=z1)
-        np.multiply(sample, b2 - a2, out=z2)
-    np.multiply(sample, b0, out=out)
-    out += z1
-    np.multiply(sample, b1, out=z1)
-    z1 += z2
-    np.multiply(out, a1, out=scratch)
-    z1 -= scratch
-    np.multiply(sample, b2, out=z2)
-    np.multiply(out, a2, out=scratch)
-    z2 -= scratch
+@compiled("void(float64[:], float64[:], float64[:])")
+def prefilter_step(coefficients, state, sample) -> None:
+    """One sample (``WIDTH``: wrench, acceleration, omega, gravity as ``SIGNALS``) through the filter
+    (``coefficients`` (b0, b1, b2, a1, a2)), in place on ``state`` (``STATE_SIZE``): its first
+    ``WIDTH`` entries become the filtered sample (``sensor_models.lowpass``'s recursion for one
+    row); a non-finite sample makes the whole state NaN, so that the next finite one restarts the
+    filter in its steady state (out = sample: unit DC gain)."""
+    width = sample.shape[0]
+    for i in range(width):
+        if not math.isfinite(sample[i]):
+            state[:] = np.nan
+            return
+    b0, b1, b2, a1, a2 = coefficients[0], coefficients[1], coefficients[2], coefficients[3], coefficients[4]
+    steady = math.isnan(state[width])
+    for i in range(width):
+        x = sample[i]
+        z1 = x * (b1 + b2 - a1 - a2) if steady else state[width + i]
+        z2 = x * (b2 - a2) if steady else state[2 * width + i]
+        y = b0 * x + z1
+        state[i] = y
+        state[width + i] = b1 * x + z2 - a1 * y
+        state[2 * width + i] = b2 * x - a2 * y
 
 
 class EstimatorPrefilter(LeafSystem):
@@ -86,5 +86,5 @@ class EstimatorPrefilter(LeafSystem):
     def _update(self, context, discrete_state):
         sample = np.concatenate([port.Eval(context) for port in self._inputs])
         state = context.get_discrete_state(self._state).get_value().copy()
-        prefilter_step(self._coefficients, state, sample, np.empty(WIDTH))
+        prefilter_step(self._coefficients, state, sample)
         discrete_state.set_value(self._state, state)

@@ -52,7 +52,6 @@ class OnlineLoadEstimator:
         self._coefficients = prefilter_coefficients(params.prefilter, period) if params.prefilter > 0 else None
         self._filter = np.full(STATE_SIZE, np.nan)
         self._sample = np.empty(WIDTH)
-        self._scratch = np.empty(WIDTH)
         self._clocks = np.array(CLOCKS_START)
         self._requests = 0.0
         self.enabled = False
@@ -111,4 +110,4 @@ class OnlineLoadEstimator:
             else:
                 self.num_skipped += 1
         if self._coefficients is not None:
-            prefilter_step(self._coefficients, self._filter, sample, self._scratch)
+            prefilter_step(self._coefficients, self._filter, sample)

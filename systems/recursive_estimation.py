@@ -15,9 +15,10 @@ import numpy as np
 from scipy.linalg import lapack, solve_triangular
 
 from heft.systems.batch_estimation import tls_covariance
+from heft.systems.compiled import compiled
 from heft.systems.identifiability import (
     check_rcond, mask_unidentifiable, null_excitation, root_excitation)
-from heft.systems.load_dynamics import regressor
+from heft.systems.load_dynamics import regressor, regressor_into
 from heft.systems.regression_noise import NoiseLevels, noise_gram_terms, require_kinematic_noise
 
 # Forgetting drives the entries of unexcited directions towards zero and, in the end, into
@@ -38,6 +39,58 @@ def _vector(name: str, value, size: int) -> np.ndarray:
         raise ValueError(f"{name} contains NaN or inf; skip this sample")
     return value
 
+
+@compiled("void(float64[:, :], float64[:], float64[:, :], float64, float64, float64[:])")
+def information_update(root, theta, rows, sqrt_forgetting, pull, row):
+    """One update of the square-root information [S z; 0 ρ] (``root``, (p+1, p+1), upper
+    triangular) by the rows [√λ·S √λ·z; c·E c·θ̂; ``rows``] (``rows``: (k, p+1) new data rows,
+    c = ``pull``, θ̂ = ``theta`` (p,) before the update), each row rotated into S by Givens
+    rotations (the R factor of the stack's QR, up to the rows' signs); then θ̂ solves S θ = z,
+    unchanged if S is singular. ``row`` (p+1) is scratch."""
+    n = root.shape[0]
+    p = n - 1
+    for i in range(n):
+        for j in range(i, n):
+            root[i, j] *= sqrt_forgetting
+    for k in range(p + rows.shape[0] if pull > 0.0 else rows.shape[0]):
+        if pull > 0.0 and k < p:
+            row[:] = 0.0
+            row[k], row[p], first = pull, pull * theta[k], k
+        else:
+            row[:] = rows[k - p if pull > 0.0 else k]
+            first = 0
+        for c in range(first, n):
+            b = row[c]
+            if b == 0.0:
+                continue
+            a = root[c, c]
+            h = math.hypot(a, b)
+            cosine, sine = a / h, b / h
+            root[c, c] = h
+            for j in range(c + 1, n):
+                upper, lower = root[c, j], row[j]
+                root[c, j] = cosine * upper + sine * lower
+                row[j] = cosine * lower - sine * upper
+    for i in range(p):
+        if root[i, i] == 0.0:
+            return
+    for i in range(p - 1, -1, -1):
+        total = root[i, p]
+        for j in range(i + 1, p):
+            total -= root[i, j] * theta[j]
+        theta[i] = total / root[i, i]
+
+
+@compiled("void(float64[:, :, :], float64[:, :], float64[:], float64)")
+def accumulate_moments(moments, V, wrench, forgetting):
+    """``moments`` (6, 12, 12) ← λ·moments + m mᵀ per wrench axis k, m = [1, V_k, y_k] (V (6, 10),
+    ``wrench`` y (6,), λ = ``forgetting``)."""
+    for k in range(6):
+        for i in range(12):
+            mi = 1.0 if i == 0 else (wrench[k] if i == 11 else V[k, i - 1])
+            for j in range(12):
+                mj = 1.0 if j == 0 else (wrench[k] if j == 11 else V[k, j - 1])
+                moments[k, i, j] = forgetting * moments[k, i, j] + mi * mj
 
 
 class _RecursiveEstimator(abc.ABC):
@@ -60,8 +113,6 @@ class _RecursiveEstimator(abc.ABC):
                         **fields}
         self._state = np.zeros(sum(math.prod(shape) for shape in self._layout.values()))
         self._bind_state_views()
-        self._moment_rows = np.ones((6, 12))     # [1, V_k, y_k] per wrench axis k
-        self._outer_rows = np.empty((6, 12, 12))
         self._residual_vectors = np.zeros((6, 12))
 
     def _bind_state_views(self) -> None:
@@ -180,13 +231,7 @@ class _RecursiveEstimator(abc.ABC):
     def _track_residual(self, wrench: np.ndarray, V: np.ndarray) -> None:
         """Accumulates the per-axis second moments S_k = Σ λ^(t−i) m m ᵀ, m = [1, V_k, y_k],
         from which any estimate's residual follows; counts the sample; flushes tiny entries."""
-        rows = self._moment_rows
-        rows[:, 1:11] = V
-        rows[:, 11] = wrench
-        np.multiply(rows[:, :, None], rows[:, None, :], out=self._outer_rows)
-        if self._forgetting != 1.0:
-            self._axis_moments *= self._forgetting
-        self._axis_moments += self._outer_rows
+        accumulate_moments(self._axis_moments, V, wrench, self._forgetting)
         self._count[0] += 1.0
         if self._count[0] % _FLUSH_INTERVAL == 0.0:
             self._state[np.abs(self._state) < _FLUSH_BELOW] = 0.0
@@ -234,9 +279,9 @@ class RecursiveLeastSquares(_InformationFormEstimator):
     Information R = Σ λ^(t−i)·A_iᵀWA_i + prior and b = Σ λ^(t−i)·A_iᵀWy_i + prior·θ̂, with
     A_i = [E₆ V_i], W = diag(1/σ²) per wrench axis from ``noise`` and the prior
     R₀ = E/``initial_covariance``. The state is the upper-triangular square root
-    [S z; 0 ρ] of the augmented information [R b; bᵀ ·] (SᵀS = R, Sᵀz = b); each update is one
-    Householder QR (LAPACK geqrf) of the stacked rows [√λ·S √λ·z; c·E c·θ̂; W^½A W^½y],
-    c = √((1−λ)/initial_covariance), then θ̂ solves the triangular S θ = z (trtrs).
+    [S z; 0 ρ] of the augmented information [R b; bᵀ ·] (SᵀS = R, Sᵀz = b); each update is the
+    R factor of the stacked rows [√λ·S √λ·z; c·E c·θ̂; W^½A W^½y], c = √((1−λ)/initial_covariance),
+    by Givens rotations (``information_update``, compiled), then θ̂ solves the triangular S θ = z.
 
     The forgetting (λ = ``forgetting``) is thus stabilized (Kulhavý & Zarrop, Int. J. Control
     1993): R ← λR + (1−λ)R₀ + AᵀWA and b ← λb + (1−λ)R₀θ̂ + AᵀWy. Hence R ⪰ R₀ at all times —
@@ -252,12 +297,10 @@ class RecursiveLeastSquares(_InformationFormEstimator):
                  noise: NoiseLevels | None = None, rcond: float = 1e-6):
         p = 16 if offsets else 10
         super().__init__(offsets, forgetting, initial_covariance, noise, rcond, {"root": (p + 1, p + 1)})
-        stabilizing = self._forgetting < 1.0
-        self._stack = np.zeros((p + 1 + (p if stabilizing else 0) + 6, p + 1), order="F")
-        self._upper = np.triu(np.ones((p + 1, p + 1)))
         self._sqrt_forgetting = math.sqrt(self._forgetting)
         self._pull = math.sqrt((1.0 - self._forgetting) * self._prior)
-        self._pull_rows = np.hstack((self._pull * np.eye(p), np.zeros((p, 1))))
+        self._V = np.empty((6, 10))
+        self._row = np.empty(p + 1)
 
     def reset(self) -> None:
         super().reset()
@@ -275,20 +318,12 @@ class RecursiveLeastSquares(_InformationFormEstimator):
     def update(self, wrench, a, alpha, omega, g) -> None:
         """Adds one sample: wrench (6,), a, alpha, omega, g (3,), all in S."""
         wrench = _vector("wrench", wrench, 6)
-        V = self._regressor(a, alpha, omega, g)
-        p, stack = self._p, self._stack
+        V = self._V
+        regressor_into(_vector("a", a, 3), _vector("alpha", alpha, 3), _vector("omega", omega, 3),
+                       _vector("g", g, 3), V)
         self._load_sample(wrench, V, self._weighted)
         self._advance_weight()
-        np.multiply(self._root, self._sqrt_forgetting, out=stack[:p + 1])
-        if self._forgetting < 1.0:
-            stack[p + 1:2 * p + 1] = self._pull_rows
-            np.multiply(self._theta, self._pull, out=stack[p + 1:2 * p + 1, p])
-        stack[-6:] = self._weighted
-        factored, _, _, _ = lapack.dgeqrf(stack, overwrite_a=1)
-        np.multiply(factored[:p + 1], self._upper, out=self._root)
-        solution, info = lapack.dtrtrs(self._root[:p, :p], self._root[:p, p])
-        if info == 0:
-            self._theta[:] = solution
+        information_update(self._root, self._theta, self._weighted, self._sqrt_forgetting, self._pull, self._row)
         self._track_residual(wrench, V)
 
     @property

@@ -124,6 +124,25 @@ for robot in ("rx90", "rx60"):
         out["step_status"].append(step(pose, q_reference, [5e-4, 0.01, 1.0][n % 3], command))
         out["step_command"].append(command)
 out["ik_all"] = np.concatenate(out["ik_all"])
+# The RLS update with stabilized forgetting (its information update and second moments).
+from heft.systems.recursive_estimation import RecursiveLeastSquares
+
+rls, out["rls"] = RecursiveLeastSquares(offsets=False, forgetting=0.999), []
+for _ in range(50):
+    a, alpha, omega, g = rng.normal(0, 3, (4, 3))
+    rls.update(rng.normal(0, 20, 6), a, alpha, omega, g)
+    out["rls"].append(rls.state_vector())
+# The online estimator's gate (its excitation) and prefilter.
+from heft.systems.estimator_gate import excitation
+from heft.systems.estimator_prefilter import STATE_SIZE, WIDTH, prefilter_coefficients, prefilter_step
+
+coefficients, state = prefilter_coefficients(20.0, 5e-4), np.full(STATE_SIZE, np.nan)
+out["excitation"], out["prefilter"] = [], []
+for k in range(40):
+    motion = rng.normal(0, 3, 9)
+    out["excitation"].append(excitation(motion[:6], motion[6:]))
+    prefilter_step(coefficients, state, rng.normal(0, 3, WIDTH) if k != 20 else np.full(WIDTH, np.nan))
+    out["prefilter"].append(np.nan_to_num(state, nan=-1.0))
 np.savez(sys.argv[1], **{name: np.asarray(value) for name, value in out.items()})
 """
 

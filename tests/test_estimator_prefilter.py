@@ -100,12 +100,12 @@ def test_one_sample_step_is_scipys_filter_started_in_its_steady_state():
     b, a = coefficients[:3], np.concatenate(([1.0], coefficients[3:]))
     samples = np.random.default_rng(5).normal(size=(300, WIDTH)) + np.linspace(0, 3, WIDTH)
     expected, _ = lfilter(b, a, samples, axis=0, zi=lfilter_zi(b, a)[:, None] * samples[0])
-    state, scratch, out = np.full(STATE_SIZE, np.nan), np.empty(WIDTH), []
+    state, out = np.full(STATE_SIZE, np.nan), []
     for sample in samples:
-        prefilter_step(coefficients, state, sample, scratch)
+        prefilter_step(coefficients, state, sample)
         out.append(state[:WIDTH].copy())
     np.testing.assert_allclose(out, expected, rtol=0, atol=1e-12)
-    prefilter_step(coefficients, state, np.full(WIDTH, np.nan), scratch)
+    prefilter_step(coefficients, state, np.full(WIDTH, np.nan))
     assert np.isnan(state).all()
-    prefilter_step(coefficients, state, samples[7], scratch)
+    prefilter_step(coefficients, state, samples[7])
     np.testing.assert_allclose(state[:WIDTH], samples[7], rtol=0, atol=1e-12)

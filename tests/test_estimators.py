@@ -12,7 +12,7 @@ from heft.diagrams.stations.load_on_sensor import simulate_random_motion
 from heft.systems.batch_estimation import batch_estimate, stack
 from heft.systems.load_dynamics import PARAMETER_NAMES, PHI_NAMES, InertialParameters, regressor
 from heft.systems.recursive_estimation import (
-    RecursiveInstrumentalVariables, RecursiveLeastSquares, RecursiveTotalLeastSquares)
+    RecursiveInstrumentalVariables, RecursiveLeastSquares, RecursiveTotalLeastSquares, information_update)
 from heft.systems.regression_noise import NoiseLevels
 
 RECURSIVE = (RecursiveLeastSquares, RecursiveInstrumentalVariables, RecursiveTotalLeastSquares)
@@ -157,6 +157,24 @@ def test_ols_is_unbiased_and_its_covariance_matches_the_monte_carlo_spread():
     assert np.all(np.abs(errors.mean(axis=0)) < 4 * standard_error)
     ratio = errors.std(axis=0, ddof=1) / np.sqrt(np.mean(stds ** 2, axis=0))
     assert np.all((ratio > 0.7) & (ratio < 1.3)), dict(zip(PARAMETER_NAMES, ratio.round(2)))
+
+
+@pytest.mark.parametrize("pull", [0.0, 1e-3])
+def test_the_information_update_is_the_r_factor_of_the_stacked_rows(pull):
+    """Against numpy's Householder QR of [√λ·S √λ·z; c·E c·θ̂; rows]: the same triangle up to the
+    rows' signs, and θ̂ the least-squares solution of the stack's first p columns against its last."""
+    rng = np.random.default_rng(7)
+    p, sqrt_forgetting = 10, 0.9995
+    root = np.triu(rng.normal(size=(p + 1, p + 1))) + 3 * np.eye(p + 1)
+    theta, rows = rng.normal(size=p), rng.normal(size=(6, p + 1))
+    pull_rows = np.hstack((pull * np.eye(p), pull * theta[:, None]))
+    stacked = np.vstack((sqrt_forgetting * root, pull_rows if pull else np.zeros((0, p + 1)), rows))
+    expected = np.linalg.qr(stacked, mode="r")
+    information_update(root, theta, rows.copy(), sqrt_forgetting, pull, np.empty(p + 1))
+    signs = np.sign(np.diag(expected)) * np.sign(np.diag(root))
+    np.testing.assert_allclose(root, signs[:, None] * expected, atol=1e-12)
+    np.testing.assert_allclose(np.tril(root, -1), 0.0)
+    np.testing.assert_allclose(theta, np.linalg.lstsq(stacked[:, :p], stacked[:, p], rcond=None)[0], atol=1e-12)
 
 
 def test_rls_equals_batch_wls_with_the_same_weights():
