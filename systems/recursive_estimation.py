@@ -30,9 +30,11 @@ _FLUSH_BELOW = 1e-200
 
 
 def _vector(name: str, value, size: int) -> np.ndarray:
-    """``value`` as a finite float array of shape (size,), cheaply when it already is one."""
-    if type(value) is not np.ndarray or value.dtype != np.float64 or value.shape != (size,):
-        value = np.asarray(value, dtype=float)
+    """``value`` as a finite, writeable float array of shape (size,) (what the compiled kernels take),
+    cheaply when it already is one."""
+    if (type(value) is not np.ndarray or value.dtype != np.float64 or value.shape != (size,)
+            or not value.flags.writeable):
+        value = np.array(value, dtype=float)
         if value.shape != (size,):
             raise ValueError(f"{name} must have shape ({size},); got {value.shape}")
     if not math.isfinite(sum(value.tolist())):
