@@ -9,7 +9,8 @@ The per-block Diagram (``diagrams.teleop.MakeTeleopController`` with
 order a Diagram's discrete update sees them: the gate decides from this tick's
 samples and the clocks before them, the estimator learns from the prefilter's output
 of the last tick, then the prefilter takes this tick's sample. All state is
-preallocated; a tick allocates only inside the RLS update (its regressor).
+preallocated, the regressor included; the gate, the prefilter and the RLS update are compiled
+kernels (``compiled``).
 """
 
 from __future__ import annotations
