@@ -15,7 +15,8 @@ from heft.diagrams.plants import AddArmWithSensor
 from heft.diagrams.scenario import resolve_scenario
 from heft.diagrams.running.simulation import true_load
 from heft.diagrams.stations.stand_in import FaultInjection, StandIn
-from heft.diagrams.running.hardware_teleop import HardwareTeleop
+from heft.diagrams.running.hardware_teleop import HardwareTeleop, format_summary
+from heft.diagrams.running.realtime import TickTimes, timing_summary
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import HardwareStationParams
 from heft.hardware_interface.lcmtypes import heft_load_command, heft_load_status
@@ -95,6 +96,19 @@ def test_start_up_never_moves_the_slave():
     q_start = np.array(resolve_scenario("fig6").slave_initial_q)
     np.testing.assert_allclose(lab.stand_in.slave_position, q_start, atol=1e-5)
     assert np.ptp(np.array(lab.master_q), axis=0).max() > 0.01, "the operator should have moved the stylus"
+
+
+def test_the_summary_says_when_the_controller_was_first_healthy():
+    """In seconds with a fixed number of decimals, however early (a lab already publishing makes
+    the first tick healthy), or "never"."""
+    lab = Lab(resolve_scenario("fig6"))
+    lab.run(0.05)
+    summary = {**lab.teleop.summary(0.05), "duration": 0.05, "rate_hz": 2000.0,
+               "timing": timing_summary(TickTimes(np.full(3, 1e-4), np.full(3, 1e-4), np.zeros(3), 0, 0.05, 5e-4))}
+    first = summary["first_healthy"]
+    assert first is not None and first < 0.01
+    assert f"(first at {first:.4f} s)" in format_summary(summary, "memq://")
+    assert "healthy in 0 (never)" in format_summary({**summary, "healthy_ticks": 0, "first_healthy": None}, "memq://")
 
 
 @pytest.mark.parametrize("sigma", [0.0, 0.2])

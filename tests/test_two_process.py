@@ -349,7 +349,7 @@ def test_a_labs_scenario_file_runs_teleop_with_no_other_flag(netns, tmp_path):
     assert (f"teleop: controller on {lab_url} (commands on {command_url}) at 1000 Hz for 10 s of wall time; "
             "watchdog timeout 0.05 s") in text
     assert f"stand-in: {lab} on {lab_url} (commands on {command_url})" in stand_in.text()
-    ran = re.search(r"ran [\d.]+ s at 1000 Hz: (\d+) ticks, healthy in (\d+) \(first at ([\d.]+)\)", text)
+    ran = re.search(r"ran [\d.]+ s at 1000 Hz: (\d+) ticks, healthy in (\d+) \(first at ([\d.]+) s\)", text)
     assert ran is not None and int(ran.group(2)) > 0, text
     received = dict(re.findall(r"(\w+) (\d+)", re.search(r"messages per second: received ([^;]*);", text).group(1)))
     for channel in ("master_state", "slave_status", "ft_sample"):

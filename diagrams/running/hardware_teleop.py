@@ -276,6 +276,7 @@ def format_summary(summary: dict, lcm_url: str) -> str:
         f"at {f['onset']:.4f} s (bits {f['fault_bits']}, ages {f['ages_ms']} ms), "
         + ("not recovered" if f["recovered"] is None else f"recovered at {f['recovered']:.4f} s")
         for f in faults[:5]) + (f" … ({len(faults)} in all)" if len(faults) > 5 else "")
+    first = ("never" if summary["first_healthy"] is None else f"first at {summary['first_healthy']:.4f} s")
     received = ", ".join(f"{name} {hz:.0f}" for name, hz in summary["received_hz"].items())
     sent = ", ".join(f"{name} {hz:.0f}" for name, hz in summary["sent_hz"].items())
     rejected = "; ".join(f"{name}: " + ", ".join(f"{count} {reason}" for reason, count in reasons.items())
@@ -283,7 +284,7 @@ def format_summary(summary: dict, lcm_url: str) -> str:
     reanchors = summary["slave_reanchors"]
     lines = [
         f"ran {summary['duration']:.3g} s at {summary['rate_hz']:g} Hz: {summary['ticks']} ticks, healthy in "
-        f"{summary['healthy_ticks']} (first at {summary['first_healthy']}); faults: {fault_lines or 'none'}; "
+        f"{summary['healthy_ticks']} ({first}); faults: {fault_lines or 'none'}; "
         f"final: healthy {summary['final_healthy']}, fault bits {summary['final_fault_bits']}",
         f"messages per second: received {received}; sent {sent}",
         f"messages rejected (none reached the controller): {rejected or 'none'}; pushed out unread by newer "
