@@ -253,8 +253,9 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float,
         teleop = HardwareTeleop(scenario, load, bus, channels, scenario.lab.station, command_bus,
                                 publish_state=record is not None)
         if priority:
-            scheduling += f"; {keep_cpu_for_loop()}"
-            print(f"teleop: {scheduling.split('; ')[-1]}", flush=True)
+            placement = keep_cpu_for_loop()
+            scheduling += f"; {placement}"
+            print(f"teleop: {placement}", flush=True)
         teleop.station.epoch = time.time()
         with StopOnSignal() as stop:
             print("teleop: running (Ctrl-C stops with forces off and the slave held)", flush=True)
