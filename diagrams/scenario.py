@@ -21,15 +21,15 @@ from pydrake.multibody.plant import MultibodyPlantConfig
 from pydrake.systems.analysis import SimulatorConfig
 
 from heft.hardware_interface.channels import LcmChannels
-from heft.hardware_interface.hardware_station import HardwareStationParams
+from heft.hardware_interface.hardware_station_params import HardwareStationParams
 from heft.systems.contact_threshold import ContactThresholdParams
 from heft.systems.load_estimation_params import LoadEstimationParams
-from heft.systems.feedback_mapping import FeedbackMappingParams
-from heft.systems.force_scaling import ForceScalingParams
-from heft.systems.motion_scaling import MotionScalingParams
-from heft.systems.offset_tracking import OffsetTrackingParams
-from heft.systems.passivity_controller import PassivityParams
-from heft.systems.sensor_models import AccelerometerParams, ForceTorqueSensorParams
+from heft.systems.feedback_mapping_params import FeedbackMappingParams
+from heft.systems.force_scaling_params import ForceScalingParams
+from heft.systems.motion_scaling_params import MotionScalingParams
+from heft.systems.offset_tracking_params import OffsetTrackingParams
+from heft.systems.passivity_params import PassivityParams
+from heft.systems.sensor_params import AccelerometerParams, ForceTorqueSensorParams
 
 
 @dataclasses.dataclass

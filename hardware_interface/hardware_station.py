@@ -22,7 +22,6 @@ is measured on the caller's clock (s, wall-clock, monotonic), never in ticks:
   speed limits × the time since the last send.
 """
 
-import dataclasses
 import math
 
 import lcm
@@ -35,12 +34,13 @@ from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.fixed_layout import FixedLayout
 from heft.hardware_interface.ft_receiver import FtSampleReader
 from heft.hardware_interface.gripper_state_reader import GripperStateReader
+from heft.hardware_interface.hardware_station_params import HardwareStationParams
 from heft.hardware_interface.joint_state_reader import HAPTIC_STATE, IIWA_STATUS, JointStateReader
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
 from heft.hardware_interface.lcmtypes import heft_haptic_command, heft_station_status
 from heft.hardware_interface.message_checks import REASONS, DeviceLimits, JointRange
 from heft.hardware_interface.message_order import SILENCE_PER_TIMEOUT
-from heft.hardware_interface.watchdog import WatchdogParams, watchdog_step
+from heft.hardware_interface.watchdog import watchdog_step
 
 WATCHED_CHANNELS = ("master_state", "slave_status", "ft_sample")
 """Channels the watchdog watches; channel i is bit i of the fault bitmask (stale), bit 3 a
@@ -57,13 +57,6 @@ JOINT_KEEP = 8
 interleaves with it, so that a second publisher is seen rather than hidden behind the last."""
 CLUTCH_BUTTON = 1
 """Bit of ``heft_haptic_state.buttons`` held while the operator couples master and slave."""
-
-
-@dataclasses.dataclass
-class HardwareStationParams:
-    """Limits of the hardware station; loadable with ``yaml_load_typed``."""
-
-    watchdog: WatchdogParams = dataclasses.field(default_factory=WatchdogParams)
 
 
 def rate_limit(previous: np.ndarray, target: np.ndarray, max_step: np.ndarray) -> np.ndarray:

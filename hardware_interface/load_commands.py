@@ -6,14 +6,12 @@ publishes one when a re-zero finishes or is refused, and when the object grasped
 has been learned for the estimator's learning window. A grasp or release comes from
 ``heft load --grasp``/``--release`` or from the gripper's driver
 (``gripper_state_reader``, ``gripper``); both are served alike. ``send_load_command``
-(in ``heft load``) sends one command and waits for the answers.
+(``load_command_sender``, in ``heft load``) sends one command and waits for the answers.
 """
 
 from __future__ import annotations
 
 import math
-import select
-import time
 
 import lcm
 import numpy as np
@@ -26,14 +24,9 @@ from heft.systems.offset_tracking import COLLECTING, DONE, STATUS_TEXT
 from heft.hardware_interface.gripper_state_reader import GRASP
 
 from heft.hardware_interface.channels import LcmChannels
-from heft.hardware_interface.lcm_mailbox import LcmMailbox, open_buses
+from heft.hardware_interface.lcm_mailbox import LcmMailbox
+from heft.hardware_interface.load_command_sender import ACTIONS
 from heft.hardware_interface.lcmtypes import heft_load_command, heft_load_status
-
-ACTIONS = {"rezero": heft_load_command.REZERO, "tracking_on": heft_load_command.TRACKING_ON,
-           "tracking_off": heft_load_command.TRACKING_OFF, "new_estimate": heft_load_command.NEW_ESTIMATE,
-           "grasp": heft_load_command.GRASP, "release": heft_load_command.RELEASE}
-"""The actions by name (``heft load``'s)."""
-
 
 MAX_EVENTS = 1000
 """Load commands a run's summary lists at most."""
@@ -184,44 +177,3 @@ class LoadCommandServer:
         self._command_bus.publish(self._channel, status.encode())
         if len(self.events) < MAX_EVENTS:
             self.events.append((now_utime, message))
-
-
-def send_load_command(channels: LcmChannels, action: str, phi=None, offsets=None,
-                      timeout: float = 2.0) -> list[heft_load_status]:
-    """Sends one ``action`` (a key of ``ACTIONS``; "new_estimate" with ``phi`` (10) and
-    ``offsets`` (6)) on ``channels.lcm_url`` and returns the controller's answers (heard on its
-    command URL): the first, and for a started re-zero also its outcome, for a grasp the object
-    learned. Raises TimeoutError if they do not come within ``timeout`` s."""
-    if action not in ACTIONS:
-        raise ValueError(f"unknown action {action!r}; one of {', '.join(ACTIONS)}")
-    bus, answer_bus = open_buses(channels)
-    command = heft_load_command()
-    command.utime, command.action = round(time.time() * 1e6), ACTIONS[action]
-    if action == "new_estimate":
-        command.phi = np.asarray(phi, dtype=float).tolist()
-        command.offsets = np.asarray(offsets, dtype=float).tolist()
-    answers = []
-
-    def on_status(_channel, payload):
-        try:
-            status = heft_load_status.decode(payload)
-        except Exception:  # not an answer: another process's datagram, malformed
-            return
-        if status.command_utime == command.utime:
-            answers.append(status)
-
-    answer_bus.subscribe(channels.load_status.name, on_status)
-    bus.publish(channels.load_command.name, command.encode())
-    # A started re-zero is answered again when it ends, a grasp when the object has been learned.
-    expected = 2 if action in ("rezero", "grasp") else 1
-    deadline = time.monotonic() + timeout
-    while True:
-        if answers and (len(answers) >= expected or not answers[-1].accepted):
-            return answers
-        remaining = deadline - time.monotonic()
-        if remaining <= 0:
-            raise TimeoutError(f"no answer from the controller on {channels.load_status.name} within {timeout} s: "
-                               f"is `heft teleop --hardware` running on {channels.lcm_url}?" if not answers else
-                               f"the {action.replace('_', ' ')} did not finish within {timeout} s")
-        if select.select([answer_bus.fileno()], [], [], remaining)[0]:
-            answer_bus.handle()

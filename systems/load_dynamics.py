@@ -19,7 +19,6 @@ import dataclasses
 import math
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from heft.systems.compiled import compiled
 
@@ -252,6 +251,8 @@ class InertialParameters:
         mass = rng.uniform(*mass_range)
         second_moments = mass * rng.uniform(*size_range, 3) ** 2  # ∫x², ∫y², ∫z² (kg·m²)
         principal = second_moments.sum() - second_moments          # Jx = ∫y² + ∫z², …
+        from scipy.spatial.transform import Rotation  # not at the top: 0.3 s to import, for this alone
+
         R = Rotation.random(random_state=rng).as_matrix()
         com = rng.normal(size=3)
         com *= com_radius * rng.uniform() ** (1 / 3) / np.linalg.norm(com)

@@ -20,7 +20,6 @@ for a settled slave); a change of k_t or k_r while engaged re-anchors at the cur
 stylus pose and the desired pose just computed with the old scales.
 """
 
-import dataclasses
 import math
 
 import numpy as np
@@ -28,6 +27,7 @@ from pydrake.math import RollPitchYaw, RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
 from heft.systems.compiled import compiled, float_array
+from heft.systems.motion_scaling_params import MotionScalingParams
 from heft.systems.pose_vectors import POSE_SIZE
 from heft.systems.sample_period import DEFAULT_PERIOD, require_period
 
@@ -35,33 +35,6 @@ IDENTITY_POSE = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
 # Layout of the memory state: [engaged, k_t, k_r, pose_BE0 (7), pose_RT0 (7)].
 _ENGAGED, _SCALES, _BE0, _RT0 = 0, slice(1, 3), slice(3, 10), slice(10, 17)
 MEMORY_SIZE = 17
-
-
-@dataclasses.dataclass
-class MotionScalingParams:
-    """Master-to-slave motion mapping; loadable with ``yaml_load_typed``."""
-
-    translation_scale: float = 1.0
-    """k_t (slave m per master m), ≥ 0; used while the ``translation_scale`` port is unconnected."""
-
-    rotation_scale: float = 1.0
-    """k_r (slave rad per master rad), ≥ 0; used while the ``rotation_scale`` port is unconnected."""
-
-    R_RB: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
-    """The fixed rotation from the master base B to the slave base R as roll-pitch-yaw (rad)."""
-
-    def validate(self) -> None:
-        """Raises ValueError naming the first field out of range."""
-        for name in ("translation_scale", "rotation_scale"):
-            if not valid_scale(getattr(self, name)):
-                raise ValueError(f"{name} must be finite and >= 0; got {getattr(self, name)}")
-        if len(self.R_RB) != 3 or not all(math.isfinite(x) for x in self.R_RB):
-            raise ValueError(f"R_RB must be 3 finite roll-pitch-yaw angles (rad); got {self.R_RB}")
-
-
-def valid_scale(k: float) -> bool:
-    """True if ``k`` is a usable motion scale: finite and ≥ 0 (as ``motion_scaling_step`` checks it)."""
-    return math.isfinite(k) and k >= 0
 
 
 @compiled("boolean(float64[:])")

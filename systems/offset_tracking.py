@@ -21,14 +21,12 @@ keep it as discrete state; ``offsets_update`` is the one update, used by
 ``OffsetTracker`` and by the real-time controller.
 """
 
-import dataclasses
-import math
-
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from heft.systems.contact_threshold import ContactThresholdParams
 from heft.systems.load_dynamics import wrench_norms
+from heft.systems.offset_tracking_params import OffsetTrackingParams
 
 # Layout of the state: offsets, the re-zero window's sum of (c + o)·dt and its length (s),
 # the re-zero status, tracking on (1) or off (0), the last re-zero request counter seen.
@@ -44,47 +42,6 @@ STATUS_TEXT = {
     REFUSED_CONTACT: "re-zero refused: the wrench looks like contact; free the tool and ask again",
     REFUSED_FAULT: "re-zero refused: a sensor sample was faulted; check the sensor and ask again",
 }
-
-
-@dataclasses.dataclass
-class OffsetTrackingParams:
-    """Settings of re-zeroing and tracking (module docstring)."""
-
-    tracking: bool = True
-    """Tracking on at start (a run-time request can turn it off and on)."""
-
-    time_constant: float = 5.0
-    """Time constant (s) with which tracking follows c + o: averages the sensor's noise
-    (0.1 N RMS at 2 kHz → under 1 mN) and lags a drift of r N/s by r·τ (the simulated
-    JR3's fastest, 0.005 N/s at power-on, by 0.025 N)."""
-
-    max_force_rate: float = 0.02
-    """Largest tracking step of each force offset (N/s): ten times the simulated JR3's
-    warm-up drift rate."""
-
-    max_torque_rate: float = 0.002
-    """Largest tracking step of each torque offset (N·m/s)."""
-
-
-    rezero_window: float = 0.5
-    """Length (s) of the re-zero average."""
-
-    rezero_force: float = 5.0
-    """|c_f| (N) above which a re-zero is refused as contact: larger than any drift."""
-
-    rezero_torque: float = 0.5
-    """|c_τ| (N·m) above which a re-zero is refused as contact."""
-
-    rest_joint_speed: float = 0.01
-    """Every slave joint below this speed (rad/s) counts as at rest."""
-
-    def validate(self) -> None:
-        """Raises ValueError naming the first field that is not finite and > 0 (the contact
-        thresholds: >= 0)."""
-        for field in dataclasses.fields(self):
-            value = getattr(self, field.name)
-            if field.name != "tracking" and not (math.isfinite(value) and value > 0):
-                raise ValueError(f"offset tracking: {field.name} must be finite and > 0; got {value}")
 
 
 def initial_state(offsets, params: OffsetTrackingParams) -> np.ndarray:

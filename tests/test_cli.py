@@ -161,6 +161,18 @@ def test_an_lcm_url_that_cannot_open_names_its_option():
         open_buses(LcmChannels(lcm_url="memq://", command_url="bogus://x"))
 
 
+def test_load_sends_without_the_numerical_packages():
+    """`heft load` starts beside a real-time controller on the lab PC: reading the scenario and sending
+    one command imports no compiled kernels (numba) and neither scipy.signal nor scipy.spatial, which
+    cost seconds of CPU together. Its own process, as on the lab PC (this one has them loaded)."""
+    code = ("import sys\nfrom heft.diagrams.cli import main\n"
+            "returned = main(['load', '--rezero', '--lcm-url', 'memq://', '--timeout', '0'])\n"
+            "print(returned, [m for m in ('numba', 'scipy.signal', 'scipy.spatial') if m in sys.modules])")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert "no answer from the controller" in result.stderr  # it got as far as sending
+    assert result.stdout.strip() == "5 []"
+
+
 def test_on_hardware_the_lab_states_its_sensor_and_mount(tmp_path, capsys):
     """The simulated lab's accelerometer position and mount notch are not silently taken for a real
     lab's: without them `teleop --hardware` and `identify --hardware` refuse, naming each field and

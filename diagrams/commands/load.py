@@ -28,8 +28,7 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from heft.diagrams.load_estimate import read_load_estimate
-    from heft.hardware_interface.load_commands import send_load_command
+    from heft.hardware_interface.load_command_sender import send_load_command
 
     chosen = [name for name, given in (("rezero", args.rezero), ("tracking", args.tracking),
                                        ("estimate", args.estimate), ("grasp", args.grasp),
@@ -39,6 +38,9 @@ def run(args) -> int:
     channels = scenario_from(args).lab.lcm
     try:
         if args.estimate:
+            # Only here: the estimate's checks (load_dynamics) bring numba, which the other actions need not load.
+            from heft.diagrams.load_estimate import read_load_estimate
+
             load = read_load_estimate(args.estimate)
             answers = send_load_command(channels, "new_estimate", load.phi, load.offsets, args.timeout)
         else:

@@ -1,0 +1,33 @@
+"""The settings of motion scaling with a clutch (``motion_scaling``, Fig. 4): ``controller.motion`` of a
+scenario, apart from the block and its compiled kernels, so that a scenario loads without numba
+(``heft load``)."""
+
+import dataclasses
+import math
+
+
+@dataclasses.dataclass
+class MotionScalingParams:
+    """Master-to-slave motion mapping; loadable with ``yaml_load_typed``."""
+
+    translation_scale: float = 1.0
+    """k_t (slave m per master m), ≥ 0; used while the ``translation_scale`` port is unconnected."""
+
+    rotation_scale: float = 1.0
+    """k_r (slave rad per master rad), ≥ 0; used while the ``rotation_scale`` port is unconnected."""
+
+    R_RB: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    """The fixed rotation from the master base B to the slave base R as roll-pitch-yaw (rad)."""
+
+    def validate(self) -> None:
+        """Raises ValueError naming the first field out of range."""
+        for name in ("translation_scale", "rotation_scale"):
+            if not valid_scale(getattr(self, name)):
+                raise ValueError(f"{name} must be finite and >= 0; got {getattr(self, name)}")
+        if len(self.R_RB) != 3 or not all(math.isfinite(x) for x in self.R_RB):
+            raise ValueError(f"R_RB must be 3 finite roll-pitch-yaw angles (rad); got {self.R_RB}")
+
+
+def valid_scale(k: float) -> bool:
+    """True if ``k`` is a usable motion scale: finite and ≥ 0 (as ``motion_scaling.motion_scaling_step`` checks it)."""
+    return math.isfinite(k) and k >= 0
