@@ -26,7 +26,7 @@ passivity_energy      2      the observer's [E_t, E_r] after the PC (J)
 passivity_damping     2      the PC's [α_t (N·s/m), α_r (N·m·s/rad)]
 slave_q, slave_v      6      arm joint positions (rad), velocities (rad/s): ``lcmt_iiwa_status``
 slave_q_commanded     6      the arm command sent in the tick (rad): ``lcmt_iiwa_command``
-wrench_measured       6      the sensor's wrench ON THE LOAD, at S in S (N, N·m): −``heft_ft_sample.wrench``
+wrench_measured       6      the sensor's wrench ON THE LOAD, at S in S (N, N·m): −the FT sample's ``wrench``
 accel_measured        6      the accelerometer's reading as the driver reports it (m/s², rad/s²; in S)
 wrench_contact        6      the controller's contact wrench (Eq. 13), on the load at S in S
 wrench_noncontact     6      its non-contact wrench (Eq. 5), the same frame
@@ -100,18 +100,20 @@ def _read_npz(path: Path) -> RunLog:
 
 
 def _by_utime(events, decode, name: str, notes: list) -> tuple[dict, set]:
-    """``{utime: message}`` of one channel's ``events`` (decoded with ``decode``), and the utimes
-    that more than one message carried (a second publisher: which one a tick read is unknown)."""
+    """``{utime: message}`` of one channel's ``events`` (``decode`` gives each payload's messages: an
+    FT message holds several samples), and the utimes that more than one message carried (a second
+    publisher: which one a tick read is unknown)."""
     messages, repeated, undecodable = {}, set(), 0
     for data in events:
         try:
-            msg = decode(data)
+            decoded = decode(data)
         except Exception:  # whatever a malformed payload makes the generated decoder raise
             undecodable += 1
             continue
-        if msg.utime in messages:
-            repeated.add(msg.utime)
-        messages[msg.utime] = msg
+        for msg in decoded:
+            if msg.utime in messages:
+                repeated.add(msg.utime)
+            messages[msg.utime] = msg
     if undecodable:
         notes.append(f"{undecodable} undecodable {name} messages skipped")
     return messages, repeated
@@ -126,16 +128,19 @@ def read_lcm_log(path) -> RunLog:
     from drake import lcmt_iiwa_command, lcmt_iiwa_status
 
     from heft.hardware_interface.channels import LcmChannels
-    from heft.hardware_interface.lcmtypes import (heft_ft_sample, heft_haptic_command, heft_haptic_state,
-                                                  heft_teleop_state)
+    from heft.hardware_interface.ft_messages import decode_samples
+    from heft.hardware_interface.lcmtypes import heft_haptic_command, heft_haptic_state, heft_teleop_state
+
+    def one(message_type):
+        return lambda data: [message_type.decode(data)]
 
     channels = LcmChannels()
-    decoders = {channels.teleop_state.name: heft_teleop_state.decode,
-                channels.master_state.name: heft_haptic_state.decode,
-                channels.master_command.name: heft_haptic_command.decode,
-                channels.slave_status.name: lcmt_iiwa_status.decode,
-                channels.slave_command.name: lcmt_iiwa_command.decode,
-                channels.ft_sample.name: heft_ft_sample.decode}
+    decoders = {channels.teleop_state.name: one(heft_teleop_state),
+                channels.master_state.name: one(heft_haptic_state),
+                channels.master_command.name: one(heft_haptic_command),
+                channels.slave_status.name: one(lcmt_iiwa_status),
+                channels.slave_command.name: one(lcmt_iiwa_command),
+                channels.ft_sample.name: decode_samples}
     payloads = {name: [] for name in decoders}
     try:
         for event in lcm.EventLog(str(path), "r"):

@@ -11,18 +11,14 @@ import math
 
 import numpy as np
 
-from heft.hardware_interface.fixed_layout import FixedLayout
-from heft.hardware_interface.lcmtypes import heft_ft_sample
+from heft.hardware_interface.ft_messages import unpack_samples
 from heft.hardware_interface.message_checks import RANGE_MARGIN, Rejections
 from heft.hardware_interface.message_order import SourceClock
 
 
-_LAYOUT = FixedLayout(heft_ft_sample)
-"""A ``heft_ft_sample`` has one size: a payload of another, or of another type's fingerprint, is not one."""
-
-
 class FtSampleReader:
-    """Takes ``heft_ft_sample`` payloads and holds the newest good sample.
+    """Takes FT payloads (``heft_ft_sample`` or ``heft_ft_samples``: ``ft_messages``) and holds the
+    newest good sample.
 
     A sample is in order when it comes from the channel's source and is newer
     (``message_order``: its ``utime`` on the source's clock, after the last accepted) and
@@ -52,54 +48,60 @@ class FtSampleReader:
         self.clock = SourceClock(silence)
         self._range = (RANGE_MARGIN * np.asarray(full_scale, dtype=float)).tolist()
         self._counter = -1  # the last accepted sample's counter
-        self._at = tuple(_LAYOUT.field(name) for name in ("utime", "sample_counter", "wrench", "acceleration",
-                                                          "saturated", "error"))
+        self._newest = True  # no sample in order seen yet in this take
 
     def take(self, payloads, now: float) -> None:
-        """Reads ``payloads`` (bytes, oldest first) at station time ``now`` (s), newest first:
-        the newest sample that is in order and good is kept and older ones are not decoded."""
-        rejections, clock, newest = self.rejections, self.clock, True
-        at = self._at
+        """Reads ``payloads`` (bytes, oldest first) at station time ``now`` (s), newest sample first:
+        the newest sample that is in order and good is kept and older ones are not read."""
+        self._newest = True
         for payload in reversed(payloads):
-            values = _LAYOUT.unpack(payload)  # the generated decoder raises on anything else
-            if values is None:
-                rejections.add("undecodable")
+            unpacked = unpack_samples(payload)
+            if unpacked is None:  # of another size or type, or a block of no or too many samples
+                self.rejections.add("undecodable")
                 continue
-            utime, counter, saturated, error = values[at[0]], values[at[1]], values[at[4]], values[at[5]]
-            if utime <= 0:
-                continue
-            stamp = utime * 1e-6
-            reason = clock.rejection(stamp, now)
-            if reason is not None:
-                rejections.add(reason)
-                continue
-            if counter <= self._counter and not clock.starts_source(now):
-                clock.foreign(stamp, now)
-                rejections.add("discontinuous")
-                continue
-            wrench, acceleration = values[at[2]], values[at[3]]
-            non_finite = not math.isfinite(sum(wrench) + sum(acceleration))
-            if newest:
-                newest = False
-                self.non_finite, self.saturated, self.error = non_finite, saturated != 0, bool(error)
-            if non_finite:
-                rejections.add("non_finite")
-                continue
-            if error:
-                rejections.add("driver_error")
-                continue
-            if not self._within_range(wrench, acceleration):
-                rejections.add("out_of_range")
-                continue
-            if saturated != 0:
-                continue
-            clock.accept(stamp, now)
-            self._counter, self.t_good, self.utime = counter, now, utime
-            # The sign flip of docs/design.md §4: sensor-on-load = −(load-on-sensor).
-            for i in range(6):
-                self.wrench[i] = -wrench[i]
-                self.acceleration[i] = acceleration[i]
-            break
+            count, record, (utime, counter, wrench, acceleration, saturated, error) = unpacked
+            for k in range(count - 1, -1, -1):
+                if self._kept(record[utime + k], record[counter + k], record[wrench + 6 * k:wrench + 6 * k + 6],
+                              record[acceleration + 6 * k:acceleration + 6 * k + 6], record[saturated + k],
+                              record[error + k], now):
+                    return
+
+    def _kept(self, utime, counter, wrench, acceleration, saturated, error, now: float) -> bool:
+        """Whether one sample (its fields as ``heft_ft_sample``'s) is in order and good, and so kept;
+        counts it if refused."""
+        if utime <= 0:
+            return False
+        rejections, clock, stamp = self.rejections, self.clock, utime * 1e-6
+        reason = clock.rejection(stamp, now)
+        if reason is not None:
+            rejections.add(reason)
+            return False
+        if counter <= self._counter and not clock.starts_source(now):
+            clock.foreign(stamp, now)
+            rejections.add("discontinuous")
+            return False
+        non_finite = not math.isfinite(sum(wrench) + sum(acceleration))
+        if self._newest:
+            self._newest = False
+            self.non_finite, self.saturated, self.error = non_finite, saturated != 0, bool(error)
+        if non_finite:
+            rejections.add("non_finite")
+            return False
+        if error:
+            rejections.add("driver_error")
+            return False
+        if not self._within_range(wrench, acceleration):
+            rejections.add("out_of_range")
+            return False
+        if saturated != 0:
+            return False
+        clock.accept(stamp, now)
+        self._counter, self.t_good, self.utime = counter, now, utime
+        # The sign flip of docs/design.md §4: sensor-on-load = −(load-on-sensor).
+        for i in range(6):
+            self.wrench[i] = -wrench[i]
+            self.acceleration[i] = acceleration[i]
+        return True
 
     def _within_range(self, wrench, acceleration) -> bool:
         limits = self._range

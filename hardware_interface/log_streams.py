@@ -1,11 +1,12 @@
 """A log written by `heft … --hardware --record` as the files of a recording (README "Your own data"):
 the FT samples and the arm's joint angles, each on its driver's clock, as Parquet files.
 
-``ft.parquet``: ``utime`` (µs), ``fx … tz`` (the sensor's sign, as ``heft_ft_sample`` carries it),
+``ft.parquet``: one row per FT sample (of ``heft_ft_sample`` or ``heft_ft_samples`` messages: ``ft_messages``):
+``utime`` (µs), ``fx … tz`` (the sensor's sign, as the messages carry it),
 ``ax, ay, az`` (specific force, m/s², in S) and ``alpha_x … alpha_z`` (rad/s²). ``slave.parquet``:
 ``utime`` (µs) and ``q1 … q6`` (rad) of ``lcmt_iiwa_status``. As on hardware, a message that cannot
-be decoded, carries NaN, an error flag or a saturated axis, or is stamped at or before the last one
-kept (a late or repeated packet) is left out and counted, never fatal.
+be decoded is left out and counted, as is a sample that carries NaN, an error flag or a saturated axis,
+or is stamped at or before the last one kept (a late or repeated packet); none is fatal.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import pyarrow.parquet as pq
 from drake import lcmt_iiwa_status
 
 from heft.hardware_interface.channels import LcmChannels
-from heft.hardware_interface.lcmtypes import heft_ft_sample
+from heft.hardware_interface.ft_messages import decode_samples
 
 FT_COLUMNS = ("fx", "fy", "fz", "tx", "ty", "tz", "ax", "ay", "az", "alpha_x", "alpha_y", "alpha_z")
 JOINT_COLUMNS = ("q1", "q2", "q3", "q4", "q5", "q6")
@@ -73,7 +74,7 @@ def export_log_streams(log_path, folder, channels: LcmChannels | None = None) ->
         ft.close()
         slave.close()
     if ft.count < 2:
-        raise ValueError(f"{log_path}: fewer than two usable {channels.ft_sample.name} messages "
+        raise ValueError(f"{log_path}: fewer than two usable {channels.ft_sample.name} samples "
                          f"({ft.count}; left out: {dict(left_out[channels.ft_sample.name])})")
     return {"ft_samples": ft.count, "slave_samples": slave.count,
             "left_out": {channel: dict(counts) for channel, counts in left_out.items()}}
@@ -81,21 +82,22 @@ def export_log_streams(log_path, folder, channels: LcmChannels | None = None) ->
 
 def _take_ft(data: bytes, table: _Table, left_out: Counter) -> None:
     try:
-        msg = heft_ft_sample.decode(data)
-    except Exception:  # whatever a malformed payload makes the generated decoder raise
+        samples = decode_samples(data)
+    except ValueError:
         left_out["undecodable"] += 1
         return
-    values = list(msg.wrench) + list(msg.acceleration)
-    if msg.error:
-        left_out["error flag"] += 1
-    elif msg.saturated:
-        left_out["saturated"] += 1
-    elif not math.isfinite(sum(values)):
-        left_out["not finite"] += 1
-    elif msg.utime <= table.last:
-        left_out["stamped at or before the last"] += 1
-    else:
-        table.add(msg.utime, values)
+    for msg in samples:
+        values = list(msg.wrench) + list(msg.acceleration)
+        if msg.error:
+            left_out["error flag"] += 1
+        elif msg.saturated:
+            left_out["saturated"] += 1
+        elif not math.isfinite(sum(values)):
+            left_out["not finite"] += 1
+        elif msg.utime <= table.last:
+            left_out["stamped at or before the last"] += 1
+        else:
+            table.add(msg.utime, values)
 
 
 def _take_joints(data: bytes, table: _Table, left_out: Counter) -> None:

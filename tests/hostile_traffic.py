@@ -23,6 +23,7 @@ import numpy as np
 from drake import lcmt_iiwa_status
 
 from heft.hardware_interface.channels import LcmChannels
+from heft.hardware_interface.ft_messages import decode_samples
 from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_state, heft_load_command
 
 MARK = 1 << 7
@@ -95,7 +96,7 @@ def main(url: str, duration: float, seed: int) -> None:
 
     def on_ft(_, payload):
         if payload not in own_ft:
-            sample = heft_ft_sample.decode(payload)
+            sample = decode_samples(payload)[-1]  # the stand-in's newest
             heard["ft"], heard["ft_counter"] = sample.utime, sample.sample_counter
 
     for channel, handler in ((channels.master_state, on_master), (channels.slave_status, on_slave),

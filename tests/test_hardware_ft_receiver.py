@@ -1,13 +1,15 @@
-"""FT sample reader: sign flip, hold-and-flag of bad samples, ordering, restarts; and the
-committed LCM Python types match lcm-gen's output."""
+"""FT sample reader: sign flip, hold-and-flag of bad samples, ordering, restarts, one sample or
+several a message; the FT messages' codec held to lcm-gen's; and the committed LCM Python types
+match lcm-gen's output."""
 
 import math
 
 import numpy as np
 import pytest
+from heft.hardware_interface.ft_messages import MAX_SAMPLES, decode_samples, pack_samples, unpack_samples
 from heft.hardware_interface.ft_receiver import FtSampleReader
 from heft.hardware_interface.message_checks import RANGE_MARGIN
-from heft.hardware_interface.lcmtypes import heft_ft_sample
+from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_ft_samples
 from heft.hardware_interface.lcmtypes import regenerate as lcmtypes_regenerate
 
 RAW = np.array([1.0, -2.0, 3.0, 0.1, -0.2, 0.3])
@@ -25,6 +27,17 @@ def sample(counter, utime, wrench=RAW, acceleration=ACCEL, saturated=0, error=Fa
     msg.sample_counter, msg.utime = counter, utime
     msg.wrench, msg.acceleration = list(wrench), list(acceleration)
     msg.saturated, msg.error = saturated, error
+    return msg.encode()
+
+
+def block(counters, utimes, wrenches, acceleration=ACCEL, saturated=None, errors=None) -> bytes:
+    """A ``heft_ft_samples`` encoded by lcm-gen's own class: the samples given, oldest first."""
+    msg = heft_ft_samples()
+    count = len(counters)
+    msg.num_samples, msg.sample_counter, msg.utime = count, list(counters), list(utimes)
+    msg.wrench = [list(w) for w in wrenches]
+    msg.acceleration = [list(acceleration)] * count
+    msg.saturated, msg.error = saturated or [0] * count, errors or [False] * count
     return msg.encode()
 
 
@@ -144,3 +157,66 @@ def test_lcm_type_round_trip():
     decoded = heft_ft_sample.decode(msg.encode())
     assert (decoded.utime, decoded.sample_counter, decoded.saturated) == (12, 3, 1 << 11)
     assert list(decoded.wrench) == list(RAW)
+
+
+def test_a_block_is_read_newest_first_and_its_bad_newest_passes_on_the_good_one_before():
+    reader = new_reader()
+    reader.take([block([1, 2, 3, 4], [1000, 1125, 1250, 1375], [k * RAW for k in (1, 2, 3, 4)])], now=0.1)
+    np.testing.assert_array_equal(reader.wrench, -4 * RAW)
+    assert reader.utime == 1375 and reader.rejections.total == 0
+    reader.take([block([5, 6], [1500, 1625], [5 * RAW, [np.nan] * 6])], now=0.2)
+    np.testing.assert_array_equal(reader.wrench, -5 * RAW)
+    assert reader.non_finite and reader.rejections.nonzero() == {"non_finite": 1} and reader.t_good == 0.2
+
+
+def test_blocks_and_single_samples_of_one_source_interleave_and_another_source_is_seen():
+    reader = new_reader()
+    reader.take([block([1, 2], [1000, 1125], [RAW, 2 * RAW]), sample(3, 1250, wrench=3 * RAW)], now=0.1)
+    np.testing.assert_array_equal(reader.wrench, -3 * RAW)
+    reader.take([block([2, 4], [1375, 1500], [7 * RAW, 7 * RAW])], now=0.1)  # read newest first: 4 is in order
+    np.testing.assert_array_equal(reader.wrench, -7 * RAW)
+    reader.take([block([1, 2], [1625, 1750], [9 * RAW, 9 * RAW])], now=0.1)  # counters back: another publisher
+    np.testing.assert_array_equal(reader.wrench, -7 * RAW)
+    assert reader.rejections.nonzero() == {"discontinuous": 2}
+
+
+@pytest.mark.parametrize("payload", [
+    block([1, 2], [1000, 1125], [RAW, RAW])[:-1],                              # truncated
+    block([1, 2], [1000, 1125], [RAW, RAW]) + b"\x00",                          # a byte too many
+    heft_ft_samples().encode(),                                                # no samples
+    block(range(1, MAX_SAMPLES + 2), range(1000, 1000 + MAX_SAMPLES + 1), [RAW] * (MAX_SAMPLES + 1)),
+])
+def test_a_malformed_block_is_undecodable(payload):
+    reader = new_reader()
+    reader.take([payload], now=0.1)
+    assert unpack_samples(payload) is None and reader.rejections.nonzero() == {"undecodable": 1}
+    with pytest.raises(ValueError, match="not a heft_ft_sample or a heft_ft_samples"):
+        decode_samples(payload)
+
+
+def test_the_ft_codec_is_lcm_gens():
+    """Blocks packed here decode with lcm-gen's class, and lcm-gen's encode with ``decode_samples``,
+    field by field, for every size a message may have."""
+    rng = np.random.default_rng(5)
+    for count in (1, 2, 4, MAX_SAMPLES):
+        utimes, counters = rng.integers(1, 2**62, count).tolist(), rng.integers(1, 2**62, count).tolist()
+        wrenches, accelerations = rng.normal(size=(count, 6)), rng.normal(size=(count, 6))
+        saturated, errors = rng.integers(0, 1 << 12, count).tolist(), (rng.random(count) < 0.5).tolist()
+        packed = pack_samples(utimes, counters, wrenches.ravel().tolist(), accelerations.ravel().tolist(),
+                              saturated, errors)
+        theirs = heft_ft_samples.decode(packed)
+        assert (theirs.num_samples, list(theirs.utime), list(theirs.sample_counter)) == (count, utimes, counters)
+        np.testing.assert_array_equal(theirs.wrench, wrenches)
+        np.testing.assert_array_equal(theirs.acceleration, accelerations)
+        assert list(theirs.saturated) == saturated and list(theirs.error) == errors
+        assert theirs.encode() == packed
+        ours = decode_samples(packed)
+        assert [(m.utime, m.sample_counter, m.saturated, m.error) for m in ours] == list(
+            zip(utimes, counters, saturated, errors, strict=True))
+        np.testing.assert_array_equal([m.wrench for m in ours], wrenches)
+        np.testing.assert_array_equal([m.acceleration for m in ours], accelerations)
+    one = heft_ft_sample.decode(sample(3, 1000))
+    (again,) = decode_samples(one.encode())
+    assert again.encode() == one.encode()
+    with pytest.raises(ValueError, match="1 to 64 samples"):
+        pack_samples([], [], [], [], [], [])

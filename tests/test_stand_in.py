@@ -18,7 +18,8 @@ from heft.diagrams.stations.stand_in import HAPTIC_WATCHDOG_S, FaultInjection, S
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.ft_receiver import FtSampleReader
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
-from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_command, heft_haptic_state
+from heft.hardware_interface.ft_messages import decode_samples
+from heft.hardware_interface.lcmtypes import heft_haptic_command, heft_haptic_state
 from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.load_dynamics import noncontact_wrench
 from heft.diagrams.plants import MakeMasterPlant
@@ -29,7 +30,9 @@ from pydrake.multibody.tree import JacobianWrtVariable
 
 CHANNELS = LcmChannels()
 NAMES = (CHANNELS.master_state.name, CHANNELS.slave_status.name, CHANNELS.ft_sample.name)
-TYPES = dict(zip(NAMES, (heft_haptic_state, lcmt_iiwa_status, heft_ft_sample)))
+DECODERS = dict(zip(NAMES, (lambda payload: [heft_haptic_state.decode(payload)],
+                            lambda payload: [lcmt_iiwa_status.decode(payload)], decode_samples)))
+"""Channel name → the messages of one payload (an FT message holds several samples)."""
 DELTA = np.array([0.1, -0.1, 0.1, 0.2, -0.2, 0.3])
 G_W = np.array([0.0, 0.0, -9.81])  # m/s², gravity in the world (R = W)
 """A slave command step away from the start pose (rad)."""
@@ -77,7 +80,8 @@ class Lab:
         return alive
 
     def messages(self, name: str) -> list:
-        return [TYPES[name].decode(payload) for payload in self.payloads[name]]
+        """What was published on channel ``name``, one message per sample (an FT message's split)."""
+        return [msg for payload in self.payloads[name] for msg in DECODERS[name](payload)]
 
     def command_slave(self, q, num_joints: int = 6):
         msg = lcmt_iiwa_command()
@@ -142,7 +146,7 @@ def test_still_tool_weighs_on_the_sensor_as_drake_says():
     expected = np.concatenate((f, np.cross(p_SC, f)))
     np.testing.assert_allclose(reader.wrench - lab.stand_in.offsets, expected, atol=1e-9)
     # On the wire, the sensor's sign: the load pulls the sensor down.
-    last = heft_ft_sample.decode(samples[-1])
+    last = decode_samples(samples[-1])[-1]
     np.testing.assert_allclose(slave.R_WS() @ (np.array(last.wrench[:3]) + lab.stand_in.offsets[:3]),
                                [0.0, 0.0, -mass * 9.81], atol=1e-9)
     # The accelerometer reports specific force: one g, pointing up in the world.
@@ -386,13 +390,14 @@ def test_clutch_button_is_held_in_its_interval():
 def test_counts_are_the_nominal_rates_also_when_stepped_late():
     lab = Lab(Scenario())
     assert lab.step(0.01)
-    assert lab.stand_in.published == dict(zip(NAMES, (20, 20, 80)))
+    # FT: samples 1–3, then an arm step's 4 a message, sent when its newest is due.
+    assert lab.stand_in.published == dict(zip(NAMES, (20, 20, 20)))
     lab.run(1.0, dt=0.0137)
-    assert lab.stand_in.published == dict(zip(NAMES, (2000, 2000, 8000)))
-    for name, rate in zip(NAMES, (2000, 2000, 8000)):
+    assert lab.stand_in.published == dict(zip(NAMES, (2000, 2000, 2000)))
+    for name, rate, count in zip(NAMES, (2000, 2000, 8000), (2000, 2000, 7999)):  # sample 8000 opens a message
         utimes = [m.utime for m in lab.messages(name)]
-        assert utimes == [round(k / rate * 1e6) for k in range(1, rate + 1)]
-    assert [m.sample_counter for m in lab.messages(NAMES[2])] == list(range(1, 8001))
+        assert utimes == [round(k / rate * 1e6) for k in range(1, count + 1)]
+    assert [m.sample_counter for m in lab.messages(NAMES[2])] == list(range(1, 8000))
 
 
 def test_what_is_published_does_not_depend_on_how_the_lab_is_stepped():
@@ -400,6 +405,19 @@ def test_what_is_published_does_not_depend_on_how_the_lab_is_stepped():
     fine.run(0.05, dt=1 / 8000)
     coarse.step(0.05)
     assert fine.payloads == coarse.payloads
+
+
+def test_a_late_lab_publishes_every_channel_in_time_order():
+    """Stepped 50 ms late, the lab sends its backlog in the order of the messages' times (an FT
+    message at its newest sample's), not one channel after another."""
+    bus = lcm.LCM("memq://")
+    lab = StandIn(Scenario(), bus, CHANNELS)
+    stamps = []
+    for name in NAMES:
+        bus.subscribe(name, lambda _, payload, name=name: stamps.append(DECODERS[name](payload)[-1].utime))
+    lab.step(0.05)
+    pump(bus)
+    assert len(stamps) == 3 * 100 and stamps == sorted(stamps)
 
 
 # --- faults ------------------------------------------------------------------------------------
@@ -418,10 +436,10 @@ def test_losses_come_in_bursts_and_repeat_with_the_seed():
     faults = FaultInjection(drop_rate=0.01, burst_loss_s=0.002, seed=7)
     runs = [Lab(faults=faults) for _ in range(2)] + [Lab(faults=dataclasses.replace(faults, seed=8))]
     for lab in runs:
-        lab.step(0.5)
+        lab.step(2.0)
     assert runs[0].payloads == runs[1].payloads != runs[2].payloads
-    for name, rate in zip(NAMES, (2000, 2000, 8000)):
-        assert 0.6 * 0.5 * rate < runs[0].stand_in.published[name] < 0.97 * 0.5 * rate
+    for name in NAMES:  # 2000 messages a second each (FT: 4 samples a message); about 4 % lost
+        assert 0.6 * 2.0 * 2000 < runs[0].stand_in.published[name] < 0.985 * 2.0 * 2000
     gaps = np.diff(_ft_counters(runs[0])) - 1
     assert gaps[gaps > 0].min() >= 0.002 * CHANNELS.ft_sample.rate  # whole bursts are lost
 
@@ -431,7 +449,7 @@ def test_nan_samples():
     lab.step(0.25)
     samples = lab.messages(CHANNELS.ft_sample.name)
     nan = np.array([np.isnan(m.wrench).all() for m in samples])
-    assert len(samples) == 2000 and 0.2 < nan.mean() < 0.3
+    assert len(samples) == 1999 and 0.2 < nan.mean() < 0.3  # sample 2000 opens the next message
     assert np.isfinite([m.acceleration for m in samples]).all()
     reader = reader_of(resolve_scenario("fig6"))
     reader.take([s.encode() for s in samples if np.isnan(s.wrench).all()][-1:], 0.25)
@@ -449,31 +467,34 @@ def test_death_stops_every_channel():
     lab = Lab(faults=FaultInjection(die_at_s=0.1))
     assert lab.step(0.05)
     assert not lab.step(0.2)
-    assert lab.stand_in.published == dict(zip(NAMES, (199, 199, 799)))
+    assert lab.stand_in.published == dict(zip(NAMES, (199, 199, 200)))  # FT: samples 1–3, then 4 a message
     assert not lab.step(0.3)
-    assert lab.stand_in.published == dict(zip(NAMES, (199, 199, 799)))
+    assert lab.stand_in.published == dict(zip(NAMES, (199, 199, 200)))  # FT: samples 1–3, then 4 a message
     assert max(m.utime for m in lab.messages(NAMES[2])) < 100_000
 
 
 def test_reordered_messages_arrive_after_the_next_one():
     lab = Lab(faults=FaultInjection(reorder_rate=0.1, seed=5))
     lab.run(0.2)
-    for name, rate in zip(NAMES, (2000, 2000, 8000)):
-        utimes = np.array([m.utime for m in lab.messages(name)])
-        late = np.flatnonzero(np.diff(utimes) < 0)
-        assert 0.05 * len(utimes) < len(late) < 0.15 * len(utimes)
+    for name, rate, per_message in zip(NAMES, (2000, 2000, 8000), (1, 1, 4)):
+        stamps = np.array([DECODERS[name](payload)[-1].utime for payload in lab.payloads[name]])  # newest sample's
+        late = np.flatnonzero(np.diff(stamps) < 0)
+        assert 0.05 * len(stamps) < len(late) < 0.15 * len(stamps)
         assert (np.diff(late) > 1).all()  # one message held at a time, swapped with the next
+        utimes = [m.utime for m in lab.messages(name)]
         expected = [round(k / rate * 1e6) for k in range(1, round(0.2 * rate) + 1)]
-        assert sorted(utimes) == expected[:len(utimes)] and len(expected) - len(utimes) <= 1
+        # Not yet sent: a message held back, and FT's samples of a message still filling (3).
+        assert sorted(utimes) == expected[:len(utimes)] and len(expected) - len(utimes) <= 2 * per_message - 1
 
 
 def test_added_delay_holds_ft_samples_back():
     lab = Lab(faults=FaultInjection(added_delay_s=0.005))
     for now in np.arange(0.001, 0.05, 0.001):
         lab.step(now)
-        newest = {name: max([TYPES[name].decode(p).utime for p in lab.payloads[name]], default=0) for name in NAMES}
+        newest = {name: max([DECODERS[name](p)[-1].utime for p in lab.payloads[name]], default=0) for name in NAMES}
         assert newest[NAMES[1]] == round(now * 1e6)
-        assert newest[NAMES[2]] == max(0, round((now - 0.005) * 1e6))
+        # An FT message goes out 5 ms after its newest sample (index 4k + 3) is due.
+        assert newest[NAMES[2]] == max(0, round((4 * ((round((now - 0.005) * 8000) + 1) // 4) - 1) / 8000 * 1e6))
     samples = lab.messages(NAMES[2])
     assert [m.utime for m in samples] == [round(m.sample_counter / 8000 * 1e6) for m in samples]
 
@@ -484,9 +505,9 @@ def test_run_stand_in_on_a_fake_clock(fake_clock):
     clock = fake_clock
     summary = run_stand_in(quiet_scenario(), LcmChannels(lcm_url="memq://"), 0.05, clock=clock, sleep=clock.sleep)
     assert not summary["died"] and summary["duration_s"] == pytest.approx(0.05)
-    assert summary["published"] == dict(zip(NAMES, (100, 100, 400)))
-    for name, rate in zip(NAMES, (2000, 2000, 8000)):
-        assert summary["published_hz"][name] == pytest.approx(rate)
+    assert summary["published"] == dict(zip(NAMES, (100, 100, 100)))  # FT: 4 samples a message
+    for name in NAMES:
+        assert summary["published_hz"][name] == pytest.approx(2000)
     assert summary["max_lateness_ms"] == pytest.approx(0.0, abs=1e-6)
 
 
@@ -505,14 +526,14 @@ def test_a_starved_stand_in_stops_when_asked(fake_clock):
     assert len(stops) == 20 and not summary["died"]
     assert summary["duration_s"] == pytest.approx(20.0)
     assert summary["max_lateness_ms"] > 1e4  # it reports how far behind the wall clock it fell
-    assert summary["published"][NAMES[2]] <= 20 * 0.05 * 8000 + 1  # 20 steps of at most 50 ms each
+    assert summary["published"][NAMES[2]] <= 20 * 0.05 * 2000 + 1  # 20 steps of at most 50 ms each
 
 
 def test_run_stand_in_returns_when_the_lab_dies(fake_clock):
     clock = fake_clock
     summary = run_stand_in(quiet_scenario(), LcmChannels(lcm_url="memq://"), 0.05, FaultInjection(die_at_s=0.02),
                            clock=clock, sleep=clock.sleep)
-    assert summary["died"] and summary["published"] == dict(zip(NAMES, (39, 39, 159)))
+    assert summary["died"] and summary["published"] == dict(zip(NAMES, (39, 39, 40)))
 
 
 def test_cli_writes_the_summary(tmp_path, capsys):

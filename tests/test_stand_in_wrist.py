@@ -25,7 +25,8 @@ from heft.diagrams.stations.stand_in import StandIn
 from heft.diagrams.stations.stand_in_wrist import GRIPPER_CLOSING_S, GraspTimes
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
-from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_gripper_state
+from heft.hardware_interface.ft_messages import decode_samples
+from heft.hardware_interface.lcmtypes import heft_gripper_state
 from heft.systems.drake_conventions import wrench_from_spatial_force
 from heft.systems.encoders import AddEncoderVelocityEstimate
 from heft.systems.load_dynamics import GRAVITY_W
@@ -50,8 +51,10 @@ class Lab:
         for now in np.arange(dt, until + 1e-12, dt):
             self.stand_in.step(now)
             pump(self.bus)
-        for (name, box), kind in zip(self._boxes.items(), (lcmt_iiwa_status, heft_ft_sample, heft_gripper_state)):
-            self.messages[name] += [kind.decode(payload) for payload in box.take()]
+        decoders = (lambda payload: [lcmt_iiwa_status.decode(payload)], decode_samples,
+                    lambda payload: [heft_gripper_state.decode(payload)])
+        for (name, box), decode in zip(self._boxes.items(), decoders):  # one message per FT sample
+            self.messages[name] += [msg for payload in box.take() for msg in decode(payload)]
 
 
 def quiet_grasp() -> Scenario:
@@ -214,10 +217,11 @@ def test_the_published_samples_are_the_truth_through_the_sensor(grasped):
     sign (heft's ports: [f; τ] on the load; the JR3 reports the load on the sensor)."""
     truth = grasped.stand_in.truth.arrays(grasped.stand_in.ft_samples_due)
     samples = grasped.messages[CHANNELS.ft_sample.name]
-    assert len(samples) == 6400 and [m.sample_counter for m in samples] == list(truth["sample_counter"])
-    np.testing.assert_array_equal([m.utime for m in samples], truth["utime"])
+    assert len(truth["sample_counter"]) == 6400  # 0.8 s at 8 kHz; sample 6400 opens a message not yet sent
+    assert len(samples) == 6399 and [m.sample_counter for m in samples] == list(truth["sample_counter"][:6399])
+    np.testing.assert_array_equal([m.utime for m in samples], truth["utime"][:6399])
     published = -np.array([m.wrench for m in samples])
-    expected = truth["wrench_noncontact"] + truth["wrench_contact"] + truth["ft_offsets"]
+    expected = (truth["wrench_noncontact"] + truth["wrench_contact"] + truth["ft_offsets"])[:6399]
     np.testing.assert_allclose(published, expected, rtol=0, atol=1e-3)  # the JR3's counts: 200 N / 16384
 
 

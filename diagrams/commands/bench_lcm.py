@@ -4,10 +4,11 @@ Two processes exchange the lab's messages over UDP multicast (the drivers' on
 the LCM URL, the controller's on the command URL): ``heft teleop --hardware``
 (the controller at the rate under test) and a *probe*
 playing the three drivers at their nominal rates (master and slave state at
-2 kHz, wrist sensor at 8 kHz) with fixed joint positions. Every
-``STEP_PERIOD`` s the probe steps the sensor's force by ``STEP_FORCE`` and
-stamps the wall-clock time right after publishing the first stepped sample (on
-loopback the kernel has delivered it by then); the kernel stamps the arrival of
+2 kHz, wrist sensor at 8 kHz, buffered as the stand-in's: its samples since the
+last arm state in one ``heft_ft_samples``) with fixed joint positions. Every
+``STEP_PERIOD`` s the probe steps the sensor's force by ``STEP_FORCE``, sends the
+samples so far at once, and stamps the wall-clock time right after publishing
+them (on loopback the kernel has delivered them by then); the kernel stamps the arrival of
 every master torque command on the probe's socket (so the probe's own
 scheduling does not delay it). The latency of a step is the time from that
 publish to the receipt of the first command that has moved half-way to its new
@@ -63,6 +64,7 @@ def run_probe(channels, duration: float, out: Path, master_q, slave_q) -> None:
     import lcm
     from drake import lcmt_iiwa_status
 
+    from heft.hardware_interface.ft_messages import pack_samples
     from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_command, heft_haptic_state
 
     bus = lcm.LCM(channels.lcm_url)
@@ -83,7 +85,8 @@ def run_probe(channels, duration: float, out: Path, master_q, slave_q) -> None:
     due = [0.0] * len(streams)
     start = time.time()
     first_command, steps, stepped = None, [], False
-    counter = 0
+    counter, pending = 0, []  # FT samples not yet sent: a message holds ``per_message``
+    per_message = max(1, round(channels.ft_sample.rate / channels.slave_status.rate))
     while True:
         now = time.time()
         if first_command is None and receipts:
@@ -104,15 +107,20 @@ def run_probe(channels, duration: float, out: Path, master_q, slave_q) -> None:
                 msg.acceleration[0], msg.acceleration[1] = magnitude * np.cos(angle), magnitude * np.sin(angle)
                 level = (first_command is not None and now - first_command > SETTLE
                          and int((now - first_command - SETTLE) / STEP_PERIOD) % 2 == 1)
-                msg.sample_counter, msg.utime = counter, utime
                 msg.wrench = [0.0, 0.0, STEP_FORCE if level else 0.0, 0.0, 0.0, 0.0]
+                pending.append((utime, counter, msg.wrench, list(msg.acceleration)))
+                if level != stepped or len(pending) == per_message:
+                    utimes, counters, wrenches, accelerations = zip(*pending)
+                    bus.publish(channel.name, pack_samples(utimes, counters, sum(wrenches, []),
+                                                           sum(accelerations, []), [0] * len(pending),
+                                                           [False] * len(pending)))
+                    pending = []
                 if level != stepped:
-                    bus.publish(channel.name, msg.encode())
                     # Stamped once published (the kernel has delivered it by then), with the time
                     # it was due, so that a probe preempted meanwhile can be told apart.
                     steps.append((time.time(), 1.0 if level else -1.0, now))
                     stepped = level
-                    continue
+                continue
             else:
                 msg.utime = utime
             bus.publish(channel.name, msg.encode())

@@ -2,8 +2,9 @@
 enough to keep real time on one core.
 
 ``StandIn`` publishes ``heft_haptic_state``, ``lcmt_iiwa_status`` (6 joints),
-``heft_ft_sample`` and, for a "gripper_object" load, ``heft_gripper_state`` at the
-channels' nominal rates (2, 2, 8 and 0.1 kHz by default) on a python-lcm bus
+``heft_ft_samples`` (a buffered JR3 driver: the samples since the last arm step in one message)
+and, for a "gripper_object" load, ``heft_gripper_state`` at the channels' nominal rates
+(2, 2, 8 and 0.1 kHz by default: FT samples in messages at the arm's rate) on a python-lcm bus
 and obeys ``heft_haptic_command`` and ``lcmt_iiwa_command`` from another
 (``LcmChannels``: the command URL).
 ``FaultInjection`` degrades what it publishes, so ``HardwareStation`` can be
@@ -89,9 +90,10 @@ from heft.diagrams.stations.sim_station import MASTER_ENCODER_COUNTS_PER_REV
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import CLUTCH_BUTTON
 from heft.hardware_interface.fixed_layout import FixedLayout
+from heft.hardware_interface.ft_messages import pack_samples
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, open_buses, pump
 from heft.diagrams.stations.stand_in_wrist import GraspTimes, SixAxisSampler, TruthRecord, Wrist
-from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_gripper_state, heft_haptic_command, heft_haptic_state
+from heft.hardware_interface.lcmtypes import heft_gripper_state, heft_haptic_command, heft_haptic_state
 from heft.systems.encoders import EncoderVelocityEstimator
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 from heft.systems.operator_hand import smooth_sine_offset
@@ -113,7 +115,9 @@ _NO_TORQUE = np.zeros(NUM_JOINTS)
 _NO_TORQUE.flags.writeable = False
 _NO_TORQUE_VALUES = (0.0,) * NUM_JOINTS
 """The arm driver's torques (measured, commanded, external), which the stand-in does not model."""
-_NAN_WRENCH = (math.nan,) * 6
+_NAN_WRENCH = [math.nan] * 6
+_WRENCH_SATURATED = 0x3F
+"""The flag bits of the six wrench axes (``heft_ft_sample.saturated``)."""
 _MASK64 = (1 << 64) - 1
 _MASTER, _SLAVE, _FT, _GRIPPER = range(4)
 """Channel indices; channel i loses messages on random stream i and reorders them on 4 + i, but the
@@ -140,7 +144,7 @@ class FaultInjection:
     burst_loss_s: float = 0.0
     """Length of each loss (s); 0 loses just the one message."""
     added_delay_s: float = 0.0
-    """FT samples reach the bus this late (s); their ``utime`` stays the sample time."""
+    """FT messages reach the bus this late (s); their samples' ``utime`` stays the sample time."""
     nan_rate: float = 0.0
     """Probability (per FT sample) that its wrench is NaN."""
     saturate_at_s: float = math.inf
@@ -299,7 +303,7 @@ class StandIn:
         self._due = [1.0 / rate for rate in self._rates] + [math.inf] * (_GRIPPER + 1 - len(drivers))
         self._outlets = [_Outlet(bus, channel.name, _GRIPPER_STREAM if i == _GRIPPER else i, faults)
                          for i, channel in enumerate(drivers)]
-        self._delayed = collections.deque()  # (release time (s), sample index, payload) of FT samples
+        self._delayed = collections.deque()  # (release time (s), newest sample's index, payload) of FT messages
         self._haptic_commands = LcmMailbox(command_bus, channels.master_command.name, keep=64)
         self._slave_commands = LcmMailbox(command_bus, channels.slave_command.name, keep=64)
 
@@ -330,8 +334,6 @@ class StandIn:
         self.truth = TruthRecord(channels.ft_sample.rate, self._wrist.phis) if record_truth else None
         self.offsets = np.zeros(6)
         self._bits = 1 << np.arange(2 * NUM_AXES)
-        # FT samples [first, end) on the held kinematics: wrench (sensor sign), acceleration, flags; offsets.
-        self._ft_rows, self._ft_offsets = (0, 0, [], [], []), np.zeros((0, NUM_AXES))
 
         self._master = _Master(scenario)
         self._master_step = 2 * math.pi / MASTER_ENCODER_COUNTS_PER_REV
@@ -341,9 +343,9 @@ class StandIn:
 
         self._command_layouts = {_MASTER: FixedLayout(heft_haptic_command, num_joints=NUM_JOINTS),
                                  _SLAVE: FixedLayout(lcmt_iiwa_command, num_joints=NUM_JOINTS, num_torques=0)}
-        self._layouts = (FixedLayout(heft_haptic_state, num_joints=NUM_JOINTS),
-                         FixedLayout(lcmt_iiwa_status, num_joints=NUM_JOINTS), FixedLayout(heft_ft_sample),
-                         FixedLayout(heft_gripper_state))
+        self._layouts = {_MASTER: FixedLayout(heft_haptic_state, num_joints=NUM_JOINTS),
+                         _SLAVE: FixedLayout(lcmt_iiwa_status, num_joints=NUM_JOINTS),
+                         _GRIPPER: FixedLayout(heft_gripper_state)}
 
     @property
     def slave_position(self) -> np.ndarray:
@@ -359,8 +361,9 @@ class StandIn:
 
     @property
     def ft_samples_due(self) -> int:
-        """The FT samples whose time the lab's clock has reached (published, lost or after its death)."""
-        return self._ticks[_FT] - 1
+        """The FT samples whose time the lab's clock has reached (published, lost, in a message still
+        filling, or after its death); an arm step's samples are taken at its first one's time."""
+        return min(self._ticks[_FT] - 1, math.floor((self._now + _DUE_SLACK) * self._rates[_FT]))
 
     @property
     def published(self) -> dict[str, int]:
@@ -379,26 +382,29 @@ class StandIn:
         """Advances the lab to ``now`` (s since it started; never decreasing): takes the
         pending commands, then steps the models and publishes every message whose nominal
         time is ≤ ``now``, oldest first (catching up when called late). Returns False once
-        the lab has died (``faults.die_at_s``)."""
+        the lab has died (``faults.die_at_s``). Each channel's handler takes its due sample
+        index and time and returns how many samples it took (an FT message holds several)."""
         die_at = self._faults.die_at_s
         self._now = now
         self._take_commands(now)
         due, handlers = self._due, (self._master_tick, self._slave_tick, self._ft_tick, self._gripper_tick)
         end = now + _DUE_SLACK
+        delayed, outlet = self._delayed, self._outlets[_FT]
         while True:
-            # Ties go to the slave first (its step sets the kinematics the FT sample reads).
             t = min(due)
+            # FT messages go out in time order with the rest (a late lab catching up sends them
+            # interleaved, not after everything else).
+            if delayed and delayed[0][0] <= min(t, end) and delayed[0][0] < die_at:
+                _, tick, payload = delayed.popleft()
+                outlet.send(tick, payload)
+                continue
             if t > end or t >= die_at:
                 break
+            # Ties go to the slave first (its step sets the kinematics the FT sample reads).
             channel = _SLAVE if due[_SLAVE] == t else due.index(t)
-            tick = self._ticks[channel]
-            handlers[channel](tick, t)
-            self._ticks[channel] = tick + 1
-            due[channel] = (tick + 1) / self._rates[channel]
-        delayed, outlet = self._delayed, self._outlets[_FT]
-        while delayed and delayed[0][0] <= end and delayed[0][0] < die_at:
-            _, tick, payload = delayed.popleft()
-            outlet.send(tick, payload)
+            tick = self._ticks[channel] + handlers[channel](self._ticks[channel], t)
+            self._ticks[channel] = tick
+            due[channel] = tick / self._rates[channel]
         self.master_torque = self._applied_torque(now)
         return end < die_at
 
@@ -440,7 +446,7 @@ class StandIn:
         """The torque (N·m) the haptic driver applies at ``t`` (s)."""
         return self._torque_commanded if t < self._torque_until else _NO_TORQUE
 
-    def _slave_tick(self, tick: int, t: float) -> None:
+    def _slave_tick(self, tick: int, t: float) -> int:
         x, u, w = self._slave, self._setpoint, self._w
         u += np.minimum(np.maximum(self.slave_command - u, -self._max_setpoint_step), self._max_setpoint_step)
         setpoint_step(self._A, self._B, x, u)
@@ -449,18 +455,18 @@ class StandIn:
         measured = quantize(q, self._slave_step)
         velocity = qd if self._velocity is None else self._velocity.update(measured)
         outlet = self._outlets[_SLAVE]
-        if outlet.lost(tick, t):
-            return
-        outlet.send(tick, self._layouts[_SLAVE].pack(round(t * 1e6), NUM_JOINTS, *measured.tolist(),
-                                                     *velocity.tolist(), *self.slave_command.tolist(), *u.tolist(),
-                                                     *_NO_TORQUE_VALUES * 3))
+        if not outlet.lost(tick, t):
+            outlet.send(tick, self._layouts[_SLAVE].pack(round(t * 1e6), NUM_JOINTS, *measured.tolist(),
+                                                         *velocity.tolist(), *self.slave_command.tolist(), *u.tolist(),
+                                                         *_NO_TORQUE_VALUES * 3))
+        return 1
 
-    def _master_tick(self, tick: int, t: float) -> None:
+    def _master_tick(self, tick: int, t: float) -> int:
         master = self._master
         master.update(t)
         outlet = self._outlets[_MASTER]
         if outlet.lost(tick, t):
-            return
+            return 1
         position = quantize(master.position, self._master_step).tolist()
         published = self._published_master
         published.append((self._now, position))
@@ -470,44 +476,42 @@ class StandIn:
         outlet.send(tick, self._layouts[_MASTER].pack(round(t * 1e6), NUM_JOINTS, *position,
                                                       *master.velocity.tolist(),
                                                       *self._applied_torque(t).tolist(), buttons, False))
+        return 1
 
-    def _sample_sensor(self, first: int) -> None:
-        """Samples the wrist sensor from sample ``first`` until the next slave step, all on
-        the kinematics held since the last one; keeps what the FT messages need."""
-        last = max(first, math.ceil(self._due[_SLAVE] * self._rates[_FT] - 1e-6) - 1)
+    def _ft_tick(self, first: int, t: float) -> int:
+        """Samples the wrist sensor from sample ``first`` (at ``t``, s) until the next slave step, all
+        on the kinematics held since the last one, and queues them as one message, published when
+        its newest sample is due (``added_delay_s`` later with that fault); returns how many."""
+        rate = self._rates[_FT]
+        last = max(first, math.ceil(self._due[_SLAVE] * rate - 1e-6) - 1)
         wrist, count = self._wrist, last - first + 1
-        wrench, self._ft_offsets, wrench_saturated = self._ft.sample(first, count, wrist.wrench)
+        wrench, offsets, wrench_saturated = self._ft.sample(first, count, wrist.wrench)
         acceleration, _, acceleration_saturated = self._accelerometer.sample(first, count, wrist.reading)
         if self.truth is not None:
-            self.truth.add(first, count, wrist, self._ft_offsets)
-        saturated = wrench_saturated @ self._bits[:NUM_AXES] + acceleration_saturated @ self._bits[NUM_AXES:]
-        self._ft_rows = (first, last + 1, (-wrench).tolist(), acceleration.tolist(), saturated.astype(int).tolist())
+            self.truth.add(first, count, wrist, offsets)
+        self.offsets = offsets[-1]
+        faults, outlet, newest = self._faults, self._outlets[_FT], last / rate
+        if outlet.lost(last, newest):
+            return count
+        ticks = range(first, last + 1)
+        wrenches = (-wrench).ravel().tolist()  # the sensor's sign: the load on it
+        saturated = (wrench_saturated @ self._bits[:NUM_AXES]
+                     + acceleration_saturated @ self._bits[NUM_AXES:]).astype(int).tolist()
+        for k, tick in enumerate(ticks):
+            if faults.nan_rate > 0.0 and _uniform(faults.seed, _NAN_STREAM, tick) < faults.nan_rate:
+                wrenches[6 * k:6 * k + 6] = _NAN_WRENCH
+            if tick / rate >= faults.saturate_at_s:
+                saturated[k] |= _WRENCH_SATURATED
+        payload = pack_samples([round(tick / rate * 1e6) for tick in ticks], ticks, wrenches,
+                               acceleration.ravel().tolist(), saturated, [False] * count)
+        self._delayed.append((newest + faults.added_delay_s, last, payload))
+        return count
 
-    def _ft_tick(self, tick: int, t: float) -> None:
-        if not self._ft_rows[0] <= tick < self._ft_rows[1]:
-            self._sample_sensor(tick)
-        first, _, wrenches, accelerations, saturations = self._ft_rows
-        row = tick - first
-        self.offsets = self._ft_offsets[row]
-        faults, outlet = self._faults, self._outlets[_FT]
-        if outlet.lost(tick, t):
-            return
-        nan = faults.nan_rate > 0.0 and _uniform(faults.seed, _NAN_STREAM, tick) < faults.nan_rate
-        payload = self._layouts[_FT].pack(
-            round(t * 1e6), tick, *(_NAN_WRENCH if nan else wrenches[row]),  # the sensor's sign: the load on it
-            *accelerations[row], (saturations[row] | 0x3F) if t >= faults.saturate_at_s else saturations[row], False)
-        if faults.added_delay_s > 0.0:
-            self._delayed.append((t + faults.added_delay_s, tick, payload))
-        else:
-            outlet.send(tick, payload)
-
-
-    def _gripper_tick(self, tick: int, t: float) -> None:
-        outlet = self._outlets[_GRIPPER]
-        if outlet.lost(tick, t):
-            return
-        grasp = self._grasp
-        outlet.send(tick, self._layouts[_GRIPPER].pack(round(t * 1e6), grasp.state(t), grasp.width(t), False))
+    def _gripper_tick(self, tick: int, t: float) -> int:
+        outlet, grasp = self._outlets[_GRIPPER], self._grasp
+        if not outlet.lost(tick, t):
+            outlet.send(tick, self._layouts[_GRIPPER].pack(round(t * 1e6), grasp.state(t), grasp.width(t), False))
+        return 1
 
 
 def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,

@@ -5,6 +5,7 @@ lcm-gen 1.5.3
 """
 
 from .heft_ft_sample import heft_ft_sample as heft_ft_sample
+from .heft_ft_samples import heft_ft_samples as heft_ft_samples
 from .heft_gripper_state import heft_gripper_state as heft_gripper_state
 from .heft_haptic_command import heft_haptic_command as heft_haptic_command
 from .heft_haptic_state import heft_haptic_state as heft_haptic_state
