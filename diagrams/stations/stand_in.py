@@ -111,6 +111,9 @@ have been published: the controller reads a state at most its watchdog's timeout
 arrived, and on a busy machine the arrival itself lagged the publish by up to 50 ms. The Phantom
 driver judges the force a command renders at the positions it published within this window (a
 stand-in running late publishes its backlog at once: then all of it)."""
+_PUBLISHED_KEEP = 1024
+"""Master positions whose force maps the Phantom driver keeps: those of ``RENDERED_WITHIN_S`` at
+2 kHz five times over (a late stand-in's backlog, published at once, counts as one moment)."""
 _NO_TORQUE = np.zeros(NUM_JOINTS)
 _NO_TORQUE.flags.writeable = False
 _NO_TORQUE_VALUES = (0.0,) * NUM_JOINTS
@@ -237,6 +240,12 @@ class _Master:
         self._chain.update(position)
         return float(np.linalg.norm(np.linalg.solve(self._chain.J.T, torque)[:3]))
 
+    def force_map(self, position, out: np.ndarray) -> None:
+        """Writes into ``out`` (3, 6) the map from joint torque (N·m) to the force f (N) it renders
+        on the hand at joint ``position`` (rad): the first three rows of J_M⁻ᵀ."""
+        self._chain.update(position)
+        out[:] = np.linalg.inv(self._chain.J.T)[:3]
+
     def update(self, t: float) -> None:
         """Moves the joints to the operator's reference at time ``t`` (s)."""
         operator = self._operator
@@ -314,7 +323,10 @@ class StandIn:
         self._slave = np.zeros((2, NUM_JOINTS))
         self._slave[0] = scenario.slave_initial_q
         self.stylus_force_peak = 0.0
-        self._published_master = collections.deque()  # (time published (s), position (rad)), newest last
+        # The master positions published lately: when (s, the lab's clock) and their force maps, a ring.
+        self._published_at = np.full(_PUBLISHED_KEEP, -math.inf)
+        self._force_maps = np.zeros((_PUBLISHED_KEEP, 3, NUM_JOINTS))
+        self._published_count = 0
         self._now = 0.0  # the lab's time at the step under way (s)
         self.slave_command = np.array(scenario.slave_initial_q, dtype=float)
         self._setpoint = self.slave_command.copy()  # the command approached at the speed limits
@@ -430,17 +442,15 @@ class StandIn:
     def _observe_stylus_force(self, torque) -> None:
         """Raises ``stylus_force_peak`` to the force ``torque`` renders at the master's present
         position or, if the stylus has moved on since the controller read it, at the least of the
-        positions this driver published within ``RENDERED_WITHIN_S`` (newest first, stopping at
-        one that raises nothing)."""
-        master, peak, published = self._master, self.stylus_force_peak, self._published_master
+        positions this driver published within ``RENDERED_WITHIN_S``."""
+        master, peak = self._master, self.stylus_force_peak
         force = master.stylus_force(torque, master.position) if torque.any() else 0.0
         if force <= peak:
             return
-        for _, position in reversed(published):
-            force = min(force, master.stylus_force(torque, position))
-            if force <= peak:
-                return
-        self.stylus_force_peak = force
+        recent = self._published_at >= self._now - RENDERED_WITHIN_S
+        if recent.any():
+            force = min(force, float(np.sqrt(np.square(self._force_maps[recent] @ torque).sum(axis=1).min())))
+        self.stylus_force_peak = max(peak, force)
 
     def _applied_torque(self, t: float) -> np.ndarray:
         """The torque (N·m) the haptic driver applies at ``t`` (s)."""
@@ -467,11 +477,12 @@ class StandIn:
         outlet = self._outlets[_MASTER]
         if outlet.lost(tick, t):
             return 1
-        position = quantize(master.position, self._master_step).tolist()
-        published = self._published_master
-        published.append((self._now, position))
-        while published[0][0] < self._now - RENDERED_WITHIN_S:
-            published.popleft()
+        measured = quantize(master.position, self._master_step)
+        ring = self._published_count % _PUBLISHED_KEEP
+        self._published_at[ring] = self._now
+        master.force_map(measured, self._force_maps[ring])
+        self._published_count += 1
+        position = measured.tolist()
         buttons = CLUTCH_BUTTON if self._clutch[0] <= t < self._clutch[1] else 0
         outlet.send(tick, self._layouts[_MASTER].pack(round(t * 1e6), NUM_JOINTS, *position,
                                                       *master.velocity.tolist(),
