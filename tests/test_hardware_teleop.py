@@ -100,13 +100,15 @@ def test_start_up_never_moves_the_slave():
 
 def test_the_summary_says_when_the_controller_was_first_healthy():
     """In seconds with a fixed number of decimals, however early (a lab already publishing makes
-    the first tick healthy), or "never"."""
+    the first tick healthy), or "never"; that first tick is the controller's one start from the
+    measured position, though no command came before it."""
     lab = Lab(resolve_scenario("fig6"))
     lab.run(0.05)
     summary = {**lab.teleop.summary(0.05), "duration": 0.05, "rate_hz": 2000.0,
                "timing": timing_summary(TickTimes(np.full(3, 1e-4), np.full(3, 1e-4), np.zeros(3), 0, 0.05, 5e-4))}
     first = summary["first_healthy"]
     assert first is not None and first < 0.01
+    assert summary["slave_reanchors"]["count"] == 1 and summary["faults"] == [], summary["slave_reanchors"]
     assert f"(first at {first:.4f} s)" in format_summary(summary, "memq://")
     assert "healthy in 0 (never)" in format_summary({**summary, "healthy_ticks": 0, "first_healthy": None}, "memq://")
 

@@ -154,13 +154,14 @@ class HardwareTeleop:
         if position is not None:
             self.slave_commands += 1
             position = position.tolist()
-            if self._last_position is not None:
-                step = max(abs(a - b) for a, b in zip(position, self._last_position))
-                if station.reanchored:  # the command set to where the arm is: a hold, not a move
+            step = 0.0 if self._last_position is None else max(abs(a - b) for a, b in
+                                                                 zip(position, self._last_position))
+            if station.reanchored:  # the command set to where the arm is: a hold, not a move
+                if station.healthy:  # a start (the first healthy tick, a recovery), not a hold before it
                     self.reanchors += 1
-                    self.max_reanchor_step = max(self.max_reanchor_step, step)
-                else:
-                    self.max_slave_step = max(self.max_slave_step, step)
+                self.max_reanchor_step = max(self.max_reanchor_step, step)
+            else:
+                self.max_slave_step = max(self.max_slave_step, step)
             self._last_position = position
 
     def _observe_conflicts(self, now: float) -> None:
