@@ -16,8 +16,9 @@ from heft.hardware_interface.fixed_layout import FixedLayout
 from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_ft_samples
 
 MAX_SAMPLES = 64
-"""The most samples one ``heft_ft_samples`` may hold: 8 ms at 8 kHz, longer than the controller's
-watchdog lets a channel stay silent; a message claiming more is refused as undecodable."""
+"""The most samples one ``heft_ft_samples`` may hold: 8 ms at 8 kHz, 16 ticks of a 2 kHz controller
+(a buffered driver sends one message a tick: 4 samples); a message claiming more is refused as
+undecodable."""
 FIELDS = ("utime", "sample_counter", "wrench", "acceleration", "saturated", "error")
 """The fields of a sample, in the order of ``unpack_samples``'s starts."""
 
