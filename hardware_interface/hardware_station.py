@@ -217,7 +217,7 @@ class HardwareStation:
         enable = self.healthy and math.isfinite(sum(torque.tolist()))
         self.torque_sent[:] = self.gain * torque if enable else 0.0
         self._command_bus.publish(self._channels.master_command.name, self._master_command.pack(
-            utime, NUM_JOINTS, *self.torque_sent.tolist(), enable))
+            utime, self._master.utime, NUM_JOINTS, *self.torque_sent.tolist(), enable))
 
         dt = 0.0 if self._last_send is None else min(now - self._last_send, self._params.watchdog.timeout)
         self._last_send = now

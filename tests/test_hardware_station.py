@@ -232,14 +232,23 @@ def test_every_ft_sample_since_the_last_tick_is_read_and_the_newest_kept():
     assert rig.station.received["ft_sample"] == 20 + 4 and not any(rig.station.rejections.values())
 
 
-def test_published_utime_is_wall_clock():
+def test_published_utime_is_wall_clock_and_names_the_master_state():
+    """A command's utime is wall-clock time; its master_utime the stamp (the driver's clock) of the
+    master state it was computed at: the newest accepted, not a later or a rejected one."""
     rig = Rig()
     rig.station.epoch = 1.7e9
     rig.run(0.002)
-    bus_copy = LcmMailbox(rig.bus, CHANNELS.master_command.name)
+    rig.now += PERIOD
+    used = round(1e6 * (rig.now - rig.driver_start)) + 1
+    rig.publish(("master",))
+    bus_copy = LcmMailbox(rig.bus, CHANNELS.master_command.name, keep=2)
+    rig.tick()
+    rig.bus.publish(CHANNELS.master_state.name, haptic_state(used + 500, np.full(6, 50.0)))  # beyond the limits
     rig.tick()
     pump(rig.bus)
-    assert heft_haptic_command.decode(bus_copy.take()[-1]).utime == round((1.7e9 + rig.now) * 1e6)
+    commands = [heft_haptic_command.decode(payload) for payload in bus_copy.take()]
+    assert commands[-1].utime == round((1.7e9 + rig.now) * 1e6)
+    assert [command.master_utime for command in commands] == [used, used]
     assert math.isfinite(rig.station.ages.max())
 
 

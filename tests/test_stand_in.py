@@ -88,9 +88,10 @@ class Lab:
         msg.num_joints, msg.joint_position = num_joints, list(q)
         self.bus.publish(CHANNELS.slave_command.name, msg.encode())
 
-    def command_master(self, torque, enable: bool = True):
+    def command_master(self, torque, enable: bool = True, master_utime: int = 0):
         msg = heft_haptic_command()
         msg.num_joints, msg.torque, msg.enable = len(torque), list(torque), enable
+        msg.master_utime = master_utime
         self.bus.publish(CHANNELS.master_command.name, msg.encode())
 
 
@@ -321,28 +322,38 @@ def test_master_follows_the_operator_reference():
     np.testing.assert_allclose(stylus(q[-1]) - stylus(q[0]), offset, atol=0.1 * np.linalg.norm(op.amplitude))
 
 
-def test_the_driver_judges_the_rendered_force_at_its_own_positions():
-    """A torque clamped to 8.5 N at a position the driver published renders 8.5 N; one computed
-    at a position it never reported (0.3 rad off: another publisher's) renders another force,
-    by Drake's Jacobian of the Phantom."""
+def test_the_driver_judges_the_rendered_force_at_the_state_a_command_names():
+    """A torque clamped to 8.5 N at a position the driver published renders 8.5 N there, by
+    Drake's Jacobian of the Phantom, while the stylus has moved on; the same torque computed 0.3 rad
+    off (another publisher's position) renders another force; a command naming a state the driver
+    never published is judged at the present position."""
     plant = MakeMasterPlant()
     context = plant.CreateDefaultContext()
     B, E = plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME)
 
-    def torque_for(position, force):
+    def jacobian(position):
         plant.SetPositions(context, position)
-        J = plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV, E, np.zeros(3), B, B)  # [ω; v]
-        return J.T @ np.concatenate((np.zeros(3), force))
+        return plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV, E, np.zeros(3), B, B)  # [ω; v]
 
-    peaks = []
-    for offset in (0.0, 0.3):
-        lab = Lab()
-        lab.run(0.05)
-        published = np.asarray(lab.messages(CHANNELS.master_state.name)[-3].position)
-        lab.command_master(torque_for(published + offset, [0.0, 0.0, -8.5]))
-        lab.run(0.051)
-        peaks.append(lab.stand_in.stylus_force_peak)
-    assert peaks[0] == pytest.approx(8.5, rel=1e-9) and abs(peaks[1] - 8.5) > 0.1, peaks
+    def peak(offset: float, names_state: bool) -> tuple[float, float]:
+        """The driver's judge of an 8.5 N torque computed ``offset`` rad off a 0.1 s old state, and
+        that torque's force at the present position."""
+        lab = Lab(scenario=Scenario())
+        start = lab.scenario.operator.start_time
+        lab.run(start + 0.3)
+        state = [m for m in lab.messages(CHANNELS.master_state.name) if m.utime <= (start + 0.2) * 1e6][-1]
+        torque = jacobian(np.asarray(state.position) + offset).T @ np.array([0, 0, 0, 0.0, 0.0, -8.5])
+        lab.command_master(torque, master_utime=state.utime if names_state else 0)
+        lab.step(start + 0.3)  # takes the command; the stylus stays where it is until the next step
+        present = lab.stand_in.master_position
+        assert np.abs(present - state.position).max() > 1e-3  # the stylus has moved on
+        return lab.stand_in.stylus_force_peak, float(np.linalg.norm(np.linalg.solve(jacobian(present).T, torque)[3:]))
+
+    at_state, _ = peak(0.0, names_state=True)
+    elsewhere, _ = peak(0.3, names_state=True)
+    unnamed, present = peak(0.0, names_state=False)
+    assert at_state == pytest.approx(8.5, rel=1e-9) and abs(elsewhere - 8.5) > 0.1, (at_state, elsewhere)
+    assert unnamed == pytest.approx(present, rel=1e-9) and abs(unnamed - 8.5) > 1e-3, (unnamed, present)
 
 
 def test_haptic_driver_applies_only_valid_commands_and_times_out():

@@ -105,15 +105,9 @@ from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many 
 """Joints of the master and of the slave."""
 HAPTIC_WATCHDOG_S = 0.02
 """The Phantom driver zeroes its torque this long (s) after the last valid command."""
-RENDERED_WITHIN_S = 0.1
-"""How long before a command arrives (s, the stand-in's clock) the position it was computed at may
-have been published: the controller reads a state at most its watchdog's timeout (20 ms) after it
-arrived, and on a busy machine the arrival itself lagged the publish by up to 50 ms. The Phantom
-driver judges the force a command renders at the positions it published within this window (a
-stand-in running late publishes its backlog at once: then all of it)."""
-_PUBLISHED_KEEP = 1024
-"""Master positions whose force maps the Phantom driver keeps: those of ``RENDERED_WITHIN_S`` at
-2 kHz five times over (a late stand-in's backlog, published at once, counts as one moment)."""
+_PUBLISHED_KEEP = 8192
+"""Master positions (utime, force map) the Phantom driver keeps, in a ring: 4 s at 2 kHz, more than
+a stalled lab publishes between a command's state and the command's arrival."""
 _NO_TORQUE = np.zeros(NUM_JOINTS)
 _NO_TORQUE.flags.writeable = False
 _NO_TORQUE_VALUES = (0.0,) * NUM_JOINTS
@@ -323,8 +317,8 @@ class StandIn:
         self._slave = np.zeros((2, NUM_JOINTS))
         self._slave[0] = scenario.slave_initial_q
         self.stylus_force_peak = 0.0
-        # The master positions published lately: when (s, the lab's clock) and their force maps, a ring.
-        self._published_at = np.full(_PUBLISHED_KEEP, -math.inf)
+        # The master positions published lately: their utimes and force maps, a ring.
+        self._published_utime = np.full(_PUBLISHED_KEEP, -1, dtype=np.int64)
         self._force_maps = np.zeros((_PUBLISHED_KEEP, 3, NUM_JOINTS))
         self._published_count = 0
         self._now = 0.0  # the lab's time at the step under way (s)
@@ -430,27 +424,27 @@ class StandIn:
                 self.slave_command[:] = position
         for payload in self._haptic_commands.take():
             values = _command_values(self._command_layouts[_MASTER], heft_haptic_command, payload, "torque",
-                                     "enable")
+                                     "enable", "master_utime")
             if values is not None and values[1] and math.isfinite(sum(values[0])):
                 limits = self._master.effort_limits
                 self._torque_commanded = np.clip(values[0], -limits, limits)
                 self._torque_until = now + HAPTIC_WATCHDOG_S
-                self._observe_stylus_force(self._torque_commanded)
+                self._observe_stylus_force(self._torque_commanded, values[2])
             else:
                 self._torque_until = -math.inf
 
-    def _observe_stylus_force(self, torque) -> None:
-        """Raises ``stylus_force_peak`` to the force ``torque`` renders at the master's present
-        position or, if the stylus has moved on since the controller read it, at the least of the
-        positions this driver published within ``RENDERED_WITHIN_S``."""
-        master, peak = self._master, self.stylus_force_peak
-        force = master.stylus_force(torque, master.position) if torque.any() else 0.0
-        if force <= peak:
+    def _observe_stylus_force(self, torque, master_utime: int) -> None:
+        """Raises ``stylus_force_peak`` to the force ``torque`` renders at the master position this
+        driver published at ``master_utime`` (the state the command says it was computed at), or at
+        the present position if it published none then (another publisher's state, or none)."""
+        if not torque.any():
             return
-        recent = self._published_at >= self._now - RENDERED_WITHIN_S
-        if recent.any():
-            force = min(force, float(np.sqrt(np.square(self._force_maps[recent] @ torque).sum(axis=1).min())))
-        self.stylus_force_peak = max(peak, force)
+        published = np.flatnonzero(self._published_utime == master_utime)
+        if published.size:
+            force = float(np.linalg.norm(self._force_maps[published[0]] @ torque))
+        else:
+            force = self._master.stylus_force(torque, self._master.position)
+        self.stylus_force_peak = max(self.stylus_force_peak, force)
 
     def _applied_torque(self, t: float) -> np.ndarray:
         """The torque (N·m) the haptic driver applies at ``t`` (s)."""
@@ -478,13 +472,14 @@ class StandIn:
         if outlet.lost(tick, t):
             return 1
         measured = quantize(master.position, self._master_step)
+        utime = round(t * 1e6)
         ring = self._published_count % _PUBLISHED_KEEP
-        self._published_at[ring] = self._now
+        self._published_utime[ring] = utime
         master.force_map(measured, self._force_maps[ring])
         self._published_count += 1
         position = measured.tolist()
         buttons = CLUTCH_BUTTON if self._clutch[0] <= t < self._clutch[1] else 0
-        outlet.send(tick, self._layouts[_MASTER].pack(round(t * 1e6), NUM_JOINTS, *position,
+        outlet.send(tick, self._layouts[_MASTER].pack(utime, NUM_JOINTS, *position,
                                                       *master.velocity.tolist(),
                                                       *self._applied_torque(t).tolist(), buttons, False))
         return 1

@@ -10,16 +10,24 @@ import struct
 class heft_haptic_command(object):
     """ Joint torque command for the haptic master. """
 
-    __slots__ = ["utime", "num_joints", "torque", "enable"]
+    __slots__ = ["utime", "master_utime", "num_joints", "torque", "enable"]
 
-    __typenames__ = ["int64_t", "int32_t", "double", "boolean"]
+    __typenames__ = ["int64_t", "int64_t", "int32_t", "double", "boolean"]
 
-    __dimensions__ = [None, None, ["num_joints"], None]
+    __dimensions__ = [None, None, None, ["num_joints"], None]
 
     def __init__(self):
         self.utime = 0
         """
         Controller time when the command was computed, microseconds.
+        LCM Type: int64_t
+        """
+
+        self.master_utime = 0
+        """
+        utime of the heft_haptic_state whose joint positions the torque was computed
+        (and its force limit applied) at, on the driver's clock; 0 if none. The
+        force the torque renders is that force only at those positions.
         LCM Type: int64_t
         """
 
@@ -46,7 +54,7 @@ class heft_haptic_command(object):
         return buf.getvalue()
 
     def _encode_one(self, buf):
-        buf.write(struct.pack(">qi", self.utime, self.num_joints))
+        buf.write(struct.pack(">qqi", self.utime, self.master_utime, self.num_joints))
         buf.write(struct.pack('>%dd' % self.num_joints, *self.torque[:self.num_joints]))
         buf.write(struct.pack(">b", self.enable))
 
@@ -63,7 +71,7 @@ class heft_haptic_command(object):
     @staticmethod
     def _decode_one(buf):
         self = heft_haptic_command()
-        self.utime, self.num_joints = struct.unpack(">qi", buf.read(12))
+        self.utime, self.master_utime, self.num_joints = struct.unpack(">qqi", buf.read(20))
         self.torque = struct.unpack('>%dd' % self.num_joints, buf.read(self.num_joints * 8))
         self.enable = bool(struct.unpack('b', buf.read(1))[0])
         return self
@@ -71,7 +79,7 @@ class heft_haptic_command(object):
     @staticmethod
     def _get_hash_recursive(parents):
         if heft_haptic_command in parents: return 0
-        tmphash = (0x530564cb939c385a) & 0xffffffffffffffff
+        tmphash = (0x330fb27ad6e2c088) & 0xffffffffffffffff
         tmphash  = (((tmphash<<1)&0xffffffffffffffff) + (tmphash>>63)) & 0xffffffffffffffff
         return tmphash
     _packed_fingerprint = None
