@@ -1,5 +1,11 @@
 """The real-time loop on a fake monotonic clock: ticks on the grid, a late tick skips the grid
-points it overran (never replays them) and reports the measured time since the last tick."""
+points it overran (never replays them) and reports the measured time since the last tick; and
+the CPU a drivers' process leaves to the loop."""
+
+import json
+import os
+import subprocess
+import sys
 
 import pytest
 
@@ -48,3 +54,37 @@ def test_a_tick_that_asks_to_stop_ends_the_loop(fake_clock):
 def test_a_period_that_is_not_positive_is_refused():
     with pytest.raises(ValueError, match="period"):
         run_realtime(lambda now, dt: True, 0.0, 1.0)
+
+
+LEAVE_LOOP_CPU = """
+import json, os, threading
+from heft.diagrams.running.realtime import leave_loop_cpu
+os.sched_setaffinity(0, set(json.loads(os.environ["CPUS"])))
+started, done = threading.Event(), threading.Event()
+def early():
+    started.set()
+    done.wait()
+    print(json.dumps(sorted(os.sched_getaffinity(0))))
+thread = threading.Thread(target=early)
+thread.start()
+started.wait()
+said = leave_loop_cpu()
+print(json.dumps(sorted(os.sched_getaffinity(0))))
+done.set()
+thread.join()
+print(said)
+"""
+
+
+@pytest.mark.parametrize("cpus", [[0, 1], [0]])
+def test_a_drivers_process_leaves_the_loops_cpu(cpus):
+    """``leave_loop_cpu`` moves the process, a thread started before it included, off the CPU that
+    ``claim_realtime`` would pin a loop to (the last allowed); a process with one CPU stays."""
+    if not set(cpus) <= os.sched_getaffinity(0):
+        pytest.skip(f"this machine lets tests use CPUs {sorted(os.sched_getaffinity(0))}")
+    run = subprocess.run([sys.executable, "-c", LEAVE_LOOP_CPU], env=dict(os.environ, CPUS=json.dumps(cpus)),
+                         capture_output=True, text=True, check=True)
+    caller, early, said = run.stdout.splitlines()
+    expected = cpus[:-1] or cpus
+    assert json.loads(caller) == expected and json.loads(early) == expected, run.stdout
+    assert (f"off CPU {cpus[-1]}" in said) == (len(cpus) > 1), said

@@ -537,6 +537,8 @@ def test_a_starved_stand_in_stops_when_asked(fake_clock):
     assert len(stops) == 20 and not summary["died"]
     assert summary["duration_s"] == pytest.approx(20.0)
     assert summary["max_lateness_ms"] > 1e4  # it reports how far behind the wall clock it fell
+    by_second = summary["lateness_ms_by_second"]  # and when: in the first second of its clock, the one it reached
+    assert len(by_second) == 1000 and by_second[0] > 1e4 and not any(by_second[2:])
     assert summary["published"][NAMES[2]] <= 20 * 0.05 * 2000 + 1  # 20 steps of at most 50 ms each
 
 

@@ -64,9 +64,11 @@ def run_probe(channels, duration: float, out: Path, master_q, slave_q) -> None:
     import lcm
     from drake import lcmt_iiwa_status
 
+    from heft.diagrams.running.realtime import leave_loop_cpu
     from heft.hardware_interface.ft_messages import pack_samples
     from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_command, heft_haptic_state
 
+    leave_loop_cpu()  # the drivers' computers, not the controller's CPU
     bus = lcm.LCM(channels.lcm_url)
     commands = _TimestampedReceiver(channels.command_lcm_url(), channels.master_command.name)
     receipts, torques = [], []

@@ -13,7 +13,8 @@ HELP = ("re-zero the sensor, switch offset tracking, change the tool or tell a g
 
 def add_arguments(parser) -> None:
     parser.add_argument("--rezero", action="store_true",
-                      help="measure the offsets now (hold the slave still, out of contact)")
+                      help="measure the offsets (hold the slave still, out of contact), as soon as the "
+                           "controller's station is healthy")
     parser.add_argument("--tracking", choices=("on", "off"), help="slow offset tracking at rest")
     parser.add_argument("--estimate", help="a new tool's estimate.yaml from `heft identify`")
     parser.add_argument("--grasp", action="store_true",

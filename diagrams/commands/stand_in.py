@@ -44,7 +44,7 @@ def truth_path(out: str) -> Path:
 
 
 def run(args) -> int:
-    from heft.diagrams.running.realtime import StopOnSignal
+    from heft.diagrams.running.realtime import StopOnSignal, leave_loop_cpu
     from heft.diagrams.stations.stand_in import FaultInjection, run_stand_in
     from heft.diagrams.stations.stand_in_wrist import GraspTimes
 
@@ -57,7 +57,7 @@ def run(args) -> int:
                             seed=args.seed, reorder_rate=args.reorder_rate)
     channels = scenario.lab.lcm
     print(f"stand-in: {args.scenario} on {channels.lcm_url} (commands on {channels.command_lcm_url()}) for "
-          f"{args.duration:g} s at real time", flush=True)
+          f"{args.duration:g} s at real time; {leave_loop_cpu()}", flush=True)
     with StopOnSignal() as stop:
         summary = run_stand_in(scenario, channels, args.duration, faults, args.clutch_at, args.clutch_release_at,
                                ready=lambda epoch: print(f"stand-in: publishing; its stamps count from {epoch:.6f} s "

@@ -533,7 +533,8 @@ def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
     Returns {"duration_s": wall time run (s; the lab's own time may lag it), "died",
     "published" / "received" (channel name → messages), "published_hz" / "received_hz"
     (channel name → messages per wall second),
-    "max_lateness_ms": the latest a message was published after its nominal time, "cpu_s":
+    "max_lateness_ms": the latest a message was published after its nominal time,
+    "lateness_ms_by_second": the same for the messages due in each second of the lab's clock, "cpu_s":
     this process's CPU time over the run, "stylus_force_peak": ``StandIn.stylus_force_peak``}.
     ``ready(epoch)``, if given, is called once the lab is built, as it starts publishing, with
     the wall-clock time (s since the Unix epoch) of its clock's zero, the time its ``utime``
@@ -551,12 +552,16 @@ def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
     else:
         wait = sleep
     lateness, alive = 0.0, True
+    by_second = [0.0] * (math.ceil(duration) if math.isfinite(duration) else 0)
     cpu_start, start, epoch = time.process_time(), clock(), time.time()
     if ready is not None:
         ready(epoch)
     now = wall = 0.0
     while True:
-        lateness = max(lateness, wall - lab.next_due)
+        late, second = wall - lab.next_due, int(lab.next_due)
+        lateness = max(lateness, late)
+        if second < len(by_second):
+            by_second[second] = max(by_second[second], late)
         alive = lab.step(now)
         if not alive or now >= duration - _DUE_SLACK or (stop is not None and stop()):
             break
@@ -570,7 +575,8 @@ def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
     summary = {"duration_s": elapsed, "died": not alive, "published": published, "received": received,
                "published_hz": {name: count / elapsed for name, count in published.items()},
                "received_hz": {name: count / elapsed for name, count in received.items()},
-               "max_lateness_ms": 1e3 * lateness, "cpu_s": time.process_time() - cpu_start,
+               "max_lateness_ms": 1e3 * lateness, "lateness_ms_by_second": [1e3 * late for late in by_second],
+               "cpu_s": time.process_time() - cpu_start,
                "stylus_force_peak": lab.stylus_force_peak}
     if truth_path is not None:
         lab.truth.save(truth_path, lab.ft_samples_due)
