@@ -119,9 +119,9 @@ def leave_loop_cpu() -> str:
     real-time controller on the same machine claims (``loop_cpu``), for a process that plays the
     lab's drivers beside it (``heft stand-in``, the bench's probe), as the drivers' own computers do
     in a lab. On that CPU the loop's ``SCHED_FIFO`` would preempt it every tick and leave it only
-    what the loop does not use: it fell behind its clock by up to 0.3 s on a 2-core machine, against
-    under 10 ms off it. Call it before opening an LCM bus. Returns what was done; a process allowed
-    on one CPU only is left alone."""
+    what the loop does not use, so that it fell behind its clock (measured: docs/design.md, "The
+    hardware path"). Call it before opening an LCM bus. Returns what was done; a process allowed on
+    one CPU only is left alone."""
     mine = os.sched_getaffinity(0)
     loop = loop_cpu(mine)
     others = mine - {loop}
