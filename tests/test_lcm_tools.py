@@ -6,7 +6,7 @@ import sys
 import numpy as np
 import pytest
 from heft.diagrams.commands.bench_lcm import step_latencies
-from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
+from heft.diagrams.running.lcm_recording import LOGGER_RECEIVE_BUFFER, LcmTrafficRecorder, logger_url
 from heft.hardware_interface.channels import LcmChannels
 
 RECORD_AND_PUBLISH = """
@@ -36,6 +36,13 @@ def test_step_latency_is_the_first_command_past_half_way():
     latencies = step_latencies(steps, receipts, torques)
     # Half-way is reached 1 ms into the ramp: 3.2 + 1.0 ms, rounded up to the next receipt.
     np.testing.assert_allclose(latencies, [0.0045, 0.0045, 0.0045], atol=1e-9)
+
+
+def test_a_logger_asks_for_a_large_receive_buffer_unless_told_otherwise():
+    size = f"recv_buf_size={LOGGER_RECEIVE_BUFFER}"
+    assert logger_url("udpm://239.255.76.67:7667?ttl=0") == f"udpm://239.255.76.67:7667?ttl=0&{size}"
+    assert logger_url("udpm://239.255.76.67:7667") == f"udpm://239.255.76.67:7667?{size}"
+    assert logger_url("udpm://239.255.76.67:7667?recv_buf_size=65536") == "udpm://239.255.76.67:7667?recv_buf_size=65536"
 
 
 def test_recorder_refuses_memq():

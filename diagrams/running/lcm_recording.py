@@ -42,6 +42,12 @@ def _group_alive(group: int) -> bool:
 LOGGER_NICENESS = 10
 """The logger's nice value (lower CPU priority than the controller and the drivers)."""
 
+LOGGER_RECEIVE_BUFFER = 4 * 1024 * 1024
+"""Bytes of socket receive buffer a logger asks for (LCM's ``recv_buf_size``; Linux grants at most
+``net.core.rmem_max``): at its lower priority a logger waits for the CPU, and the kernel drops what
+arrives meanwhile beyond the buffer (about 200 datagrams at the common default of 208 KiB). In a
+6 s two-process run here the default's kernel drops were 98 datagrams, this one's none."""
+
 SYNC_CHANNEL = "HEFT_RECORDER_SYNC"
 """Messages on this channel, published at the start until the log holds one, prove the logger listens."""
 
@@ -85,10 +91,18 @@ class LcmTrafficRecorder:
         self._processes = []
 
 
+def logger_url(url: str) -> str:
+    """``url`` with ``LOGGER_RECEIVE_BUFFER`` asked for, unless it asks for a buffer itself."""
+    if not url.startswith("udpm://") or "recv_buf_size=" in url:
+        return url
+    return f"{url}{'&' if '?' in url else '?'}recv_buf_size={LOGGER_RECEIVE_BUFFER}"
+
+
 def _start_logger(url: str, path: Path) -> subprocess.Popen:
     """An ``lcm-logger`` recording ``url`` to ``path``, once it has written a ``SYNC_CHANNEL`` message."""
-    process = subprocess.Popen([_lcm_logger(), "--quiet", "--force", f"--lcm-url={url}", "--flush-interval=50",
-                                str(path)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+    process = subprocess.Popen([_lcm_logger(), "--quiet", "--force", f"--lcm-url={logger_url(url)}",
+                                "--flush-interval=50", str(path)], stdout=subprocess.DEVNULL,
+                               stderr=subprocess.PIPE,
                                start_new_session=True)  # its own group: the pip entry point forks
     # Recording yields the CPU to the loop and the drivers: on a 2-core machine a logger at equal
     # priority made the drivers miss the watchdog's 20 ms.
