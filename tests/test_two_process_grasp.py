@@ -7,14 +7,15 @@ gripper closes on the 0.5 kg block at 2 s while the slave follows the operator's
 ``MOVE_FROM`` s), and the clutch is let go at ``STILL_FROM`` s so that the slave then holds still.
 Judged by ``grasp_judge`` from what the processes wrote — the controller's φ̂ every 10 ms and its
 recorded traffic (the master torques through the Phantom's Jacobian at the driver's positions each
-command names) — against the stand-in's recorded truth of every FT sample (``test_grasp_lab`` judges the same in one process, on one explicit clock).
+command names) — against the stand-in's recorded truth of every FT sample (``test_grasp_lab``
+judges the same in one process, on one explicit clock).
 
 Nothing here asserts how fast the machine is; a stand-in that could not keep its clock from the
-second before the grasp on (a busy machine) skips the judging with its lateness.
-Times: the stand-in's messages and truth are on its own clock, whose zero it prints as wall-clock
-time. Each command is judged at the time of the master state it names (its ``master_utime``), so
-a stand-in publishing late does not shift what it is compared with; the controller's φ̂ history
-and faults, on its wall clock, go on the stand-in's clock through the two zeros.
+second before the grasp on (a busy machine) skips the judging with its lateness. Times: the
+stand-in's messages and truth are on its own clock, whose zero it prints as wall-clock time. Each
+command is judged at the time of the master state it names (its ``master_utime``), so a stand-in
+publishing late does not shift what it is compared with; the controller's φ̂ history, on its wall
+clock, goes on the stand-in's clock through the two zeros.
 """
 
 import json
