@@ -74,7 +74,7 @@ class HardwareStation:
     ``slave_position``, ``slave_velocity`` (rad, rad/s), ``wrench`` ([f; τ] the sensor
     exerts on the load, at S, in S; N, N·m), ``acceleration`` (the accelerometer's
     reading as the sensor reports it: ``accelerometer_reading``); ``ages`` (s, per
-    ``WATCHED_CHANNELS``), ``healthy``, ``gain``,
+    ``WATCHED_CHANNELS``) and ``oldest_age`` (s, their largest), ``healthy``, ``gain``,
     ``fault`` (bitmask), ``slave_known`` (a slave status has arrived), ``rejections`` and
     ``conflicts`` per channel, ``gripper_events``.
     """
@@ -136,6 +136,12 @@ class HardwareStation:
         """The utimes (µs, each on its driver's clock) of the master state, slave status and FT
         sample in the readings (0 before a channel's first)."""
         return self._master.utime, self._slave.utime, self._ft.utime
+
+    @property
+    def oldest_age(self) -> float:
+        """The age (s) of the oldest of the readings (``ages``' largest)."""
+        ages = self.ages
+        return max(ages[0], ages[1], ages[2])
 
     @property
     def slave_known(self) -> bool:

@@ -123,12 +123,17 @@ class LoadCommandServer:
         controller = self._controller
         if not controller.holding:
             return "the object was released before its learning window ended"
-        gripper, phi = controller.phi_gripper, controller.phi
+        estimator, gripper, phi = controller.estimator, controller.phi_gripper, controller.phi
+        stale = (f"; {estimator.num_stale} ticks refused, their readings older than "
+                 f"{1e3 * estimator.max_input_age:g} ms" if estimator.num_stale else "")
+        if not estimator.num_samples:
+            return (f"object not learned over {estimator.learning_window:g} s: no sample taken{stale}; until it is "
+                    "(`heft load --grasp` again, the slave moving steadily), its whole weight is felt as contact")
         mass = phi[0] - gripper[0]
         centre = (phi[1:4] - gripper[1:4]) / mass if mass > 0 else [math.nan] * 3
-        return (f"object learned over {controller.estimator.learning_window:g} s: m = {mass:.4g} kg, its centre of "
+        return (f"object learned over {estimator.learning_window:g} s: m = {mass:.4g} kg, its centre of "
                 f"mass at [" + ", ".join(f"{1e3 * x:.1f}" for x in centre) + "] mm in S "
-                f"({controller.estimator.num_samples} samples taken)")
+                f"({estimator.num_samples} samples taken{stale})")
 
     def _grasp_or_release(self, grasp: bool, utime: int) -> tuple[bool, str]:
         controller = self._controller

@@ -11,7 +11,9 @@ taken when
 * no contact: the eliminated wrench c (Eq. 13, from force scaling) is within
   ``controller.contact`` (``ContactThresholdParams``), except during ``learning_window`` s
   after a reset (a new load), when c holds the not yet learned load itself,
-* force scaling is not faulted, and
+* force scaling is not faulted, nor (on hardware) the readings older than
+  ``max_input_age`` (``OnlineLoadEstimator``: a stalled lab's catch-up jerks the
+  arm and rings the load on its mount), and
 * no contact or fault for 2/``prefilter`` s before: the estimator's prefilter
   (``EstimatorPrefilter``) still carries such a sample that long; and
 * ``new_load_wait`` s have passed since the last reset (0 by default).

@@ -41,6 +41,14 @@ class LoadEstimationParams:
     (``EstimatorPrefilter``): below the load's mount modes and above the operator's motion;
     0: none. The gate judges the unfiltered samples."""
 
+    max_input_age: float = 0.005
+    """Oldest (s) the station's readings (the master's, the arm's and the wrist sensor's, by their
+    wall-clock ages on hardware) may be at a tick that is learned from. A lab that stalls and then
+    catches up jerks the arm, and the load rings on its compliant mount for a tenth of a second and
+    more; a tick with older readings spoils the sample as a fault does (``EstimatorGate``: the gate
+    stays closed 2/``prefilter`` s after it). The simulated station's readings are never older than a
+    tick. inf: never judged."""
+
     def validate(self) -> None:
         if self.mode not in ESTIMATOR_MODES:
             raise ValueError(f"estimator mode must be one of {ESTIMATOR_MODES}; got {self.mode!r}")
@@ -50,6 +58,8 @@ class LoadEstimationParams:
                              f"instruments, RTLS a prior mean); got {self.method!r}")
         if not 0.5 <= self.forgetting <= 1.0:
             raise ValueError(f"estimator forgetting must lie in [0.5, 1]; got {self.forgetting}")
+        if not self.max_input_age > 0:  # NaN too
+            raise ValueError(f"estimator max_input_age must be > 0 s (inf: never judged); got {self.max_input_age}")
         for name in ("min_excitation", "learning_window", "new_load_wait", "prefilter"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):

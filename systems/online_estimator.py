@@ -38,7 +38,9 @@ class OnlineLoadEstimator:
     the estimate as the prior, and reopens the gate's learning window; ``start_from(phi)`` does the
     same from another estimate. After ``step``: ``phi`` (updated in place), ``enabled`` (the sample
     was taken), ``num_skipped`` (enabled ticks whose filtered inputs were not finite: the
-    prefilter's first tick, or a restart after a fault), ``since_reset`` (s)."""
+    prefilter's first tick, or a restart after a fault), ``num_stale`` (ticks since the last new load
+    whose readings were older than ``max_input_age``: they spoil the sample as a fault does),
+    ``since_reset`` (s)."""
 
     def __init__(self, params: LoadEstimationParams, thresholds: ContactThresholdParams, phi, period: float):
         params.validate()
@@ -56,7 +58,7 @@ class OnlineLoadEstimator:
         self._clocks = np.array(CLOCKS_START)
         self._requests = 0.0
         self.enabled = False
-        self.num_skipped = 0
+        self.num_skipped = self.num_stale = 0
 
     @property
     def since_reset(self) -> float:
@@ -67,6 +69,11 @@ class OnlineLoadEstimator:
     def learning_window(self) -> float:
         """s after a new load during which contact does not close the gate (``LoadEstimationParams``)."""
         return self._params.learning_window
+
+    @property
+    def max_input_age(self) -> float:
+        """The oldest (s) the readings of a tick learned from may be (``LoadEstimationParams``)."""
+        return self._params.max_input_age
 
     @property
     def num_samples(self) -> int:
@@ -88,16 +95,22 @@ class OnlineLoadEstimator:
         starts it in its steady state, and the tick after learns from it."""
         self._filter[:] = np.nan
 
-    def step(self, dt: float, contact, noncontact, acceleration, omega, gravity, fault: bool) -> None:
+    def step(self, dt: float, contact, noncontact, acceleration, omega, gravity, fault: bool,
+             input_age: float = 0.0) -> None:
         """One tick of ``dt`` s: force scaling's ``contact`` c and ``noncontact`` V·φ̂ (6 each: their sum
         is f − ô) and ``fault``, S's kinematic ``acceleration`` [a; α] (6; ``motion_from_reading``),
-        ``omega`` and ``gravity`` (3 each), all in S."""
+        ``omega`` and ``gravity`` (3 each), all in S; ``input_age`` (s) the oldest of the readings they
+        come from (``LoadEstimationParams.max_input_age``)."""
         params, sample = self._params, self._sample
+        stale = input_age > params.max_input_age
+        fault = fault or stale
         now = clocks_now(self._clocks, self._requests)
         self.enabled = gate_open(params, self._thresholds, acceleration, omega, contact, fault, now[0], now[2])
         rls = self._rls
         if now[1] > self._clocks[1]:  # a new load: forget the data before this sample
             rls.start_from(self.phi)
+            self.num_stale = 0
+        self.num_stale += stale
         advance_clocks(self._clocks, params, self._thresholds, now, contact, fault, dt)
         np.add(contact, noncontact, out=sample[_WRENCH])
         sample[6:12] = acceleration

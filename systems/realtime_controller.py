@@ -145,11 +145,12 @@ class RealtimeTeleopController:
         self.started = True
 
     def step(self, dt: float, master_position, master_velocity, slave_position, slave_velocity, wrench,
-             acceleration, clutch: bool) -> None:
+             acceleration, clutch: bool, input_age: float = 0.0) -> None:
         """One tick of ``dt`` s (≥ 0) on the station's readings: q_M, q̇_M (rad, rad/s), q_S, q̇_S
         (rad, rad/s), the wrench [f; τ] the sensor exerts on the load and the accelerometer's reading
-        (``accelerometer_reading``; in S's axes), the clutch engaged. Updates ``torque``, ``position``
-        and the logged signals."""
+        (``accelerometer_reading``; in S's axes), the clutch engaged, the oldest of them ``input_age`` s
+        old (the online estimator does not learn from stale readings: ``OnlineLoadEstimator.step``).
+        Updates ``torque``, ``position`` and the logged signals."""
         if not self.started:
             raise RuntimeError("RealtimeTeleopController.step before start(): start it from the measured "
                                "slave position once the station is healthy")
@@ -179,7 +180,7 @@ class RealtimeTeleopController:
         if self.estimator is not None:  # φ̂ for the next tick
             self.estimator.step(dt, evaluation[CONTACT], evaluation[NONCONTACT], motion_from_reading(
                 self._motion_S, acceleration, gravity_S, omega_S, self._accelerometer), omega_S, gravity_S,
-                evaluation[FAULT] > 0.5)
+                evaluation[FAULT] > 0.5, input_age)
         feedback = self._feedback
         np.dot(self._R_BR, R_RS, out=self._R_BS)
         rendered_wrench_into(evaluation[FEEDBACK], self._R_BS, feedback.force_scale, feedback.torque_scale,

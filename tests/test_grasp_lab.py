@@ -9,6 +9,8 @@ operator's strokes from ``MOVE_FROM`` s until the clutch is let go at ``STILL_FR
 ``grasp_judge`` against the stand-in's truth (the README's targets, which
 ``test_two_process_grasp`` judges across two processes)."""
 
+import math
+
 import lcm
 import pytest
 
@@ -32,13 +34,15 @@ WAIT = 0.2  # s after the grasp before learning (controller.estimator.new_load_w
 ETA, BOUND, MAX_FORCE = 0.5, 0.05, 8.5
 
 
-@pytest.fixture(scope="module")
-def lab_run():
-    """The run, judged from 1 s after the grasp (the target's) and from 2 s."""
+def run_lab(end: float, stalls=None, controller=None):
+    """The lab and the controller stepped to ``end`` s; ``stalls(now)`` True holds the lab still at that
+    tick (it publishes nothing, then catches up at once, as a lab running late does); ``controller``:
+    more of the controller's settings. Returns (summary, stand_in's truth, commands, master, slave,
+    scenario)."""
     lab_scenario = layered(resolve_scenario("grasp"), overrides_text({"operator.start_time": MOVE_FROM}))
     scenario = layered(lab_scenario, overrides_text({
         "controller.estimator.mode": "online", "controller.force.eta": ETA, "controller.force.sigma": 0.0,
-        "controller.feedback.force_scale": 1.0, "controller.estimator.new_load_wait": WAIT}))
+        "controller.feedback.force_scale": 1.0, "controller.estimator.new_load_wait": WAIT, **(controller or {})}))
     truth_load, phi_gripper = true_load(lab_scenario)
     bus = lcm.LCM("memq://")
     stand_in = StandIn(lab_scenario, bus, LcmChannels(), FaultInjection(), 0.0, STILL_FROM,
@@ -47,9 +51,10 @@ def lab_run():
     station = teleop.station
     commands, master, slave = [], [], []
     now = 0.0
-    for _ in range(round(END / PERIOD)):
+    for _ in range(round(end / PERIOD)):
         now += PERIOD
-        stand_in.step(now)
+        if stalls is None or not stalls(now):
+            stand_in.step(now)
         if now - PERIOD < REZERO_AT <= now:
             command = heft_load_command()
             command.utime, command.action = round(now * 1e6), heft_load_command.REZERO
@@ -58,12 +63,19 @@ def lab_run():
         commands.append((now, station.torque_sent.copy(), station.healthy))
         master.append((now, station.master_position.copy()))
         slave.append((now, station.slave_position.copy()))
-    summary = teleop.summary(END)
+    summary = teleop.summary(end)
     print(summary["load_events"])
+    return summary, stand_in.truth.arrays(), commands, master, slave, scenario
+
+
+@pytest.fixture(scope="module")
+def lab_run():
+    """The run, judged from 1 s after the grasp (the target's) and from 2 s."""
+    summary, truth, commands, master, slave, scenario = run_lab(END)
     holding_from = GRASP_AT + GRIPPER_CLOSING_S
-    results = {after: judge(stand_in.truth.arrays(), summary["estimator"]["phi_history"],
-                            summary["estimator"]["phi_gripper"], commands, master, slave, robot=scenario.robot,
-                            eta=ETA, force_scale=1.0, learned_by=holding_from + after, still_from=STILL_FROM, end=END)
+    results = {after: judge(truth, summary["estimator"]["phi_history"], summary["estimator"]["phi_gripper"],
+                            commands, master, slave, robot=scenario.robot, eta=ETA, force_scale=1.0,
+                            learned_by=holding_from + after, still_from=STILL_FROM, end=END)
                for after in (1.0, 2.0)}
     for after, result in results.items():
         print(f"from {after:g} s after the grasp:\n{report(result)}")
@@ -91,9 +103,36 @@ def test_the_stylus_force_stays_within_the_devices_limits(lab_run):
     assert results[1.0]["stylus_force_peak"] <= MAX_FORCE + 1e-9
 
 
-@pytest.mark.xfail(strict=True, reason="not met yet: while moving, the fed-back force is off by up to 7.8 % of the "
-                                       "object's weight (p50 3.5 %): the README's grasp section")
+@pytest.mark.xfail(strict=True, reason="not met yet: while moving, the fed-back force is off by up to 6.9 % of the "
+                                       "object's weight (p50 3.2 %): the README's grasp section")
 def test_while_moving_the_stylus_follows_contact_and_eta_of_the_objects_wrench(lab_run):
     _, results = lab_run
     result = results[1.0]
     assert len(result["moving"]) > 50 and max(result["moving"]) <= BOUND
+
+
+STALL_EVERY, STALL_FOR = 0.7, 0.04
+"""s: from 1.5 s on, the lab stalls this long this often (a lab running late on a busy computer); the
+controller's watchdog (20 ms) cuts the forces meanwhile and brings them back."""
+
+
+@pytest.mark.parametrize("max_input_age", [0.005, math.inf])
+def test_a_stalling_lab_is_not_learned_from(max_input_age):
+    """The object learned while the lab stalls now and then: a stall's catch-up jerks the arm and rings
+    the load on its compliant mount. Judging the readings' age (``controller.estimator.max_input_age``),
+    the estimator learns only from a steady stream, and the object's mass is right at the window's end;
+    without (inf) it learns the ringing too, and the mass is off by more than a tenth (the mechanism
+    behind the two-process runs on a busy machine, ``test_two_process_grasp``)."""
+    end = GRASP_AT + GRIPPER_CLOSING_S + WAIT + 1.5
+    summary, truth, *_ = run_lab(end, stalls=lambda now: now > 1.5 and now % STALL_EVERY < STALL_FOR,
+                                 controller={"controller.estimator.max_input_age": max_input_age})
+    object_mass = truth["phi"][-1, 0] - truth["phi_gripper"][0]
+    learned = summary["estimator"]["phi_final"][0] - summary["estimator"]["phi_gripper"][0]
+    learned_event = summary["load_events"][-1]
+    assert learned_event.startswith("object learned over"), summary["load_events"]
+    if math.isfinite(max_input_age):
+        assert abs(learned - object_mass) <= 0.02 * object_mass
+        assert "ticks refused, their readings older than 5 ms" in learned_event
+    else:
+        assert abs(learned - object_mass) > 0.1 * object_mass
+        assert "refused" not in learned_event

@@ -160,3 +160,35 @@ def test_grasp_is_refused_with_the_estimate_fixed():
     fused = MakeRealtimeTeleopController(scenario.controller, gripper, scenario.robot, PERIOD, accelerometer=AT_S)
     with pytest.raises(ValueError, match="estimator: {mode: online}"):
         fused.grasp()
+
+
+def test_stale_readings_spoil_the_sample_as_a_fault_does():
+    """A tick whose readings are older than ``max_input_age`` (a stalled lab) is not learned from, nor the
+    2/prefilter s after it (the arm jerks and the load rings when the lab catches up); the ticks are
+    counted since the last new load."""
+    from heft.systems.contact_threshold import ContactThresholdParams
+    from heft.systems.load_estimation_params import LoadEstimationParams
+    from heft.systems.online_estimator import OnlineLoadEstimator
+
+    params = LoadEstimationParams(mode="online", max_input_age=0.005)
+    truth, _ = true_load(Scenario())
+    estimator = OnlineLoadEstimator(params, ContactThresholdParams(), truth.phi, PERIOD)
+    acceleration, omega, gravity = np.array([3.0, 0.0, 0.0, 0.0, 2.0, 0.0]), np.array([0.0, 0.5, 0.0]), np.zeros(3)
+    gravity[2] = -9.81
+    wrench = regressor(acceleration[:3], acceleration[3:], omega, gravity) @ truth.phi
+    hold = round(2.0 / params.prefilter / PERIOD)  # ticks
+
+    def tick(age):
+        estimator.step(PERIOD, np.zeros(6), wrench, acceleration, omega, gravity, False, age)
+        return estimator.enabled
+
+    assert [tick(0.0) for _ in range(10)][-1], "a steady, excited stream is learned from"
+    assert not tick(0.0051), "readings older than max_input_age"
+    assert estimator.num_stale == 1
+    assert not any(tick(0.0) for _ in range(hold - 2)), "nor for 2/prefilter s after"
+    assert [tick(0.005) for _ in range(5)][-1], "max_input_age itself is fresh enough, and the gate reopens"
+    estimator.new_load()
+    tick(0.0)
+    assert estimator.num_stale == 0, "counted since the last new load"
+    with pytest.raises(ValueError, match="max_input_age must be > 0"):
+        LoadEstimationParams(mode="online", max_input_age=float("nan")).validate()

@@ -11,7 +11,8 @@ command names) — against the stand-in's recorded truth of every FT sample (``t
 judges the same in one process, on one explicit clock).
 
 Nothing here asserts how fast the machine is; a stand-in that could not keep its clock from the
-second before the grasp on (a busy machine) skips the judging with its lateness. Times: the
+second before the grasp on (a busy machine) skips the judging with its lateness, while the grasp's
+answers and the force limits are checked either way. Times: the
 stand-in's messages and truth are on its own clock, whose zero it prints as wall-clock time. Each
 command is judged at the time of the master state it names (its ``master_utime``), so a stand-in
 publishing late does not shift what it is compared with; the controller's φ̂ history, on its wall
@@ -123,10 +124,11 @@ def _run(netns, folder):
     lab = json.loads(stand_in_out.read_text())
     late = max(lab["lateness_ms_by_second"][int(GRASP_AT) - 1:math.ceil(END)])
     if late > LATE_MS:
-        pytest.skip(f"the stand-in published up to {late:.0f} ms behind its own clock around the grasp and after "
-                    f"(CPU {lab['cpu_s']:.1f} s over {lab['duration_s']:.1f} s): a machine this busy cannot play "
-                    "the lab in real time, so the grasp is not judged across processes here (test_grasp_lab "
-                    "judges it in one process, on one clock)")
+        return summary, lab, rezero.text(), (
+            f"the stand-in published up to {late:.0f} ms behind its own clock around the grasp and after (CPU "
+            f"{lab['cpu_s']:.1f} s over {lab['duration_s']:.1f} s): a machine this busy cannot play the lab in real "
+            "time, so the grasp is not judged across processes here (test_grasp_lab judges it in one process, "
+            "on one clock, and with a stalling lab)")
     truth = np.load(folder / "stand_in.truth.npz")
     commands, master, slave, unjudged = _traffic(log)
     print(f"{len(commands)} commands judged at their master states, {unjudged} not (their state not recorded)")
@@ -141,31 +143,47 @@ def _run(netns, folder):
     return summary, lab, rezero.text(), results
 
 
-def test_the_grasp_is_heard_and_the_object_learned(two_process_run):
-    summary, _, rezero, results = two_process_run
+def judged(results):
+    """The judge's results, or a skip saying why the run was not judged."""
+    if isinstance(results, str):
+        pytest.skip(results)
+    return results
+
+
+def test_the_grasp_is_heard_and_answered(two_process_run):
+    """Judged or not: the re-zero, the gripper driver's grasp and the answer when the learning window ends
+    (the object's mass, or that it was not learned: a late lab's readings are refused)."""
+    summary, _, rezero, _ = two_process_run
+    events = summary["load_events"]
     assert "re-zeroed" in rezero, rezero
-    assert summary["estimator"]["holding"], summary["load_events"]
-    assert any(event.startswith("gripper driver: grasp") for event in summary["load_events"])
+    assert summary["estimator"]["holding"], events
+    assert any(event.startswith("gripper driver: grasp") for event in events), events
+    assert any(event.startswith(("object learned over", "object not learned over")) for event in events), events
+
+
+def test_the_object_is_learned(two_process_run):
+    results = judged(two_process_run[3])
     assert results[1.0]["object_mass"] > 0.4
     assert results[1.0]["mass_error_max"] <= 0.02  # from 1 s after the grasp on
 
 
 def test_holding_still_the_stylus_feels_eta_of_the_objects_weight(two_process_run):
-    _, _, _, results = two_process_run
-    result = results[1.0]
+    result = judged(two_process_run[3])[1.0]
     assert result["still_expected_force"] == pytest.approx(ETA * result["object_mass"] * 9.81, rel=0.02)
     assert len(result["still"]) > 50 and max(result["still"]) <= BOUND
 
 
 def test_the_stylus_force_stays_within_the_devices_limits(two_process_run):
+    """Judged or not: by the controller's account and by the Phantom driver's, at the states commands name."""
     summary, lab, _, results = two_process_run
-    assert results[1.0]["stylus_force_peak"] <= MAX_FORCE + 1e-9 and lab["stylus_force_peak"] <= MAX_FORCE + 1e-9
+    assert lab["stylus_force_peak"] <= MAX_FORCE + 1e-9
     assert summary["stylus_force_peak"] <= MAX_FORCE + 1e-9 and summary["master_torque_finite"]
+    if not isinstance(results, str):
+        assert results[1.0]["stylus_force_peak"] <= MAX_FORCE + 1e-9
 
 
 @pytest.mark.xfail(strict=True, reason="not met yet, as in one process (test_grasp_lab): while moving the fed-back "
-                                       "force is off by up to 7.8 % of the object's weight")
+                                       "force is off by up to 6.9 % of the object's weight")
 def test_while_moving_the_stylus_follows_contact_and_eta_of_the_objects_wrench(two_process_run):
-    _, _, _, results = two_process_run
-    result = results[1.0]
+    result = judged(two_process_run[3])[1.0]
     assert len(result["moving"]) > 50 and max(result["moving"]) <= BOUND

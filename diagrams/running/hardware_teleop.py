@@ -63,6 +63,14 @@ class HardwareTeleop:
     def __init__(self, scenario: Scenario, load: LoadEstimate, bus: lcm.LCM, channels: LcmChannels,
                  params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None,
                  publish_state: bool = False):
+        estimator = scenario.controller.estimator
+        slowest = max(WATCHED_CHANNELS, key=lambda name: 1.0 / getattr(channels, name).rate)
+        period = 1.0 / getattr(channels, slowest).rate
+        if estimator.mode == "online" and not estimator.max_input_age > 2.0 * period:
+            raise ValueError(f"controller.estimator.max_input_age ({1e3 * estimator.max_input_age:g} ms) must exceed "
+                             f"twice the period of the slowest channel the station watches ({slowest} at "
+                             f"{getattr(channels, slowest).rate:g} Hz: {1e3 * period:g} ms), or the online estimator "
+                             f"would refuse the ticks of a healthy stream; set it to {2.5e3 * period:g} ms or more")
         # The controller's models first (about a second): the station's subscriptions then
         # start receiving only when the loop is about to pump them.
         self.controller = MakeRealtimeTeleopController(
@@ -106,7 +114,8 @@ class HardwareTeleop:
                 controller.start(station.slave_position)
                 self.starts += 1
             controller.step(dt, station.master_position, station.master_velocity, station.slave_position,
-                            station.slave_velocity, station.wrench, station.acceleration, station.clutch)
+                            station.slave_velocity, station.wrench, station.acceleration, station.clutch,
+                            station.oldest_age)
             station.send(now, controller.torque, controller.position)
             if self.state is not None:
                 self.state.publish(round((station.epoch + now) * 1e6), dt, self.starts, station.stamps, controller,
@@ -213,8 +222,8 @@ class HardwareTeleop:
         }
 
     def _estimator_summary(self) -> dict:
-        """φ̂ and the grasp's split at the end; online, the samples taken and skipped since the last new
-        load and ``phi_history``."""
+        """φ̂ and the grasp's split at the end; online, since the last new load the samples taken and
+        skipped and the ticks refused for stale readings, and ``phi_history``."""
         controller = self.controller
         estimator = controller.estimator
         gripper = controller.phi_gripper
@@ -222,7 +231,7 @@ class HardwareTeleop:
                    "holding": controller.holding, "phi_gripper": None if gripper is None else gripper.tolist()}
         if estimator is not None:
             summary |= {"samples_since_new_load": estimator.num_samples, "skipped": estimator.num_skipped,
-                        "phi_history": self.phi_history}
+                        "stale_since_new_load": estimator.num_stale, "phi_history": self.phi_history}
         return summary
 
 
@@ -244,7 +253,8 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float,
     print("teleop: load estimate " + (
         "fixed (`heft load --estimate` changes it)" if estimator.mode == "fixed" else
         f"learned online ({estimator.method}, forgetting {estimator.forgetting:g} per tick, prefilter "
-        f"{estimator.prefilter:g} Hz; `heft load --grasp`/`--release` or the gripper's driver split it into the "
+        f"{estimator.prefilter:g} Hz, from readings at most {1e3 * estimator.max_input_age:g} ms old; "
+        "`heft load --grasp`/`--release` or the gripper's driver split it into the "
         "gripper's and the object's, η of the object's fed back)"), flush=True)
     channels, rate = scenario.lab.lcm, 1.0 / scenario.controller_period
     with contextlib.nullcontext() if record is None else LcmTrafficRecorder(channels, record):
