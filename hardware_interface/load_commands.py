@@ -96,22 +96,23 @@ class LoadCommandServer:
         sums[9] += 1.0
 
     def _calibrate_accelerometer(self) -> str:
-        """The accelerometer's bias measured over the re-zero window (``bias_at_rest``), set in the
-        controller; what was done, for the answer."""
+        """The accelerometer's biases measured over the re-zero window (``bias_at_rest``: the linear and the
+        angular channels'), set in the controller; what was done, for the answer."""
         controller, sums = self._controller, self._at_rest
         if sums[9] == 0:
             return ""
         reading, gravity_S = sums[:6] / sums[9], sums[6:9] / sums[9]
         convention = controller.accelerometer
         bias = bias_at_rest(convention, reading, gravity_S)
-        text = f"[{', '.join(f'{x:.4g}' for x in bias)}] {convention.unit}"
-        if np.abs(bias).max() * unit_factor(convention.unit) > PLAUSIBLE_BIAS:
-            return (f"; accelerometer bias kept at [{', '.join(f'{x:.4g}' for x in convention.bias)}]: the reading at "
-                    f"rest implies {text}, beyond any bias ({PLAUSIBLE_BIAS / 9.80665:g} g): check the scenario's "
-                    "accelerometer.R_SA and unit against the IMU's mounting")
+        listed = lambda values: "[" + ", ".join(f"{x:.4g}" for x in values) + "]"
+        text = f"{listed(bias[:3])} {convention.unit}"
+        if np.abs(bias[:3]).max() * unit_factor(convention.unit) > PLAUSIBLE_BIAS:
+            return (f"; accelerometer bias kept at {listed(convention.bias)}: the reading at rest implies {text}, "
+                    f"beyond any bias ({PLAUSIBLE_BIAS / 9.80665:g} g): check the scenario's accelerometer.R_SA and "
+                    "unit against the IMU's mounting")
         controller.set_accelerometer_bias(bias, reading, gravity_S)
-        return (f"; accelerometer bias {text} (was [{', '.join(f'{x:.4g}' for x in convention.bias)}]) over "
-                f"{sums[9]:.0f} ticks")
+        return (f"; accelerometer bias {text} and {listed(bias[3:])} rad/s^2 on its angular channels (was "
+                f"{listed(convention.bias)} and {listed(convention.angular_bias)}) over {sums[9]:.0f} ticks")
 
     def gripper(self, now_utime: int, event: str) -> None:
         """Serves a grasp or release (``gripper_state_reader.GRASP``/``RELEASE``) the gripper's driver

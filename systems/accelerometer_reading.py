@@ -36,10 +36,11 @@ from heft.systems.compiled import compiled, float_array
 
 @functools.cache
 def kernel_convention(convention: AccelerometerConvention) -> tuple:
-    """(includes_gravity, p_SA, R_SA (3, 3), m/s² per unit of reading (the unit over the scale), bias): the
-    convention as the kernels take it."""
+    """(includes_gravity, p_SA, R_SA (3, 3), m/s² per unit of reading (the unit over the scale), bias (6: the
+    linear channels' in their unit, then the angular channels' in rad/s²)): the convention as the kernels
+    take it."""
     return (convention.includes_gravity, np.array(convention.p_SA), np.array(convention.R_SA),
-            unit_factor(convention.unit) / convention.scale, np.array(convention.bias))
+            unit_factor(convention.unit) / convention.scale, np.array(convention.bias + convention.angular_bias))
 
 
 _NO_ROTATION = np.zeros(3)
@@ -82,7 +83,7 @@ def reading_from_motion(acceleration, gravity, omega=None,
     if convention.mounted:
         calibration = convention.calibration
         reading[..., :3] = calibration.reading_of(reading[..., :3])
-        reading[..., 3:] = reading[..., 3:] @ calibration.R_SA
+        reading[..., 3:] = reading[..., 3:] @ calibration.R_SA + convention.angular_bias
     return reading
 
 
@@ -93,11 +94,12 @@ flipped, g taken for m/s²)."""
 
 
 def bias_at_rest(convention: AccelerometerConvention, reading, gravity) -> np.ndarray:
-    """The linear channels' bias (3, the accelerometer's axes and unit) under which the convention explains
-    ``reading`` (its mean at rest, 3 or 6) under ``gravity`` (3, m/s² in S): the reading less what the
-    instrument without a bias reports with S at rest."""
-    unbiased = dataclasses.replace(convention, bias=(0.0, 0.0, 0.0))
-    return np.asarray(reading, dtype=float)[:3] - reading_from_motion(np.zeros(6), gravity, np.zeros(3), unbiased)[:3]
+    """The biases (6: the linear channels' in the accelerometer's axes and unit, the angular channels' in
+    rad/s²) under which the convention explains ``reading`` (its mean at rest, 6) under ``gravity`` (3, m/s²
+    in S): the reading less what the instrument without biases reports with S at rest (the angular
+    channels' is the reading itself: α is zero at rest, exactly)."""
+    unbiased = dataclasses.replace(convention, bias=(0.0, 0.0, 0.0), angular_bias=(0.0, 0.0, 0.0))
+    return np.asarray(reading, dtype=float) - reading_from_motion(np.zeros(6), gravity, np.zeros(3), unbiased)
 
 
 def motion_from_reading(out: np.ndarray, reading, gravity, omega=None,
@@ -113,7 +115,7 @@ def motion_from_reading(out: np.ndarray, reading, gravity, omega=None,
     calibration = convention.calibration
     reading = np.asarray(reading, dtype=float)
     out[..., :3] = calibration.to_sensor_axes(reading[..., :3])
-    out[..., 3:] = reading[..., 3:] @ calibration.R_SA.T
+    out[..., 3:] = (reading[..., 3:] - convention.angular_bias) @ calibration.R_SA.T
     if convention.includes_gravity:
         out[..., :3] += gravity
     if convention.displaced:
@@ -129,7 +131,8 @@ def motion_from_reading_into(out, reading, gravity, omega, includes_gravity, p_S
     for i in range(3):
         out[i] = u * (R_SA[i, 0] * (reading[0] - bias[0]) + R_SA[i, 1] * (reading[1] - bias[1])
                       + R_SA[i, 2] * (reading[2] - bias[2]))
-        out[3 + i] = R_SA[i, 0] * reading[3] + R_SA[i, 1] * reading[4] + R_SA[i, 2] * reading[5]
+        out[3 + i] = (R_SA[i, 0] * (reading[3] - bias[3]) + R_SA[i, 1] * (reading[4] - bias[4])
+                      + R_SA[i, 2] * (reading[5] - bias[5]))
     if includes_gravity:
         for i in range(3):
             out[i] += gravity[i]

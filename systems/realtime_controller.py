@@ -243,11 +243,13 @@ class RealtimeTeleopController:
         return self._accelerometer
 
     def set_accelerometer_bias(self, bias, reading, gravity_S) -> None:
-        """The accelerometer's linear bias (3, its own axes and unit) from the next step on. The offsets
-        measured at rest with the old bias, over readings averaging ``reading`` (6) under ``gravity_S``
-        (3, m/s² in S), hold the load's wrench of that bias: they give it back, o += (V_old − V_new)·φ̂
-        there, so the contact wrench at rest stays what it was."""
-        new = dataclasses.replace(self._accelerometer, bias=tuple(float(x) for x in bias))
+        """The accelerometer's biases (6: the linear channels' in its own axes and unit, the angular
+        channels' in rad/s²; ``bias_at_rest``) from the next step on. The offsets measured at rest with the
+        old biases, over readings averaging ``reading`` (6) under ``gravity_S`` (3, m/s² in S), hold the
+        load's wrench of those biases: they give it back, o += (V_old − V_new)·φ̂ there, so the contact
+        wrench at rest stays what it was."""
+        new = dataclasses.replace(self._accelerometer, bias=tuple(float(x) for x in bias[:3]),
+                                  angular_bias=tuple(float(x) for x in bias[3:]))
         gravity_S, at_rest = np.asarray(gravity_S, dtype=float), np.zeros(3)
         for convention, sign in ((self._accelerometer, 1.0), (new, -1.0)):
             motion = motion_from_reading(np.empty(6), reading, gravity_S, at_rest, convention)

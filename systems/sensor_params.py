@@ -167,11 +167,16 @@ class AccelerometerParams(SixAxisSensorParams):
     scale: float = 1.0
     """The linear channels' gain against the truth (1: as the datasheet says), from a calibration."""
 
+    angular_bias: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    """The angular channels' bias as the lab knows it (rad/s², A's axes): measured at rest by ``heft load
+    --rezero``, where α is zero. The consumers subtract it, as ``bias``."""
+
     def validate(self) -> None:
         """Raises ValueError starting with the first wrong field's name."""
         super().validate()
         fields = {"position": {"p_SA": self.position}, "R_SA": {"R_SA": self.R_SA}, "unit": {"unit": self.unit},
-                  "bias": {"bias": self.bias}, "scale": {"scale": self.scale}}
+                  "bias": {"bias": self.bias}, "scale": {"scale": self.scale},
+                  "angular_bias": {"angular_bias": self.angular_bias}}
         for name, value in fields.items():
             try:
                 AccelerometerConvention(**value)
@@ -182,4 +187,4 @@ class AccelerometerParams(SixAxisSensorParams):
         """What a reading means, for the consumers: gravity in it or not, where it is taken, how the
         instrument is mounted and what it reports in."""
         return AccelerometerConvention(self.includes_gravity, tuple(self.position), tuple(map(tuple, self.R_SA)),
-                                       self.unit, tuple(self.bias), self.scale)
+                                       self.unit, tuple(self.bias), self.scale, tuple(self.angular_bias))

@@ -92,13 +92,15 @@ def test_a_displaced_accelerometer_without_omega_is_refused():
 
 
 MOUNTED = AccelerometerConvention(True, (0.02, 0.01, -0.008), Rotation.from_rotvec([0.5, -0.9, 1.7]).as_matrix(),
-                                  "g", (0.01, -0.08, 0.03), 1.02)
-"""An IMU rotated against S about no single axis, reporting in g with a bias and a 2 % gain error."""
+                                  "g", (0.01, -0.08, 0.03), 1.02, (0.3, -0.2, 0.25))
+"""An IMU rotated against S about no single axis, reporting in g with a bias and a 2 % gain error, its
+angular channels with a bias of their own (rad/s²)."""
 
 
 def test_a_mounted_accelerometer_reports_what_its_calibration_model_says():
     """The reading in A's axes and unit is r = scale·R_SAᵀ·s/u + bias of the specific force s at A in S
-    (the model, written out here), and α turned into A's axes; converted back it is S's motion again,
+    (the model, written out here), and α turned into A's axes plus the angular channels' bias; converted
+    back it is S's motion again,
     one sample (the compiled kernel) and a batch (numpy) alike."""
     rng = np.random.default_rng(8)
     motion, gravity, omega = rng.normal(0, 3, (50, 6)), rng.normal(0, 5, (50, 3)), rng.normal(0, 2, (50, 3))
@@ -107,7 +109,8 @@ def test_a_mounted_accelerometer_reports_what_its_calibration_model_says():
     R_AS = np.array(MOUNTED.R_SA).T
     expected = np.array([MOUNTED.scale * R_AS @ s / 9.80665 + MOUNTED.bias for s in at_S[:, :3]])
     np.testing.assert_allclose(reading[:, :3], expected, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(reading[:, 3:], at_S[:, 3:] @ np.array(MOUNTED.R_SA), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(reading[:, 3:], at_S[:, 3:] @ np.array(MOUNTED.R_SA) + MOUNTED.angular_bias, rtol=0,
+                               atol=1e-12)
     assert np.abs(reading[:, :3] - at_S[:, :3]).max() > 1.0  # not S's axes
     np.testing.assert_allclose(motion_from_reading(np.empty((50, 6)), reading, gravity, omega, MOUNTED), motion,
                                rtol=0, atol=1e-12)
@@ -125,3 +128,5 @@ def test_a_mounting_that_is_not_one_is_refused():
         AccelerometerConvention(bias=(0.0, np.nan, 0.0))
     with pytest.raises(ValueError, match="scale must be finite and > 0"):
         AccelerometerConvention(scale=0.0)
+    with pytest.raises(ValueError, match="angular_bias needs 3 finite numbers"):
+        AccelerometerConvention(angular_bias=(0.0, 0.0, np.inf))

@@ -1,9 +1,11 @@
 """The compiled per-tick kernels equal the plain Python they are written in (``HEFT_PURE_PYTHON=1``,
-the fallback where numba is missing), run in a process of its own on the same inputs."""
+the fallback where numba is missing), run in a process of its own on the same inputs; their cache is
+named by their sources."""
 
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -168,3 +170,25 @@ def test_the_plain_python_kernels_equal_the_compiled_ones(tmp_path):
         assert np.abs(expected).max() > 0, name
         assert machine_code[name].shape == expected.shape, name
         np.testing.assert_allclose(machine_code[name], expected, rtol=1e-13, atol=1e-13, err_msg=name)
+
+
+def test_the_kernel_cache_is_named_by_every_module_that_defines_kernels(tmp_path, monkeypatch):
+    """numba tells a cached kernel stale by its own file only: a kernel calling one from another module kept
+    the old callee's machine code after an update of that module alone. The cache's directory is named by
+    the text of every module that defines kernels, so such an update compiles them afresh; modules without
+    kernels do not count."""
+    (tmp_path / "systems").mkdir()
+    caller, callee, plain = (tmp_path / "systems" / name for name in ("caller.py", "callee.py", "plain.py"))
+    caller.write_text("@compiled('void()')\ndef caller():\n    callee()\n")
+    callee.write_text("@compiled('void()')\ndef callee():\n    pass\n")
+    plain.write_text("x = 1\n")
+    first = compiled.kernel_sources_digest(tmp_path)
+    plain.write_text("x = 2\n")
+    assert compiled.kernel_sources_digest(tmp_path) == first
+    callee.write_text("@compiled('void()')\ndef callee():\n    return\n")
+    assert compiled.kernel_sources_digest(tmp_path) != first
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "cache"))
+    assert compiled.kernel_cache_dir(tmp_path).parent == tmp_path / "cache"
+    if not compiled.PURE_PYTHON:  # this process's kernels are cached by this tree's digest
+        root = Path(compiled.__file__).resolve().parent.parent
+        assert Path(compiled.numba.config.CACHE_DIR).name == f"heft-kernels-{compiled.kernel_sources_digest(root)}"

@@ -230,12 +230,36 @@ def test_a_rezero_measures_the_accelerometers_bias_too():
     send(lab, heft_load_command.REZERO)
     lab.run(0.7)
     assert [a.accepted for a in lab.answers] == [True, True] and lab.answers[-1].rezero_status == DONE
-    assert "accelerometer bias [" in lab.answers[-1].message and "] g (was [0, 0, 0])" in lab.answers[-1].message
+    assert "accelerometer bias [" in lab.answers[-1].message
+    assert "] g and [0, 0, 0] rad/s^2 on its angular channels (was [0, 0, 0] and [0, 0, 0])" in lab.answers[-1].message
     count = 10.0 / scenario.accelerometer.counts_per_full_scale  # g: the reading is rounded to it
     np.testing.assert_allclose(lab.teleop.controller.accelerometer.bias, bias, rtol=0, atol=count / 2)
     assert np.linalg.norm(acceleration_of_S()) < 9.80665 * count
     assert stylus_force(lab) < 0.03 * before
     assert max(np.linalg.norm(np.array(lab.stylus_wrenches[ticks:])[:, :3], axis=1)) < 1.05 * before  # no jolt
+
+
+def test_a_rezero_measures_the_angular_channels_bias():
+    """The IMU's angular channels read 0.3 rad/s² and more at rest (the JR3's are noisy and biased): the
+    controller takes that for S turning faster and faster, α × m·c of the load's static moment, a force
+    the stylus feels. α is zero at rest, exactly, so a re-zero measures that bias too, and the force goes."""
+    angular_bias = np.array([0.3, -0.2, 0.25])
+    at_S = {"accelerometer.position": [0.0, 0.0, 0.0], "controller.feedback.force_scale": 1.0}  # α × m·c alone
+    lab, true, scenario = still_lab(lambda true: true, overrides={**at_S, "accelerometer.angular_bias":
+                                                                  angular_bias.tolist()},
+                                    controller_overrides={"accelerometer.angular_bias": [0.0, 0.0, 0.0]})
+    lab.run(0.3)
+    count = scenario.accelerometer.full_scale[3] / scenario.accelerometer.counts_per_full_scale  # rad/s²
+    before = stylus_force(lab)
+    expected = np.linalg.norm(np.cross(angular_bias, true.phi[1:4]))
+    assert before == pytest.approx(expected, rel=count / np.abs(angular_bias).min())  # the reading is rounded
+    send(lab, heft_load_command.REZERO)
+    lab.run(0.7)
+    assert [a.accepted for a in lab.answers] == [True, True] and lab.answers[-1].rezero_status == DONE
+    np.testing.assert_allclose(lab.teleop.controller.accelerometer.angular_bias, angular_bias, rtol=0, atol=count / 2)
+    assert "rad/s^2 on its angular channels (was [0, 0, 0] and [0, 0, 0])" in lab.answers[-1].message
+    force_count = scenario.ft_sensor.full_scale[0] / scenario.ft_sensor.counts_per_full_scale  # N: its rounding
+    assert stylus_force(lab) < min(2 * force_count, 0.25 * before)
 
 
 def test_a_mounting_stated_wrong_is_not_taken_for_a_bias():
