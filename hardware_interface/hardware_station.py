@@ -141,7 +141,7 @@ class HardwareStation:
     def oldest_age(self) -> float:
         """The age (s) of the oldest of the readings (``ages``' largest)."""
         ages = self.ages
-        return max(ages[0], ages[1], ages[2])
+        return float(max(ages[0], ages[1], ages[2]))
 
     @property
     def slave_known(self) -> bool:

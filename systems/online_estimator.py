@@ -110,7 +110,8 @@ class OnlineLoadEstimator:
         if now[1] > self._clocks[1]:  # a new load: forget the data before this sample
             rls.start_from(self.phi)
             self.num_stale = 0
-        self.num_stale += stale
+        if stale:
+            self.num_stale += 1
         advance_clocks(self._clocks, params, self._thresholds, now, contact, fault, dt)
         np.add(contact, noncontact, out=sample[_WRENCH])
         sample[6:12] = acceleration

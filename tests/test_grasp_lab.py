@@ -9,6 +9,7 @@ operator's strokes from ``MOVE_FROM`` s until the clutch is let go at ``STILL_FR
 ``grasp_judge`` against the stand-in's truth (the README's targets, which
 ``test_two_process_grasp`` judges across two processes)."""
 
+import json
 import math
 
 import lcm
@@ -126,6 +127,7 @@ def test_a_stalling_lab_is_not_learned_from(max_input_age):
     end = GRASP_AT + GRIPPER_CLOSING_S + WAIT + 1.5
     summary, truth, *_ = run_lab(end, stalls=lambda now: now > 1.5 and now % STALL_EVERY < STALL_FOR,
                                  controller={"controller.estimator.max_input_age": max_input_age})
+    json.dumps(summary)  # as `heft teleop --out` writes it
     object_mass = truth["phi"][-1, 0] - truth["phi_gripper"][0]
     learned = summary["estimator"]["phi_final"][0] - summary["estimator"]["phi_gripper"][0]
     learned_event = summary["load_events"][-1]
@@ -133,6 +135,7 @@ def test_a_stalling_lab_is_not_learned_from(max_input_age):
     if math.isfinite(max_input_age):
         assert abs(learned - object_mass) <= 0.02 * object_mass
         assert "ticks refused, their readings older than 5 ms" in learned_event
+        assert summary["estimator"]["stale_since_new_load"] > 0
     else:
         assert abs(learned - object_mass) > 0.1 * object_mass
         assert "refused" not in learned_event
