@@ -32,6 +32,11 @@ MAX_EVENTS = 1000
 """Load commands a run's summary lists at most."""
 
 
+def _listed(values) -> str:
+    """``values`` as an answer shows them: [a, b, c], four significant digits."""
+    return "[" + ", ".join(f"{x:.4g}" for x in values) + "]"
+
+
 class LoadCommandServer:
     """Serves load commands to ``controller`` (a ``RealtimeTeleopController``) heard on ``bus``,
     answered on ``command_bus`` (default ``bus``); a new estimate must fit the sensor's range
@@ -104,15 +109,14 @@ class LoadCommandServer:
         reading, gravity_S = sums[:6] / sums[9], sums[6:9] / sums[9]
         convention = controller.accelerometer
         bias = bias_at_rest(convention, reading, gravity_S)
-        listed = lambda values: "[" + ", ".join(f"{x:.4g}" for x in values) + "]"
-        text = f"{listed(bias[:3])} {convention.unit}"
+        text = f"{_listed(bias[:3])} {convention.unit}"
         if np.abs(bias[:3]).max() * unit_factor(convention.unit) > PLAUSIBLE_BIAS:
-            return (f"; accelerometer bias kept at {listed(convention.bias)}: the reading at rest implies {text}, "
+            return (f"; accelerometer bias kept at {_listed(convention.bias)}: the reading at rest implies {text}, "
                     f"beyond any bias ({PLAUSIBLE_BIAS / 9.80665:g} g): check the scenario's accelerometer.R_SA and "
                     "unit against the IMU's mounting")
         controller.set_accelerometer_bias(bias, reading, gravity_S)
-        return (f"; accelerometer bias {text} and {listed(bias[3:])} rad/s^2 on its angular channels (was "
-                f"{listed(convention.bias)} and {listed(convention.angular_bias)}) over {sums[9]:.0f} ticks")
+        return (f"; accelerometer bias {text} and {_listed(bias[3:])} rad/s^2 on its angular channels (was "
+                f"{_listed(convention.bias)} and {_listed(convention.angular_bias)}) over {sums[9]:.0f} ticks")
 
     def gripper(self, now_utime: int, event: str) -> None:
         """Serves a grasp or release (``gripper_state_reader.GRASP``/``RELEASE``) the gripper's driver
