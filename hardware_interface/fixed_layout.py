@@ -8,12 +8,17 @@ arrays flattened row-major. ``FixedLayout`` reads that record off the generated 
 message from its values in one call, or unpacks one into them (README "Compiled kernels": the
 arm's status in 1.8 and 0.9 µs against 6.0 and 4.8 µs), for the drivers and loops
 that send and read at kHz rates. A payload of another size or fingerprint is not of the layout:
-``unpack`` says so with None, and the generated decoder can tell what else it is.
+``unpack`` says so with None, and the generated decoder can tell what else it is. Kernels read a
+payload in place: ``of_layout`` (or ``of_type``), then ``wire_int`` and ``wire_double`` at a field's ``offset``.
 """
 
 from __future__ import annotations
 
 import struct
+
+import numpy as np
+
+from heft.systems.compiled import compiled
 
 _CODES = {"int8_t": "b", "int16_t": "h", "int32_t": "i", "int64_t": "q", "float": "f", "double": "d",
           "boolean": "b", "byte": "B"}
@@ -28,6 +33,7 @@ class FixedLayout:
     def __init__(self, message_type, **lengths: int):
         self.fields: list[tuple[str, int]] = []
         self._slices: dict[str, slice] = {}
+        self._offsets: dict[str, int] = {}
         codes, start = ">8s", 1  # the values after the fingerprint
         for name, typename, dimensions in zip(message_type.__slots__, message_type.__typenames__,
                                               message_type.__dimensions__, strict=True):
@@ -42,27 +48,82 @@ class FixedLayout:
                 count *= lengths[dimension] if isinstance(dimension, str) else dimension
             self.fields.append((name, count))
             self._slices[name] = slice(start, start + count) if dimensions else start
+            self._offsets[name] = struct.calcsize(codes)
             codes += f"{count}{_CODES[typename]}"
             start += count
         unused = set(lengths) - set(message_type.__slots__)
         if unused:
             raise ValueError(f"{message_type.__name__} has no length field {', '.join(sorted(unused))}")
         self._record = struct.Struct(codes)
-        self._fingerprint = message_type._get_packed_fingerprint()
+        self.fingerprint = message_type._get_packed_fingerprint()
+        """The type's 8 bytes that start each message."""
         self.size = self._record.size
         """Bytes per message."""
 
     def pack(self, *values) -> bytes:
         """The encoded message of ``values``: every field of ``fields`` in order, arrays flattened."""
-        return self._record.pack(self._fingerprint, *values)
+        return self._record.pack(self.fingerprint, *values)
 
     def unpack(self, payload: bytes) -> tuple | None:
         """The fingerprint and every value of ``payload`` (index them with ``field``), or None if it is
         not a message of this layout (another size or type)."""
-        if len(payload) != self.size or not payload.startswith(self._fingerprint):
+        if len(payload) != self.size or not payload.startswith(self.fingerprint):
             return None
         return self._record.unpack(payload)
 
     def field(self, name: str) -> int | slice:
         """Where field ``name`` lies in ``unpack``'s tuple: an index, or a slice for an array."""
         return self._slices[name]
+
+    def offset(self, name: str) -> int:
+        """The byte at which field ``name`` starts in a message (its first value, for an array)."""
+        return self._offsets[name]
+
+
+PAYLOAD = "Bytes(uint8, 1, 'C')"
+"""numba's type of a payload (``bytes``) in a kernel's signature."""
+
+
+@compiled(f"boolean({PAYLOAD}, {PAYLOAD})")
+def of_type(payload, fingerprint) -> bool:
+    """Whether ``payload`` starts with a type's ``fingerprint`` (8 bytes)."""
+    if len(payload) < len(fingerprint):
+        return False
+    for i in range(len(fingerprint)):
+        if payload[i] != fingerprint[i]:
+            return False
+    return True
+
+
+@compiled(f"boolean({PAYLOAD}, {PAYLOAD}, int64)")
+def of_layout(payload, fingerprint, size) -> bool:
+    """Whether ``payload`` is a message of the ``FixedLayout`` of that ``fingerprint`` and ``size``."""
+    return len(payload) == size and of_type(payload, fingerprint)
+
+
+@compiled(f"int64({PAYLOAD}, int64, int64)")
+def wire_int(payload, at, size) -> int:
+    """The big-endian two's-complement integer of ``size`` bytes (1, 2, 4 or 8) at byte ``at``."""
+    value = payload[at] - 256 if payload[at] >= 128 else payload[at]  # the sign is the first byte's
+    for i in range(1, size):
+        value = value * 256 + payload[at + i]
+    return value
+
+
+@compiled(f"float64({PAYLOAD}, int64)")
+def wire_double(payload, at) -> float:
+    """The big-endian IEEE 754 double at byte ``at``."""
+    return np.int64(wire_int(payload, at, 8)).view(np.float64)
+
+
+@compiled("void(uint8[:], int64, int64, int64)")
+def put_wire_int(buffer, at, size, value) -> None:
+    """Writes ``value`` as a big-endian two's-complement integer of ``size`` bytes at byte ``at``."""
+    for i in range(size):
+        buffer[at + size - 1 - i] = (value >> (8 * i)) & 0xFF
+
+
+@compiled("void(uint8[:], int64, float64)")
+def put_wire_double(buffer, at, value) -> None:
+    """Writes ``value`` as a big-endian IEEE 754 double at byte ``at``."""
+    put_wire_int(buffer, at, 8, np.float64(value).view(np.int64))

@@ -12,7 +12,11 @@ from both (``heft_ft_samples`` holds each field's values for all samples, oldest
 
 from __future__ import annotations
 
-from heft.hardware_interface.fixed_layout import FixedLayout
+import numpy as np
+
+from heft.systems.compiled import compiled
+
+from heft.hardware_interface.fixed_layout import PAYLOAD, FixedLayout, of_layout, of_type, wire_int
 from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_ft_samples
 
 MAX_SAMPLES = 64
@@ -23,40 +27,44 @@ FIELDS = ("utime", "sample_counter", "wrench", "acceleration", "saturated", "err
 """The fields of a sample, in the order of ``unpack_samples``'s starts."""
 
 _ONE = FixedLayout(heft_ft_sample)
-_BLOCK_FINGERPRINT = heft_ft_samples._get_packed_fingerprint()
-_HEADER = len(_BLOCK_FINGERPRINT) + 4  # the fingerprint, then num_samples (int32)
+_BLOCKS = {count: FixedLayout(heft_ft_samples, num_samples=count) for count in range(1, MAX_SAMPLES + 1)}
+"""num_samples → the layout of a ``heft_ft_samples`` holding that many."""
+ONE_FINGERPRINT, BLOCK_FINGERPRINT = _ONE.fingerprint, heft_ft_samples._get_packed_fingerprint()
+SIZE = 0
+OFFSETS = np.array([[layout.size] + [layout.offset(name) for name in FIELDS]
+                    for layout in (_ONE, *_BLOCKS.values())], dtype=np.int64)
+"""Row 0 for a ``heft_ft_sample``, row n for a ``heft_ft_samples`` of n: the message's size (``SIZE``),
+then the byte at which each of ``FIELDS`` starts (sample k's values follow its first's: ``SAMPLE_BYTES``)."""
+SAMPLE_BYTES = np.array([8, 8, 48, 48, 2, 1], dtype=np.int64)
+"""Bytes per sample of each of ``FIELDS`` (LCM's int64, int64, double[6] twice, int16, boolean)."""
+_STARTS = [tuple(at.start if isinstance(at, slice) else at for at in map(layout.field, FIELDS))
+           for layout in (_ONE, *_BLOCKS.values())]
+"""Per row of ``OFFSETS``, where each of ``FIELDS`` starts in the layout's unpacked record."""
 
 
-def _starts(layout: FixedLayout) -> tuple[int, ...]:
-    """Where each of ``FIELDS`` starts in ``layout``'s unpacked record."""
-    return tuple(at.start if isinstance(at, slice) else at for at in map(layout.field, FIELDS))
-
-
-_ONE_STARTS = _starts(_ONE)
-_BLOCKS = {}
-"""num_samples → the layout of a ``heft_ft_samples`` holding that many, and its starts."""
-for _count in range(1, MAX_SAMPLES + 1):
-    _layout = FixedLayout(heft_ft_samples, num_samples=_count)
-    _BLOCKS[_count] = (_layout, _starts(_layout))
+@compiled(f"UniTuple(int64, 2)({PAYLOAD}, {PAYLOAD}, {PAYLOAD}, int64[:, :])")
+def samples_in(payload, one_fingerprint, block_fingerprint, offsets) -> tuple[int, int]:
+    """(n, row): the samples an FT message holds and its row of ``offsets`` (``OFFSETS``); (0, 0) if
+    ``payload`` is neither type's, of another size than its count implies, or holds 0 or more
+    than ``MAX_SAMPLES``."""
+    if of_layout(payload, one_fingerprint, offsets[0, SIZE]):
+        return 1, 0
+    if not of_type(payload, block_fingerprint) or len(payload) < len(block_fingerprint) + 4:
+        return 0, 0
+    count = wire_int(payload, len(block_fingerprint), 4)  # num_samples
+    if 1 <= count < offsets.shape[0] and len(payload) == offsets[count, SIZE]:
+        return count, count
+    return 0, 0
 
 
 def unpack_samples(payload: bytes) -> tuple[int, tuple, tuple[int, ...]] | None:
     """(n, record, starts) of an FT message: its sample count, its values in one flat record, and
     where each of ``FIELDS`` starts in it (sample k's utime is ``record[starts[0] + k]``, its wrench
-    ``record[starts[2] + 6k : starts[2] + 6k + 6]``, oldest first); None if ``payload`` is neither
-    type's, of another size than its count implies, or holds 0 or more than ``MAX_SAMPLES``."""
-    record = _ONE.unpack(payload)
-    if record is not None:
-        return 1, record, _ONE_STARTS
-    if len(payload) < _HEADER or not payload.startswith(_BLOCK_FINGERPRINT):
+    ``record[starts[2] + 6k : starts[2] + 6k + 6]``, oldest first); None if ``samples_in`` finds none."""
+    count, row = samples_in(payload, ONE_FINGERPRINT, BLOCK_FINGERPRINT, OFFSETS)
+    if count == 0:
         return None
-    count = int.from_bytes(payload[_HEADER - 4:_HEADER], "big", signed=True)
-    block = _BLOCKS.get(count)
-    if block is None:
-        return None
-    layout, starts = block
-    record = layout.unpack(payload)
-    return None if record is None else (count, record, starts)
+    return count, (_ONE if row == 0 else _BLOCKS[count]).unpack(payload), _STARTS[row]
 
 
 def decode_samples(payload: bytes) -> list[heft_ft_sample]:
@@ -85,4 +93,4 @@ def pack_samples(utimes, counters, wrenches, accelerations, saturated, errors) -
     count = len(utimes)
     if not 1 <= count <= MAX_SAMPLES:
         raise ValueError(f"a heft_ft_samples holds 1 to {MAX_SAMPLES} samples; got {count}")
-    return _BLOCKS[count][0].pack(count, *utimes, *counters, *wrenches, *accelerations, *saturated, *errors)
+    return _BLOCKS[count].pack(count, *utimes, *counters, *wrenches, *accelerations, *saturated, *errors)

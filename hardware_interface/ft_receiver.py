@@ -11,9 +11,20 @@ import math
 
 import numpy as np
 
-from heft.hardware_interface.ft_messages import unpack_samples
-from heft.hardware_interface.message_checks import RANGE_MARGIN, Rejections
-from heft.hardware_interface.message_order import SourceClock
+from heft.systems.compiled import compiled
+
+from heft.hardware_interface.fixed_layout import PAYLOAD, wire_double, wire_int
+from heft.hardware_interface.ft_messages import BLOCK_FINGERPRINT, OFFSETS, ONE_FINGERPRINT, SAMPLE_BYTES, samples_in
+from heft.hardware_interface.message_checks import (ACCEPT, DISCONTINUOUS, DRIVER_ERROR, NON_FINITE, OUT_OF_RANGE,
+                                                    RANGE_MARGIN, UNDECODABLE, Rejections)
+from heft.hardware_interface.message_order import (SourceClock, clock_accept, clock_foreign, clock_rejection,
+                                                   clock_starts_source)
+
+
+# The reader's memory: the station time of the last good sample (s; −inf before the first), its utime
+# (µs on the driver's clock) and counter, the flags of the newest sample in order of the last take
+# (non-finite, saturated, error), and whether this take has yet to meet a sample in order.
+T_GOOD, UTIME, COUNTER, NON_FINITE_FLAG, SATURATED_FLAG, ERROR_FLAG, NEWEST = range(7)
 
 
 class FtSampleReader:
@@ -41,71 +52,106 @@ class FtSampleReader:
         self.acceleration = np.zeros(6)
         """The accelerometer's reading as the driver reports it, in S (m/s², rad/s²): specific
         force a − g and α (``accelerometer_reading`` converts it where g_S is known)."""
-        self.t_good = -math.inf
-        self.utime = 0
-        self.non_finite = self.saturated = self.error = False
         self.rejections = Rejections()
         self.clock = SourceClock(silence)
-        self._range = (RANGE_MARGIN * np.asarray(full_scale, dtype=float)).tolist()
-        self._counter = -1  # the last accepted sample's counter
-        self._newest = True  # no sample in order seen yet in this take
+        self._memory = np.array([-math.inf, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0])
+        self._arguments = (ONE_FINGERPRINT, BLOCK_FINGERPRINT, OFFSETS, SAMPLE_BYTES, self.clock.state, self._memory,
+                           RANGE_MARGIN * np.asarray(full_scale, dtype=float), self.wrench, self.acceleration,
+                           np.zeros(12), self.rejections.by_code)
+
+    @property
+    def t_good(self) -> float:
+        return float(self._memory[T_GOOD])
+
+    @property
+    def utime(self) -> int:
+        return int(self._memory[UTIME])
+
+    @property
+    def non_finite(self) -> bool:
+        return bool(self._memory[NON_FINITE_FLAG])
+
+    @property
+    def saturated(self) -> bool:
+        return bool(self._memory[SATURATED_FLAG])
+
+    @property
+    def error(self) -> bool:
+        return bool(self._memory[ERROR_FLAG])
 
     def take(self, payloads, now: float) -> None:
         """Reads ``payloads`` (bytes, oldest first) at station time ``now`` (s), newest sample first:
         the newest sample that is in order and good is kept and older ones are not read."""
-        self._newest = True
+        self._memory[NEWEST] = 1.0
         for payload in reversed(payloads):
-            unpacked = unpack_samples(payload)
-            if unpacked is None:  # of another size or type, or a block of no or too many samples
-                self.rejections.add("undecodable")
-                continue
-            count, record, (utime, counter, wrench, acceleration, saturated, error) = unpacked
-            for k in range(count - 1, -1, -1):
-                if self._kept(record[utime + k], record[counter + k], record[wrench + 6 * k:wrench + 6 * k + 6],
-                              record[acceleration + 6 * k:acceleration + 6 * k + 6], record[saturated + k],
-                              record[error + k], now):
-                    return
+            if ft_payload_kept(payload, now, *self._arguments):
+                return
 
-    def _kept(self, utime, counter, wrench, acceleration, saturated, error, now: float) -> bool:
-        """Whether one sample (its fields as ``heft_ft_sample``'s) is in order and good, and so kept;
-        counts it if refused."""
-        if utime <= 0:
-            return False
-        rejections, clock, stamp = self.rejections, self.clock, utime * 1e-6
-        reason = clock.rejection(stamp, now)
-        if reason is not None:
-            rejections.add(reason)
-            return False
-        if counter <= self._counter and not clock.starts_source(now):
-            clock.foreign(stamp, now)
-            rejections.add("discontinuous")
-            return False
-        non_finite = not math.isfinite(sum(wrench) + sum(acceleration))
-        if self._newest:
-            self._newest = False
-            self.non_finite, self.saturated, self.error = non_finite, saturated != 0, bool(error)
-        if non_finite:
-            rejections.add("non_finite")
-            return False
-        if error:
-            rejections.add("driver_error")
-            return False
-        if not self._within_range(wrench, acceleration):
-            rejections.add("out_of_range")
-            return False
-        if saturated != 0:
-            return False
-        clock.accept(stamp, now)
-        self._counter, self.t_good, self.utime = counter, now, utime
-        # The sign flip of docs/design.md §4: sensor-on-load = −(load-on-sensor).
-        for i in range(6):
-            self.wrench[i] = -wrench[i]
-            self.acceleration[i] = acceleration[i]
-        return True
 
-    def _within_range(self, wrench, acceleration) -> bool:
-        limits = self._range
-        for i in range(6):
-            if not (abs(wrench[i]) <= limits[i] and abs(acceleration[i]) <= limits[6 + i]):
-                return False
-        return True
+@compiled(f"boolean({PAYLOAD}, int64, float64, int64[:], int64[:], float64[:], float64[:], float64[:], "
+          "float64[:], float64[:], float64[:], int64[:])")
+def _kept(payload, k, now, row, sample_bytes, clock, memory, limits, wrench_out, acceleration_out, scratch,
+          rejected) -> bool:
+    """Whether sample ``k`` of the payload (its fields at ``row``, ``sample_bytes`` each) is in order and good,
+    and so kept; counts it if refused."""
+    utime = wire_int(payload, row[1] + sample_bytes[0] * k, 8)
+    if utime <= 0:
+        return False
+    stamp = utime * 1e-6
+    code = clock_rejection(clock, stamp, now)
+    if code != ACCEPT:
+        rejected[code] += 1
+        return False
+    counter = wire_int(payload, row[2] + sample_bytes[1] * k, 8)
+    if counter <= memory[COUNTER] and not clock_starts_source(clock, now):
+        clock_foreign(clock, stamp, now)
+        rejected[DISCONTINUOUS] += 1
+        return False
+    total = 0.0
+    for i in range(6):
+        scratch[i] = wire_double(payload, row[3] + sample_bytes[2] * k + 8 * i)
+        scratch[6 + i] = wire_double(payload, row[4] + sample_bytes[3] * k + 8 * i)
+        total += scratch[i] + scratch[6 + i]
+    non_finite = not math.isfinite(total)
+    saturated = wire_int(payload, row[5] + sample_bytes[4] * k, 2)
+    error = payload[row[6] + sample_bytes[5] * k] != 0
+    if memory[NEWEST] > 0.5:
+        memory[NEWEST] = 0.0
+        memory[NON_FINITE_FLAG], memory[SATURATED_FLAG], memory[ERROR_FLAG] = non_finite, saturated != 0, error
+    if non_finite:
+        rejected[NON_FINITE] += 1
+        return False
+    if error:
+        rejected[DRIVER_ERROR] += 1
+        return False
+    for i in range(12):
+        if not abs(scratch[i]) <= limits[i]:
+            rejected[OUT_OF_RANGE] += 1
+            return False
+    if saturated != 0:
+        return False
+    clock_accept(clock, stamp, now)
+    memory[COUNTER], memory[T_GOOD], memory[UTIME] = counter, now, utime
+    for i in range(6):  # the sign flip of docs/design.md §4: sensor-on-load = −(load-on-sensor)
+        wrench_out[i] = -scratch[i]
+        acceleration_out[i] = scratch[6 + i]
+    return True
+
+
+@compiled(f"boolean({PAYLOAD}, float64, {PAYLOAD}, {PAYLOAD}, int64[:, :], int64[:], float64[:], float64[:], "
+          "float64[:], float64[:], float64[:], float64[:], int64[:])")
+def ft_payload_kept(payload, now, one_fingerprint, block_fingerprint, offsets, sample_bytes, clock, memory, limits,
+                    wrench, acceleration, scratch, rejected) -> bool:
+    """``FtSampleReader.take`` of one payload, its samples newest first: whether one was kept (the
+    reader's ``wrench``, ``acceleration`` and ``memory`` then hold it). ``offsets`` and ``sample_bytes``
+    are ``ft_messages``', ``clock`` the source's (``message_order``), ``limits`` (12) the full scale
+    widened, ``scratch`` 12 floats; what is refused is counted in ``rejected`` (per code)."""
+    count, row = samples_in(payload, one_fingerprint, block_fingerprint, offsets)
+    if count == 0:  # of another size or type, or a block of no or too many samples
+        rejected[UNDECODABLE] += 1
+        return False
+    for k in range(count - 1, -1, -1):
+        if _kept(payload, k, now, offsets[row], sample_bytes, clock, memory, limits, wrench, acceleration,
+                 scratch, rejected):
+            return True
+    return False

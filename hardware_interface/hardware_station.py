@@ -28,10 +28,11 @@ import lcm
 import numpy as np
 from drake import lcmt_iiwa_command
 
+from heft.systems.compiled import compiled, float_array
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
 from heft.hardware_interface.channels import LcmChannels
-from heft.hardware_interface.fixed_layout import FixedLayout
+from heft.hardware_interface.fixed_layout import FixedLayout, put_wire_double, put_wire_int
 from heft.hardware_interface.ft_receiver import FtSampleReader
 from heft.hardware_interface.gripper_state_reader import GripperStateReader
 from heft.hardware_interface.hardware_station_params import HardwareStationParams
@@ -39,7 +40,8 @@ from heft.hardware_interface.joint_state_reader import HAPTIC_STATE, IIWA_STATUS
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
 from heft.hardware_interface.lcmtypes import heft_haptic_command, heft_station_status
 from heft.hardware_interface.message_checks import REASONS, DeviceLimits, JointRange
-from heft.hardware_interface.message_order import SILENCE_PER_TIMEOUT
+from heft.hardware_interface.message_order import (SILENCE_PER_TIMEOUT, clock_conflict, clock_on_probation,
+                                                   clock_since_last)
 from heft.hardware_interface.watchdog import watchdog_step
 
 WATCHED_CHANNELS = ("master_state", "slave_status", "ft_sample")
@@ -59,9 +61,110 @@ CLUTCH_BUTTON = 1
 """Bit of ``heft_haptic_state.buttons`` held while the operator couples master and slave."""
 
 
-def rate_limit(previous: np.ndarray, target: np.ndarray, max_step: np.ndarray) -> np.ndarray:
-    """``target`` approached from ``previous`` by at most ``max_step`` per joint (rad)."""
-    return previous + np.minimum(np.maximum(target - previous, -max_step), max_step)  # np.clip: 1 µs more
+# The gate's memory: ever healthy, healthy at the last send, the last send set the command to the
+# measured position (a start or a recovery).
+EVER_HEALTHY, WAS_HEALTHY, REANCHORED = range(3)
+
+
+@compiled("Tuple((boolean, float64, int64, int64))(float64, float64, float64, float64, float64, float64[:], "
+          "float64[:], float64[:], float64[:])")
+def station_health(now, spacing, gain, timeout, ramp_time, master_clock, slave_clock, ft_clock, ages):
+    """(healthy, gain, fault, conflicts) at ``now`` (s), ``spacing`` s after the last tick, the gain
+    before it ``gain``: ``ages`` (s, per ``WATCHED_CHANNELS``: since its source's last accepted message)
+    written, the channels' conflicts (bit i: a second publisher on channel i) and the watchdog's verdict
+    (``watchdog_step``: stale, stalled, or a source in doubt), from the clocks of ``WATCHED_CHANNELS``
+    (``message_order``)."""
+    conflicts = doubts = 0
+    for i, clock in enumerate((master_clock, slave_clock, ft_clock)):
+        ages[i] = clock_since_last(clock, now)
+        if clock_conflict(clock, now):
+            conflicts |= 1 << i
+        if clock_on_probation(clock, now):
+            doubts |= 1 << i
+    healthy, gain, fault = watchdog_step(ages, gain, timeout, spacing / ramp_time, spacing > timeout,
+                                         conflicts | doubts)
+    return healthy, gain, fault, conflicts
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64)")
+def rate_limit_into(command, target, speed_limits, dt) -> None:
+    """``command`` (rad) moved toward ``target`` by at most ``speed_limits`` × ``dt`` per joint (rad/s, s)."""
+    for j in range(command.shape[0]):
+        step = speed_limits[j] * dt
+        command[j] += min(max(target[j] - command[j], -step), step)
+
+
+@compiled("boolean(boolean, float64, float64[:], float64[:])")
+def gate_torque_into(healthy, gain, torque, torque_sent) -> bool:
+    """The master torque ``send`` publishes (module docstring) into ``torque_sent`` (N·m): the
+    controller's ``torque`` times the watchdog's ``gain``, zero unless ``healthy`` and finite.
+    Returns whether the master's forces are enabled."""
+    total = 0.0
+    for j in range(torque.shape[0]):
+        total += torque[j]
+    enable = healthy and math.isfinite(total)
+    for j in range(torque.shape[0]):
+        torque_sent[j] = gain * torque[j] if enable else 0.0
+    return enable
+
+
+@compiled("void(boolean, float64[:], boolean, float64[:], float64, float64[:], float64[:], float64[:], float64[:])")
+def gate_position_into(healthy, position, has_position, measured, dt, speed_limits, gate, command, hold) -> None:
+    """The slave command ``send`` publishes (module docstring) into ``command`` (rad): from ``position``
+    (if ``has_position``), the ``measured`` position and the ``hold`` latched at a fault, moved at most
+    ``speed_limits`` (rad/s) × ``dt`` (s); ``gate`` (``EVER_HEALTHY`` …) advanced."""
+    ever, was = gate[EVER_HEALTHY] > 0.5, gate[WAS_HEALTHY] > 0.5
+    gate[REANCHORED] = not ever or (healthy and not was)
+    if not ever:
+        command[:] = measured
+        hold[:] = measured
+    elif healthy:
+        if not was:
+            command[:] = measured
+        if has_position:
+            total = 0.0
+            for j in range(position.shape[0]):
+                total += position[j]
+            if math.isfinite(total):
+                rate_limit_into(command, position, speed_limits, dt)
+    else:
+        if was:
+            hold[:] = measured
+        rate_limit_into(command, hold, speed_limits, dt)
+    gate[EVER_HEALTHY] = ever or healthy
+    gate[WAS_HEALTHY] = healthy
+
+
+@compiled("void(uint8[:], int64[:], int64, int64, float64[:], boolean)")
+def encode_master_command(buffer, at, utime, master_utime, torque, enable) -> None:
+    """Writes a ``heft_haptic_command``'s values into ``buffer`` (its ``MASTER_COMMAND_FIELDS`` at ``at``)."""
+    put_wire_int(buffer, at[0], 8, utime)
+    put_wire_int(buffer, at[1], 8, master_utime)
+    for j in range(torque.shape[0]):
+        put_wire_double(buffer, at[2] + 8 * j, torque[j])
+    put_wire_int(buffer, at[3], 1, 1 if enable else 0)
+
+
+@compiled("void(uint8[:], int64[:], int64, float64[:])")
+def encode_slave_command(buffer, at, utime, position) -> None:
+    """Writes an ``lcmt_iiwa_command``'s values into ``buffer`` (its ``SLAVE_COMMAND_FIELDS`` at ``at``)."""
+    put_wire_int(buffer, at[0], 8, utime)
+    for j in range(position.shape[0]):
+        put_wire_double(buffer, at[1] + 8 * j, position[j])
+
+
+MASTER_COMMAND_FIELDS = ("utime", "master_utime", "torque", "enable")
+SLAVE_COMMAND_FIELDS = ("utime", "joint_position")
+
+
+def command_buffer(layout: FixedLayout, fields, **lengths: int) -> tuple[np.ndarray, np.ndarray]:
+    """(buffer, at): a message of ``layout`` with its length fields at ``lengths`` and every other value
+    zero, as bytes to encode into, and the byte offsets of ``fields`` in it."""
+    values = []
+    for name, count in layout.fields:
+        values += [lengths.get(name, 0)] * count
+    return (np.frombuffer(bytearray(layout.pack(*values)), dtype=np.uint8),
+            np.array([layout.offset(name) for name in fields], dtype=np.int64))
 
 
 class HardwareStation:
@@ -112,12 +215,16 @@ class HardwareStation:
         self.ages = np.full(len(WATCHED_CHANNELS), math.inf)
         self.healthy, self.gain, self.fault = False, 0.0, (1 << len(WATCHED_CHANNELS)) - 1
         self._last_tick = None
-        # The gate's memory: ever healthy, the published slave command, the hold latched at a fault.
-        self._ever_healthy, self._was_healthy = False, False
+        # The gate's memory (``gate_into``), the published slave command, the hold latched at a fault.
+        self._gate = np.zeros(3)
         self._position, self._hold = np.zeros(NUM_JOINTS), np.zeros(NUM_JOINTS)
         self._last_send = None
-        self._master_command = FixedLayout(heft_haptic_command, num_joints=NUM_JOINTS)
-        self._slave_command = FixedLayout(lcmt_iiwa_command, num_joints=NUM_JOINTS, num_torques=0)
+        self._master_command, self._master_at = command_buffer(
+            FixedLayout(heft_haptic_command, num_joints=NUM_JOINTS), MASTER_COMMAND_FIELDS, num_joints=NUM_JOINTS)
+        self._slave_command, self._slave_at = command_buffer(
+            FixedLayout(lcmt_iiwa_command, num_joints=NUM_JOINTS, num_torques=0), SLAVE_COMMAND_FIELDS,
+            num_joints=NUM_JOINTS)
+        self._no_position = np.zeros(NUM_JOINTS)
         status = self._status_msg = heft_station_status()
         status.num_channels, status.num_reasons = len(CHECKED_CHANNELS), len(REASONS)
         status.channels, status.reasons = list(CHECKED_CHANNELS), list(REASONS)
@@ -126,8 +233,6 @@ class HardwareStation:
         """The master torque last published (N·m), zero while forces are off."""
         self.position_sent = None
         """The slave command last published (rad), None before the first."""
-        self.reanchored = False
-        """The last send set the slave command to the measured position (a start or a recovery)."""
         self.epoch = 0.0
         """Wall-clock time (s since the Unix epoch) at station time 0: published utimes are epoch + now."""
 
@@ -177,18 +282,12 @@ class HardwareStation:
         slave.take(mail[1].take(), now)
         ft.take(mail[2].take(), now)
         self.gripper_events = self._gripper.take(mail[3].take(), now)
-        ages = self.ages
-        ages[0], ages[1], ages[2] = now - master.t_good, now - slave.t_good, now - ft.t_good
-        self.conflicts = (master.clock.conflict(now) | slave.clock.conflict(now) << 1
-                          | ft.clock.conflict(now) << 2)
-        doubts = self.conflicts | (master.clock.on_probation(now) | slave.clock.on_probation(now) << 1
-                                   | ft.clock.on_probation(now) << 2)
         watchdog = self._params.watchdog
         spacing = 0.0 if self._last_tick is None else now - self._last_tick
         self._last_tick = now
-        self.healthy, self.gain, self.fault = watchdog_step(
-            ages, self.gain, watchdog.timeout, spacing / watchdog.ramp_time, stalled=spacing > watchdog.timeout,
-            conflicts=doubts)
+        self.healthy, self.gain, self.fault, self.conflicts = station_health(
+            now, spacing, self.gain, watchdog.timeout, watchdog.ramp_time, master.clock.state, slave.clock.state,
+            ft.clock.state, self.ages)
 
     def publish_status(self, now: float, force: bool = False) -> None:
         """Publishes ``heft_station_status`` (health, per channel the messages received, unread,
@@ -202,7 +301,7 @@ class HardwareStation:
         msg.healthy, msg.fault, msg.gain = self.healthy, self.fault, self.gain
         msg.received = [mailbox.count for mailbox in self._mail]
         msg.unread = [mailbox.pushed_out for mailbox in self._mail]
-        msg.rejected = [[reader.rejections.counts[reason] for reason in REASONS] for reader in self._readers]
+        msg.rejected = [reader.rejections.by_code.tolist() for reader in self._readers]
         msg.restarts = [reader.clock.restarts for reader in self._readers]
         msg.second_publisher = [bool(self.conflicts & (1 << i)) for i in range(len(WATCHED_CHANNELS))] + [
             self._gripper.clock.conflict(now)]
@@ -215,37 +314,26 @@ class HardwareStation:
         self.healthy = False
         self.send(now, np.zeros(NUM_JOINTS), None)
 
+    @property
+    def reanchored(self) -> bool:
+        """The last send set the slave command to the measured position (a start or a recovery)."""
+        return bool(self._gate[REANCHORED])
+
     def send(self, now: float, torque, position) -> None:
         """Publishes the gated master ``torque`` (6, N·m) and slave ``position`` (6, rad, or None:
         no command from the controller) at ``now`` (s)."""
         utime = round((self.epoch + now) * 1e6)
-        torque = np.asarray(torque, dtype=float)
-        enable = self.healthy and math.isfinite(sum(torque.tolist()))
-        self.torque_sent[:] = self.gain * torque if enable else 0.0
-        self._command_bus.publish(self._channels.master_command.name, self._master_command.pack(
-            utime, self._master.utime, NUM_JOINTS, *self.torque_sent.tolist(), enable))
-
         dt = 0.0 if self._last_send is None else min(now - self._last_send, self._params.watchdog.timeout)
         self._last_send = now
+        enable = gate_torque_into(self.healthy, self.gain, float_array(torque), self.torque_sent)
+        encode_master_command(self._master_command, self._master_at, utime, self._master.utime, self.torque_sent,
+                              enable)
+        self._command_bus.publish(self._channels.master_command.name, self._master_command.tobytes())
         if not self.slave_known:
             return
-        measured, command = self.slave_position, self._position
-        max_step = self._limits * dt
-        self.reanchored = not self._ever_healthy or (self.healthy and not self._was_healthy)
-        if not self._ever_healthy:
-            command[:] = self._hold[:] = measured
-        elif self.healthy:
-            if not self._was_healthy:
-                command[:] = measured
-            position = None if position is None else np.asarray(position, dtype=float)
-            if position is not None and math.isfinite(sum(position.tolist())):
-                command[:] = rate_limit(command, position, max_step)
-        else:
-            if self._was_healthy:
-                self._hold[:] = measured
-            command[:] = rate_limit(command, self._hold, max_step)
-        self._ever_healthy = self._ever_healthy or self.healthy
-        self._was_healthy = self.healthy
-        self.position_sent = command
-        self._command_bus.publish(self._channels.slave_command.name, self._slave_command.pack(
-            utime, NUM_JOINTS, *command.tolist(), 0))
+        gate_position_into(self.healthy, self._no_position if position is None else float_array(position),
+                           position is not None, self.slave_position, dt, self._limits, self._gate, self._position,
+                           self._hold)
+        self.position_sent = self._position
+        encode_slave_command(self._slave_command, self._slave_at, utime, self._position)
+        self._command_bus.publish(self._channels.slave_command.name, self._slave_command.tobytes())

@@ -3,8 +3,24 @@ the station, so that a scenario loads without the station's imports (Drake's pla
 kinematics, numba's kernels; ``heft load``)."""
 
 import dataclasses
+import math
 
-from heft.hardware_interface.watchdog import WatchdogParams
+
+@dataclasses.dataclass
+class WatchdogParams:
+    """Limits of the receive watchdog (``watchdog``); loadable with ``yaml_load_typed``."""
+
+    timeout: float = 0.020
+    """A channel whose last good message is older than this is stale (s, wall clock)."""
+    ramp_time: float = 0.2
+    """Time for the gain to ramp from 0 to 1 once all channels are fresh (s)."""
+
+    def validate(self) -> None:
+        """Raises ValueError naming the field out of range."""
+        for name in ("timeout", "ramp_time"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive number of seconds; got {value}")
 
 
 @dataclasses.dataclass

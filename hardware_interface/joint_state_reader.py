@@ -3,7 +3,9 @@
 
 Every message is checked (``message_checks``): its structure, then whether it comes
 from the channel's one source (``message_order``), then its values; what fails is
-counted, never raised.
+counted, never raised. A message of six joints is read in place by one kernel
+(``joint_state_rejection``); anything else by the generated decoder, which tells a
+wrong joint count from garbage.
 """
 
 from __future__ import annotations
@@ -13,37 +15,46 @@ import math
 import numpy as np
 from drake import lcmt_iiwa_status
 
+from heft.systems.compiled import compiled
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
-from heft.hardware_interface.fixed_layout import FixedLayout
+from heft.hardware_interface.fixed_layout import PAYLOAD, FixedLayout, of_layout, wire_double, wire_int
 from heft.hardware_interface.lcmtypes import heft_haptic_state
-from heft.hardware_interface.message_checks import JointRange, Rejections
-from heft.hardware_interface.message_order import LATE_TOLERANCE, SourceClock
+from heft.hardware_interface.message_checks import (ACCEPT, DISCONTINUOUS, DRIVER_ERROR, JOINT_COUNT, NON_FINITE,
+                                                    OUT_OF_RANGE, UNDECODABLE, JointRange, Rejections,
+                                                    joints_continuous, joints_within)
+from heft.hardware_interface.message_order import (LATE_TOLERANCE, SourceClock, clock_accept, clock_foreign,
+                                                   clock_rejection, clock_since_last, clock_starts_source)
+
+NOT_OF_LAYOUT = -2
+"""``joint_state_rejection``'s code for a payload it cannot read: not a six-joint message of the type."""
+# Where a type carries the state (``JointStateFields.at``): the message's size, then the byte offsets of
+# utime, num_joints, the positions, the velocities, the error flag and the buttons (−1: none).
+SIZE, UTIME, COUNT, POSITION, VELOCITY, ERROR, BUTTONS = range(7)
+# The reader's memory: the last accepted stamp (s, the driver's clock), the station time it was accepted
+# at (s; −inf before the first), its buttons and its utime (µs).
+STAMP, T_GOOD, BUTTON_BITS, STAMP_UTIME = range(4)
 
 
 class JointStateFields:
     """Where a joint-state type carries (utime, num_joints, position, velocity, error, buttons): the
     fields named ``position`` and ``velocity``, and ``error`` / ``buttons`` if it has them (else
-    False / 0); read off a decoded message or, for a message of the type's ``layout`` (6 joints), off
-    its unpacked values."""
+    False / 0). ``at`` holds their byte offsets in a message of six joints (``SIZE`` … ``BUTTONS``)."""
 
     def __init__(self, lcm_type, position: str, velocity: str, error: str | None = None,
                  buttons: str | None = None):
         self.lcm_type = lcm_type
-        self.layout = FixedLayout(lcm_type, num_joints=NUM_JOINTS)
-        self._names = (position, velocity, error, buttons)
-        self._at = tuple(None if name is None else self.layout.field(name)
-                         for name in ("utime", "num_joints", position, velocity, error, buttons))
+        layout = FixedLayout(lcm_type, num_joints=NUM_JOINTS)
+        self.fingerprint = layout.fingerprint
+        self.at = np.array([layout.size] + [-1 if name is None else layout.offset(name) for name in
+                                            ("utime", "num_joints", position, velocity, error, buttons)],
+                           dtype=np.int64)
+        self._position, self._velocity = position, velocity
 
-    def of_message(self, msg) -> tuple:
-        position, velocity, error, buttons = self._names
-        return (msg.utime, msg.num_joints, getattr(msg, position), getattr(msg, velocity),
-                False if error is None else getattr(msg, error), 0 if buttons is None else getattr(msg, buttons))
-
-    def of_values(self, values: tuple) -> tuple:
-        utime, num_joints, position, velocity, error, buttons = self._at
-        return (values[utime], values[num_joints], values[position], values[velocity],
-                False if error is None else values[error], 0 if buttons is None else values[buttons])
+    def joint_count(self, msg) -> bool:
+        """Whether a decoded message ``msg`` has six joints."""
+        return (msg.num_joints == NUM_JOINTS and len(getattr(msg, self._position)) == NUM_JOINTS
+                and len(getattr(msg, self._velocity)) == NUM_JOINTS)
 
 
 HAPTIC_STATE = JointStateFields(heft_haptic_state, "position", "velocity", "error", "buttons")
@@ -54,65 +65,107 @@ IIWA_STATUS = JointStateFields(lcmt_iiwa_status, "joint_position_measured", "joi
 class JointStateReader:
     """Takes one driver's payloads and holds its newest accepted state.
 
-    ``fields`` says where its type carries the state (``HAPTIC_STATE``, ``IIWA_STATUS``): a
-    six-joint message is unpacked by its layout, anything else decoded by the generated decoder
-    (which then tells a wrong joint count from garbage); ``joint_range`` is what the device can report; a source
-    silent for ``silence`` s gives way to the next (``SourceClock``). After ``take``:
-    ``position``, ``velocity`` (rad, rad/s; updated in place), ``buttons``, ``t_good`` (the
-    station time, s, of the last accepted message; −inf before the first), ``utime`` (its
-    stamp, µs on the driver's clock; 0 before the first), ``rejections`` and ``clock``."""
+    ``fields`` says where its type carries the state (``HAPTIC_STATE``, ``IIWA_STATUS``);
+    ``joint_range`` is what the device can report; a source silent for ``silence`` s gives way to
+    the next (``SourceClock``). After ``take``: ``position``, ``velocity`` (rad, rad/s; updated in
+    place), ``buttons``, ``t_good`` (the station time, s, of the last accepted message; −inf before
+    the first), ``utime`` (its stamp, µs on the driver's clock; 0 before the first), ``rejections``
+    and ``clock``."""
 
     def __init__(self, fields: JointStateFields, joint_range: JointRange, silence: float):
-        self._fields, self._range = fields, joint_range
+        self._fields = fields
         self.position, self.velocity = np.zeros(NUM_JOINTS), np.zeros(NUM_JOINTS)
-        self.buttons = 0
-        self.t_good = -math.inf
-        self.utime = 0
         self.rejections = Rejections()
         self.clock = SourceClock(silence)
-        self._position = [0.0] * NUM_JOINTS  # the last accepted position, for the continuity check
-        self._stamp = 0.0
+        self._memory = np.array([0.0, -math.inf, 0.0, 0.0])
+        self._arguments = (fields.fingerprint, fields.at, self.clock.state, self._memory, joint_range.lower,
+                           joint_range.upper, joint_range.velocity, joint_range.speed, self.position, self.velocity,
+                           np.zeros(2 * NUM_JOINTS), self.rejections.by_code)
+
+    @property
+    def t_good(self) -> float:
+        return float(self._memory[T_GOOD])
+
+    @property
+    def buttons(self) -> int:
+        return int(self._memory[BUTTON_BITS])
+
+    @property
+    def utime(self) -> int:
+        return int(self._memory[STAMP_UTIME])
 
     def take(self, payloads, now: float) -> None:
         """Checks ``payloads`` (bytes, oldest first) read at station time ``now`` (s), in order."""
         for payload in payloads:
-            reason = self._rejection(payload, now)
-            if reason is not None:
-                self.rejections.add(reason)
+            if joint_state_rejection(payload, now, *self._arguments) == NOT_OF_LAYOUT:
+                self._take_decoded(payload, now)
 
-    def _rejection(self, payload: bytes, now: float) -> str | None:
-        """Accepts ``payload`` and returns None, or returns why it is rejected."""
+    def _take_decoded(self, payload: bytes, now: float) -> None:
+        """Checks a payload that is not a six-joint message of the type, by the generated decoder."""
         fields = self._fields
-        values = fields.layout.unpack(payload)
-        if values is not None:
-            utime, num_joints, position, velocity, error, buttons = fields.of_values(values)
-        else:
-            try:
-                utime, num_joints, position, velocity, error, buttons = fields.of_message(
-                    fields.lcm_type.decode(payload))
-            except Exception:  # whatever a malformed payload makes the generated decoder raise
-                return "undecodable"
-        if num_joints != NUM_JOINTS or len(position) != NUM_JOINTS or len(velocity) != NUM_JOINTS:
-            return "joint_count"
-        stamp, clock = utime * 1e-6, self.clock
-        reason = clock.rejection(stamp, now)
-        if reason is not None:
-            return reason
-        if not math.isfinite(sum(position) + sum(velocity)):
-            return "non_finite"
-        if error:
-            return "driver_error"
-        if not self._range.contains(position, velocity):
-            return "out_of_range"
-        # The joints may have moved for as long as the stamps say, but not longer than the station
-        # saw pass (a publisher leading the driver's clock gains no time to jump by).
-        elapsed = min(stamp - self._stamp, clock.since_last(now) + LATE_TOLERANCE)
-        if not clock.starts_source(now) and not self._range.continuous(self._position, position, elapsed):
-            clock.foreign(stamp, now)
-            return "discontinuous"
-        clock.accept(stamp, now)
-        self._stamp, self.t_good, self.buttons, self.utime = stamp, now, buttons, utime
-        self._position[:] = position
-        self.position[:] = position
-        self.velocity[:] = velocity
-        return None
+        try:
+            msg = fields.lcm_type.decode(payload)
+        except Exception:  # whatever a malformed payload makes the generated decoder raise
+            self.rejections.by_code[UNDECODABLE] += 1
+            return
+        if not fields.joint_count(msg):
+            self.rejections.by_code[JOINT_COUNT] += 1
+            return
+        joint_state_rejection(msg.encode(), now, *self._arguments)  # six joints: now of the layout
+
+
+@compiled(f"int64({PAYLOAD}, float64, int64[:], float64[:], float64[:], float64[:], float64[:], float64[:], "
+          "float64[:], float64[:], float64[:], float64[:])")
+def _rejection(payload, now, at, clock, memory, lower, upper, max_velocity, speed, position, velocity,
+               scratch) -> int:
+    """``joint_state_rejection`` of a payload of the layout, uncounted."""
+    if wire_int(payload, at[COUNT], 4) != NUM_JOINTS:
+        return JOINT_COUNT
+    utime = wire_int(payload, at[UTIME], 8)
+    stamp = utime * 1e-6
+    code = clock_rejection(clock, stamp, now)
+    if code != ACCEPT:
+        return code
+    q, v = scratch[:NUM_JOINTS], scratch[NUM_JOINTS:]
+    total = 0.0
+    for j in range(NUM_JOINTS):
+        q[j] = wire_double(payload, at[POSITION] + 8 * j)
+        v[j] = wire_double(payload, at[VELOCITY] + 8 * j)
+        total += q[j] + v[j]
+    if not math.isfinite(total):
+        return NON_FINITE
+    if at[ERROR] >= 0 and payload[at[ERROR]] != 0:
+        return DRIVER_ERROR
+    if not joints_within(q, v, lower, upper, max_velocity):
+        return OUT_OF_RANGE
+    # The joints may have moved for as long as the stamps say, but not longer than the station
+    # saw pass (a publisher leading the driver's clock gains no time to jump by).
+    elapsed = min(stamp - memory[STAMP], clock_since_last(clock, now) + LATE_TOLERANCE)
+    if not clock_starts_source(clock, now) and not joints_continuous(position, q, speed, elapsed):
+        clock_foreign(clock, stamp, now)
+        return DISCONTINUOUS
+    clock_accept(clock, stamp, now)
+    memory[STAMP], memory[T_GOOD], memory[STAMP_UTIME] = stamp, now, utime
+    memory[BUTTON_BITS] = wire_int(payload, at[BUTTONS], 4) if at[BUTTONS] >= 0 else 0
+    for j in range(NUM_JOINTS):
+        position[j] = q[j]
+        velocity[j] = v[j]
+    return ACCEPT
+
+
+@compiled(f"int64({PAYLOAD}, float64, {PAYLOAD}, int64[:], float64[:], float64[:], float64[:], float64[:], "
+          "float64[:], float64[:], float64[:], float64[:], float64[:], int64[:])")
+def joint_state_rejection(payload, now, fingerprint, at, clock, memory, lower, upper, max_velocity, speed, position,
+                          velocity, scratch, rejected) -> int:
+    """Checks one payload read at station time ``now`` (s), in place: accepted, it becomes the
+    reader's state (``position``, ``velocity``, ``memory``); rejected, its reason is counted in
+    ``rejected`` (per code). Returns ``ACCEPT``, the reason's code, or ``NOT_OF_LAYOUT`` (nothing
+    counted). ``fingerprint`` and ``at`` are the type's (``JointStateFields``), ``clock`` the
+    source's (``message_order``), the limits a ``JointRange``'s; ``scratch``: 12 floats."""
+    if not of_layout(payload, fingerprint, at[SIZE]):
+        return NOT_OF_LAYOUT
+    code = _rejection(payload, now, at, clock, memory, lower, upper, max_velocity, speed, position, velocity,
+                      scratch)
+    if code != ACCEPT:
+        rejected[code] += 1
+    return code

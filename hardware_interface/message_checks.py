@@ -15,6 +15,8 @@ import dataclasses
 
 import numpy as np
 
+from heft.systems.compiled import compiled, float_array
+
 REASONS = ("undecodable", "joint_count", "non_finite", "out_of_range", "stamped_ahead", "stamped_behind",
            "discontinuous", "out_of_order", "driver_error")
 """Why a message was rejected: it failed to decode; had another joint count; carried NaN or
@@ -22,6 +24,11 @@ inf; carried a value beyond ``DeviceLimits``; was stamped ahead of or behind its
 source (``message_order``); jumped from the source's last message faster than the device
 moves, or its sample counter went back; was a duplicate or a late packet; its driver
 flagged an error."""
+(UNDECODABLE, JOINT_COUNT, NON_FINITE, OUT_OF_RANGE, STAMPED_AHEAD, STAMPED_BEHIND, DISCONTINUOUS, OUT_OF_ORDER,
+ DRIVER_ERROR) = range(len(REASONS))
+"""Each reason's code, as the readers' kernels return it: its place in ``REASONS``."""
+ACCEPT = -1
+"""The code of a message accepted."""
 
 POSITION_MARGIN = 0.1
 """rad beyond a joint's limits that its encoder may still report (overshoot onto the stops)."""
@@ -53,42 +60,60 @@ class DeviceLimits:
 
 class JointRange:
     """The positions and velocities one device's driver may report (``DeviceLimits`` widened by
-    the margins above), and how far its joints may move between two messages (``continuous``)."""
+    the margins above: ``lower``, ``upper`` in rad, ``velocity`` in rad/s), and how far its joints
+    may move between two messages (``speed``, rad/s: ``continuous``)."""
 
     def __init__(self, lower, upper, velocity):
-        self.lower = (np.asarray(lower, dtype=float) - POSITION_MARGIN).tolist()
-        self.upper = (np.asarray(upper, dtype=float) + POSITION_MARGIN).tolist()
-        self.speed = np.asarray(velocity, dtype=float).tolist()
-        self.velocity = (VELOCITY_MARGIN * np.asarray(velocity, dtype=float)).tolist()
+        self.lower = np.asarray(lower, dtype=float) - POSITION_MARGIN
+        self.upper = np.asarray(upper, dtype=float) + POSITION_MARGIN
+        self.speed = np.array(velocity, dtype=float)
+        self.velocity = VELOCITY_MARGIN * self.speed
 
     def contains(self, position, velocity) -> bool:
         """True if every joint's position and velocity are ones the device can report."""
-        for q, v, lo, hi, vmax in zip(position, velocity, self.lower, self.upper, self.velocity):
-            if not (lo <= q <= hi and -vmax <= v <= vmax):
-                return False
-        return True
+        return joints_within(float_array(position), float_array(velocity), self.lower, self.upper, self.velocity)
 
     def continuous(self, previous, position, dt: float) -> bool:
         """True if no joint moved from ``previous`` to ``position`` further than its speed limit
         allows over ``dt`` s (plus ``JUMP_MARGIN``)."""
-        for a, b, speed in zip(previous, position, self.speed):
-            if abs(b - a) > speed * dt + JUMP_MARGIN:
-                return False
-        return True
+        return joints_continuous(float_array(previous), float_array(position), self.speed, dt)
+
+
+@compiled("boolean(float64[:], float64[:], float64[:], float64[:], float64[:])")
+def joints_within(position, velocity, lower, upper, max_velocity) -> bool:
+    """``JointRange.contains`` with its arrays."""
+    for j in range(position.shape[0]):
+        if not (lower[j] <= position[j] <= upper[j] and -max_velocity[j] <= velocity[j] <= max_velocity[j]):
+            return False
+    return True
+
+
+@compiled("boolean(float64[:], float64[:], float64[:], float64)")
+def joints_continuous(previous, position, speed, dt) -> bool:
+    """``JointRange.continuous`` with its arrays."""
+    for j in range(position.shape[0]):
+        if abs(position[j] - previous[j]) > speed[j] * dt + JUMP_MARGIN:
+            return False
+    return True
 
 
 class Rejections:
-    """Rejected messages of one channel, per reason (``REASONS``): ``counts[reason]``."""
+    """Rejected messages of one channel, per reason (``REASONS``): ``counts[reason]``, kept as
+    ``by_code`` (per code, for the readers' kernels)."""
 
     def __init__(self):
-        self.counts = dict.fromkeys(REASONS, 0)
+        self.by_code = np.zeros(len(REASONS), dtype=np.int64)
 
     def add(self, reason: str) -> None:
-        self.counts[reason] += 1
+        self.by_code[REASONS.index(reason)] += 1
+
+    @property
+    def counts(self) -> dict[str, int]:
+        return dict(zip(REASONS, self.by_code.tolist()))
 
     @property
     def total(self) -> int:
-        return sum(self.counts.values())
+        return int(self.by_code.sum())
 
     def nonzero(self) -> dict[str, int]:
         """The reasons that occurred, with their counts."""

@@ -28,6 +28,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
+from heft.hardware_interface.message_checks import ACCEPT, OUT_OF_ORDER, REASONS, STAMPED_AHEAD, STAMPED_BEHIND
+from heft.systems.compiled import compiled
+
 CLOCK_TOLERANCE = 1.0
 """How far (s) a message's clock offset may stray from its source's: more than the stalls of a
 loaded machine on either side (a driver starved of CPU for a few tenths of a second, then
@@ -49,13 +54,112 @@ CONFLICT_WINDOW = 1.0
 CONFLICT_CLEAR = 0.5
 """A conflict ends this long (s) after the last foreign message."""
 
-ACCEPTED, OUT_OF_ORDER, AHEAD, BEHIND = range(4)
-"""What ``SourceClock.check`` says of a stamp."""
+ON_CLOCK, LATE, AHEAD, BEHIND = range(4)
+"""What ``clock_check`` says of a stamp: the source's (or the first of a new one), a duplicate or
+late packet of it, foreign stamped ahead, foreign stamped behind."""
+
+# Layout of a clock's state: the source's offset (s), the last foreign message's offset (s; NaN
+# before any), new sources after the first, the last accepted stamp and station time (s), the end
+# of probation (s), the silence that ends a source (s), the last foreign message's time (s), the
+# next slot of the ring of the last ``CONFLICT_COUNT`` foreign messages' times (s), then the ring.
+(OFFSET, FOREIGN_OFFSET, RESTARTS, LAST_STAMP, LAST_ACCEPT, PROBATION_UNTIL, SILENCE, LAST_FOREIGN, FOREIGN_NEXT,
+ FOREIGN_TIMES) = range(10)
+CLOCK_SIZE = FOREIGN_TIMES + CONFLICT_COUNT
+
+
+def initial_clock(silence: float) -> np.ndarray:
+    """The state of a clock that has heard no source yet, which gives way to another after
+    ``silence`` s without a message."""
+    clock = np.full(CLOCK_SIZE, -math.inf)
+    clock[OFFSET] = clock[FOREIGN_OFFSET] = math.nan
+    clock[RESTARTS] = clock[FOREIGN_NEXT] = 0.0
+    clock[SILENCE] = silence
+    return clock
+
+
+@compiled("boolean(float64[:], float64)")
+def clock_starts_source(clock, now) -> bool:
+    """True if a message accepted at ``now`` (s) would start a new source (the last one is silent)."""
+    return now - clock[LAST_ACCEPT] > clock[SILENCE]
+
+
+@compiled("float64(float64[:], float64)")
+def clock_since_last(clock, now) -> float:
+    """s of the station's clock since the source's last accepted message (inf before the first)."""
+    return now - clock[LAST_ACCEPT]
+
+
+@compiled("int64(float64[:], float64, float64)")
+def clock_check(clock, stamp, now) -> int:
+    """``ON_CLOCK``, ``LATE``, ``AHEAD`` or ``BEHIND`` for a message stamped ``stamp`` (s, the driver's
+    clock) read at ``now`` (s, the station's)."""
+    if clock_starts_source(clock, now):
+        return ON_CLOCK
+    drift = (stamp - now) - clock[OFFSET]
+    if drift > CLOCK_TOLERANCE:
+        return AHEAD
+    if drift < -CLOCK_TOLERANCE or stamp < clock[LAST_STAMP] - LATE_TOLERANCE:
+        return BEHIND
+    return ON_CLOCK if stamp > clock[LAST_STAMP] else LATE
+
+
+@compiled("void(float64[:], float64, float64)")
+def clock_accept(clock, stamp, now) -> None:
+    """Takes a message stamped ``stamp`` at ``now`` as the source's newest: after a silence, of
+    the same source resuming (on its clock, newer) or of a new one."""
+    if clock_starts_source(clock, now) and math.isfinite(clock[LAST_ACCEPT]) and not (
+            stamp > clock[LAST_STAMP] and abs(stamp - now - clock[OFFSET]) <= CLOCK_TOLERANCE):
+        clock[RESTARTS] += 1.0
+        clock[PROBATION_UNTIL] = now + PROBATION
+    clock[OFFSET] = stamp - now
+    clock[LAST_STAMP], clock[LAST_ACCEPT] = stamp, now
+
+
+@compiled("void(float64[:], float64, float64)")
+def clock_foreign(clock, stamp, now) -> None:
+    """Counts a foreign message stamped ``stamp``, read at ``now``, towards a conflict."""
+    clock[FOREIGN_OFFSET] = stamp - now
+    clock[LAST_FOREIGN] = now
+    slot = int(clock[FOREIGN_NEXT])
+    clock[FOREIGN_TIMES + slot] = now
+    clock[FOREIGN_NEXT] = (slot + 1) % CONFLICT_COUNT
+
+
+@compiled("int64(float64[:], float64, float64)")
+def clock_rejection(clock, stamp, now) -> int:
+    """``ACCEPT`` for a stamp ``clock_check`` accepts; otherwise the code of the reason a reader
+    rejects its message for (``message_checks``): out of order, or stamped ahead of or behind
+    the source (foreign: counted towards a conflict)."""
+    order = clock_check(clock, stamp, now)
+    if order == ON_CLOCK:
+        return ACCEPT
+    if order == LATE:
+        return OUT_OF_ORDER
+    clock_foreign(clock, stamp, now)
+    return STAMPED_AHEAD if order == AHEAD else STAMPED_BEHIND
+
+
+@compiled("boolean(float64[:], float64)")
+def clock_conflict(clock, now) -> bool:
+    """True while a second publisher is on the channel (module docstring)."""
+    if now - clock[LAST_FOREIGN] > CONFLICT_CLEAR:
+        return False
+    oldest = clock[FOREIGN_TIMES]
+    for i in range(1, CONFLICT_COUNT):
+        oldest = min(oldest, clock[FOREIGN_TIMES + i])
+    return clock[LAST_FOREIGN] - oldest <= CONFLICT_WINDOW
+
+
+@compiled("boolean(float64[:], float64)")
+def clock_on_probation(clock, now) -> bool:
+    """True while a new source (after the first) is on probation."""
+    return now < clock[PROBATION_UNTIL]
 
 
 class SourceClock:
     """The clock of one channel's source (module docstring), which gives way to another after
-    ``silence`` s without a message.
+    ``silence`` s without a message: its state (``state``, for the readers' kernels) and the
+    functions above on it.
 
     ``check(stamp, now)`` classifies a message's stamp without changing anything;
     ``rejection(stamp, now)`` gives a reader the reason to reject it for, if any (counting a
@@ -67,73 +171,42 @@ class SourceClock:
     offset (s), ``foreign_offset`` the last foreign message's (NaN before any)."""
 
     def __init__(self, silence: float):
-        self._silence = silence
-        self.offset = math.nan
-        self.foreign_offset = math.nan
-        self.restarts = 0
-        self._last_stamp = -math.inf
-        self._last_accept = -math.inf
-        self._probation_until = -math.inf
-        self._foreign_times = [-math.inf] * CONFLICT_COUNT  # ring of the last foreign messages' times
-        self._foreign_next = 0
-        self._last_foreign = -math.inf
+        self.state = initial_clock(silence)
+
+    @property
+    def offset(self) -> float:
+        return float(self.state[OFFSET])
+
+    @property
+    def foreign_offset(self) -> float:
+        return float(self.state[FOREIGN_OFFSET])
+
+    @property
+    def restarts(self) -> int:
+        return int(self.state[RESTARTS])
 
     def check(self, stamp: float, now: float) -> int:
-        """ACCEPTED (from the source, or the first of a new one), OUT_OF_ORDER, AHEAD or BEHIND
-        (foreign) for a message stamped ``stamp`` (s, the driver's clock) read at ``now`` (s, the
-        station's)."""
-        if self.starts_source(now):
-            return ACCEPTED
-        drift = (stamp - now) - self.offset
-        if drift > CLOCK_TOLERANCE:
-            return AHEAD
-        if drift < -CLOCK_TOLERANCE or stamp < self._last_stamp - LATE_TOLERANCE:
-            return BEHIND
-        return ACCEPTED if stamp > self._last_stamp else OUT_OF_ORDER
+        return clock_check(self.state, stamp, now)
 
     def rejection(self, stamp: float, now: float) -> str | None:
-        """None for a stamp ``check`` accepts; otherwise the reason a reader rejects its message
-        for: "out_of_order", or "stamped_ahead" / "stamped_behind" (foreign: counted towards a
-        conflict, ``foreign``)."""
-        order = self.check(stamp, now)
-        if order == ACCEPTED:
-            return None
-        if order == OUT_OF_ORDER:
-            return "out_of_order"
-        self.foreign(stamp, now)
-        return "stamped_ahead" if order == AHEAD else "stamped_behind"
+        """None for a stamp ``check`` accepts; otherwise the reason (``message_checks.REASONS``)."""
+        code = clock_rejection(self.state, stamp, now)
+        return None if code == ACCEPT else REASONS[code]
 
     def starts_source(self, now: float) -> bool:
-        """True if a message accepted at ``now`` would start a new source (the last one is silent)."""
-        return now - self._last_accept > self._silence
+        return clock_starts_source(self.state, now)
 
     def since_last(self, now: float) -> float:
-        """s of the station's clock since the source's last accepted message (inf before the first)."""
-        return now - self._last_accept
+        return clock_since_last(self.state, now)
 
     def accept(self, stamp: float, now: float) -> None:
-        """Takes a message stamped ``stamp`` at ``now`` as the source's newest: after a silence, of
-        the same source resuming (on its clock, newer) or of a new one."""
-        if self.starts_source(now) and math.isfinite(self._last_accept) and not (
-                stamp > self._last_stamp and abs(stamp - now - self.offset) <= CLOCK_TOLERANCE):
-            self.restarts += 1
-            self._probation_until = now + PROBATION
-        self.offset = stamp - now
-        self._last_stamp, self._last_accept = stamp, now
+        clock_accept(self.state, stamp, now)
 
     def foreign(self, stamp: float, now: float) -> None:
-        """Counts a foreign message stamped ``stamp``, read at ``now``, towards a conflict."""
-        self.foreign_offset = stamp - now
-        self._last_foreign = now
-        self._foreign_times[self._foreign_next] = now
-        self._foreign_next = (self._foreign_next + 1) % CONFLICT_COUNT
+        clock_foreign(self.state, stamp, now)
 
     def conflict(self, now: float) -> bool:
-        """True while a second publisher is on the channel (module docstring)."""
-        if now - self._last_foreign > CONFLICT_CLEAR:
-            return False
-        return self._last_foreign - min(self._foreign_times) <= CONFLICT_WINDOW
+        return clock_conflict(self.state, now)
 
     def on_probation(self, now: float) -> bool:
-        """True while a new source (after the first) is on probation."""
-        return now < self._probation_until
+        return clock_on_probation(self.state, now)

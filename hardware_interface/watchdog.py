@@ -8,32 +8,15 @@ source is in doubt (a second publisher, a new source on probation:
 ``message_order``) is a fault too. While anything is stale, stalled or in doubt
 the station is unhealthy and the command gain is 0; once all is
 fresh again the gain ramps linearly back to 1 over ``ramp_time``, so commands
-never jump.
+never jump. Its limits are ``hardware_station_params.WatchdogParams``.
 """
 
-import dataclasses
-import math
+from heft.systems.compiled import compiled
 
 
-@dataclasses.dataclass
-class WatchdogParams:
-    """Watchdog limits; loadable with ``yaml_load_typed``."""
-
-    timeout: float = 0.020
-    """A channel whose last good message is older than this is stale (s, wall clock)."""
-    ramp_time: float = 0.2
-    """Time for the gain to ramp from 0 to 1 once all channels are fresh (s)."""
-
-    def validate(self) -> None:
-        """Raises ValueError naming the field out of range."""
-        for name in ("timeout", "ramp_time"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a positive number of seconds; got {value}")
-
-
-def watchdog_step(ages, gain: float, timeout: float, ramp_step: float,
-                  stalled: bool = False, conflicts: int = 0) -> tuple[bool, float, int]:
+@compiled("Tuple((boolean, float64, int64))(float64[:], float64, float64, float64, boolean, int64)")
+def watchdog_step(ages, gain: float, timeout: float, ramp_step: float, stalled: bool,
+                  conflicts: int) -> tuple[bool, float, int]:
     """One watchdog tick: (healthy, new gain, fault bitmask).
 
     Bit i is set for stale channel i (``ages`` in s; inf or NaN: never received), bit
@@ -41,8 +24,8 @@ def watchdog_step(ages, gain: float, timeout: float, ramp_step: float,
     whose source is in doubt (``conflicts``: bit i per channel); ``ramp_step`` is the gain increase over
     this tick (its duration / ramp time)."""
     fault = conflicts << (len(ages) + 1)
-    for i, age in enumerate(ages):
-        if not age <= timeout:
+    for i in range(len(ages)):
+        if not ages[i] <= timeout:
             fault |= 1 << i
     if stalled:
         fault |= 1 << len(ages)

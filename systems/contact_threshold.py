@@ -3,7 +3,7 @@
 Out of contact, c holds only the sensor's noise and what φ̂ and the offsets miss; a |c| beyond
 these thresholds is a touch, or a load model that no longer fits. The estimator's gate takes no
 such sample (``estimator_gate``) and offset tracking pauses on it (``offset_tracking``): both
-judge contact by ``ContactThresholdParams.exceeded``.
+judge contact as c ``beyond`` these thresholds (``load_dynamics.beyond``).
 """
 
 import dataclasses
@@ -24,7 +24,3 @@ class ContactThresholdParams:
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"controller.contact.{name} must be finite and >= 0; got {value}")
-
-    def exceeded(self, force: float, torque: float) -> bool:
-        """Whether c, of norms ``force`` |c_f| (N) and ``torque`` |c_τ| (N·m), counts as contact."""
-        return force > self.force or torque > self.torque

@@ -28,7 +28,7 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 
 from heft.systems.contact_threshold import ContactThresholdParams
 from heft.systems.compiled import compiled, float_array
-from heft.systems.load_dynamics import regressor_into, wrench_norms
+from heft.systems.load_dynamics import beyond, regressor_into
 from heft.systems.load_estimation_params import LoadEstimationParams
 
 _ZERO = np.zeros(3)
@@ -60,7 +60,7 @@ def spoiled(params: LoadEstimationParams, thresholds: ContactThresholdParams, co
         return True
     if since_reset < params.learning_window:
         return False
-    return thresholds.exceeded(*wrench_norms(contact.tolist()))
+    return beyond(float_array(contact), thresholds.force, thresholds.torque)
 
 
 def gate_open(params: LoadEstimationParams, thresholds: ContactThresholdParams, acceleration, omega, contact,

@@ -95,6 +95,7 @@ def slew(current: float, target: float, max_step: float) -> float:
     return current + math.copysign(max_step, target - current)
 
 
+@compiled("float64(float64, float64)")
 def decay_factor(dt: float, fault_decay_time: float) -> float:
     """The factor exp(−dt/τ) by which a faulted f′ decays over ``dt`` s (0 for τ = 0)."""
     return math.exp(-dt / fault_decay_time) if fault_decay_time > 0 else 0.0
@@ -144,7 +145,7 @@ def evaluate(out: np.ndarray, wrench, reading, omega, gravity, phi, offsets, sca
     η in effect, ``memory`` (``MEMORY_SIZE``) the block's, ``decay`` the factor applied to the
     last f′ while faulted (``decay_factor``), ``notch`` the mount notch (``notch_coefficients``)."""
     includes_gravity, p_SA, R_SA, u, bias = kernel_convention(accelerometer)
-    _evaluate(out, float_array(wrench), float_array(reading), float_array(omega), float_array(gravity),
+    evaluate_into(out, float_array(wrench), float_array(reading), float_array(omega), float_array(gravity),
               float_array(phi), float_array(offsets), float_array(scales), float_array(memory), decay,
               _NO_GRIPPER if phi_gripper is None else phi_gripper, phi_gripper is not None, includes_gravity, p_SA,
               R_SA, u, bias, _NO_NOTCH if notch is None else notch, notch is not None, _SCRATCH)
@@ -153,9 +154,10 @@ def evaluate(out: np.ndarray, wrench, reading, omega, gravity, phi, offsets, sca
 @compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], "
           "float64[:], float64, float64[:], boolean, boolean, float64[:], float64[:, :], float64, float64[:], "
           "float64[:], boolean, float64[:, :])")
-def _evaluate(out, wrench, reading, omega, gravity, phi, offsets, scales, memory, decay, phi_gripper, split,
-              includes_gravity, p_SA, R_SA, u, bias, notch, notched, scratch) -> None:
-    """``evaluate`` with the optional parts as flags: ``split`` (φ_gr given), ``notched``."""
+def evaluate_into(out, wrench, reading, omega, gravity, phi, offsets, scales, memory, decay, phi_gripper, split,
+                  includes_gravity, p_SA, R_SA, u, bias, notch, notched, scratch) -> None:
+    """``evaluate`` with the optional parts as flags: ``split`` (φ_gr given), ``notched``; the
+    accelerometer's convention as ``kernel_convention`` gives it; ``scratch`` (7, 10)."""
     total = 0.0
     for i in range(6):
         total += wrench[i] + reading[i] + offsets[i]
@@ -194,12 +196,12 @@ def next_memory_and_scales(memory: np.ndarray, scales: np.ndarray, evaluation: n
     or restarted after a fault]; a finite request moves ``scales`` toward its clamped value by at
     most ``max_step`` each (``slew_rate``·dt)."""
     sigma, gamma, eta = requested
-    _next_memory_and_scales(memory, scales, float_array(evaluation), float(sigma), float(gamma), float(eta), max_step,
-                            _NO_NOTCH if notch is None else notch, notch is not None)
+    next_memory_and_scales_into(memory, scales, float_array(evaluation), float(sigma), float(gamma), float(eta),
+                                max_step, _NO_NOTCH if notch is None else notch, notch is not None)
 
 
 @compiled("void(float64[:], float64[:], float64[:], float64, float64, float64, float64, float64[:], boolean)")
-def _next_memory_and_scales(memory, scales, evaluation, sigma, gamma, eta, max_step, notch, notched) -> None:
+def next_memory_and_scales_into(memory, scales, evaluation, sigma, gamma, eta, max_step, notch, notched) -> None:
     """``next_memory_and_scales`` with the request as three numbers and the notch as a flag."""
     for r in range(6):
         memory[r] = evaluation[r]

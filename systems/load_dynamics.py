@@ -358,7 +358,15 @@ def checked_load(phi, offsets, wrench_full_scale=None) -> tuple[np.ndarray, np.n
     return phi, offsets
 
 
-def wrench_norms(wrench: list) -> tuple[float, float]:
-    """(|f| in N, |τ| in N·m) of a wrench [f; τ] given as 6 floats (scalar math, for per-tick use)."""
-    fx, fy, fz, tx, ty, tz = wrench
+@compiled("UniTuple(float64, 2)(float64[:])")
+def wrench_norms(wrench) -> tuple[float, float]:
+    """(|f| in N, |τ| in N·m) of a wrench [f; τ] (6)."""
+    fx, fy, fz, tx, ty, tz = wrench[0], wrench[1], wrench[2], wrench[3], wrench[4], wrench[5]
     return math.sqrt(fx * fx + fy * fy + fz * fz), math.sqrt(tx * tx + ty * ty + tz * tz)
+
+
+@compiled("boolean(float64[:], float64, float64)")
+def beyond(wrench, max_force, max_torque) -> bool:
+    """Whether a wrench [f; τ] (6) has |f| > ``max_force`` (N) or |τ| > ``max_torque`` (N·m)."""
+    force, torque = wrench_norms(wrench)
+    return force > max_force or torque > max_torque

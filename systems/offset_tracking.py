@@ -25,7 +25,8 @@ import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from heft.systems.contact_threshold import ContactThresholdParams
-from heft.systems.load_dynamics import wrench_norms
+from heft.systems.compiled import compiled, float_array
+from heft.systems.load_dynamics import beyond
 from heft.systems.offset_tracking_params import OffsetTrackingParams
 
 # Layout of the state: offsets, the re-zero window's sum of (c + o)·dt and its length (s),
@@ -52,9 +53,11 @@ def initial_state(offsets, params: OffsetTrackingParams) -> np.ndarray:
     return state
 
 
-def restart_rezero_window(state: np.ndarray) -> None:
+@compiled("void(float64[:])")
+def restart_rezero_window(state) -> None:
     """Empties the re-zero window (a re-zero under way starts averaging afresh)."""
-    state[WINDOW_SUM] = 0.0
+    for i in range(6):
+        state[6 + i] = 0.0  # WINDOW_SUM
     state[WINDOW_TIME] = 0.0
 
 
@@ -63,33 +66,53 @@ def offsets_update(state: np.ndarray, contact, fault: bool, slave_velocity, dt: 
     """One tick, in place: ``contact`` c (6) of this tick computed with the state's offsets,
     ``fault`` (c not computed), ``slave_velocity`` q̇_S (6, rad/s), ``dt`` (s), ``thresholds`` of
     contact (``controller.contact``), ``requests`` the re-zero request counter (a re-zero starts
-    whenever it exceeds the last one seen)."""
+    whenever it exceeds the last one seen). ``offsets_update_into`` with the settings as numbers."""
+    offsets_update_into(state, float_array(contact), fault, float_array(slave_velocity), dt, *kernel_settings(params),
+                        float(thresholds.force), float(thresholds.torque), float(requests))
+
+
+def kernel_settings(params: OffsetTrackingParams) -> tuple[float, ...]:
+    """``params`` as ``offsets_update_into`` takes them, in its order."""
+    return tuple(float(value) for value in (params.rest_joint_speed, params.rezero_window, params.rezero_force,
+                                            params.rezero_torque, params.time_constant, params.max_force_rate,
+                                            params.max_torque_rate))
+
+
+@compiled("void(float64[:], float64[:], boolean, float64[:], float64, float64, float64, float64, float64, float64, "
+          "float64, float64, float64, float64, float64)")
+def offsets_update_into(state, contact, fault, slave_velocity, dt, rest_joint_speed, rezero_window, rezero_force,
+                        rezero_torque, time_constant, max_force_rate, max_torque_rate, contact_force, contact_torque,
+                        requests) -> None:
+    """``offsets_update`` with ``OffsetTrackingParams`` (``kernel_settings``) and the contact thresholds
+    (N, N·m) as numbers."""
     if requests > state[REQUESTS]:
         state[REQUESTS] = requests
         state[STATUS] = COLLECTING
         restart_rezero_window(state)
-    contact = contact.tolist()
-    at_rest = max(abs(v) for v in slave_velocity.tolist()) < params.rest_joint_speed
-    force, torque = (0.0, 0.0) if fault else wrench_norms(contact)
+    at_rest = True
+    for i in range(6):
+        if not abs(slave_velocity[i]) < rest_joint_speed:
+            at_rest = False
     if state[STATUS] == COLLECTING:
         if fault:
             state[STATUS] = REFUSED_FAULT
         elif not at_rest:
             state[STATUS] = REFUSED_MOVING
-        elif force > params.rezero_force or torque > params.rezero_torque:
+        elif beyond(contact, rezero_force, rezero_torque):
             state[STATUS] = REFUSED_CONTACT
         else:
-            for i in range(6):
+            for i in range(6):  # WINDOW_SUM, OFFSETS
                 state[6 + i] += (contact[i] + state[i]) * dt
             state[WINDOW_TIME] += dt
-            if state[WINDOW_TIME] >= params.rezero_window:
-                state[OFFSETS] = state[WINDOW_SUM] / state[WINDOW_TIME]
+            if state[WINDOW_TIME] >= rezero_window:
+                for i in range(6):
+                    state[i] = state[6 + i] / state[WINDOW_TIME]
                 state[STATUS] = DONE
         return
-    if state[TRACKING] > 0.5 and not fault and at_rest and not thresholds.exceeded(force, torque):
-        gain = dt / params.time_constant
+    if state[TRACKING] > 0.5 and not fault and at_rest and not beyond(contact, contact_force, contact_torque):
+        gain = dt / time_constant
         for i in range(6):
-            step = (params.max_force_rate if i < 3 else params.max_torque_rate) * dt
+            step = (max_force_rate if i < 3 else max_torque_rate) * dt
             state[i] += min(max(gain * contact[i], -step), step)
 
 

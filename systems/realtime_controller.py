@@ -27,10 +27,11 @@ import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
 
-from heft.systems.accelerometer_reading import AccelerometerConvention, motion_from_reading
+from heft.systems.accelerometer_reading import (AccelerometerConvention, kernel_convention, motion_from_reading,
+                                                motion_from_reading_into)
 from heft.systems.contact_threshold import ContactThresholdParams
 from heft.systems.load_estimation_params import LoadEstimationParams
-from heft.systems.compiled import float_array
+from heft.systems.compiled import compiled, float_array
 from heft.systems.feedback_mapping import FeedbackMappingParams, rendered_wrench_into
 from heft.systems.force_scaling import (
     CONTACT,
@@ -40,22 +41,22 @@ from heft.systems.force_scaling import (
     NONCONTACT,
     ForceScalingParams,
     decay_factor,
-    evaluate,
+    evaluate_into,
     initial_memory,
-    next_memory_and_scales,
+    next_memory_and_scales_into,
     notch_coefficients,
 )
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
-from heft.systems.serial_chain import GRAVITY, OMEGA, SerialChain
+from heft.systems.serial_chain import GRAVITY, OMEGA, SerialChain, chain_kinematics
 from heft.systems.motion_scaling import IDENTITY_POSE, MotionScalingParams, motion_scaling_step
 from heft.systems.online_estimator import OnlineLoadEstimator
 from heft.systems.load_dynamics import GRAVITY_W, checked_load, regressor
 from heft.systems.offset_tracking import (OFFSETS, REQUESTS, STATUS, TRACKING, WINDOW_TIME, OffsetTrackingParams,
-                                          initial_state, offsets_update, restart_rezero_window)
+                                          initial_state, kernel_settings, offsets_update_into, restart_rezero_window)
 from heft.systems.passivity_controller import PassivityParams, master_torque_into
 from heft.systems.pose_vectors import POSE_SIZE, pose_into
 from heft.systems.rx_inverse_kinematics import UNREACHABLE, RxKinematics
-from heft.systems.slave_inverse_kinematics import IkStep
+from heft.systems.slave_inverse_kinematics import IkStep, ik_step
 from heft.systems.slave_kinematics import NUM_JOINTS
 
 
@@ -114,8 +115,8 @@ class RealtimeTeleopController:
         self._max_damping = np.array((passivity.max_translational_damping, passivity.max_rotational_damping)
                                      if passivity.enabled else (0.0, 0.0))
         self._R_BS, self._twist, self._dissipated = np.zeros((3, 3)), np.zeros(6), np.zeros(2)
-        self._requested = (force.sigma, force.gamma, force.eta)
-        self._accelerometer = accelerometer
+        self._requested = (float(force.sigma), float(force.gamma), float(force.eta))
+        self._accelerometer, self._convention = accelerometer, kernel_convention(accelerometer)
         self._evaluation = np.zeros(EVALUATION_SIZE)
         self.torque = np.zeros(NUM_JOINTS)
         self.position = None
@@ -142,7 +143,27 @@ class RealtimeTeleopController:
         self.torque, self.master_wrench, self.applied_wrench = np.zeros(NUM_JOINTS), np.zeros(6), np.zeros(6)
         if self.estimator is not None:
             self.estimator.restart_prefilter()
+        self._bind()
         self.started = True
+
+    def _bind(self) -> None:
+        """``controller_step``'s arguments after the readings, the request counter, φ_gr, the
+        accelerometer's convention and σ, γ, η: the arrays of this run (``start``) and the settings."""
+        motion, force, feedback = self._motion, self._force, self._feedback
+        notch = _NO_NOTCH if self._notch is None else self._notch
+        self._bound = (
+            *self._master.kernel_arrays(), *self._slave.kernel_arrays(), np.zeros(NUM_JOINTS),
+            self._pose_BE, self._pose_RS, self._pose_scratch, self._motion_memory, self.pose_RS_desired,
+            float(motion.translation_scale), float(motion.rotation_scale), self._R_RB_motion,
+            *self._ik_step.kernel_arrays(), self.position,
+            self._evaluation, self._phi, self._offsets, self.scales, self._force_memory, float(force.fault_decay_time),
+            float(force.slew_rate), notch, self._notch is not None, np.empty((7, 10)),
+            self._offset_state, *kernel_settings(self._offset_params), float(self._contact.force),
+            float(self._contact.torque),
+            self._motion_S, self._R_BR, self._R_BS, float(feedback.force_scale), float(feedback.torque_scale),
+            float(feedback.max_force), float(feedback.max_torque), self.master_wrench,
+            self.energy, self._max_damping, self.torque, self.applied_wrench, self.damping, self._dissipated,
+            self._twist)
 
     def step(self, dt: float, master_position, master_velocity, slave_position, slave_velocity, wrench,
              acceleration, clutch: bool, input_age: float = 0.0) -> None:
@@ -154,40 +175,18 @@ class RealtimeTeleopController:
         if not self.started:
             raise RuntimeError("RealtimeTeleopController.step before start(): start it from the measured "
                                "slave position once the station is healthy")
-        master, slave = self._master, self._slave
-        master.update(master_position)
-        slave.update(slave_position, slave_velocity)
-        J_M, R_RS, omega_S, gravity_S = master.J, slave.R, slave.motion[OMEGA], slave.motion[GRAVITY]
-        pose_into(master.R, master.p, self._pose_BE)
-        pose_into(R_RS, slave.p, self._pose_RS)
-
-        # Motion scaling, then the slave IK on this tick's desired pose.
-        motion = self._motion
-        motion_scaling_step(self._motion_memory, self.pose_RS_desired, self._pose_BE, clutch, self._pose_RS,
-                            motion.translation_scale, motion.rotation_scale, self._R_RB_motion, self._pose_scratch)
-        self.reachable = not self._ik_step(self.pose_RS_desired, self.position, dt, self.position) & UNREACHABLE
-
-        # Force scaling/elimination, feedback mapping, passivity controller.
-        force = self._force
-        evaluation = self._evaluation
-        evaluate(evaluation, wrench, acceleration, omega_S, gravity_S, self._phi, self._offsets, self.scales,
-                 self._force_memory, decay_factor(dt, force.fault_decay_time), self._phi_gripper,
-                 self._accelerometer, self._notch)
-        next_memory_and_scales(self._force_memory, self.scales, evaluation, self._requested,
-                               force.slew_rate * dt, self._notch)
-        offsets_update(self._offset_state, evaluation[CONTACT], evaluation[FAULT] > 0.5, slave_velocity, dt,
-                       self._offset_params, self._contact, self._rezero_requests)
+        sigma, gamma, eta = self._requested
+        phi_gripper = self._phi_gripper
+        status = controller_step(
+            dt, float_array(master_position), float_array(master_velocity), float_array(slave_position),
+            float_array(slave_velocity), float_array(wrench), float_array(acceleration), clutch,
+            self._rezero_requests, _NO_GRIPPER if phi_gripper is None else phi_gripper, phi_gripper is not None,
+            *self._convention, sigma, gamma, eta, *self._bound)
+        self.reachable = not status & UNREACHABLE
         if self.estimator is not None:  # φ̂ for the next tick
-            self.estimator.step(dt, evaluation[CONTACT], evaluation[NONCONTACT], motion_from_reading(
-                self._motion_S, acceleration, gravity_S, omega_S, self._accelerometer), omega_S, gravity_S,
-                evaluation[FAULT] > 0.5, input_age)
-        feedback = self._feedback
-        np.dot(self._R_BR, R_RS, out=self._R_BS)
-        rendered_wrench_into(evaluation[FEEDBACK], self._R_BS, feedback.force_scale, feedback.torque_scale,
-                             feedback.max_force, feedback.max_torque, self.master_wrench)
-        master_torque_into(self.master_wrench, float_array(master_velocity), J_M, self.energy, dt, self._max_damping,
-                           feedback.max_force, feedback.max_torque, self.torque, self.applied_wrench, self.damping,
-                           self._dissipated, self._twist)
+            evaluation, slave_motion = self._evaluation, self._slave.motion
+            self.estimator.step(dt, evaluation[CONTACT], evaluation[NONCONTACT], self._motion_S,
+                                slave_motion[OMEGA], slave_motion[GRAVITY], evaluation[FAULT] > 0.5, input_age)
 
     @property
     def wrench_feedback(self) -> np.ndarray:
@@ -254,7 +253,7 @@ class RealtimeTeleopController:
         for convention, sign in ((self._accelerometer, 1.0), (new, -1.0)):
             motion = motion_from_reading(np.empty(6), reading, gravity_S, at_rest, convention)
             self._offsets += sign * (regressor(motion[:3], motion[3:], at_rest, gravity_S) @ self._phi)
-        self._accelerometer = new
+        self._accelerometer, self._convention = new, kernel_convention(new)
 
     @property
     def tracking(self) -> bool:
@@ -313,3 +312,66 @@ class RealtimeTeleopController:
         self.estimator.start_from(self._phi_gripper_held)
         self._phi_gripper = self._phi_gripper_given
 
+
+
+_NO_GRIPPER, _NO_NOTCH = np.zeros(10), np.zeros(7)
+
+_ARRAY, _MATRIX = "float64[:]", "float64[:, :]"
+_CHAIN = [_MATRIX, _MATRIX, _MATRIX, _ARRAY, _ARRAY, _MATRIX, _ARRAY, _MATRIX, _ARRAY, _MATRIX]
+"""``SerialChain.kernel_arrays``."""
+_STEP_SIGNATURE = "int64(" + ", ".join(
+    ["float64"] + [_ARRAY] * 6 + ["boolean", "int64", _ARRAY, "boolean"]  # dt, readings, clutch, requests, φ_gr
+    + ["boolean", _ARRAY, _MATRIX, "float64", _ARRAY] + ["float64"] * 3  # the accelerometer, σ γ η
+    + _CHAIN + _CHAIN + [_ARRAY]  # master, slave, zeros
+    + [_ARRAY] * 5 + ["float64", "float64", _MATRIX]  # motion scaling
+    + [_ARRAY] * 4 + ["float64", _MATRIX, _ARRAY, _MATRIX, _ARRAY]  # IK, the command
+    + [_ARRAY] * 5 + ["float64", "float64", _ARRAY, "boolean", _MATRIX]  # force scaling
+    + [_ARRAY] + ["float64"] * 9  # offsets
+    + [_ARRAY, _MATRIX, _MATRIX] + ["float64"] * 4 + [_ARRAY]  # S's motion, feedback mapping
+    + [_ARRAY] * 7) + ")"  # passivity
+
+
+@compiled(_STEP_SIGNATURE)
+def controller_step(dt, master_position, master_velocity, slave_position, slave_velocity, wrench, reading, clutch,
+                    rezero_requests, phi_gripper, split, includes_gravity, p_SA, R_SA, u, bias, sigma, gamma, eta,
+                    m_axes, m_points, m_M_R, m_M_p, m_gravity, m_R, m_p, m_J, m_motion, m_work,
+                    s_axes, s_points, s_M_R, s_M_p, s_gravity, s_R, s_p, s_J, s_motion, s_work, zeros,
+                    pose_BE, pose_RS, pose_scratch, motion_memory, pose_RS_desired, translation_scale, rotation_scale,
+                    R_RB, dh, lower, upper, velocity, band, R_TF, p_TF, ik_work, position,
+                    evaluation, phi, offsets, scales, force_memory, fault_decay_time, slew_rate, notch, notched,
+                    force_scratch, offset_state, rest_joint_speed, rezero_window, rezero_force, rezero_torque,
+                    time_constant, max_force_rate, max_torque_rate, contact_force, contact_torque,
+                    motion_S, R_BR, R_BS, force_scale, torque_scale, max_force, max_torque, master_wrench,
+                    energy, max_damping, torque, applied_wrench, damping, dissipated, twist):
+    """``RealtimeTeleopController.step`` but the estimator's, as one kernel: the block kernels in the order
+    of Fig. 4, on the arrays the controller holds (``RealtimeTeleopController._bind``), in place.
+    Returns the slave IK's status; leaves S's kinematic [a; α] from the reading in ``motion_S``."""
+    chain_kinematics(m_axes, m_points, m_M_R, m_M_p, master_position, zeros, zeros, m_gravity, m_R, m_p, m_J,
+                     m_motion, m_work)
+    chain_kinematics(s_axes, s_points, s_M_R, s_M_p, slave_position, slave_velocity, zeros, s_gravity, s_R, s_p,
+                     s_J, s_motion, s_work)
+    omega_S, gravity_S = s_motion[OMEGA], s_motion[GRAVITY]
+    pose_into(m_R, m_p, pose_BE)
+    pose_into(s_R, s_p, pose_RS)
+
+    # Motion scaling, then the slave IK on this tick's desired pose.
+    motion_scaling_step(motion_memory, pose_RS_desired, pose_BE, clutch, pose_RS, translation_scale, rotation_scale,
+                        R_RB, pose_scratch)
+    status = ik_step(dh, lower, upper, velocity, band, pose_RS_desired, R_TF, p_TF, position, dt, position, ik_work)
+
+    # Force scaling/elimination, offsets, feedback mapping, passivity controller.
+    evaluate_into(evaluation, wrench, reading, omega_S, gravity_S, phi, offsets, scales, force_memory,
+                  decay_factor(dt, fault_decay_time), phi_gripper, split, includes_gravity, p_SA, R_SA, u, bias, notch,
+                  notched, force_scratch)
+    next_memory_and_scales_into(force_memory, scales, evaluation, sigma, gamma, eta, slew_rate * dt, notch, notched)
+    offsets_update_into(offset_state, evaluation[CONTACT], evaluation[FAULT] > 0.5, slave_velocity, dt,
+                        rest_joint_speed, rezero_window, rezero_force, rezero_torque, time_constant, max_force_rate,
+                        max_torque_rate, contact_force, contact_torque, float(rezero_requests))
+    motion_from_reading_into(motion_S, reading, gravity_S, omega_S, includes_gravity, p_SA, R_SA, u, bias)
+    for r in range(3):  # R_BS = R_BR·R_RS
+        for c in range(3):
+            R_BS[r, c] = R_BR[r, 0] * s_R[0, c] + R_BR[r, 1] * s_R[1, c] + R_BR[r, 2] * s_R[2, c]
+    rendered_wrench_into(evaluation[FEEDBACK], R_BS, force_scale, torque_scale, max_force, max_torque, master_wrench)
+    master_torque_into(master_wrench, master_velocity, m_J, energy, dt, max_damping, max_force, max_torque, torque,
+                       applied_wrench, damping, dissipated, twist)
+    return status

@@ -175,6 +175,12 @@ class SerialChain:
     def num_joints(self) -> int:
         return len(self.joints)
 
+    def kernel_arrays(self) -> tuple:
+        """(axes, points, M_R, M_p, gravity_B, R, p, J, motion, work): the chain's arrays as
+        ``chain_kinematics`` takes them, for a kernel that calls it (updated in place, as ``update`` does)."""
+        return (self._axes, self._points, self._M_R, self._M_p, self._gravity_B, self.R, self.p, self.J, self.motion,
+                self._work)
+
     def update(self, q, qd=None, qdd=None) -> None:
         """Evaluates the chain at joint positions ``q`` (rad), velocities ``qd`` (rad/s; default 0) and
         accelerations ``qdd`` (rad/s²; default 0), each (n,)."""

@@ -74,6 +74,11 @@ class IkStep:
         self._R_TF, self._p_TF = X_TF.rotation().matrix().copy(), X_TF.translation().copy()
         self._work = np.zeros((STEP_WORK_ROWS, 6))
 
+    def kernel_arrays(self) -> tuple:
+        """(dh, lower, upper, velocity, band, R_TF, p_TF, work): ``ik_step``'s arguments besides the
+        pose, the commands and dt, in its order, for a kernel that calls it."""
+        return (self._dh, self._lower, self._upper, self._velocity, self._band, self._R_TF, self._p_TF, self._work)
+
     def __call__(self, pose: np.ndarray, q_last: np.ndarray, dt: float, command: np.ndarray) -> int:
         """``ik_step``'s status; ``command`` (6, rad) written, from ``q_last`` (6, rad) toward the desired
         tool pose vector ``pose`` (7, X_RT*) over ``dt`` s. The arrays: float64, writeable (``float_array``)."""

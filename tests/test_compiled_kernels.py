@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from heft.hardware_interface.message_checks import REASONS
 from heft.systems import compiled
 from heft.systems.rx_inverse_kinematics import (JOINT_LIMIT, NON_FINITE, OUT_OF_REACH, SHOULDER_SINGULARITY,
                                                 WRIST_SINGULARITY)
@@ -145,6 +146,95 @@ for k in range(40):
     out["excitation"].append(excitation(motion[:6], motion[6:]))
     prefilter_step(coefficients, state, rng.normal(0, 3, WIDTH) if k != 20 else np.full(WIDTH, np.nan))
     out["prefilter"].append(np.nan_to_num(state, nan=-1.0))
+# The real-time controller's fused step: the clutch pressed at tick 5, one faulted sensor sample at 20,
+# a re-zero asked for at 30, the gripper's split from 40.
+from heft.diagrams.load_estimate import LoadEstimate
+from heft.diagrams.scenario import resolve_scenario
+from heft.diagrams.teleop import MakeRealtimeTeleopController
+from heft.systems.load_dynamics import InertialParameters
+
+scenario = resolve_scenario("fig6")
+load = InertialParameters(0.8, np.array([0.01, -0.02, 0.1]), np.diag([2e-3, 3e-3, 1e-3])).to_phi()
+controller = MakeRealtimeTeleopController(scenario.controller, LoadEstimate(load, rng.normal(0, 0.5, 6)),
+                                          scenario.robot, 5e-4, accelerometer=scenario.accelerometer.convention())
+q_slave = np.array([0.1, -0.4, 1.2, 0.2, 0.6, -0.3])
+controller.start(q_slave)
+q_master = np.array([0.0, 0.2, 0.3, 0.0, 0.4, 0.0])
+out["controller"] = []
+for k in range(60):
+    q_master += rng.normal(0, 2e-3, 6)
+    q_slave += rng.normal(0, 1e-3, 6)
+    wrench = rng.normal(0, 5, 6) if k != 20 else np.full(6, np.nan)
+    if k == 30:
+        controller.request_rezero()
+    if k == 40:
+        controller._phi_gripper = 0.5 * load  # as a grasp leaves it, without the estimator
+    controller.step(5e-4 * (1 + k % 3), q_master, rng.normal(0, 0.3, 6), q_slave, rng.normal(0, 0.02, 6), wrench,
+                    rng.normal(0, 3, 6) + np.array([0, 0, 9.81, 0, 0, 0]), k >= 5)
+    out["controller"].append(np.concatenate((controller.torque, controller.position, controller.master_wrench,
+                                             controller.applied_wrench, controller.energy, controller.offsets,
+                                             controller.scales, controller.wrench_contact,
+                                             [controller.reachable, controller.rezero_status])))
+# The station's readers (every reason a message is refused for), its health and its command gate.
+import lcm
+from drake import lcmt_iiwa_status
+from heft.hardware_interface.channels import LcmChannels
+from heft.hardware_interface.ft_messages import pack_samples
+from heft.hardware_interface.hardware_station import HardwareStation
+from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_state
+from heft.hardware_interface.message_checks import DeviceLimits
+
+limits = DeviceLimits(*[np.full(6, value) for value in (-3.0, 3.0, 6.0, -3.0, 3.0, 4.0)], np.full(6, 500.0),
+                      np.full(6, 100.0))
+bus, channels = lcm.LCM("memq://"), LcmChannels()
+station = HardwareStation(bus, channels, limits)
+out["station"], out["readings"], out["rejected"] = [], [], []
+for k in range(120):
+    now = 0.002 * k
+    master = heft_haptic_state()
+    master.utime, master.num_joints, master.buttons = int(1e6 * now) + 7, 6, k % 4
+    master.position = list(np.full(6, 0.3) + 1e-3 * k) if k != 3 else [-1.0] * 6  # a jump: discontinuous
+    master.velocity, master.torque_applied = list(rng.normal(0, 1, 6)), [0.0] * 6
+    if k == 50:
+        master.velocity = [float("nan")] * 6
+    if k == 60:
+        master.position = [4.0] * 6  # beyond the joints' range
+    if k == 70:
+        master.error = True
+    status = lcmt_iiwa_status()
+    status.utime, status.num_joints = int(1e6 * now) + 1000 if k != 80 else 3, 6 if k != 90 else 5
+    status.joint_position_measured = list(np.full(status.num_joints, 0.2) + 1e-4 * k)
+    status.joint_velocity_estimated = [0.01] * status.num_joints
+    for name in ("joint_position_commanded", "joint_position_ipo", "joint_torque_measured",
+                 "joint_torque_commanded", "joint_torque_external"):
+        setattr(status, name, [0.0] * status.num_joints)
+    samples = [heft_ft_sample() for _ in range(4)]
+    for i, sample in enumerate(samples):
+        sample.utime, sample.sample_counter = int(1e6 * now) + 50 * i + 1, 4 * k + i
+        sample.wrench, sample.acceleration = list(rng.normal(0, 20, 6)), list(rng.normal(0, 5, 6))
+        sample.saturated, sample.error = (1 if k == 33 and i == 3 else 0), k == 35 and i == 3
+    if k == 37:
+        samples[3].wrench = [900.0] * 6
+    if k % 2:
+        ft = pack_samples([s.utime for s in samples], [s.sample_counter for s in samples],
+                          [x for s in samples for x in s.wrench], [x for s in samples for x in s.acceleration],
+                          [s.saturated for s in samples], [s.error for s in samples])
+    else:
+        ft = b"garbage" if k == 10 else samples[-1].encode()
+    bus.publish(channels.master_state.name, master.encode() if k != 20 else b"\x00" * 12)
+    bus.publish(channels.slave_status.name, status.encode())
+    if not 60 <= k < 75:  # the sensor silent for 30 ms: stale, the commands held
+        bus.publish(channels.ft_sample.name, ft)
+    station.receive(now)
+    station.send(now, rng.normal(0, 1, 6) if k != 100 else np.full(6, np.nan),
+                 None if k % 9 == 0 else station.slave_position + rng.normal(0, 0.01, 6))
+    out["readings"].append(np.concatenate((station.master_position, station.master_velocity, station.slave_position,
+                                           station.wrench, station.acceleration, station.ages)))
+    out["station"].append([station.healthy, station.gain, station.fault, station.conflicts, station.clutch,
+                           station.reanchored, *station.torque_sent, *(station.position_sent
+                                                                       if station.position_sent is not None
+                                                                       else np.zeros(6))])
+    out["rejected"].append(np.concatenate([reader.rejections.by_code for reader in station._readers]))
 np.savez(sys.argv[1], **{name: np.asarray(value) for name, value in out.items()})
 """
 
@@ -166,6 +256,10 @@ def test_the_plain_python_kernels_equal_the_compiled_ones(tmp_path):
     assert (ik_status == 0).any() and (ik_status & OUT_OF_REACH).any() and (ik_status & JOINT_LIMIT).any()
     assert (ik_status & SHOULDER_SINGULARITY).any() and (ik_status & WRIST_SINGULARITY).any()
     assert (step_status & NON_FINITE).any() and (step_status & SLEWING).any() and (step_status == 0).any()
+    rejected = fallback["rejected"][-1].reshape(-1, len(REASONS))
+    refused = {REASONS[code] for per_channel in rejected for code in np.flatnonzero(per_channel)}
+    assert refused >= {"undecodable", "joint_count", "non_finite", "out_of_range", "driver_error"}, refused
+    assert fallback["station"][:, 0].any() and not fallback["station"][:, 0].all()  # healthy, and not always
     for name, expected in fallback.items():
         assert np.abs(expected).max() > 0, name
         assert machine_code[name].shape == expected.shape, name

@@ -19,14 +19,15 @@ from heft.hardware_interface.hardware_station import (
     STALLED_BIT,
     HardwareStation,
     HardwareStationParams,
-    rate_limit,
+    rate_limit_into,
 )
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
 from heft.hardware_interface.gripper_state_reader import GRASP, RELEASE
 from heft.hardware_interface.lcmtypes import (heft_ft_sample, heft_gripper_state, heft_haptic_command,
                                               heft_haptic_state, heft_station_status)
 from heft.hardware_interface.message_order import CONFLICT_CLEAR, CONFLICT_COUNT, PROBATION, SILENCE_PER_TIMEOUT
-from heft.hardware_interface.watchdog import WatchdogParams, watchdog_step
+from heft.hardware_interface.hardware_station_params import WatchdogParams
+from heft.hardware_interface.watchdog import watchdog_step
 
 PERIOD = 0.0005
 PARAMS = HardwareStationParams()
@@ -96,16 +97,18 @@ class Rig:
 
 
 def test_watchdog_core():
-    assert watchdog_step([np.inf, 0.0, np.nan], 0.7, 0.02, 0.1) == (False, 0.0, 0b101)
-    assert watchdog_step([0.0, 0.0, 0.0], 0.95, 0.02, 0.1) == (True, 1.0, 0)
-    assert watchdog_step([0.0, 0.0, 0.0], 0.5, 0.02, 0.1, stalled=True) == (False, 0.0, 0b1000)
+    assert watchdog_step(np.array([np.inf, 0.0, np.nan]), 0.7, 0.02, 0.1, False, 0) == (False, 0.0, 0b101)
+    assert watchdog_step(np.zeros(3), 0.95, 0.02, 0.1, False, 0) == (True, 1.0, 0)
+    assert watchdog_step(np.zeros(3), 0.5, 0.02, 0.1, True, 0) == (False, 0.0, 0b1000)
+    assert watchdog_step(np.zeros(3), 0.5, 0.02, 0.1, False, 0b010) == (False, 0.0, 0b100000)
     with pytest.raises(ValueError, match="timeout"):
         WatchdogParams(timeout=0.0).validate()
 
 
 def test_rate_limit_moves_at_most_the_step():
-    np.testing.assert_allclose(rate_limit(np.zeros(3), np.array([1.0, -0.01, 0.5]), np.full(3, 0.1)),
-                               [0.1, -0.01, 0.1])
+    command = np.zeros(3)
+    rate_limit_into(command, np.array([1.0, -0.01, 0.5]), np.full(3, 0.2), 0.5)
+    np.testing.assert_allclose(command, [0.1, -0.01, 0.1])
 
 
 def test_no_slave_command_before_the_slave_is_known():
