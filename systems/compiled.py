@@ -58,12 +58,25 @@ if not PURE_PYTHON:
     numba.config.CACHE_DIR = str(kernel_cache_dir(Path(__file__).resolve().parent.parent))
 
 
-def compiled(signature: str):
+def compiled(signature: str, **records: np.dtype):
     """A decorator: the kernel compiled for ``signature`` (numba's, e.g. ``"void(float64[:], float64)"``;
-    arrays of any layout), or the kernel itself when ``PURE_PYTHON``."""
+    arrays of any layout), or the kernel itself when ``PURE_PYTHON``. ``records`` names the structured
+    dtypes the signature refers to: ``NAME[:]`` is an array of such records (one holds a block's arrays, so
+    that a call passes them as one argument: ``record_views``)."""
     def decorate(kernel):
-        return kernel if PURE_PYTHON else numba.njit(signature, cache=True)(kernel)
+        if PURE_PYTHON:
+            return kernel
+        types = {**vars(numba.types), **{name: numba.from_dtype(dtype) for name, dtype in records.items()}}
+        return numba.njit(eval(signature, {}, types), cache=True)(kernel)
     return decorate
+
+
+def record_views(dtype: np.dtype) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """(record, views): a record array of one ``dtype`` (zeros), as a kernel of ``compiled(…, NAME=dtype)``
+    takes it, and a view of each of its array fields by name, through which Python reads and writes them
+    (a scalar field is ``record[name]``)."""
+    record = np.zeros(1, dtype=dtype)
+    return record, {name: record[name][0] for name in dtype.names if dtype[name].shape}
 
 
 def float_array(x):

@@ -71,11 +71,14 @@ def offsets_update(state: np.ndarray, contact, fault: bool, slave_velocity, dt: 
                         float(thresholds.force), float(thresholds.torque), float(requests))
 
 
+KERNEL_SETTINGS = ("rest_joint_speed", "rezero_window", "rezero_force", "rezero_torque", "time_constant",
+                   "max_force_rate", "max_torque_rate")
+"""The fields of ``OffsetTrackingParams`` that ``offsets_update_into`` takes, in its order."""
+
+
 def kernel_settings(params: OffsetTrackingParams) -> tuple[float, ...]:
-    """``params`` as ``offsets_update_into`` takes them, in its order."""
-    return tuple(float(value) for value in (params.rest_joint_speed, params.rezero_window, params.rezero_force,
-                                            params.rezero_torque, params.time_constant, params.max_force_rate,
-                                            params.max_torque_rate))
+    """``params`` as ``offsets_update_into`` takes them (``KERNEL_SETTINGS``)."""
+    return tuple(float(getattr(params, name)) for name in KERNEL_SETTINGS)
 
 
 @compiled("void(float64[:], float64[:], boolean, float64[:], float64, float64, float64, float64, float64, float64, "

@@ -6,8 +6,9 @@ kinematics, motion scaling, slave IK, force scaling/elimination, feedback
 mapping, passivity controller — in one ``step`` per tick, with the measured
 tick duration ``dt`` (s) wherever a block uses its period: slews, speed limits,
 the fault decay, the passivity observer's hold. The arithmetic of each block
-lives in its own module; this one only orders the calls, holds the state a
-Diagram Context would hold, and reuses one plant Context per model. With
+lives in its own module as a kernel; this one only orders the calls, in a kernel
+of its own (``controller_step``: one call from Python a tick), and holds the state
+a Diagram Context would hold, in one record (``STEP_STATE``). With
 ``controller.estimator.mode: online`` φ̂ is learned in the loop
 (``online_estimator``, the Diagram's gate, prefilter and RLS), and a grasp
 (``grasp``/``release``) splits it into the gripper's φ_gr and the object's, as the
@@ -31,13 +32,14 @@ from heft.systems.accelerometer_reading import (AccelerometerConvention, kernel_
                                                 motion_from_reading_into)
 from heft.systems.contact_threshold import ContactThresholdParams
 from heft.systems.load_estimation_params import LoadEstimationParams
-from heft.systems.compiled import compiled, float_array
+from heft.systems.compiled import compiled, float_array, record_views
 from heft.systems.feedback_mapping import FeedbackMappingParams, rendered_wrench_into
 from heft.systems.force_scaling import (
     CONTACT,
     EVALUATION_SIZE,
     FAULT,
     FEEDBACK,
+    MEMORY_SIZE,
     NONCONTACT,
     ForceScalingParams,
     decay_factor,
@@ -47,16 +49,17 @@ from heft.systems.force_scaling import (
     notch_coefficients,
 )
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
-from heft.systems.serial_chain import GRAVITY, OMEGA, SerialChain, chain_kinematics
+from heft.systems.serial_chain import GRAVITY, OMEGA, SerialChain, chain_dtype, chain_kinematics
 from heft.systems.motion_scaling import IDENTITY_POSE, MotionScalingParams, motion_scaling_step
 from heft.systems.online_estimator import OnlineLoadEstimator
 from heft.systems.load_dynamics import GRAVITY_W, checked_load, regressor
-from heft.systems.offset_tracking import (OFFSETS, REQUESTS, STATUS, TRACKING, WINDOW_TIME, OffsetTrackingParams,
-                                          initial_state, kernel_settings, offsets_update_into, restart_rezero_window)
+from heft.systems.offset_tracking import (KERNEL_SETTINGS, OFFSETS, REQUESTS, STATE_SIZE, STATUS, TRACKING,
+                                          WINDOW_TIME, OffsetTrackingParams, initial_state, offsets_update_into,
+                                          restart_rezero_window)
 from heft.systems.passivity_controller import PassivityParams, master_torque_into
 from heft.systems.pose_vectors import POSE_SIZE, pose_into
 from heft.systems.rx_inverse_kinematics import UNREACHABLE, RxKinematics
-from heft.systems.slave_inverse_kinematics import IkStep, ik_step
+from heft.systems.slave_inverse_kinematics import IK_STEP, IkStep, ik_step
 from heft.systems.slave_kinematics import NUM_JOINTS
 
 
@@ -94,32 +97,45 @@ class RealtimeTeleopController:
         self._master = SerialChain(master, master.GetFrameByName(BASE_FRAME), master.GetFrameByName(STYLUS_FRAME))
         self._slave = SerialChain(slave, slave.GetFrameByName(base_frame), slave.GetFrameByName("S"),
                                   GRAVITY_W)  # R = W
-        self._pose_BE, self._pose_RS, self._pose_scratch = np.zeros((3, POSE_SIZE))
         self._kinematics, self._ik_step = kinematics, IkStep(kinematics, X_FS.inverse())
         online = estimator is not None and estimator.mode == "online"
         self.estimator = OnlineLoadEstimator(estimator, contact, phi, period) if online else None
         self._phi = self.estimator.phi if online else phi.copy()  # the estimator's, updated in place
-        self._motion_S = np.zeros(6)
-        self._offset_params, self._contact = offsets_tracking, contact
-        self._offset_state = initial_state(offsets, offsets_tracking)
-        self._offsets = self._offset_state[OFFSETS]  # a view: updated in place by offsets_update
+        self._state, arrays = record_views(STEP_STATE)
+        self._arrays = arrays
+        self._offset_state = arrays["offset_state"]
+        self._offset_state[:] = initial_state(offsets, offsets_tracking)
+        self._offsets = self._offset_state[OFFSETS]  # a view: updated in place by offsets_update_into
         self._rezero_requests = 0
         self.period = period
-        self._notch = notch_coefficients(force.mount_notch, force.mount_notch_quality, period)
+        notch = notch_coefficients(force.mount_notch, force.mount_notch_quality, period)
+        if notch is not None:
+            arrays["notch"][:], self._state["notched"] = notch, 1.0
         self._phi_gripper_given = None if force.phi_gripper is None else np.array(force.phi_gripper, dtype=float)
         self._phi_gripper = self._phi_gripper_given
         self._phi_gripper_held = np.zeros(10)  # φ_gr while an object is held
-        self._motion, self._force, self._feedback = motion, force, feedback
-        self._R_RB_motion = RotationMatrix(RollPitchYaw(motion.R_RB)).matrix()
-        self._R_BR = self._R_RB_motion.T  # R_RB's one home is the motion scaling's
-        self._max_damping = np.array((passivity.max_translational_damping, passivity.max_rotational_damping)
-                                     if passivity.enabled else (0.0, 0.0))
-        self._R_BS, self._twist, self._dissipated = np.zeros((3, 3)), np.zeros(6), np.zeros(2)
+        self._motion = motion
+        arrays["R_RB"][:] = RotationMatrix(RollPitchYaw(motion.R_RB)).matrix()
+        arrays["R_BR"][:] = arrays["R_RB"].T  # R_RB's one home is the motion scaling's
+        if passivity.enabled:
+            arrays["max_damping"][:] = passivity.max_translational_damping, passivity.max_rotational_damping
         self._requested = (float(force.sigma), float(force.gamma), float(force.eta))
+        settings = {"translation_scale": motion.translation_scale, "rotation_scale": motion.rotation_scale,
+                    "fault_decay_time": force.fault_decay_time, "slew_rate": force.slew_rate,
+                    "sigma": force.sigma, "gamma": force.gamma, "eta": force.eta,
+                    "contact_force": contact.force, "contact_torque": contact.torque,
+                    "force_scale": feedback.force_scale, "torque_scale": feedback.torque_scale,
+                    "max_force": feedback.max_force, "max_torque": feedback.max_torque,
+                    **{name: getattr(offsets_tracking, name) for name in KERNEL_SETTINGS}}
+        for name, value in settings.items():
+            self._state[name] = value
         self._accelerometer, self._convention = accelerometer, kernel_convention(accelerometer)
-        self._evaluation = np.zeros(EVALUATION_SIZE)
-        self.torque = np.zeros(NUM_JOINTS)
-        self.position = None
+        self._evaluation, self._motion_S = arrays["evaluation"], arrays["motion_S"]
+        self.torque, self.master_wrench, self.applied_wrench = arrays["torque"], arrays["master_wrench"], \
+            arrays["applied_wrench"]
+        self.energy, self.damping, self.scales = arrays["energy"], arrays["damping"], arrays["scales"]
+        self.pose_RS_desired = arrays["pose_RS_desired"]
+        self.reachable = True
         self.started = False
 
     def start(self, slave_position) -> None:
@@ -131,39 +147,25 @@ class RealtimeTeleopController:
             raise ValueError(f"the slave's start position must be {NUM_JOINTS} finite joint angles; "
                              f"got {slave_position}")
         self._slave.update(slave_position)
-        self.pose_RS_desired = np.empty(POSE_SIZE)
+        arrays = self._arrays
         pose_into(self._slave.R, self._slave.p, self.pose_RS_desired)
-        self._motion_memory = np.concatenate(([0.0, self._motion.translation_scale, self._motion.rotation_scale],
-                                              IDENTITY_POSE, IDENTITY_POSE))
-        self.position = np.clip(slave_position, self._kinematics.lower, self._kinematics.upper)
+        arrays["motion_memory"][:] = np.concatenate(([0.0, self._motion.translation_scale,
+                                                      self._motion.rotation_scale], IDENTITY_POSE, IDENTITY_POSE))
+        arrays["position"][:] = np.clip(slave_position, self._kinematics.lower, self._kinematics.upper)
         self.reachable = True
-        self._force_memory = initial_memory()
-        self.scales = np.array(self._requested, dtype=float)
-        self.energy, self.damping = np.zeros(2), np.zeros(2)
-        self.torque, self.master_wrench, self.applied_wrench = np.zeros(NUM_JOINTS), np.zeros(6), np.zeros(6)
+        arrays["force_memory"][:] = initial_memory()
+        self.scales[:] = self._requested
+        for name in ("energy", "damping", "torque", "master_wrench", "applied_wrench", "dissipated"):
+            arrays[name][:] = 0.0
         if self.estimator is not None:
             self.estimator.restart_prefilter()
-        self._bind()
         self.started = True
 
-    def _bind(self) -> None:
-        """``controller_step``'s arguments after the readings, the request counter, φ_gr, the
-        accelerometer's convention and σ, γ, η: the arrays of this run (``start``) and the settings."""
-        motion, force, feedback = self._motion, self._force, self._feedback
-        notch = _NO_NOTCH if self._notch is None else self._notch
-        self._bound = (
-            *self._master.kernel_arrays(), *self._slave.kernel_arrays(), np.zeros(NUM_JOINTS),
-            self._pose_BE, self._pose_RS, self._pose_scratch, self._motion_memory, self.pose_RS_desired,
-            float(motion.translation_scale), float(motion.rotation_scale), self._R_RB_motion,
-            *self._ik_step.kernel_arrays(), self.position,
-            self._evaluation, self._phi, self._offsets, self.scales, self._force_memory, float(force.fault_decay_time),
-            float(force.slew_rate), notch, self._notch is not None, np.empty((7, 10)),
-            self._offset_state, *kernel_settings(self._offset_params), float(self._contact.force),
-            float(self._contact.torque),
-            self._motion_S, self._R_BR, self._R_BS, float(feedback.force_scale), float(feedback.torque_scale),
-            float(feedback.max_force), float(feedback.max_torque), self.master_wrench,
-            self.energy, self._max_damping, self.torque, self.applied_wrench, self.damping, self._dissipated,
-            self._twist)
+    @property
+    def position(self) -> np.ndarray | None:
+        """q̄_S (6, rad): the slave command of the last step (one array, overwritten by each); None before
+        ``start``."""
+        return self._arrays["position"] if self.started else None
 
     def step(self, dt: float, master_position, master_velocity, slave_position, slave_velocity, wrench,
              acceleration, clutch: bool, input_age: float = 0.0) -> None:
@@ -175,13 +177,13 @@ class RealtimeTeleopController:
         if not self.started:
             raise RuntimeError("RealtimeTeleopController.step before start(): start it from the measured "
                                "slave position once the station is healthy")
-        sigma, gamma, eta = self._requested
         phi_gripper = self._phi_gripper
         status = controller_step(
             dt, float_array(master_position), float_array(master_velocity), float_array(slave_position),
             float_array(slave_velocity), float_array(wrench), float_array(acceleration), clutch,
-            self._rezero_requests, _NO_GRIPPER if phi_gripper is None else phi_gripper, phi_gripper is not None,
-            *self._convention, sigma, gamma, eta, *self._bound)
+            self._rezero_requests, self._phi, _NO_GRIPPER if phi_gripper is None else phi_gripper,
+            phi_gripper is not None, *self._convention, self._state, self._master.record, self._slave.record,
+            self._ik_step.record)
         self.reachable = not status & UNREACHABLE
         if self.estimator is not None:  # φ̂ for the next tick
             evaluation, slave_motion = self._evaluation, self._slave.motion
@@ -314,64 +316,72 @@ class RealtimeTeleopController:
 
 
 
-_NO_GRIPPER, _NO_NOTCH = np.zeros(10), np.zeros(7)
+_NO_GRIPPER = np.zeros(10)
 
-_ARRAY, _MATRIX = "float64[:]", "float64[:, :]"
-_CHAIN = [_MATRIX, _MATRIX, _MATRIX, _ARRAY, _ARRAY, _MATRIX, _ARRAY, _MATRIX, _ARRAY, _MATRIX]
-"""``SerialChain.kernel_arrays``."""
-_STEP_SIGNATURE = "int64(" + ", ".join(
-    ["float64"] + [_ARRAY] * 6 + ["boolean", "int64", _ARRAY, "boolean"]  # dt, readings, clutch, requests, φ_gr
-    + ["boolean", _ARRAY, _MATRIX, "float64", _ARRAY] + ["float64"] * 3  # the accelerometer, σ γ η
-    + _CHAIN + _CHAIN + [_ARRAY]  # master, slave, zeros
-    + [_ARRAY] * 5 + ["float64", "float64", _MATRIX]  # motion scaling
-    + [_ARRAY] * 4 + ["float64", _MATRIX, _ARRAY, _MATRIX, _ARRAY]  # IK, the command
-    + [_ARRAY] * 5 + ["float64", "float64", _ARRAY, "boolean", _MATRIX]  # force scaling
-    + [_ARRAY] + ["float64"] * 9  # offsets
-    + [_ARRAY, _MATRIX, _MATRIX] + ["float64"] * 4 + [_ARRAY]  # S's motion, feedback mapping
-    + [_ARRAY] * 7) + ")"  # passivity
+STEP_STATE = np.dtype(
+    [(name, float, size) for name, size in (
+        ("pose_BE", POSE_SIZE), ("pose_RS", POSE_SIZE), ("pose_scratch", POSE_SIZE),
+        ("motion_memory", 3 + 2 * POSE_SIZE), ("pose_RS_desired", POSE_SIZE), ("position", NUM_JOINTS),
+        ("evaluation", EVALUATION_SIZE), ("scales", 3), ("force_memory", MEMORY_SIZE), ("notch", 7),
+        ("force_scratch", (7, 10)), ("offset_state", STATE_SIZE), ("motion_S", 6), ("R_RB", (3, 3)),
+        ("R_BR", (3, 3)), ("R_BS", (3, 3)), ("master_wrench", 6), ("energy", 2), ("max_damping", 2),
+        ("torque", NUM_JOINTS), ("applied_wrench", 6), ("damping", 2), ("dissipated", 2), ("twist", 6))]
+    + [(name, float) for name in ("translation_scale", "rotation_scale", "fault_decay_time", "slew_rate", "notched",
+                                  "sigma", "gamma", "eta", "contact_force", "contact_torque", "force_scale",
+                                  "torque_scale", "max_force", "max_torque", *KERNEL_SETTINGS)])
+"""What the controller holds for ``controller_step`` (a Diagram Context's share): the blocks' memories
+and outputs, their scratch, and the settings (the notch's coefficients if ``notched``; the motion
+mapping's R_RB and its transpose; the passivity controller's largest damping, zero when it is off)."""
+_CHAIN, _IK = chain_dtype(NUM_JOINTS), IK_STEP
 
 
-@compiled(_STEP_SIGNATURE)
+@compiled("int64(float64, float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], boolean, int64, "
+          "float64[:], float64[:], boolean, boolean, float64[:], float64[:, :], float64, float64[:], STATE[:], "
+          "CHAIN[:], CHAIN[:], IK[:])", STATE=STEP_STATE, CHAIN=_CHAIN, IK=_IK)
 def controller_step(dt, master_position, master_velocity, slave_position, slave_velocity, wrench, reading, clutch,
-                    rezero_requests, phi_gripper, split, includes_gravity, p_SA, R_SA, u, bias, sigma, gamma, eta,
-                    m_axes, m_points, m_M_R, m_M_p, m_gravity, m_R, m_p, m_J, m_motion, m_work,
-                    s_axes, s_points, s_M_R, s_M_p, s_gravity, s_R, s_p, s_J, s_motion, s_work, zeros,
-                    pose_BE, pose_RS, pose_scratch, motion_memory, pose_RS_desired, translation_scale, rotation_scale,
-                    R_RB, dh, lower, upper, velocity, band, R_TF, p_TF, ik_work, position,
-                    evaluation, phi, offsets, scales, force_memory, fault_decay_time, slew_rate, notch, notched,
-                    force_scratch, offset_state, rest_joint_speed, rezero_window, rezero_force, rezero_torque,
-                    time_constant, max_force_rate, max_torque_rate, contact_force, contact_torque,
-                    motion_S, R_BR, R_BS, force_scale, torque_scale, max_force, max_torque, master_wrench,
-                    energy, max_damping, torque, applied_wrench, damping, dissipated, twist):
+                    rezero_requests, phi, phi_gripper, split, includes_gravity, p_SA, R_SA, u, bias, state, master,
+                    slave, ik):
     """``RealtimeTeleopController.step`` but the estimator's, as one kernel: the block kernels in the order
-    of Fig. 4, on the arrays the controller holds (``RealtimeTeleopController._bind``), in place.
+    of Fig. 4, on the controller's ``state`` (``STEP_STATE``), the two chains' (``SerialChain.record``) and
+    the IK's (``IkStep.record``), in place. The accelerometer's convention as ``kernel_convention`` gives it.
     Returns the slave IK's status; leaves S's kinematic [a; α] from the reading in ``motion_S``."""
-    chain_kinematics(m_axes, m_points, m_M_R, m_M_p, master_position, zeros, zeros, m_gravity, m_R, m_p, m_J,
-                     m_motion, m_work)
-    chain_kinematics(s_axes, s_points, s_M_R, s_M_p, slave_position, slave_velocity, zeros, s_gravity, s_R, s_p,
-                     s_J, s_motion, s_work)
-    omega_S, gravity_S = s_motion[OMEGA], s_motion[GRAVITY]
-    pose_into(m_R, m_p, pose_BE)
-    pose_into(s_R, s_p, pose_RS)
+    s, m, a, k = state[0], master[0], slave[0], ik[0]  # item access: numba's records and numpy's alike
+    R_RS, slave_motion = a["R"], a["motion"]
+    chain_kinematics(m["axes"], m["points"], m["M_R"], m["M_p"], master_position, m["zeros"], m["zeros"],
+                     m["gravity_B"], m["R"], m["p"], m["J"], m["motion"], m["work"])
+    chain_kinematics(a["axes"], a["points"], a["M_R"], a["M_p"], slave_position, slave_velocity, a["zeros"],
+                     a["gravity_B"], R_RS, a["p"], a["J"], slave_motion, a["work"])
+    omega_S, gravity_S = slave_motion[OMEGA], slave_motion[GRAVITY]
+    pose_BE, pose_RS, desired, position = s["pose_BE"], s["pose_RS"], s["pose_RS_desired"], s["position"]
+    pose_into(m["R"], m["p"], pose_BE)
+    pose_into(R_RS, a["p"], pose_RS)
 
     # Motion scaling, then the slave IK on this tick's desired pose.
-    motion_scaling_step(motion_memory, pose_RS_desired, pose_BE, clutch, pose_RS, translation_scale, rotation_scale,
-                        R_RB, pose_scratch)
-    status = ik_step(dh, lower, upper, velocity, band, pose_RS_desired, R_TF, p_TF, position, dt, position, ik_work)
+    motion_scaling_step(s["motion_memory"], desired, pose_BE, clutch, pose_RS, s["translation_scale"],
+                        s["rotation_scale"], s["R_RB"], s["pose_scratch"])
+    status = ik_step(k["dh"], k["lower"], k["upper"], k["velocity"], k["band"], desired, k["R_TF"], k["p_TF"],
+                     position, dt, position, k["work"])
 
     # Force scaling/elimination, offsets, feedback mapping, passivity controller.
-    evaluate_into(evaluation, wrench, reading, omega_S, gravity_S, phi, offsets, scales, force_memory,
-                  decay_factor(dt, fault_decay_time), phi_gripper, split, includes_gravity, p_SA, R_SA, u, bias, notch,
-                  notched, force_scratch)
-    next_memory_and_scales_into(force_memory, scales, evaluation, sigma, gamma, eta, slew_rate * dt, notch, notched)
+    evaluation, offset_state, memory, scales = s["evaluation"], s["offset_state"], s["force_memory"], s["scales"]
+    notch, notched = s["notch"], s["notched"] > 0.5
+    evaluate_into(evaluation, wrench, reading, omega_S, gravity_S, phi, offset_state[OFFSETS], scales, memory,
+                  decay_factor(dt, s["fault_decay_time"]), phi_gripper, split, includes_gravity, p_SA, R_SA, u, bias,
+                  notch, notched, s["force_scratch"])
+    next_memory_and_scales_into(memory, scales, evaluation, s["sigma"], s["gamma"], s["eta"], s["slew_rate"] * dt,
+                                notch, notched)
     offsets_update_into(offset_state, evaluation[CONTACT], evaluation[FAULT] > 0.5, slave_velocity, dt,
-                        rest_joint_speed, rezero_window, rezero_force, rezero_torque, time_constant, max_force_rate,
-                        max_torque_rate, contact_force, contact_torque, float(rezero_requests))
-    motion_from_reading_into(motion_S, reading, gravity_S, omega_S, includes_gravity, p_SA, R_SA, u, bias)
+                        s["rest_joint_speed"], s["rezero_window"], s["rezero_force"], s["rezero_torque"],
+                        s["time_constant"], s["max_force_rate"], s["max_torque_rate"], s["contact_force"],
+                        s["contact_torque"], float(rezero_requests))
+    motion_from_reading_into(s["motion_S"], reading, gravity_S, omega_S, includes_gravity, p_SA, R_SA, u, bias)
+    R_BR, R_BS = s["R_BR"], s["R_BS"]
     for r in range(3):  # R_BS = R_BR·R_RS
         for c in range(3):
-            R_BS[r, c] = R_BR[r, 0] * s_R[0, c] + R_BR[r, 1] * s_R[1, c] + R_BR[r, 2] * s_R[2, c]
-    rendered_wrench_into(evaluation[FEEDBACK], R_BS, force_scale, torque_scale, max_force, max_torque, master_wrench)
-    master_torque_into(master_wrench, master_velocity, m_J, energy, dt, max_damping, max_force, max_torque, torque,
-                       applied_wrench, damping, dissipated, twist)
+            R_BS[r, c] = R_BR[r, 0] * R_RS[0, c] + R_BR[r, 1] * R_RS[1, c] + R_BR[r, 2] * R_RS[2, c]
+    max_force, max_torque, wrench_B = s["max_force"], s["max_torque"], s["master_wrench"]
+    rendered_wrench_into(evaluation[FEEDBACK], R_BS, s["force_scale"], s["torque_scale"], max_force, max_torque,
+                         wrench_B)
+    master_torque_into(wrench_B, master_velocity, m["J"], s["energy"], dt, s["max_damping"], max_force, max_torque,
+                       s["torque"], s["applied_wrench"], s["damping"], s["dissipated"], s["twist"])
     return status

@@ -15,7 +15,7 @@ import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import Frame
 
-from heft.systems.compiled import compiled, float_array
+from heft.systems.compiled import compiled, float_array, record_views
 
 MOTION_SIZE = 12
 """``SerialChain.motion``: [a (3, m/s²); α (3, rad/s²); ω (3, rad/s); g (3, m/s²)], all in E."""
@@ -130,8 +130,9 @@ class SerialChain:
 
     After ``update``: ``R`` (3, 3) R_BE, ``p`` (3, m) p_BE, ``J`` (6, n) rows [v_E; ω_E] in B,
     ``motion`` (``MOTION_SIZE``) E's acceleration, angular velocity and ``gravity_B`` in E. The arrays
-    are overwritten by each update; copy what must outlive it. ``joints`` are the chain's joints in
-    the order ``update`` takes their positions.
+    are overwritten by each update; copy what must outlive it. They and the chain's constants live in
+    ``record`` (``chain_dtype``), which a kernel that calls ``chain_kinematics`` takes. ``joints`` are
+    the chain's joints in the order ``update`` takes their positions.
     """
 
     def __init__(self, plant: MultibodyPlant, B: Frame, E: Frame, gravity_B=(0.0, 0.0, 0.0)):
@@ -159,32 +160,35 @@ class SerialChain:
         for joint in self.joints:
             joint.set_angle(context, 0.0)
         n = len(self.joints)
-        self._axes, self._points = np.zeros((n, 3)), np.zeros((n, 3))
+        self.record, arrays = record_views(chain_dtype(n))
         for i, joint in enumerate(self.joints):
             X_BF = plant.CalcRelativeTransform(context, B, joint.frame_on_parent())
-            self._axes[i] = X_BF.rotation().matrix() @ joint.revolute_axis()
-            self._points[i] = X_BF.translation()
+            arrays["axes"][i] = X_BF.rotation().matrix() @ joint.revolute_axis()
+            arrays["points"][i] = X_BF.translation()
         X_BE = plant.CalcRelativeTransform(context, B, E)
-        self._M_R, self._M_p = X_BE.rotation().matrix().copy(), X_BE.translation().copy()
-        self._gravity_B = np.array(gravity_B, dtype=float).reshape(3)
-        self._zeros = np.zeros(n)
-        self.R, self.p, self.J = np.eye(3), np.zeros(3), np.zeros((6, n))
-        self.motion, self._work = np.zeros(MOTION_SIZE), np.zeros((n, 6))
+        arrays["M_R"][:], arrays["M_p"][:] = X_BE.rotation().matrix(), X_BE.translation()
+        arrays["gravity_B"][:] = np.array(gravity_B, dtype=float).reshape(3)
+        arrays["R"][:] = np.eye(3)
+        self._arrays = arrays
+        self.R, self.p, self.J, self.motion = arrays["R"], arrays["p"], arrays["J"], arrays["motion"]
 
     @property
     def num_joints(self) -> int:
         return len(self.joints)
 
-    def kernel_arrays(self) -> tuple:
-        """(axes, points, M_R, M_p, gravity_B, R, p, J, motion, work): the chain's arrays as
-        ``chain_kinematics`` takes them, for a kernel that calls it (updated in place, as ``update`` does)."""
-        return (self._axes, self._points, self._M_R, self._M_p, self._gravity_B, self.R, self.p, self.J, self.motion,
-                self._work)
-
     def update(self, q, qd=None, qdd=None) -> None:
         """Evaluates the chain at joint positions ``q`` (rad), velocities ``qd`` (rad/s; default 0) and
         accelerations ``qdd`` (rad/s²; default 0), each (n,)."""
-        qd = self._zeros if qd is None else float_array(qd)
-        qdd = self._zeros if qdd is None else float_array(qdd)
-        chain_kinematics(self._axes, self._points, self._M_R, self._M_p, float_array(q), qd, qdd,
-                         self._gravity_B, self.R, self.p, self.J, self.motion, self._work)
+        a = self._arrays
+        chain_kinematics(a["axes"], a["points"], a["M_R"], a["M_p"], float_array(q),
+                         a["zeros"] if qd is None else float_array(qd), a["zeros"] if qdd is None else float_array(qdd),
+                         a["gravity_B"], self.R, self.p, self.J, self.motion, a["work"])
+
+
+def chain_dtype(n: int) -> np.dtype:
+    """The record of a chain of ``n`` joints (``SerialChain.record``): ``chain_kinematics``' arrays by name
+    (``axes``, ``points``, ``M_R``, ``M_p``, ``gravity_B``, ``R``, ``p``, ``J``, ``motion``, ``work``) and
+    ``zeros`` (n: q̇ and q̈ when not given)."""
+    return np.dtype([("axes", float, (n, 3)), ("points", float, (n, 3)), ("M_R", float, (3, 3)), ("M_p", float, 3),
+                     ("gravity_B", float, 3), ("R", float, (3, 3)), ("p", float, 3), ("J", float, (6, n)),
+                     ("motion", float, MOTION_SIZE), ("work", float, (n, 6)), ("zeros", float, n)])

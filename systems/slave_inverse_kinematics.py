@@ -6,7 +6,7 @@ import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import EventStatus, LeafSystem
 
-from heft.systems.compiled import compiled, float_array
+from heft.systems.compiled import compiled, float_array, record_views
 from heft.systems.pose_vectors import POSE_SIZE, rotation_into
 from heft.systems.rx_inverse_kinematics import NON_FINITE, UNREACHABLE, WORK_ROWS, RxKinematics, nearest_solution
 from heft.systems.slave_kinematics import NUM_JOINTS
@@ -65,25 +65,33 @@ def ik_step(dh, lower, upper, velocity, band, pose, R_TF, p_TF, q_last, dt, comm
 
 class IkStep:
     """``ik_step`` for one arm and tool frame, its scratch preallocated: a call allocates nothing.
+    Its arguments besides the pose, the commands and dt live in ``record`` (``IK_STEP``), which a
+    kernel that calls ``ik_step`` takes.
 
     ``X_TF``: the flange F in the tool frame T."""
 
     def __init__(self, kinematics: RxKinematics, X_TF: RigidTransform):
-        self._dh, self._lower, self._upper = kinematics.dh, kinematics.lower, kinematics.upper
-        self._velocity, self._band = kinematics.velocity, kinematics.wrist_band
-        self._R_TF, self._p_TF = X_TF.rotation().matrix().copy(), X_TF.translation().copy()
-        self._work = np.zeros((STEP_WORK_ROWS, 6))
-
-    def kernel_arrays(self) -> tuple:
-        """(dh, lower, upper, velocity, band, R_TF, p_TF, work): ``ik_step``'s arguments besides the
-        pose, the commands and dt, in its order, for a kernel that calls it."""
-        return (self._dh, self._lower, self._upper, self._velocity, self._band, self._R_TF, self._p_TF, self._work)
+        self.record, self._arrays = record_views(IK_STEP)
+        arrays = self._arrays
+        arrays["dh"][:], arrays["lower"][:], arrays["upper"][:] = kinematics.dh, kinematics.lower, kinematics.upper
+        arrays["velocity"][:] = kinematics.velocity
+        self.record["band"] = kinematics.wrist_band
+        self._band = float(kinematics.wrist_band)
+        arrays["R_TF"][:], arrays["p_TF"][:] = X_TF.rotation().matrix(), X_TF.translation()
 
     def __call__(self, pose: np.ndarray, q_last: np.ndarray, dt: float, command: np.ndarray) -> int:
         """``ik_step``'s status; ``command`` (6, rad) written, from ``q_last`` (6, rad) toward the desired
         tool pose vector ``pose`` (7, X_RT*) over ``dt`` s. The arrays: float64, writeable (``float_array``)."""
-        return ik_step(self._dh, self._lower, self._upper, self._velocity, self._band, pose, self._R_TF,
-                       self._p_TF, q_last, dt, command, self._work)
+        a = self._arrays
+        return ik_step(a["dh"], a["lower"], a["upper"], a["velocity"], self._band, pose,
+                       a["R_TF"], a["p_TF"], q_last, dt, command, a["work"])
+
+
+IK_STEP = np.dtype([("dh", float, 5), ("lower", float, NUM_JOINTS), ("upper", float, NUM_JOINTS),
+                    ("velocity", float, NUM_JOINTS), ("band", float), ("R_TF", float, (3, 3)), ("p_TF", float, 3),
+                    ("work", float, (STEP_WORK_ROWS, 6))])
+"""``IkStep.record``: ``ik_step``'s arguments for one arm (``RxKinematics``' ``dh``, ``lower``, ``upper``,
+``velocity`` and ``wrist_band`` as ``band``) and tool frame (``R_TF``, ``p_TF``), and its scratch ``work``."""
 
 
 class SlaveInverseKinematics(LeafSystem):
