@@ -48,12 +48,15 @@ def module_netns():
 
 
 class FakeClock:
-    """A monotonic clock (s) that only the test, and the sleeps of the code under test, advance."""
+    """A monotonic clock (s) that only the test, the sleeps of the code under test and, by ``per_read``
+    s, each reading advance."""
 
-    def __init__(self):
-        self.t = 100.0
+    def __init__(self, per_read: float = 0.0):
+        self.t, self.per_read, self.reads = 100.0, per_read, 0
 
     def __call__(self) -> float:
+        self.t += self.per_read
+        self.reads += 1
         return self.t
 
     def sleep(self, seconds: float) -> None:

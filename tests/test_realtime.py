@@ -9,7 +9,9 @@ import sys
 
 import pytest
 
-from heft.diagrams.running.realtime import run_realtime, timing_summary
+from heft.diagrams.running.realtime import MAX_DUTY, SPIN, run_realtime, timing_summary
+
+from conftest import FakeClock
 
 PERIOD = 0.001
 
@@ -23,7 +25,7 @@ def test_a_stall_skips_the_overrun_ticks_and_the_next_tick_sees_it(fake_clock):
         if len(ticks) == 6:
             clock.t += 0.0036  # this tick stalls: it ends 3.7 ms after it began
 
-    times = run_realtime(tick, PERIOD, 0.0195, clock=clock, sleep=clock.sleep)
+    times = run_realtime(tick, PERIOD, 0.0195, clock=clock, sleep=clock.sleep, spin=0.0)
     starts = [round(now / PERIOD, 6) for now, _ in ticks]
     assert starts == [0, 1, 2, 3, 4, 5, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19]
     assert times.skipped == 3
@@ -40,15 +42,36 @@ def test_a_small_overrun_delays_the_next_tick_instead_of_skipping_it(fake_clock)
         starts.append(now)
         clock.t += 0.0012 if len(starts) == 3 else 0.0001  # the third tick overruns by 0.2 periods
 
-    times = run_realtime(tick, PERIOD, 0.0055, clock=clock, sleep=clock.sleep)
+    times = run_realtime(tick, PERIOD, 0.0055, clock=clock, sleep=clock.sleep, spin=0.0)
     assert times.skipped == 0
     assert [round(t / PERIOD, 6) for t in starts] == [0, 1, 2, 3.2, 4, 5]
 
 
 def test_a_tick_that_asks_to_stop_ends_the_loop(fake_clock):
     clock = fake_clock
-    times = run_realtime(lambda now, dt: now >= 0.0045, PERIOD, 1.0, clock=clock, sleep=clock.sleep)
+    times = run_realtime(lambda now, dt: now >= 0.0045, PERIOD, 1.0, clock=clock, sleep=clock.sleep, spin=0.0)
     assert len(times.wall) == 6 and times.skipped == 0
+
+
+def test_the_last_part_of_a_period_is_waited_busy_within_the_duty_limit():
+    clock, sleeps, work = FakeClock(per_read=1e-6), [], [0.0001] * 4 + [0.0007] * 3
+    todo = list(work)
+
+    def sleep(seconds):
+        sleeps.append(seconds)
+        clock.sleep(seconds)
+
+    def tick(now, dt):
+        clock.t += todo.pop(0)
+        return not todo
+
+    times = run_realtime(tick, PERIOD, 1.0, clock=clock, sleep=sleep, spin=SPIN)
+    assert len(times.wall) == 7 and times.skipped == 0 and len(sleeps) == 6
+    # After a 0.1 ms tick the loop wakes SPIN periods early and waits busy; after a 0.7 ms tick only
+    # MAX_DUTY − 0.7 of a period is left to it; every tick still starts on its grid point.
+    busy = [PERIOD - spent - slept for spent, slept in zip(work, sleeps)]
+    assert busy == pytest.approx([SPIN * PERIOD] * 4 + [(MAX_DUTY - 0.7) * PERIOD] * 2, abs=2e-5)
+    assert max(times.lateness) < 5e-6
 
 
 def test_a_period_that_is_not_positive_is_refused():

@@ -44,6 +44,8 @@ from heft.hardware_interface.hardware_station import WATCHED_CHANNELS, HardwareS
 from heft.hardware_interface.lcm_mailbox import open_buses
 from heft.hardware_interface.load_commands import LoadCommandServer
 from heft.hardware_interface.teleop_state import TeleopStatePublisher
+from heft.systems.compiled import compiled
+from heft.systems.load_dynamics import wrench_norms
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
 PHI_SAMPLE_PERIOD = 0.01
@@ -88,13 +90,11 @@ class HardwareTeleop:
         self.now = 0.0
         """The last tick's time (s)."""
         self._was_healthy = False
-        self._last_position = None
         self.ticks = self.healthy_ticks = 0
         self.first_healthy = None
         self.faults = []
-        self.torque_finite = True
-        self.torque_peak = self.stylus_force_peak = self.stylus_torque_peak = 0.0
-        self.max_slave_step = self.max_reanchor_step = 0.0
+        self._peaks = np.zeros(PEAKS_SIZE)
+        self._last_position = np.full(NUM_JOINTS, np.nan)  # the last slave command sent (NaN before the first)
         self.reanchors = 0
         self.master_commands = self.slave_commands = 0
         self.conflicts = []
@@ -145,16 +145,6 @@ class HardwareTeleop:
                                 "ages_ms": [round(1e3 * float(a), 3) for a in station.ages], "recovered": None})
         if station.conflicts != self._conflicts:
             self._observe_conflicts(now)
-        torque = station.torque_sent.tolist()
-        if not math.isfinite(sum(torque)):
-            self.torque_finite = False
-        elif healthy:
-            self.torque_peak = max(self.torque_peak, max(torque), -min(torque))
-            # The wrench on the hand the sent torques render: the gain times the one applied.
-            fx, fy, fz, tx, ty, tz = self.controller.applied_wrench.tolist()
-            self.stylus_force_peak = max(self.stylus_force_peak, station.gain * math.sqrt(fx * fx + fy * fy + fz * fz))
-            self.stylus_torque_peak = max(self.stylus_torque_peak,
-                                          station.gain * math.sqrt(tx * tx + ty * ty + tz * tz))
         estimator = self.controller.estimator
         if estimator is not None and now >= self._next_phi_sample and len(self.phi_history) < MAX_PHI_SAMPLES:
             self._next_phi_sample = now + PHI_SAMPLE_PERIOD
@@ -162,16 +152,41 @@ class HardwareTeleop:
         position = station.position_sent
         if position is not None:
             self.slave_commands += 1
-            position = position.tolist()
-            step = 0.0 if self._last_position is None else max(abs(a - b) for a, b in
-                                                                 zip(position, self._last_position))
-            if station.reanchored:  # the command set to where the arm is: a hold, not a move
-                if station.healthy:  # a start (the first healthy tick, a recovery), not a hold before it
-                    self.reanchors += 1
-                self.max_reanchor_step = max(self.max_reanchor_step, step)
-            else:
-                self.max_slave_step = max(self.max_slave_step, step)
-            self._last_position = position
+            if station.reanchored and station.healthy:  # a start (the first healthy tick, a recovery)
+                self.reanchors += 1
+        command_peaks(self._peaks, station.torque_sent, self.controller.applied_wrench, station.gain, healthy,
+                      self._zero if position is None else position, position is not None, station.reanchored,
+                      self._last_position)
+
+    @property
+    def torque_finite(self) -> bool:
+        """Every master torque sent so far was finite."""
+        return not self._peaks[TORQUE_NOT_FINITE]
+
+    @property
+    def torque_peak(self) -> float:
+        """The largest master joint torque sent while healthy (N·m)."""
+        return float(self._peaks[TORQUE_PEAK])
+
+    @property
+    def stylus_force_peak(self) -> float:
+        """The largest force the sent torques render on the hand (N): the gain times the wrench applied."""
+        return float(self._peaks[STYLUS_FORCE_PEAK])
+
+    @property
+    def stylus_torque_peak(self) -> float:
+        """The largest torque the sent torques render on the hand (N·m)."""
+        return float(self._peaks[STYLUS_TORQUE_PEAK])
+
+    @property
+    def max_slave_step(self) -> float:
+        """The largest change of a slave joint's command between two sends (rad), holds and starts aside."""
+        return float(self._peaks[SLAVE_STEP])
+
+    @property
+    def max_reanchor_step(self) -> float:
+        """The largest change of a slave joint's command when it was set to the measured position (rad)."""
+        return float(self._peaks[REANCHOR_STEP])
 
     def _observe_conflicts(self, now: float) -> None:
         """Opens an entry of ``conflicts`` for each channel whose second publisher was just found,
@@ -233,6 +248,41 @@ class HardwareTeleop:
             summary |= {"samples_since_new_load": estimator.num_samples, "skipped": estimator.num_skipped,
                         "stale_since_new_load": estimator.num_stale, "phi_history": self.phi_history}
         return summary
+
+
+TORQUE_NOT_FINITE, TORQUE_PEAK, STYLUS_FORCE_PEAK, STYLUS_TORQUE_PEAK, SLAVE_STEP, REANCHOR_STEP = range(6)
+PEAKS_SIZE = 6
+"""What ``command_peaks`` keeps of the commands sent: a non-finite master torque seen (1), then the peaks."""
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64, boolean, float64[:], boolean, boolean, float64[:])")
+def command_peaks(peaks, torque_sent, applied_wrench, gain, healthy, position, has_position, reanchored,
+                  last_position) -> None:
+    """Updates ``peaks`` (``PEAKS_SIZE``) with one tick's commands: the master ``torque_sent`` (N·m) and,
+    while ``healthy``, the wrench it renders on the hand (``gain`` × the controller's ``applied_wrench``);
+    the slave command ``position`` (rad; if ``has_position``), whose largest joint change from
+    ``last_position`` (NaN before the first; then set to it) counts as a move, or as a re-anchoring when
+    the send set it to the measured position (``reanchored``)."""
+    total, largest = 0.0, 0.0
+    for j in range(torque_sent.shape[0]):
+        total += torque_sent[j]
+        largest = max(largest, abs(torque_sent[j]))
+    if not math.isfinite(total):
+        peaks[TORQUE_NOT_FINITE] = 1.0
+    elif healthy:
+        force, torque = wrench_norms(applied_wrench)
+        peaks[TORQUE_PEAK] = max(peaks[TORQUE_PEAK], largest)
+        peaks[STYLUS_FORCE_PEAK] = max(peaks[STYLUS_FORCE_PEAK], gain * force)
+        peaks[STYLUS_TORQUE_PEAK] = max(peaks[STYLUS_TORQUE_PEAK], gain * torque)
+    if not has_position:
+        return
+    step = 0.0
+    for j in range(position.shape[0]):
+        if not math.isnan(last_position[j]):
+            step = max(step, abs(position[j] - last_position[j]))
+        last_position[j] = position[j]
+    slot = REANCHOR_STEP if reanchored else SLAVE_STEP
+    peaks[slot] = max(peaks[slot], step)
 
 
 def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float, record=None,
