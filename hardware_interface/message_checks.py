@@ -15,7 +15,7 @@ import dataclasses
 
 import numpy as np
 
-from heft.systems.compiled import compiled, float_array
+from heft.systems.compiled import compiled
 
 REASONS = ("undecodable", "joint_count", "non_finite", "out_of_range", "stamped_ahead", "stamped_behind",
            "discontinuous", "out_of_order", "driver_error")
@@ -60,8 +60,8 @@ class DeviceLimits:
 
 class JointRange:
     """The positions and velocities one device's driver may report (``DeviceLimits`` widened by
-    the margins above: ``lower``, ``upper`` in rad, ``velocity`` in rad/s), and how far its joints
-    may move between two messages (``speed``, rad/s: ``continuous``)."""
+    the margins above: ``lower``, ``upper`` in rad, ``velocity`` in rad/s; ``joints_within``), and
+    how far its joints may move between two messages (``speed``, rad/s: ``joints_continuous``)."""
 
     def __init__(self, lower, upper, velocity):
         self.lower = np.asarray(lower, dtype=float) - POSITION_MARGIN
@@ -69,19 +69,11 @@ class JointRange:
         self.speed = np.array(velocity, dtype=float)
         self.velocity = VELOCITY_MARGIN * self.speed
 
-    def contains(self, position, velocity) -> bool:
-        """True if every joint's position and velocity are ones the device can report."""
-        return joints_within(float_array(position), float_array(velocity), self.lower, self.upper, self.velocity)
-
-    def continuous(self, previous, position, dt: float) -> bool:
-        """True if no joint moved from ``previous`` to ``position`` further than its speed limit
-        allows over ``dt`` s (plus ``JUMP_MARGIN``)."""
-        return joints_continuous(float_array(previous), float_array(position), self.speed, dt)
-
 
 @compiled("boolean(float64[:], float64[:], float64[:], float64[:], float64[:])")
 def joints_within(position, velocity, lower, upper, max_velocity) -> bool:
-    """``JointRange.contains`` with its arrays."""
+    """True if every joint's position (rad) and velocity (rad/s) are ones the device can report:
+    within [``lower``, ``upper``] and ±``max_velocity`` (a ``JointRange``'s)."""
     for j in range(position.shape[0]):
         if not (lower[j] <= position[j] <= upper[j] and -max_velocity[j] <= velocity[j] <= max_velocity[j]):
             return False
@@ -90,7 +82,8 @@ def joints_within(position, velocity, lower, upper, max_velocity) -> bool:
 
 @compiled("boolean(float64[:], float64[:], float64[:], float64)")
 def joints_continuous(previous, position, speed, dt) -> bool:
-    """``JointRange.continuous`` with its arrays."""
+    """True if no joint moved from ``previous`` to ``position`` (rad) further than its ``speed`` limit
+    (rad/s) allows over ``dt`` s, plus ``JUMP_MARGIN``."""
     for j in range(position.shape[0]):
         if abs(position[j] - previous[j]) > speed[j] * dt + JUMP_MARGIN:
             return False

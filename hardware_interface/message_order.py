@@ -158,15 +158,10 @@ def clock_on_probation(clock, now) -> bool:
 
 class SourceClock:
     """The clock of one channel's source (module docstring), which gives way to another after
-    ``silence`` s without a message: its state (``state``, for the readers' kernels) and the
-    functions above on it.
-
-    ``check(stamp, now)`` classifies a message's stamp without changing anything;
-    ``rejection(stamp, now)`` gives a reader the reason to reject it for, if any (counting a
-    foreign one). A reader that then accepts the message calls ``accept(stamp, now)``, one that
-    finds it foreign for another reason (a jump, a counter going back) calls
-    ``foreign(stamp, now)``. ``conflict(now)`` tells whether a second publisher is on the
-    channel, ``on_probation(now)`` whether a new source is still on probation;
+    ``silence`` s without a message: its ``state`` (for the readers' kernels, which call the
+    functions above on it) and, for a reader in Python, ``rejection(stamp, now)``: the reason to
+    reject a message for, if any (counting a foreign one), and ``accept(stamp, now)`` for one it
+    then accepts. ``conflict(now)`` tells whether a second publisher is on the channel;
     ``restarts`` counts the new sources after the first, ``offset`` is the source's clock
     offset (s), ``foreign_offset`` the last foreign message's (NaN before any)."""
 
@@ -185,28 +180,13 @@ class SourceClock:
     def restarts(self) -> int:
         return int(self.state[RESTARTS])
 
-    def check(self, stamp: float, now: float) -> int:
-        return clock_check(self.state, stamp, now)
-
     def rejection(self, stamp: float, now: float) -> str | None:
-        """None for a stamp ``check`` accepts; otherwise the reason (``message_checks.REASONS``)."""
+        """None for a stamp ``clock_check`` accepts; otherwise the reason (``message_checks.REASONS``)."""
         code = clock_rejection(self.state, stamp, now)
         return None if code == ACCEPT else REASONS[code]
-
-    def starts_source(self, now: float) -> bool:
-        return clock_starts_source(self.state, now)
-
-    def since_last(self, now: float) -> float:
-        return clock_since_last(self.state, now)
 
     def accept(self, stamp: float, now: float) -> None:
         clock_accept(self.state, stamp, now)
 
-    def foreign(self, stamp: float, now: float) -> None:
-        clock_foreign(self.state, stamp, now)
-
     def conflict(self, now: float) -> bool:
         return clock_conflict(self.state, now)
-
-    def on_probation(self, now: float) -> bool:
-        return clock_on_probation(self.state, now)

@@ -331,3 +331,16 @@ def test_teleop_uses_the_accelerometer_calibration_of_its_estimate(tmp_path, cap
     assert main(["teleop", "--hardware", "--scenario", "fig6", "--set", lab, "--estimate", str(estimate),
                  "--lcm-url", "memq://", "--duration", "0.05", "--rt-priority", "0"]) == 2
     assert "bias of 0.5 g is beyond any bias (0.25 g)" in capsys.readouterr().err
+
+
+def test_teleop_waits_busy_only_within_the_duty_limit(tmp_path, capsys):
+    """``--busy-wait`` beyond 0.8 of the period is refused before anything runs; within it, the run
+    says that its loop waited busy."""
+    lab = "{accelerometer: {position: [0.0, 0.0, 0.0]}, controller: {force: {mount_notch: 0}}}"
+    run = ["teleop", "--hardware", "--scenario", "fig6", "--set", lab, "--lcm-url", "memq://", "--duration", "0.05",
+           "--rt-priority", "0", "--out", str(tmp_path / "summary.json")]
+    assert main([*run, "--busy-wait", "0.9"]) == 2
+    assert "the busy wait is a share of the period from 0 to 0.8; got 0.9" in capsys.readouterr().err
+    assert not (tmp_path / "summary.json").exists()
+    assert main([*run, "--busy-wait", "0.3"]) == 0
+    assert "the last 0.3 of each period waited busy" in json.loads((tmp_path / "summary.json").read_text())["scheduling"]

@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from heft.diagrams.running.realtime import MAX_DUTY, SPIN, run_realtime, timing_summary
+from heft.diagrams.running.realtime import MAX_DUTY, run_realtime, timing_summary
 
 from conftest import FakeClock
 
@@ -25,7 +25,7 @@ def test_a_stall_skips_the_overrun_ticks_and_the_next_tick_sees_it(fake_clock):
         if len(ticks) == 6:
             clock.t += 0.0036  # this tick stalls: it ends 3.7 ms after it began
 
-    times = run_realtime(tick, PERIOD, 0.0195, clock=clock, sleep=clock.sleep, spin=0.0)
+    times = run_realtime(tick, PERIOD, 0.0195, clock=clock, sleep=clock.sleep)
     starts = [round(now / PERIOD, 6) for now, _ in ticks]
     assert starts == [0, 1, 2, 3, 4, 5, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19]
     assert times.skipped == 3
@@ -42,18 +42,18 @@ def test_a_small_overrun_delays_the_next_tick_instead_of_skipping_it(fake_clock)
         starts.append(now)
         clock.t += 0.0012 if len(starts) == 3 else 0.0001  # the third tick overruns by 0.2 periods
 
-    times = run_realtime(tick, PERIOD, 0.0055, clock=clock, sleep=clock.sleep, spin=0.0)
+    times = run_realtime(tick, PERIOD, 0.0055, clock=clock, sleep=clock.sleep)
     assert times.skipped == 0
     assert [round(t / PERIOD, 6) for t in starts] == [0, 1, 2, 3.2, 4, 5]
 
 
 def test_a_tick_that_asks_to_stop_ends_the_loop(fake_clock):
     clock = fake_clock
-    times = run_realtime(lambda now, dt: now >= 0.0045, PERIOD, 1.0, clock=clock, sleep=clock.sleep, spin=0.0)
+    times = run_realtime(lambda now, dt: now >= 0.0045, PERIOD, 1.0, clock=clock, sleep=clock.sleep)
     assert len(times.wall) == 6 and times.skipped == 0
 
 
-def test_the_last_part_of_a_period_is_waited_busy_within_the_duty_limit():
+def test_a_busy_wait_takes_the_last_part_of_a_period_within_the_duty_limit():
     clock, sleeps, work = FakeClock(per_read=1e-6), [], [0.0001] * 4 + [0.0007] * 3
     todo = list(work)
 
@@ -65,18 +65,20 @@ def test_the_last_part_of_a_period_is_waited_busy_within_the_duty_limit():
         clock.t += todo.pop(0)
         return not todo
 
-    times = run_realtime(tick, PERIOD, 1.0, clock=clock, sleep=sleep, spin=SPIN)
+    times = run_realtime(tick, PERIOD, 1.0, clock=clock, sleep=sleep, busy_wait=0.4)
     assert len(times.wall) == 7 and times.skipped == 0 and len(sleeps) == 6
-    # After a 0.1 ms tick the loop wakes SPIN periods early and waits busy; after a 0.7 ms tick only
+    # After a 0.1 ms tick the loop wakes 0.4 periods early and waits busy; after a 0.7 ms tick only
     # MAX_DUTY − 0.7 of a period is left to it; every tick still starts on its grid point.
     busy = [PERIOD - spent - slept for spent, slept in zip(work, sleeps)]
-    assert busy == pytest.approx([SPIN * PERIOD] * 4 + [(MAX_DUTY - 0.7) * PERIOD] * 2, abs=2e-5)
+    assert busy == pytest.approx([0.4 * PERIOD] * 4 + [(MAX_DUTY - 0.7) * PERIOD] * 2, abs=2e-5)
     assert max(times.lateness) < 5e-6
 
 
-def test_a_period_that_is_not_positive_is_refused():
+def test_a_period_that_is_not_positive_or_a_busy_wait_beyond_the_duty_limit_is_refused():
     with pytest.raises(ValueError, match="period"):
         run_realtime(lambda now, dt: True, 0.0, 1.0)
+    with pytest.raises(ValueError, match="busy wait is a share of the period from 0 to 0.8"):
+        run_realtime(lambda now, dt: True, 0.001, 1.0, busy_wait=0.9)
 
 
 LEAVE_LOOP_CPU = """

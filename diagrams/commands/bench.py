@@ -86,7 +86,7 @@ def _bench_lcm(args) -> int:
     from heft.diagrams.commands.bench_lcm import run
 
     rates = [float(r) for r in args.rates.split(",")]
-    results = run(rates, args.duration, args.scenario, scenario_from(args).lab.lcm)
+    results = run(rates, args.duration, args.scenario, scenario_from(args).lab.lcm, args.busy_wait)
     if args.out:
         Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
     return 0
@@ -150,6 +150,8 @@ def add_arguments(parser) -> None:
     lcm_parser.add_argument("--rates", default="2000,4000", help="controller rates to try (Hz, default 2000,4000)")
     lcm_parser.add_argument("--duration", type=float, default=5.0, help="controller seconds per rate (default 5)")
     lcm_parser.add_argument("--scenario", default="fig6", help="controller settings (default fig6)")
+    lcm_parser.add_argument("--busy-wait", type=float, default=0.0,
+                            help="the controller's `heft teleop --busy-wait` (default 0)")
     add_lcm_urls(lcm_parser)
     lcm_parser.add_argument("--out", help="write every number as JSON here")
     lcm_parser.set_defaults(bench=_bench_lcm)

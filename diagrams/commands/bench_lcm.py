@@ -235,9 +235,9 @@ def _url_arguments(channels) -> list[str]:
 
 
 def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder: Path, prefix,
-               estimator: str = "fixed") -> dict:
-    """One controller rate with the load ``estimator`` "fixed" or "online" (``ONLINE``): both processes,
-    then the latency statistics and the controller's timing."""
+               estimator: str = "fixed", busy_wait: float = 0.0) -> dict:
+    """One controller rate with the load ``estimator`` "fixed" or "online" (``ONLINE``) and its loop's
+    ``busy_wait``: both processes, then the latency statistics and the controller's timing."""
     import yaml
 
     from heft.diagrams.commands.options import lab_settings_text
@@ -255,7 +255,7 @@ def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder:
     teleop = subprocess.Popen(
         [*python, "-m", "heft.diagrams.cli", "teleop", "--hardware", *_url_arguments(channels), "--scenario", scenario,
          "--set", yaml.safe_dump(settings, default_flow_style=True), "--rate", str(rate_hz),
-         "--duration", str(duration + SETTLE),
+         "--busy-wait", str(busy_wait), "--duration", str(duration + SETTLE),
          "--out", str(summary_path)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
     probe = subprocess.Popen(
@@ -293,9 +293,10 @@ def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder:
     }
 
 
-def bench_stand_in(rate_hz: float, duration: float, channels, scenario: str, folder: Path, prefix) -> dict:
-    """The controller at ``rate_hz`` against ``heft stand-in`` for ``duration`` s of wall time:
-    messages per wall second each way, as each side counted them."""
+def bench_stand_in(rate_hz: float, duration: float, channels, scenario: str, folder: Path, prefix,
+                   busy_wait: float = 0.0) -> dict:
+    """The controller at ``rate_hz`` (its loop's ``busy_wait``) against ``heft stand-in`` for ``duration`` s
+    of wall time: messages per wall second each way, as each side counted them."""
     from heft.diagrams.commands.options import lab_settings_text
     from heft.diagrams.scenario import resolve_scenario
 
@@ -308,7 +309,7 @@ def bench_stand_in(rate_hz: float, duration: float, channels, scenario: str, fol
     teleop = subprocess.Popen(
         [*cli, "teleop", "--hardware", *_url_arguments(channels), "--scenario", scenario,
          "--set", lab_settings_text(resolve_scenario(scenario)), "--rate", str(rate_hz),
-         "--duration", str(duration), "--out", str(teleop_path)],
+         "--busy-wait", str(busy_wait), "--duration", str(duration), "--out", str(teleop_path)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
     _finish({"teleop": (teleop, duration + 120), "stand-in": (stand_in, duration + 120)})
     controller, lab = json.loads(teleop_path.read_text()), json.loads(stand_in_path.read_text())
@@ -334,21 +335,24 @@ def _print_stand_in(result: dict) -> None:
           f"{controller['healthy_ticks']} of {controller['ticks']} ticks; {len(controller['faults'])} faults")
 
 
-def run(rates, duration: float, scenario: str, channels) -> dict:
+def run(rates, duration: float, scenario: str, channels, busy_wait: float = 0.0) -> dict:
     """Benchmarks every rate in ``rates`` (Hz) against the probe, then the first against the
-    stand-in; prints tables; returns the numbers."""
+    stand-in, the controller's loop waiting ``busy_wait`` of each period busy; prints tables; returns
+    the numbers."""
     prefix, cleanup = _namespace()
     where = "a private network namespace" if prefix else "this host's network"
     print(f"bench lcm: controller (heft teleop --hardware) and driver probe as two processes on {channels.lcm_url} "
           f"(commands on {channels.command_lcm_url()}), in "
-          f"{where}; {duration:g} s per rate, a {STEP_FORCE:g} N sensor step every {STEP_PERIOD:g} s", flush=True)
+          f"{where}; {duration:g} s per rate, a {STEP_FORCE:g} N sensor step every {STEP_PERIOD:g} s"
+          + (f"; the controller waits the last {busy_wait:g} of each period busy" if busy_wait else ""), flush=True)
     results = []
     try:
         with tempfile.TemporaryDirectory() as folder:
             for rate in rates:
                 for estimator in ESTIMATORS:
-                    results.append(bench_rate(rate, duration, channels, scenario, Path(folder), prefix, estimator))
-            stand_in = bench_stand_in(rates[0], duration, channels, scenario, Path(folder), prefix)
+                    results.append(bench_rate(rate, duration, channels, scenario, Path(folder), prefix, estimator,
+                                              busy_wait))
+            stand_in = bench_stand_in(rates[0], duration, channels, scenario, Path(folder), prefix, busy_wait)
     finally:
         cleanup()
     print(f"{'rate (Hz)':>10s}{'estimator':>10s}{'sustained (Hz)':>16s}{'ratio':>7s}{'skipped':>9s}"
@@ -376,7 +380,7 @@ def run(rates, duration: float, scenario: str, channels) -> dict:
         rate, updated = fixed["rate_hz"], 100 * online["estimator_updates_per_tick"]
         print(f"estimator online at {rate:g} Hz (updated on {updated:.0f} % of ticks), against fixed: {costs}")
     _print_stand_in(stand_in)
-    return {"duration_s": duration, "network": where, "results": results, "stand_in": stand_in}
+    return {"duration_s": duration, "network": where, "busy_wait": busy_wait, "results": results, "stand_in": stand_in}
 
 
 if __name__ == "__main__":

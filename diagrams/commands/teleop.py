@@ -33,16 +33,22 @@ def add_arguments(parser) -> None:
     parser.add_argument("--record", help="record the LCM traffic to this file (lcm-logger format, for lcm-logplayer)")
     parser.add_argument("--rt-priority", type=int, default=50,
                         help="SCHED_FIFO priority of the control loop, pinned to the last CPU (default 50; 0: normal)")
+    parser.add_argument("--busy-wait", type=float, default=0.0,
+                        help="share of each period before a tick that the control loop waits busy instead of "
+                             "asleep (0 to 0.8, default 0): a shorter tick tail where a sleeping CPU wakes late, "
+                             "at the cost of that CPU time, which drivers on the same machine then lack")
 
 
 def run(args) -> int:
     from heft.diagrams.running.hardware_teleop import format_summary, run_hardware_teleop
+    from heft.diagrams.running.realtime import check_busy_wait
     from heft.diagrams.load_estimate import LoadEstimate, read_load_estimate
     from heft.diagrams.scenario import overrides_text
     from heft.systems.accelerometer_reading import PLAUSIBLE_BIAS
 
     if not args.hardware:
         raise ValueError("only --hardware is supported here; use `heft simulate` for the simulated station")
+    check_busy_wait(args.busy_wait)
     scenario = scenario_from(args)  # first: it names a malformed file, flag or --set
     require_lab_settings(args, "accelerometer.position", "controller.force.mount_notch")
     estimate = args.estimate or scenario.controller.load_estimate
@@ -66,7 +72,8 @@ def run(args) -> int:
     print(f"teleop: controller on {channels.lcm_url} (commands on {channels.command_lcm_url()}) at "
           f"{1.0 / scenario.controller_period:g} Hz for {args.duration:g} s of wall time; watchdog timeout "
           f"{scenario.lab.station.watchdog.timeout:g} s", flush=True)
-    summary = run_hardware_teleop(scenario, load, args.duration, record=args.record, priority=args.rt_priority)
+    summary = run_hardware_teleop(scenario, load, args.duration, record=args.record, priority=args.rt_priority,
+                                  busy_wait=args.busy_wait)
     print(format_summary(summary, channels.lcm_url), flush=True)
     if args.out:
         Path(args.out).write_text(json.dumps(summary, indent=2) + "\n")

@@ -286,14 +286,15 @@ def command_peaks(peaks, torque_sent, applied_wrench, gain, healthy, position, h
 
 
 def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float, record=None,
-                        priority: int = 50) -> dict:
+                        priority: int = 50, busy_wait: float = 0.0) -> dict:
     """Runs ``HardwareTeleop`` on the scenario's lab (``scenario.lab``: the LCM channels' two URLs,
     ``open_buses``, and the station's watchdog) at its rate (``controller_period``) for
     ``duration`` s of wall time, with real-time ``priority`` (``claim_realtime``: after the
     recorder's loggers start, which keep normal scheduling, and before the buses open, so that
     LCM's receive thread shares it; then ``keep_cpu_for_loop`` moves that thread off the loop's
     CPU); returns its summary with ``timing`` (``timing_summary``), ``scheduling``, ``lcm_log``
-    and ``epoch`` (wall-clock s since the Unix epoch at the loop's time 0).
+    and ``epoch`` (wall-clock s since the Unix epoch at the loop's time 0). ``busy_wait``: the share of
+    each period before a tick that the loop waits busy (``run_realtime``).
     SIGINT (Ctrl-C) or SIGTERM end the run early as its duration does: the station's
     last commands turn the forces off and hold the slave (``HardwareStation.stop``).
     ``record``: a path to record the LCM traffic to (``lcm-logger`` format), or None."""
@@ -317,11 +318,14 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float,
             placement = keep_cpu_for_loop()
             scheduling += f"; {placement}"
             print(f"teleop: {placement}", flush=True)
+        if busy_wait:
+            scheduling += f"; the last {busy_wait:g} of each period waited busy"
         teleop.station.epoch = time.time()
         with StopOnSignal() as stop:
             print("teleop: running (Ctrl-C stops with forces off and the slave held)", flush=True)
             try:
-                times = run_realtime(lambda now, dt: teleop.tick(now, dt) or stop.requested, 1.0 / rate, duration)
+                times = run_realtime(lambda now, dt: teleop.tick(now, dt) or stop.requested, 1.0 / rate, duration,
+                                     busy_wait=busy_wait)
                 summary = teleop.summary(times.elapsed)
             finally:
                 teleop.station.stop(teleop.now)

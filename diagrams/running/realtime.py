@@ -2,8 +2,8 @@
 
 ``run_realtime`` calls ``tick(now, dt)`` on the grid t0 + k·period of a monotonic
 clock (s): ``now`` is the clock's reading at the tick (s since the loop began),
-``dt`` the measured time since the previous tick. It sleeps between ticks but for
-the last part of each period, which it waits busy (``SPIN``, ``MAX_DUTY``). A tick that overruns its period
+``dt`` the measured time since the previous tick. It sleeps between ticks, or, if
+asked, waits the last part of each period busy (``MAX_DUTY``). A tick that overruns its period
 delays the next one by up to half a period (``LATE_TOLERANCE``); grid points it
 overran by more are skipped, never replayed, so after a stall the loop resumes at
 the next grid point with one tick whose ``dt`` says how long the stall was.
@@ -27,16 +27,11 @@ import numpy as np
 
 LATE_TOLERANCE = 0.5
 """A tick may start up to this many periods after its grid point; later than that it is skipped."""
-SPIN = 0.4
-"""The share of the period before each tick that the loop waits busy instead of asleep: a CPU that
-slept for most of the period wakes late and runs the tick slower (``heft bench lcm`` at 2 kHz here,
-three runs each way: tick p99 228–273 µs against 254–345 µs asleep, sensor → command latency p99
-0.19–0.53 against 0.71–1.25 ms, 26–48 ticks skipped in 5 s against 34–179)."""
 MAX_DUTY = 0.8
-"""The busy wait shortens so that it and the last tick take at most this share of a period: a
-``SCHED_FIFO`` loop busy beyond Linux's real-time budget (95 % of each second) is stopped by the
-kernel for tens of milliseconds (a 4 kHz loop of 190 µs ticks with a 100 µs busy wait: 47 ms
-stalls and 1–6 watchdog faults in 5 s)."""
+"""A busy wait (``run_realtime``'s ``busy_wait``) shortens so that it and the last tick take at most
+this share of a period: a ``SCHED_FIFO`` loop busy beyond Linux's real-time budget (95 % of each
+second) is stopped by the kernel for tens of milliseconds (a 4 kHz loop of 190 µs ticks with a
+100 µs busy wait: 47 ms stalls and 1–6 watchdog faults in 5 s)."""
 
 
 class HardwareRunFailed(RuntimeError):
@@ -57,15 +52,22 @@ class TickTimes:
     period: float
 
 
+def check_busy_wait(busy_wait: float) -> None:
+    """Raises ValueError unless ``busy_wait`` is a share of the period from 0 to ``MAX_DUTY``."""
+    if not 0.0 <= busy_wait <= MAX_DUTY:
+        raise ValueError(f"the busy wait is a share of the period from 0 to {MAX_DUTY:g}; got {busy_wait}")
+
+
 def run_realtime(tick, period: float, duration: float, clock=time.perf_counter, sleep=time.sleep,
-                 spin: float = SPIN) -> TickTimes:
+                 busy_wait: float = 0.0) -> TickTimes:
     """Runs ``tick(now, dt)`` every ``period`` s of ``clock`` for ``duration`` s, or until it
-    returns True. ``clock`` must be monotonic (s); ``sleep(s)`` waits, the last ``spin`` of a period
-    before each tick (``SPIN``, within ``MAX_DUTY``) is waited busy on ``clock``. The cyclic garbage
+    returns True. ``clock`` must be monotonic (s); ``sleep(s)`` waits, but for the last ``busy_wait``
+    of a period (a share, within ``MAX_DUTY``) before each tick, waited busy on ``clock``. The cyclic garbage
     collector is off during the loop (reference counting frees what a tick makes; a pass
     over the heap would stall a tick for milliseconds) and collects once at its end."""
     if not (math.isfinite(period) and period > 0):
         raise ValueError(f"period must be a positive number of seconds; got {period}")
+    check_busy_wait(busy_wait)
     capacity = int(duration / period) + 2
     wall, cpu, lateness = np.empty(capacity), np.empty(capacity), np.empty(capacity)
     gc.collect()
@@ -89,7 +91,7 @@ def run_realtime(tick, period: float, duration: float, clock=time.perf_counter, 
             stop = tick(now, now - last if ticks else 0.0)
             done = clock() - start
             wall[ticks], cpu[ticks], lateness[ticks] = done - now, time.thread_time() - c0, now - due
-            busy_before = min(spin * period, max(0.0, MAX_DUTY * period - wall[ticks]))
+            busy_before = min(busy_wait * period, max(0.0, MAX_DUTY * period - wall[ticks]))
             ticks += 1
             last = now
             if stop:
