@@ -21,10 +21,10 @@ from heft.hardware_interface.message_order import (SourceClock, clock_accept, cl
                                                    clock_starts_source)
 
 
-# The reader's memory: the station time of the last good sample (s; −inf before the first), its utime
-# (µs on the driver's clock) and counter, the flags of the newest sample in order of the last take
-# (non-finite, saturated, error), and whether this take has yet to meet a sample in order.
-T_GOOD, UTIME, COUNTER, NON_FINITE_FLAG, SATURATED_FLAG, ERROR_FLAG, NEWEST = range(7)
+# The reader's memory: the last good sample's utime (µs on the driver's clock) and counter, the flags of
+# the newest sample in order of the last take (non-finite, saturated, error), and whether this take has
+# yet to meet a sample in order.
+UTIME, COUNTER, NON_FINITE_FLAG, SATURATED_FLAG, ERROR_FLAG, NEWEST = range(6)
 
 
 class FtSampleReader:
@@ -54,14 +54,14 @@ class FtSampleReader:
         force a − g and α (``accelerometer_reading`` converts it where g_S is known)."""
         self.rejections = Rejections()
         self.clock = SourceClock(silence)
-        self._memory = np.array([-math.inf, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0])
+        self._memory = np.array([0.0, -1.0, 0.0, 0.0, 0.0, 1.0])
         self._arguments = (ONE_FINGERPRINT, BLOCK_FINGERPRINT, OFFSETS, SAMPLE_BYTES, self.clock.state, self._memory,
                            RANGE_MARGIN * np.asarray(full_scale, dtype=float), self.wrench, self.acceleration,
                            np.zeros(12), self.rejections.by_code)
 
     @property
     def t_good(self) -> float:
-        return float(self._memory[T_GOOD])
+        return self.clock.last_accept
 
     @property
     def utime(self) -> int:
@@ -131,7 +131,7 @@ def _kept(payload, k, now, row, sample_bytes, clock, memory, limits, wrench_out,
     if saturated != 0:
         return False
     clock_accept(clock, stamp, now)
-    memory[COUNTER], memory[T_GOOD], memory[UTIME] = counter, now, utime
+    memory[COUNTER], memory[UTIME] = counter, utime
     for i in range(6):  # the sign flip of docs/design.md §4: sensor-on-load = −(load-on-sensor)
         wrench_out[i] = -scratch[i]
         acceleration_out[i] = scratch[6 + i]

@@ -36,10 +36,13 @@ class GripperStateReader:
     def __init__(self, silence: float):
         self.state = None
         self.holding = False
-        self.t_good = -math.inf
         self.rejections = Rejections()
         self.clock = SourceClock(silence)
         self._events = []
+
+    @property
+    def t_good(self) -> float:
+        return self.clock.last_accept
 
     def take(self, payloads, now: float) -> list[str]:
         """Checks ``payloads`` (bytes, oldest first) read at station time ``now`` (s), in order; returns
@@ -68,7 +71,6 @@ class GripperStateReader:
         if msg.state not in STATES or not 0.0 <= msg.width <= MAX_WIDTH:
             return "out_of_range"
         clock.accept(stamp, now)
-        self.t_good = now
         holding = self.holding
         if msg.state == heft_gripper_state.HOLDING:
             holding = True

@@ -215,7 +215,7 @@ class HardwareStation:
         self.ages = np.full(len(WATCHED_CHANNELS), math.inf)
         self.healthy, self.gain, self.fault = False, 0.0, (1 << len(WATCHED_CHANNELS)) - 1
         self._last_tick = None
-        # The gate's memory (``gate_into``), the published slave command, the hold latched at a fault.
+        # The gate's memory (``gate_position_into``), the published slave command, the hold latched at a fault.
         self._gate = np.zeros(3)
         self._position, self._hold = np.zeros(NUM_JOINTS), np.zeros(NUM_JOINTS)
         self._last_send = None

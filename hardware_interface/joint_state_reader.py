@@ -31,9 +31,8 @@ NOT_OF_LAYOUT = -2
 # Where a type carries the state (``JointStateFields.at``): the message's size, then the byte offsets of
 # utime, num_joints, the positions, the velocities, the error flag and the buttons (−1: none).
 SIZE, UTIME, COUNT, POSITION, VELOCITY, ERROR, BUTTONS = range(7)
-# The reader's memory: the last accepted stamp (s, the driver's clock), the station time it was accepted
-# at (s; −inf before the first), its buttons and its utime (µs).
-STAMP, T_GOOD, BUTTON_BITS, STAMP_UTIME = range(4)
+# The reader's memory: the last accepted stamp (s, the driver's clock), its buttons and its utime (µs).
+STAMP, BUTTON_BITS, STAMP_UTIME = range(3)
 
 
 class JointStateFields:
@@ -77,14 +76,14 @@ class JointStateReader:
         self.position, self.velocity = np.zeros(NUM_JOINTS), np.zeros(NUM_JOINTS)
         self.rejections = Rejections()
         self.clock = SourceClock(silence)
-        self._memory = np.array([0.0, -math.inf, 0.0, 0.0])
+        self._memory = np.zeros(3)
         self._arguments = (fields.fingerprint, fields.at, self.clock.state, self._memory, joint_range.lower,
                            joint_range.upper, joint_range.velocity, joint_range.speed, self.position, self.velocity,
                            np.zeros(2 * NUM_JOINTS), self.rejections.by_code)
 
     @property
     def t_good(self) -> float:
-        return float(self._memory[T_GOOD])
+        return self.clock.last_accept
 
     @property
     def buttons(self) -> int:
@@ -145,7 +144,7 @@ def _rejection(payload, now, at, clock, memory, lower, upper, max_velocity, spee
         clock_foreign(clock, stamp, now)
         return DISCONTINUOUS
     clock_accept(clock, stamp, now)
-    memory[STAMP], memory[T_GOOD], memory[STAMP_UTIME] = stamp, now, utime
+    memory[STAMP], memory[STAMP_UTIME] = stamp, utime
     memory[BUTTON_BITS] = wire_int(payload, at[BUTTONS], 4) if at[BUTTONS] >= 0 else 0
     for j in range(NUM_JOINTS):
         position[j] = q[j]

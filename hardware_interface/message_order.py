@@ -163,7 +163,8 @@ class SourceClock:
     reject a message for, if any (counting a foreign one), and ``accept(stamp, now)`` for one it
     then accepts. ``conflict(now)`` tells whether a second publisher is on the channel;
     ``restarts`` counts the new sources after the first, ``offset`` is the source's clock
-    offset (s), ``foreign_offset`` the last foreign message's (NaN before any)."""
+    offset (s), ``foreign_offset`` the last foreign message's (NaN before any), ``last_accept``
+    when its last message was accepted."""
 
     def __init__(self, silence: float):
         self.state = initial_clock(silence)
@@ -179,6 +180,11 @@ class SourceClock:
     @property
     def restarts(self) -> int:
         return int(self.state[RESTARTS])
+
+    @property
+    def last_accept(self) -> float:
+        """The station time (s) of the source's last accepted message (−inf before the first)."""
+        return float(self.state[LAST_ACCEPT])
 
     def rejection(self, stamp: float, now: float) -> str | None:
         """None for a stamp ``clock_check`` accepts; otherwise the reason (``message_checks.REASONS``)."""
