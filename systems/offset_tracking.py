@@ -134,7 +134,8 @@ class OffsetTracker(LeafSystem):
         super().__init__()
         params.validate()
         thresholds.validate()
-        self._params, self._thresholds, self._period = params, thresholds, period
+        self._settings = (*kernel_settings(params), float(thresholds.force), float(thresholds.torque))
+        self._period = period
         self._contact = self.DeclareVectorInputPort("wrench_contact", 6)
         self._fault = self.DeclareVectorInputPort("fault", 1)
         self._velocity = self.DeclareVectorInputPort("slave_velocity", 6)
@@ -149,6 +150,6 @@ class OffsetTracker(LeafSystem):
     def _update(self, context, discrete_state):
         state = context.get_discrete_state(self._state).get_value().copy()
         requests = self._rezero.Eval(context)[0] if self._rezero.HasValue(context) else 0.0
-        offsets_update(state, self._contact.Eval(context), self._fault.Eval(context)[0] > 0.5,
-                       self._velocity.Eval(context), self._period, self._params, self._thresholds, requests)
+        offsets_update_into(state, float_array(self._contact.Eval(context)), self._fault.Eval(context)[0] > 0.5,
+                            float_array(self._velocity.Eval(context)), self._period, *self._settings, float(requests))
         discrete_state.set_value(self._state, state)

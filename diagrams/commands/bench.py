@@ -84,7 +84,9 @@ def _bench_identify(args) -> int:
 
 def _bench_lcm(args) -> int:
     from heft.diagrams.commands.bench_lcm import run
+    from heft.diagrams.running.realtime import check_busy_wait
 
+    check_busy_wait(args.busy_wait)
     rates = [float(r) for r in args.rates.split(",")]
     results = run(rates, args.duration, args.scenario, scenario_from(args).lab.lcm, args.busy_wait)
     if args.out:
