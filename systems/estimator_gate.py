@@ -52,25 +52,41 @@ def excitation(acceleration, omega) -> float:
     return _regressor_norm(float_array(acceleration), float_array(omega), _ZERO, _V)
 
 
-def spoiled(params: LoadEstimationParams, thresholds: ContactThresholdParams, contact, fault: bool,
-            since_reset: float) -> bool:
+LEARNING_WINDOW, HOLD, NEW_LOAD_WAIT, MIN_EXCITATION, CONTACT_FORCE, CONTACT_TORQUE = range(6)
+"""Where ``gate_settings`` holds each setting."""
+
+
+def gate_settings(params: LoadEstimationParams, thresholds: ContactThresholdParams) -> np.ndarray:
+    """The gate's settings as its kernels take them (6, indexed as named above): ``learning_window``,
+    the hold 2/``prefilter`` (s; 0 without a prefilter), ``new_load_wait`` (s), ``min_excitation`` of
+    ``params``, and the contact thresholds (N, N·m)."""
+    params.validate()
+    thresholds.validate()
+    hold = 2.0 / params.prefilter if params.prefilter > 0 else 0.0
+    return np.array([params.learning_window, hold, params.new_load_wait, params.min_excitation,
+                     thresholds.force, thresholds.torque])
+
+
+@compiled("boolean(float64[:], float64[:], boolean, float64)")
+def spoiled(settings, contact, fault, since_reset) -> bool:
     """Whether this sample holds a fault, or contact (judged only ``learning_window`` s after a
     reset; ``since_reset`` in s): the estimator must not learn from it or its filtered echo."""
     if fault:
         return True
-    if since_reset < params.learning_window:
+    if since_reset < settings[LEARNING_WINDOW]:
         return False
-    return beyond(float_array(contact), thresholds.force, thresholds.torque)
+    return beyond(contact, settings[CONTACT_FORCE], settings[CONTACT_TORQUE])
 
 
-def gate_open(params: LoadEstimationParams, thresholds: ContactThresholdParams, acceleration, omega, contact,
-              fault: bool, since_reset: float,
-              since_spoiled: float = math.inf) -> bool:
-    """Whether this sample may update the estimator (module docstring); ``since_reset`` and
-    ``since_spoiled`` (the time since the last ``spoiled`` sample) in s."""
-    hold = 2.0 / params.prefilter if params.prefilter > 0 else 0.0
-    return (not spoiled(params, thresholds, contact, fault, since_reset) and since_spoiled >= hold
-            and since_reset >= params.new_load_wait and excitation(acceleration, omega) >= params.min_excitation)
+@compiled("boolean(float64[:], float64[:], float64[:], float64[:], boolean, float64, float64, float64[:], "
+          "float64[:, :])")
+def gate_open(settings, acceleration, omega, contact, fault, since_reset, since_spoiled, no_gravity, V) -> bool:
+    """Whether this sample may update the estimator (module docstring): [a; α] (6) and ω (3) S's kinematic
+    motion, ``contact`` c (6), ``since_reset`` and ``since_spoiled`` (the time since the last ``spoiled``
+    sample) in s; ``no_gravity`` (3) zeros and V (6, 10) scratch for the excitation."""
+    return (not spoiled(settings, contact, fault, since_reset) and since_spoiled >= settings[HOLD]
+            and since_reset >= settings[NEW_LOAD_WAIT]
+            and _regressor_norm(acceleration, omega, no_gravity, V) >= settings[MIN_EXCITATION])
 
 
 CLOCKS_START = (0.0, 0.0, math.inf)
@@ -78,21 +94,21 @@ CLOCKS_START = (0.0, 0.0, math.inf)
 as one), the reset requests seen, the time since the last spoiled sample (s; none yet)."""
 
 
-def clocks_now(clocks, requests: float) -> tuple[float, float, float]:
+@compiled("UniTuple(float64, 3)(float64[:], float64)")
+def clocks_now(clocks, requests):
     """(since_reset, requests seen, since_spoiled) of ``clocks`` (``CLOCKS_START``'s layout) with
     this sample's reset request counter ``requests`` applied: an increase is a new load."""
-    since_reset, seen, since_spoiled = clocks
+    since_reset, seen, since_spoiled = clocks[0], clocks[1], clocks[2]
     if requests > seen:
         since_reset, seen = 0.0, requests
     return since_reset, seen, since_spoiled
 
 
-def advance_clocks(out, params: LoadEstimationParams, thresholds: ContactThresholdParams,
-                   now: tuple[float, float, float], contact, fault: bool, dt: float) -> None:
-    """The clocks after this sample into ``out`` (3): ``now`` (``clocks_now``) advanced by ``dt`` s,
-    the time since a spoiled sample restarted if this one is (``spoiled``)."""
-    since_reset, seen, since_spoiled = now
-    if spoiled(params, thresholds, contact, fault, since_reset):
+@compiled("void(float64[:], float64[:], float64, float64, float64, float64[:], boolean, float64)")
+def advance_clocks(out, settings, since_reset, seen, since_spoiled, contact, fault, dt) -> None:
+    """The clocks after this sample into ``out`` (3): those of ``clocks_now`` advanced by ``dt`` s, the
+    time since a spoiled sample restarted if this one is (``spoiled``)."""
+    if spoiled(settings, contact, fault, since_reset):
         since_spoiled = 0.0
     out[0], out[1], out[2] = since_reset + dt, seen, since_spoiled + dt
 
@@ -108,9 +124,7 @@ class EstimatorGate(LeafSystem):
 
     def __init__(self, params: LoadEstimationParams, thresholds: ContactThresholdParams, period: float):
         super().__init__()
-        params.validate()
-        thresholds.validate()
-        self._params, self._thresholds, self._period = params, thresholds, period
+        self._settings, self._period = gate_settings(params, thresholds), period
         self._acceleration = self.DeclareVectorInputPort("acceleration", 6)
         self._omega = self.DeclareVectorInputPort("omega", 3)
         self._contact = self.DeclareVectorInputPort("wrench_contact", 6)
@@ -124,16 +138,16 @@ class EstimatorGate(LeafSystem):
         return self._reset.Eval(context)[0] if self._reset.HasValue(context) else 0.0
 
     def _clocks(self, context):
-        return clocks_now(context.get_discrete_state(self._clock).get_value(), self._requests(context))
+        return clocks_now(float_array(context.get_discrete_state(self._clock).get_value()), self._requests(context))
 
     def _calc_enable(self, context, output):
         since_reset, _, since_spoiled = self._clocks(context)
-        open_ = gate_open(self._params, self._thresholds, self._acceleration.Eval(context), self._omega.Eval(context),
-                          self._contact.Eval(context), self._fault.Eval(context)[0] > 0.5, since_reset,
-                          since_spoiled)
+        open_ = gate_open(self._settings, float_array(self._acceleration.Eval(context)),
+                          float_array(self._omega.Eval(context)), float_array(self._contact.Eval(context)),
+                          self._fault.Eval(context)[0] > 0.5, since_reset, since_spoiled, _ZERO, _V)
         output.SetAtIndex(0, 1.0 if open_ else 0.0)
 
     def _update(self, context, discrete_state):
-        advance_clocks(discrete_state.get_mutable_vector(self._clock).get_mutable_value(), self._params,
-                       self._thresholds, self._clocks(context), self._contact.Eval(context),
+        advance_clocks(discrete_state.get_mutable_vector(self._clock).get_mutable_value(), self._settings,
+                       *self._clocks(context), float_array(self._contact.Eval(context)),
                        self._fault.Eval(context)[0] > 0.5, self._period)

@@ -3,14 +3,14 @@
 The per-block Diagram (``diagrams.teleop.MakeTeleopController`` with
 ``controller.estimator.mode: online``) wires four blocks: ``AccelerometerToMotion``,
 ``EstimatorGate``, ``EstimatorPrefilter`` and ``LoadEstimatorSystem`` (RLS, φ alone).
-``OnlineLoadEstimator.step`` does what they do in one tick, calling the same cores
-(``estimator_gate.gate_open``/``clocks_now``/``advance_clocks``,
-``estimator_prefilter.prefilter_step``, ``recursive_estimation.RecursiveLeastSquares``), in the
+``OnlineLoadEstimator.step`` does what they do in one tick, one compiled kernel
+(``online_estimate_step``) calling the same cores (``estimator_gate.gate_open``/``clocks_now``/
+``advance_clocks``, ``estimator_prefilter.prefilter_step``,
+``recursive_estimation.least_squares_update``, which ``RecursiveLeastSquares.update`` calls), in the
 order a Diagram's discrete update sees them: the gate decides from this tick's
 samples and the clocks before them, the estimator learns from the prefilter's output
 of the last tick, then the prefilter takes this tick's sample. All state is
-preallocated, the regressor included; the gate, the prefilter and the RLS update are compiled
-kernels (``compiled``).
+preallocated, the regressor included.
 """
 
 from __future__ import annotations
@@ -19,14 +19,61 @@ import math
 
 import numpy as np
 
+from heft.systems.compiled import compiled, float_array
 from heft.systems.contact_threshold import ContactThresholdParams
-from heft.systems.estimator_gate import CLOCKS_START, advance_clocks, clocks_now, gate_open
+from heft.systems.estimator_gate import CLOCKS_START, advance_clocks, clocks_now, gate_open, gate_settings
 from heft.systems.load_estimation_params import LoadEstimationParams
 from heft.systems.estimator_prefilter import STATE_SIZE, WIDTH, prefilter_coefficients, prefilter_step
-from heft.systems.recursive_estimation import RecursiveLeastSquares
+from heft.systems.recursive_estimation import (
+    RecursiveLeastSquares, least_squares_start_from, least_squares_update)
 
-# Where the prefilter's sample and output hold each signal (``estimator_prefilter.SIGNALS``).
-_WRENCH, _A, _ALPHA, _OMEGA, _GRAVITY = slice(0, 6), slice(6, 9), slice(9, 12), slice(12, 15), slice(15, 18)
+ENABLED, SKIPPED, NEW_LOAD = 1, 2, 4
+"""The bits of ``online_estimate_step``'s result: the sample was taken; taken but its filtered inputs
+were not finite; a new load started at this sample."""
+
+
+@compiled("int64(float64[:], float64[:], float64, float64[:], float64[:], float64[:], float64[:], float64[:], "
+          "boolean, float64, float64[:], float64[:], float64[:], boolean, float64[:], float64[:], float64[:, :], "
+          "float64[::1], int64, float64[:, :], float64[:], float64[:, :], float64[:], float64, float64, float64, "
+          "float64)")
+def online_estimate_step(settings, clocks, requests, contact, noncontact, acceleration, omega, gravity, fault, dt,
+                         sample, filtered, coefficients, prefiltered, phi, no_gravity, gate_V, state, p, weighted,
+                         row, V, row_scale, forgetting, sqrt_forgetting, pull, sqrt_prior):
+    """``OnlineLoadEstimator.step``'s tick (its docstring; ``fault`` includes stale readings): the gate
+    (``settings``, ``clocks`` (3), the reset ``requests`` counter, ``no_gravity`` and ``gate_V`` its
+    scratch), then the RLS (``least_squares_update`` on ``state`` and the arrays after it) learning from
+    the prefilter's output (``filtered``, ``STATE_SIZE``, with ``coefficients`` if ``prefiltered``, else
+    this tick's ``sample`` (``WIDTH``)), φ̂ copied into ``phi`` (10); then the prefilter takes the sample.
+    Returns ``ENABLED`` | ``SKIPPED`` | ``NEW_LOAD`` bits."""
+    since_reset, seen, since_spoiled = clocks_now(clocks, requests)
+    flags = 0
+    if gate_open(settings, acceleration, omega, contact, fault, since_reset, since_spoiled, no_gravity, gate_V):
+        flags |= ENABLED
+    if seen > clocks[1]:  # a new load: forget the data before this sample
+        least_squares_start_from(state, p, sqrt_prior, phi)
+        flags |= NEW_LOAD
+    advance_clocks(clocks, settings, since_reset, seen, since_spoiled, contact, fault, dt)
+    for i in range(6):
+        sample[i] = contact[i] + noncontact[i]
+        sample[6 + i] = acceleration[i]
+    for i in range(3):
+        sample[12 + i] = omega[i]
+        sample[15 + i] = gravity[i]
+    learned = filtered if prefiltered else sample
+    if flags & ENABLED:
+        finite = True
+        for i in range(WIDTH):
+            finite = finite and math.isfinite(learned[i])
+        if finite:
+            least_squares_update(state, p, weighted, row, V, row_scale, learned[0:6], learned[6:9], learned[9:12],
+                                 learned[12:15], learned[15:18], forgetting, sqrt_forgetting, pull)
+            for i in range(10):
+                phi[i] = state[p - 10 + i]
+        else:
+            flags |= SKIPPED
+    if prefiltered:
+        prefilter_step(coefficients, filtered, sample)
+    return flags
 
 
 class OnlineLoadEstimator:
@@ -43,17 +90,18 @@ class OnlineLoadEstimator:
     ``since_reset`` (s)."""
 
     def __init__(self, params: LoadEstimationParams, thresholds: ContactThresholdParams, phi, period: float):
-        params.validate()
-        thresholds.validate()
-        self._thresholds = thresholds
+        self._settings = gate_settings(params, thresholds)
         if params.mode != "online":
             raise ValueError(f"OnlineLoadEstimator needs controller.estimator.mode 'online'; got {params.mode!r}")
         self._params = params
         self._rls = RecursiveLeastSquares(offsets=False, forgetting=params.forgetting)  # as LoadEstimatorSystem's
         self._rls.start_from(phi)
         self.phi = self._rls.phi
-        self._coefficients = prefilter_coefficients(params.prefilter, period) if params.prefilter > 0 else None
+        self._prefiltered = params.prefilter > 0
+        self._coefficients = prefilter_coefficients(params.prefilter, period) if self._prefiltered else np.zeros(5)
         self._filter = np.full(STATE_SIZE, np.nan)
+        self._gate_scratch = (np.zeros(3), np.empty((6, 10)))
+        self._rls_arrays, self._rls_settings = self._rls.kernel_arguments
         self._sample = np.empty(WIDTH)
         self._clocks = np.array(CLOCKS_START)
         self._requests = 0.0
@@ -101,28 +149,14 @@ class OnlineLoadEstimator:
         is f − ô) and ``fault``, S's kinematic ``acceleration`` [a; α] (6; ``motion_from_reading``),
         ``omega`` and ``gravity`` (3 each), all in S; ``input_age`` (s) the oldest of the readings they
         come from (``LoadEstimationParams.max_input_age``)."""
-        params, sample = self._params, self._sample
-        stale = input_age > params.max_input_age
-        fault = fault or stale
-        now = clocks_now(self._clocks, self._requests)
-        self.enabled = gate_open(params, self._thresholds, acceleration, omega, contact, fault, now[0], now[2])
-        rls = self._rls
-        if now[1] > self._clocks[1]:  # a new load: forget the data before this sample
-            rls.start_from(self.phi)
+        stale = input_age > self._params.max_input_age
+        flags = online_estimate_step(
+            self._settings, self._clocks, self._requests, float_array(contact), float_array(noncontact),
+            float_array(acceleration), float_array(omega), float_array(gravity), fault or stale, dt, self._sample,
+            self._filter, self._coefficients, self._prefiltered, self.phi, *self._gate_scratch, *self._rls_arrays,
+            *self._rls_settings)
+        self.enabled = bool(flags & ENABLED)
+        if flags & NEW_LOAD:
             self.num_stale = 0
-        if stale:
-            self.num_stale += 1
-        advance_clocks(self._clocks, params, self._thresholds, now, contact, fault, dt)
-        np.add(contact, noncontact, out=sample[_WRENCH])
-        sample[6:12] = acceleration
-        sample[_OMEGA] = omega
-        sample[_GRAVITY] = gravity
-        learned = self._filter if self._coefficients is not None else sample
-        if self.enabled:
-            if math.isfinite(sum(learned[:WIDTH].tolist())):
-                rls.update(learned[_WRENCH], learned[_A], learned[_ALPHA], learned[_OMEGA], learned[_GRAVITY])
-                self.phi[:] = rls.phi
-            else:
-                self.num_skipped += 1
-        if self._coefficients is not None:
-            prefilter_step(self._coefficients, self._filter, sample)
+        self.num_stale += stale
+        self.num_skipped += bool(flags & SKIPPED)

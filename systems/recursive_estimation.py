@@ -95,6 +95,68 @@ def accumulate_moments(moments, V, wrench, forgetting):
                 moments[k, i, j] = forgetting * moments[k, i, j] + mi * mj
 
 
+_MOMENTS = 6 * 12 * 12
+"""Entries of the per-axis second moments (``accumulate_moments``) in the state vector."""
+
+
+@compiled("void(float64[::1], int64, float64[:, :], float64[:], float64)")
+def track_residual(state, p, V, wrench, forgetting):
+    """Adds one sample (V (6, 10), ``wrench`` (6,)) to the per-axis second moments of ``state`` (the
+    layout ``_RecursiveEstimator``'s: θ (p), count, weight, moments), counts it and, every
+    ``_FLUSH_INTERVAL`` samples, flushes entries below ``_FLUSH_BELOW`` to 0."""
+    accumulate_moments(state[p + 2:p + 2 + _MOMENTS].reshape((6, 12, 12)), V, wrench, forgetting)
+    state[p] += 1.0
+    if state[p] % _FLUSH_INTERVAL == 0.0:
+        for i in range(state.shape[0]):
+            if abs(state[i]) < _FLUSH_BELOW:
+                state[i] = 0.0
+
+
+@compiled("float64(float64[::1], int64, float64)")
+def advance_weight(state, p, forgetting):
+    """The forgetting-weighted sample count of ``state`` s ← λs + 1 (λ = ``forgetting``); returns it."""
+    state[p + 1] = forgetting * state[p + 1] + 1.0
+    return state[p + 1]
+
+
+@compiled("void(float64[:, :], float64[:], float64[:], float64[:, :])")
+def load_sample(V, wrench, row_scale, into):
+    """The sample's weighted rows into ``into`` (6, p + 1): W^½V (V (6, 10)) in the 10 columns before the
+    last, W^½y (y = ``wrench``) in the last, W^½ = diag(``row_scale``); the offsets' columns untouched."""
+    last = into.shape[1] - 1
+    for k in range(6):
+        for j in range(10):
+            into[k, last - 10 + j] = V[k, j] * row_scale[k]
+        into[k, last] = wrench[k] * row_scale[k]
+
+
+@compiled("void(float64[::1], int64, float64, float64[:])")
+def least_squares_start_from(state, p, sqrt_prior, theta):
+    """``RecursiveLeastSquares``' ``state`` back to no data but the estimate ``theta`` (p) held by the
+    prior: S = √prior·E, z = √prior·θ, everything else 0."""
+    state[:] = 0.0
+    root = state[p + 2 + _MOMENTS:].reshape((p + 1, p + 1))
+    for i in range(p):
+        state[i] = theta[i]
+        root[i, i] = sqrt_prior
+        root[i, p] = sqrt_prior * theta[i]
+
+
+@compiled("void(float64[::1], int64, float64[:, :], float64[:], float64[:, :], float64[:], float64[:], float64[:], "
+          "float64[:], float64[:], float64[:], float64, float64, float64)")
+def least_squares_update(state, p, weighted, row, V, row_scale, wrench, a, alpha, omega, g, forgetting,
+                         sqrt_forgetting, pull):
+    """``RecursiveLeastSquares.update`` on its ``state``: one sample (``wrench`` (6,), a, α, ω, g (3,), in S)
+    into V (6, 10), its weighted rows into ``weighted`` (6, p + 1), then the information update
+    (``information_update``, ``row`` its scratch) and the residual moments (``track_residual``)."""
+    regressor_into(a, alpha, omega, g, V)
+    load_sample(V, wrench, row_scale, weighted)
+    advance_weight(state, p, forgetting)
+    information_update(state[p + 2 + _MOMENTS:].reshape((p + 1, p + 1)), state[:p], weighted, sqrt_forgetting,
+                       pull, row)
+    track_residual(state, p, V, wrench, forgetting)
+
+
 class _RecursiveEstimator(abc.ABC):
     """Shared machinery of the recursive estimators: the whole state in one flat float vector
     (named views into it), preallocated work buffers, input checks, residual tracking."""
@@ -110,7 +172,6 @@ class _RecursiveEstimator(abc.ABC):
         noise = (noise or NoiseLevels()).checked()
         self._rcond = rcond
         self._row_scale = np.sqrt(noise.wrench_weights())
-        self._row_scale_column = self._row_scale[:, None].copy()
         self._layout = {"theta": (self._p,), "count": (1,), "weight": (1,), "axis_moments": (6, 12, 12),
                         **fields}
         self._state = np.zeros(sum(math.prod(shape) for shape in self._layout.values()))
@@ -232,11 +293,8 @@ class _RecursiveEstimator(abc.ABC):
 
     def _track_residual(self, wrench: np.ndarray, V: np.ndarray) -> None:
         """Accumulates the per-axis second moments S_k = Σ λ^(t−i) m m ᵀ, m = [1, V_k, y_k],
-        from which any estimate's residual follows; counts the sample; flushes tiny entries."""
-        accumulate_moments(self._axis_moments, V, wrench, self._forgetting)
-        self._count[0] += 1.0
-        if self._count[0] % _FLUSH_INTERVAL == 0.0:
-            self._state[np.abs(self._state) < _FLUSH_BELOW] = 0.0
+        from which any estimate's residual follows (``track_residual``)."""
+        track_residual(self._state, self._p, V, wrench, self._forgetting)
 
     def _residual_sum_of_squares(self) -> np.ndarray:
         """Σ λ^(t−i) (y_k − o_k − V_kφ̂)² per wrench axis k, for the current θ̂."""
@@ -249,8 +307,7 @@ class _RecursiveEstimator(abc.ABC):
 
     def _advance_weight(self) -> float:
         """Forgetting-weighted sample count s ← λs + 1; returns it."""
-        self._weight[0] = self._forgetting * self._weight[0] + 1.0
-        return self._weight[0]
+        return advance_weight(self._state, self._p, self._forgetting)
 
 
 class _InformationFormEstimator(_RecursiveEstimator):
@@ -270,8 +327,7 @@ class _InformationFormEstimator(_RecursiveEstimator):
         self.reset()
 
     def _load_sample(self, wrench: np.ndarray, V: np.ndarray, into: np.ndarray) -> None:
-        np.multiply(V, self._row_scale_column, out=into[:, self._p - 10:self._p])
-        np.multiply(wrench, self._row_scale, out=into[:, self._p])
+        load_sample(V, wrench, self._row_scale, into)
 
 
 class RecursiveLeastSquares(_InformationFormEstimator):
@@ -305,28 +361,27 @@ class RecursiveLeastSquares(_InformationFormEstimator):
         self._row = np.empty(p + 1)
 
     def reset(self) -> None:
-        super().reset()
-        self._root.flat[0:self._p * (self._p + 2):self._p + 2] = math.sqrt(self._prior)
+        least_squares_start_from(self._state, self._p, math.sqrt(self._prior), np.zeros(self._p))
 
     def start_from(self, theta) -> None:
         """No data, but the estimate ``theta`` ([offsets; φ] or φ) held by the prior: the
         information is reset, the estimate kept where the data will not say otherwise (a
         covariance reset, e.g. on a known change of load)."""
-        theta = _vector("theta", theta, self._p)
-        self.reset()
-        self._theta[:] = theta
-        self._root[:self._p, self._p] = math.sqrt(self._prior) * theta
+        least_squares_start_from(self._state, self._p, math.sqrt(self._prior), _vector("theta", theta, self._p))
 
     def update(self, wrench, a, alpha, omega, g) -> None:
-        """Adds one sample: wrench (6,), a, alpha, omega, g (3,), all in S."""
-        wrench = _vector("wrench", wrench, 6)
-        V = self._V
-        regressor_into(_vector("a", a, 3), _vector("alpha", alpha, 3), _vector("omega", omega, 3),
-                       _vector("g", g, 3), V)
-        self._load_sample(wrench, V, self._weighted)
-        self._advance_weight()
-        information_update(self._root, self._theta, self._weighted, self._sqrt_forgetting, self._pull, self._row)
-        self._track_residual(wrench, V)
+        """Adds one sample: wrench (6,), a, alpha, omega, g (3,), all in S (``least_squares_update``)."""
+        least_squares_update(self._state, self._p, self._weighted, self._row, self._V, self._row_scale,
+                             _vector("wrench", wrench, 6), _vector("a", a, 3), _vector("alpha", alpha, 3),
+                             _vector("omega", omega, 3), _vector("g", g, 3), self._forgetting,
+                             self._sqrt_forgetting, self._pull)
+
+    @property
+    def kernel_arguments(self) -> tuple:
+        """What ``least_squares_update`` and ``least_squares_start_from`` take of this estimator, in their
+        order: (state, p, weighted, row, V, row_scale) and (forgetting, √forgetting, pull, √prior)."""
+        return ((self._state, self._p, self._weighted, self._row, self._V, self._row_scale),
+                (self._forgetting, self._sqrt_forgetting, self._pull, math.sqrt(self._prior)))
 
     @property
     def information_root(self) -> np.ndarray:
@@ -490,8 +545,7 @@ class RecursiveTotalLeastSquares(_RecursiveEstimator):
         V = self._regressor(a, alpha, omega, g)
         lam = self._forgetting
         D = self._D
-        np.multiply(V, self._row_scale_column, out=D[:, :10])
-        np.multiply(wrench, self._row_scale, out=D[:, 10])
+        load_sample(V, wrench, self._row_scale, D)
         s = self._advance_weight()
         C = self._C
         if lam != 1.0:

@@ -146,6 +146,23 @@ for k in range(40):
     out["excitation"].append(excitation(motion[:6], motion[6:]))
     prefilter_step(coefficients, state, rng.normal(0, 3, WIDTH) if k != 20 else np.full(WIDTH, np.nan))
     out["prefilter"].append(np.nan_to_num(state, nan=-1.0))
+# The online estimator's tick: a new load at 20, a faulted sample at 30, contact from 40 to 45, stale
+# readings at 50; the gate open on the others.
+from heft.systems.contact_threshold import ContactThresholdParams
+from heft.systems.load_estimation_params import LoadEstimationParams
+from heft.systems.online_estimator import OnlineLoadEstimator
+
+online = OnlineLoadEstimator(LoadEstimationParams(mode="online", learning_window=0.0, prefilter=200.0),
+                             ContactThresholdParams(), rng.normal(0, 1, 10), 5e-4)
+out["online"] = []
+for k in range(60):
+    if k == 20:
+        online.new_load()
+    contact = rng.normal(0, 0.1, 6) + (30.0 if 40 <= k < 45 else 0.0)
+    online.step(5e-4, contact, rng.normal(0, 10, 6), rng.normal(0, 20, 6), rng.normal(0, 3, 3),
+                rng.normal(0, 5, 3), k == 30, 0.01 if k == 50 else 0.0)
+    out["online"].append(np.concatenate((online.phi, [online.enabled, online.num_skipped, online.num_stale,
+                                                      online.since_reset, online.num_samples])))
 # The real-time controller's fused step: the clutch pressed at tick 5, one faulted sensor sample at 20,
 # a re-zero asked for at 30, the gripper's split from 40.
 from heft.diagrams.load_estimate import LoadEstimate
@@ -260,6 +277,8 @@ def test_the_plain_python_kernels_equal_the_compiled_ones(tmp_path):
     refused = {REASONS[code] for per_channel in rejected for code in np.flatnonzero(per_channel)}
     assert refused >= {"undecodable", "joint_count", "non_finite", "out_of_range", "driver_error"}, refused
     assert fallback["station"][:, 0].any() and not fallback["station"][:, 0].all()  # healthy, and not always
+    enabled = fallback["online"][:, 10]
+    assert enabled.any() and not enabled.all() and fallback["online"][-1, 11:13].all()  # skipped, stale
     for name, expected in fallback.items():
         assert np.abs(expected).max() > 0, name
         assert machine_code[name].shape == expected.shape, name

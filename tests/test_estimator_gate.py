@@ -4,6 +4,7 @@ the samples after contact or a fault; the excitation is the regressor's dynamic 
 against Eq. 5's closed form."""
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -11,7 +12,7 @@ import pytest
 from pydrake.systems.analysis import Simulator
 
 from heft.systems.contact_threshold import ContactThresholdParams
-from heft.systems.estimator_gate import EstimatorGate, excitation, gate_open
+from heft.systems.estimator_gate import EstimatorGate, excitation, gate_open, gate_settings
 from heft.systems.load_estimation_params import LoadEstimationParams
 
 SPEC = LoadEstimationParams()
@@ -36,7 +37,9 @@ def test_excitation_is_the_regressors_dynamic_part():
     (MOVING, FREE, True, 10.0, False),       # faulted sample
 ])
 def test_gate(acceleration, contact, fault, since_reset, expected):
-    assert gate_open(SPEC, ContactThresholdParams(), acceleration, np.zeros(3), contact, fault, since_reset) is expected
+    settings = gate_settings(SPEC, ContactThresholdParams())
+    assert gate_open(settings, acceleration, np.zeros(3), contact, fault, since_reset, math.inf, np.zeros(3),
+                     np.empty((6, 10))) is expected
 
 
 def test_after_contact_the_gate_waits_for_the_prefilter_to_forget_it():
