@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from heft.systems.contact_threshold import ContactThresholdParams
-from heft.systems.estimator_gate import spoiled
+from heft.systems.estimator_gate import gate_settings, spoiled
 from heft.systems.load_estimation_params import LoadEstimationParams
 from heft.systems.offset_tracking import OFFSETS, OffsetTrackingParams, initial_state, offsets_update
 
@@ -27,8 +27,9 @@ def test_gate_and_tracking_agree_on_contact(threshold):
     judged = [bool(np.linalg.norm(c[:3]) > threshold.force or np.linalg.norm(c[3:]) > threshold.torque)
               for c in contacts]
     assert 0.2 < np.mean(judged) < 0.8  # both sides of the thresholds are sampled
+    settings = gate_settings(LoadEstimationParams(), threshold)
     for c, contact in zip(contacts, judged):
-        assert spoiled(LoadEstimationParams(), threshold, c, False, since_reset=np.inf) is contact
+        assert spoiled(settings, c, False, np.inf) is contact
         assert _tracked(threshold, c) is not contact
 
 
