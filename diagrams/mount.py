@@ -34,6 +34,7 @@ import numpy as np
 import scipy.linalg
 
 from heft.diagrams.scenario import DEFAULT_MOUNT, MountSpec
+from heft.systems.compiled import compiled
 from heft.systems.load_dynamics import inertia_matrix
 
 CONSTANTS = ("torque_stiffness", "torque_damping", "force_stiffness", "force_damping")
@@ -166,9 +167,33 @@ class MountUnderMovingSensor:
     def step(self, state: np.ndarray, wrench: np.ndarray, sensor_wrench: np.ndarray,
              deflection_acceleration: np.ndarray) -> None:
         """Writes w_S and ξ̈ (6 each) at the start of a period from ``state`` and the rigid ``wrench`` w
-        held over it, then advances ``state`` (12) to the period's end; all in place."""
-        np.dot(self.output, state, out=sensor_wrench)
-        np.dot(self.inverse_inertia, sensor_wrench - wrench, out=deflection_acceleration)
-        np.dot(self.transition, state, out=self._next)
-        self._next += self.input_gain @ wrench
-        state[:] = self._next
+        held over it, then advances ``state`` (12) to the period's end; all in place (``mount_step``)."""
+        mount_step(self.transition, self.input_gain, self.output, self.inverse_inertia, state, wrench, sensor_wrench,
+                   deflection_acceleration, self._next)
+
+
+@compiled("void(float64[:, :], float64[:, :], float64[:, :], float64[:, :], float64[:], float64[:], float64[:], "
+          "float64[:], float64[:])")
+def mount_step(transition, input_gain, output, inverse_inertia, state, wrench, sensor_wrench, deflection_acceleration,
+               scratch) -> None:
+    """``MountUnderMovingSensor.step`` with its matrices: w_S = output·x, ξ̈ = M⁻¹·(w_S − w), then
+    x ← transition·x + input_gain·w, with ``scratch`` (12) holding the new state until it is copied."""
+    for r in range(6):
+        total = 0.0
+        for c in range(12):
+            total += output[r, c] * state[c]
+        sensor_wrench[r] = total
+    for r in range(6):
+        total = 0.0
+        for c in range(6):
+            total += inverse_inertia[r, c] * (sensor_wrench[c] - wrench[c])
+        deflection_acceleration[r] = total
+    for r in range(12):
+        total = 0.0
+        for c in range(12):
+            total += transition[r, c] * state[c]
+        forced = 0.0
+        for c in range(6):
+            forced += input_gain[r, c] * wrench[c]
+        scratch[r] = total + forced
+    state[:] = scratch

@@ -8,6 +8,8 @@ import numpy as np
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import DiscreteDerivative, LinearSystem
 
+from heft.systems.compiled import compiled
+
 
 class EncoderQuantizer(LeafSystem):
     """Input ``position`` (n, rad) → output ``position`` rounded to 2π/counts_per_rev."""
@@ -43,17 +45,21 @@ class EncoderVelocityEstimator:
         keep = velocity_lowpass_keep(period, cutoff_hz)
         self._keep, self._gain = keep, (1 - keep) / period
         self._previous = np.array(initial_position, dtype=float)
-        self._difference = np.zeros_like(self._previous)
         self.velocity = np.zeros_like(self._previous)
 
     def update(self, position: np.ndarray) -> np.ndarray:
         """The estimate after the encoder-quantised ``position`` (rad) of the next sample."""
-        np.subtract(position, self._previous, out=self._difference)
-        self._previous[:] = position
-        self.velocity *= self._keep
-        self._difference *= self._gain
-        self.velocity += self._difference
+        velocity_estimate_step(self._previous, self.velocity, position, self._keep, self._gain)
         return self.velocity
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64, float64)")
+def velocity_estimate_step(previous, velocity, position, keep, gain) -> None:
+    """``EncoderVelocityEstimator.update`` in place: v ← keep·v + gain·(q − q_prev) (gain = (1 − keep)/T),
+    then q_prev ← q, for the ``position`` q of each joint."""
+    for k in range(position.shape[0]):
+        velocity[k] = velocity[k] * keep + (position[k] - previous[k]) * gain
+        previous[k] = position[k]
 
 
 def AddEncoderVelocityEstimate(builder: DiagramBuilder, position, period: float, cutoff_hz: float):

@@ -65,7 +65,7 @@ _MIX_2 = np.uint64(0x94D049BB133111EB)
 def quantize(value, step) -> np.ndarray:
     """``value`` rounded to the nearest multiple of ``step`` (per axis, step > 0)."""
     step = np.asarray(step, dtype=float)
-    return step * np.round(np.asarray(value, dtype=float) / step)
+    return step * np.rint(np.asarray(value, dtype=float) / step)
 
 
 @compiled("void(float64[:, :], float64[:], float64[:], float64[:, :], float64[:, :])")
@@ -143,14 +143,22 @@ class HeldLowpass:
         for j in range(count):
             self._free[j], self._forced[j] = power[0], b0 + accumulated[0]
             accumulated, power = accumulated + power @ B, A @ power
-        self._advance, self._input = power, accumulated[:, np.newaxis]
+        self._advance, self._input = power, accumulated
 
     def __call__(self, state: np.ndarray, value: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """The ``count`` outputs (count, n) for ``value`` (n,) held, into ``out`` if given; advances
         ``state`` (2, n, started: not NaN) in place."""
         out = np.empty((self.count, len(value))) if out is None else out
-        _held_lowpass(self._free, self._forced, self._advance, self._input[:, 0], state, value, out)
+        _held_lowpass(self._free, self._forced, self._advance, self._input, state, value, out)
         return out
+
+    def measure(self, model: "SixAxisMeasurement", state: np.ndarray, value: np.ndarray, disturbance: np.ndarray,
+                out: np.ndarray, saturated: np.ndarray) -> None:
+        """``model``'s measurement (count, 6) of ``value`` (6,) held: these outputs plus each sample's
+        ``disturbance`` (count, 6: offsets and noise), then ``SixAxisMeasurement.measure``, into ``out`` and
+        ``saturated``; advances ``state`` (2, 6, started) in place (``_measure_held``)."""
+        _measure_held(self._free, self._forced, self._advance, self._input, state, value, disturbance,
+                      model.limits, model.steps, out, saturated)
 
 
 @compiled("void(float64[:, :], float64[:], float64[:, :], float64[:], float64[:, :], float64[:], float64[:, :])")
@@ -162,6 +170,18 @@ def _held_lowpass(free, forced, advance, gain, state, value, out) -> None:
             out[j, k] = free[j, 0] * z0 + free[j, 1] * z1 + forced[j] * u
         state[0, k] = advance[0, 0] * z0 + advance[0, 1] * z1 + gain[0] * u
         state[1, k] = advance[1, 0] * z0 + advance[1, 1] * z1 + gain[1] * u
+
+
+@compiled("void(float64[:, :], float64[:], float64[:, :], float64[:], float64[:, :], float64[:], float64[:, :], "
+          "float64[:], float64[:], float64[:, :], float64[:, :])")
+def _measure_held(free, forced, advance, gain, state, value, disturbance, full_scale, step, out, saturated) -> None:
+    """``HeldLowpass.measure``: ``_held_lowpass`` into ``out``, plus ``disturbance``, then ``measure_rows`` in
+    place."""
+    _held_lowpass(free, forced, advance, gain, state, value, out)
+    for j in range(out.shape[0]):
+        for k in range(out.shape[1]):
+            out[j, k] += disturbance[j, k]
+    measure_rows(out, full_scale, step, out, saturated)
 
 
 def _mix64(z: np.ndarray) -> np.ndarray:
@@ -212,8 +232,10 @@ class SixAxisMeasurement:
         self.step = (np.array(params.full_scale, dtype=float) / params.counts_per_full_scale
                      if effects and params.quantization else None)
         self.draws_noise = self.white_noise_rms is not None or self.drift_on
-        self._limits = np.full(NUM_AXES, np.inf) if self.full_scale is None else self.full_scale
-        self._steps = np.zeros(NUM_AXES) if self.step is None else self.step
+        self.limits = np.full(NUM_AXES, np.inf) if self.full_scale is None else self.full_scale
+        """The clipping limits ±(6) that ``measure_rows`` takes: ``full_scale``, or inf without saturation."""
+        self.steps = np.zeros(NUM_AXES) if self.step is None else self.step
+        """The rounding steps (6) that ``measure_rows`` takes: ``step``, or 0 without quantisation."""
         self.key = noise_key(params.seed, stream)
 
     def normals(self, sample_index) -> np.ndarray | None:
@@ -246,7 +268,7 @@ class SixAxisMeasurement:
         value = np.asarray(value, dtype=float)
         out = np.empty(value.shape) if out is None else out
         saturated = np.empty(value.shape) if saturated is None else saturated
-        measure_rows(value.reshape(-1, NUM_AXES), self._limits, self._steps, out.reshape(-1, NUM_AXES),
+        measure_rows(value.reshape(-1, NUM_AXES), self.limits, self.steps, out.reshape(-1, NUM_AXES),
                      saturated.reshape(-1, NUM_AXES))
         return out, saturated
 

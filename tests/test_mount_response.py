@@ -83,3 +83,20 @@ def test_the_step_is_stable_at_the_stand_ins_rate(name):
     omega = 2 * np.pi * modes.frequencies
     assert radius.max() < 1.0
     assert radius.max() == pytest.approx(np.exp(-(modes.damping_ratios * omega).min() * PERIOD), abs=2e-4)
+
+
+def test_the_mount_step_is_its_matrices_products():
+    """``mount_step`` (the kernel of ``MountUnderMovingSensor.step``) against the products it stands for:
+    w_S = output·x, ξ̈ = M⁻¹·(w_S − w), x ← transition·x + input_gain·w."""
+    rng = np.random.default_rng(4)
+    model = mount.MountUnderMovingSensor(DEFAULT_MOUNT, load_phi(LoadSpec(kind="gripper_object")), PERIOD)
+    state, wrench, acceleration = rng.normal(0.0, 1e-4, 12), np.empty(6), np.empty(6)
+    for _ in range(20):
+        rigid, before = rng.normal(0.0, 10.0, 6), state.copy()
+        model.step(state, rigid, wrench, acceleration)
+        expected_wrench = model.output @ before
+        np.testing.assert_allclose(wrench, expected_wrench, rtol=1e-12, atol=1e-12 * np.abs(expected_wrench).max())
+        np.testing.assert_allclose(acceleration, model.inverse_inertia @ (expected_wrench - rigid), rtol=1e-12,
+                                   atol=1e-9)
+        np.testing.assert_allclose(state, model.transition @ before + model.input_gain @ rigid, rtol=1e-12,
+                                   atol=1e-15)

@@ -14,7 +14,7 @@ from scipy.signal import butter, lfilter, lfilter_zi
 
 from heft.systems.sensor_models import (
     AccelerometerModel, AccelerometerParams, ForceTorqueSensorModel, ForceTorqueSensorParams, HeldLowpass,
-    drift_offsets, lowpass_coefficients, noise_key, quantize, standard_normals)
+    SixAxisMeasurement, drift_offsets, lowpass_coefficients, noise_key, quantize, standard_normals)
 
 FT_FULL_SCALE = np.array(ForceTorqueSensorParams().full_scale)
 ACCEL_FULL_SCALE = np.array(AccelerometerParams().full_scale)
@@ -399,3 +399,24 @@ def test_the_held_input_lowpass_is_scipys_filter_on_the_repeated_rows():
     got = np.concatenate([held(state, value) for value in values])
     assert np.abs(np.diff(expected, axis=0)).max() > 1.0  # the filter moved
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-10 * np.abs(expected).max())
+
+
+def test_the_held_measurement_is_the_held_lowpass_disturbed_then_measured():
+    """``HeldLowpass.measure`` (one kernel for the stand-in's sensor) equals its parts: the held outputs
+    plus the disturbance, then ``SixAxisMeasurement.measure``, saturated axes among them."""
+    rng = np.random.default_rng(3)
+    params = ForceTorqueSensorParams()
+    model = SixAxisMeasurement(params, 0, 1 / 8000.0)
+    held = HeldLowpass(lowpass_coefficients(500.0, 1 / 8000.0), 4)
+    state, parts_state = np.zeros((2, 6)), np.zeros((2, 6))
+    out, saturated, flagged = np.empty((4, 6)), np.empty((4, 6)), []
+    for _ in range(20):
+        value = rng.normal(0.0, 1.2, 6) * np.array(params.full_scale)
+        disturbance = rng.normal(0.0, 0.5, (4, 6))
+        held.measure(model, state, value, disturbance, out, saturated)
+        expected, expected_saturated = model.measure(held(parts_state, value) + disturbance)
+        np.testing.assert_array_equal(out, expected)
+        np.testing.assert_array_equal(saturated, expected_saturated)
+        np.testing.assert_array_equal(state, parts_state)
+        flagged.append(saturated.copy())
+    assert 0 < np.mean(flagged) < 1

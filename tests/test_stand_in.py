@@ -6,6 +6,9 @@ import dataclasses
 import json
 import math
 import os
+import pickle
+import subprocess
+import sys
 
 import lcm
 import numpy as np
@@ -15,17 +18,19 @@ from drake import lcmt_iiwa_command, lcmt_iiwa_status
 from heft.diagrams.cli import main
 from heft.diagrams.scenario import Scenario, layered, overrides_text, resolve_scenario
 from heft.diagrams.plants import AddArmWithSensor, AddSlave
-from heft.diagrams.stations.stand_in import HAPTIC_WATCHDOG_S, FaultInjection, StandIn, _uniform, run_stand_in
+from heft.diagrams.stations.stand_in import (HAPTIC_WATCHDOG_S, FaultInjection, StandIn, _uniform, ft_samples_into,
+                                             run_stand_in, stylus_force_at)
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.ft_receiver import FtSampleReader
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
-from heft.hardware_interface.ft_messages import decode_samples
+from heft.hardware_interface.ft_messages import OFFSETS, decode_samples, pack_samples
 from heft.hardware_interface.lcmtypes import heft_haptic_command, heft_haptic_state
 from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.load_dynamics import noncontact_wrench
 from heft.diagrams.plants import MakeMasterPlant
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 from heft.systems.operator_hand import smooth_sine_offset
+from heft.systems.serial_chain import SerialChain
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 
@@ -571,3 +576,95 @@ def test_faults_out_of_range_are_refused_by_name(field, value):
     with pytest.raises(ValueError, match=field):
         StandIn(quiet_scenario(), lcm.LCM("memq://"), CHANNELS, FaultInjection(**{field: value}))
 
+
+
+# --- the kernels ---------------------------------------------------------------------------------
+
+def test_an_ft_message_is_the_pack_of_its_samples():
+    """``ft_samples_into`` writes what ``pack_samples`` encodes from the samples' fields: utimes, counters,
+    the wrench negated, the acceleration, each instrument's saturated axes as flag bits (all wrench axes
+    from ``saturate_at`` on), no errors."""
+    rng = np.random.default_rng(5)
+    rate, first, count = 8000.0, 1237, 4
+    wrench, acceleration = rng.normal(0.0, 50.0, (2, count, 6))
+    wrench_saturated, acceleration_saturated = (rng.uniform(0, 1, (2, count, 6)) < 0.2).astype(float)
+    ticks = range(first, first + count)
+    flags = [int(wrench_saturated[k] @ (1 << np.arange(6)) + acceleration_saturated[k] @ (1 << np.arange(6, 12)))
+             | (0x3F if tick / rate >= (first + 2) / rate else 0) for k, tick in enumerate(ticks)]
+    expected = pack_samples([round(tick / rate * 1e6) for tick in ticks], ticks, (-wrench).ravel().tolist(),
+                            acceleration.ravel().tolist(), flags, [False] * count)
+    message = np.zeros(len(expected), dtype=np.uint8)
+    message[:12] = np.frombuffer(expected[:12], dtype=np.uint8)  # fingerprint and count
+    ft_samples_into(message, OFFSETS[count], first, rate, (first + 2) / rate, wrench, acceleration, wrench_saturated,
+                    acceleration_saturated)
+    assert message.tobytes() == expected
+
+
+def test_the_stylus_force_solves_the_jacobian_transpose():
+    """``stylus_force_at`` against numpy's solve of J_Mᵀ·[f; τ_E] = τ at random poses and torques."""
+    rng = np.random.default_rng(6)
+    plant = MakeMasterPlant()
+    chain = SerialChain(plant, plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME))
+    work = np.empty((6, 7))
+    for _ in range(20):
+        position, torque = rng.uniform(-1.0, 1.0, 6), rng.normal(0.0, 0.3, 6)
+        force = stylus_force_at(chain.record, position, torque, work)
+        chain.update(position)
+        assert force == pytest.approx(np.linalg.norm(np.linalg.solve(chain.J.T, torque)[:3]), rel=1e-10)
+
+
+_PLAIN_AND_COMPILED = r"""
+import pickle, sys
+import lcm
+import numpy as np
+from heft.diagrams.scenario import resolve_scenario
+from heft.diagrams.stations.stand_in import FaultInjection, StandIn
+from heft.diagrams.stations.stand_in_wrist import GraspTimes
+from heft.hardware_interface.lcmtypes import heft_haptic_command, heft_haptic_state
+from heft.systems import compiled
+
+scenario = resolve_scenario("grasp")
+channels = scenario.lab.lcm
+bus = lcm.LCM("memq://")
+payloads, states = [], []
+
+def on_message(channel, payload):
+    payloads.append((channel, payload))
+    if channel == channels.master_state.name:
+        states.append(heft_haptic_state.decode(payload).utime)
+
+for channel in (channels.master_state, channels.slave_status, channels.ft_sample, channels.gripper_state):
+    bus.subscribe(channel.name, on_message).set_queue_capacity(10**5)
+faults = FaultInjection(drop_rate=0.05, nan_rate=0.05, saturate_at_s=0.05, seed=2)
+lab = StandIn(scenario, bus, channels, faults, grasp=GraspTimes(0.02), record_truth=True)
+command = heft_haptic_command()
+command.num_joints, command.enable = 6, True
+for k in range(1, 161):  # 80 ms: the grasp closes, the mount rings, commands name the states published
+    lab.step(k * 5e-4)
+    while bus.handle_timeout(0) > 0:
+        pass
+    if states:
+        command.torque, command.master_utime = list(np.sin(np.arange(6) + k) * 0.2), states[-1]
+        bus.publish(channels.master_command.name, command.encode())
+with open(sys.argv[1], "wb") as out:
+    pickle.dump({"pure_python": compiled.PURE_PYTHON, "payloads": payloads, "peak": lab.stylus_force_peak,
+                 "truth": lab.truth.arrays(lab.ft_samples_due)}, out)
+"""
+
+
+def test_the_compiled_stand_in_publishes_what_its_plain_python_does(tmp_path):
+    """The stand-in's kernels compiled and run as plain Python (``HEFT_PURE_PYTHON=1``), in a process
+    each, on a grasp with faults and commands: the same messages, the same truth."""
+    runs = []
+    for pure_python in (True, False):
+        path = tmp_path / f"{pure_python}.pickle"
+        env = dict(os.environ, HEFT_PURE_PYTHON="1" if pure_python else "0")
+        subprocess.run([sys.executable, "-c", _PLAIN_AND_COMPILED, str(path)], env=env, check=True, timeout=300)
+        with open(path, "rb") as run:
+            runs.append(pickle.load(run))
+    plain, machine_code = runs
+    assert plain["pure_python"] and not machine_code["pure_python"]
+    assert len(plain["payloads"]) > 400 and plain["payloads"] == machine_code["payloads"]
+    assert plain["peak"] > 0 and machine_code["peak"] == pytest.approx(plain["peak"], rel=1e-13)
+    for name, expected in plain["truth"].items():
+        np.testing.assert_allclose(machine_code["truth"][name], expected, rtol=1e-13, atol=1e-13, err_msg=name)

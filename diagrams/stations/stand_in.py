@@ -89,15 +89,16 @@ from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
 from heft.diagrams.stations.sim_station import MASTER_ENCODER_COUNTS_PER_REV
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import CLUTCH_BUTTON
-from heft.hardware_interface.fixed_layout import FixedLayout
-from heft.hardware_interface.ft_messages import pack_samples
+from heft.hardware_interface.fixed_layout import FixedLayout, put_wire_double, put_wire_int
+from heft.hardware_interface.ft_messages import FIELDS, OFFSETS, pack_samples
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, open_buses, pump
 from heft.diagrams.stations.stand_in_wrist import GraspTimes, SixAxisSampler, TruthRecord, Wrist
 from heft.hardware_interface.lcmtypes import heft_gripper_state, heft_haptic_command, heft_haptic_state
+from heft.systems.compiled import compiled, float_array
 from heft.systems.encoders import EncoderVelocityEstimator
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 from heft.systems.operator_hand import smooth_sine_offset
-from heft.systems.serial_chain import SerialChain
+from heft.systems.serial_chain import SerialChain, chain_dtype, chain_kinematics
 from heft.systems.sensor_models import ACCELEROMETER_STREAM, FORCE_TORQUE_STREAM, NUM_AXES, quantize
 from heft.systems.setpoint_filter import critically_damped_step_matrices, setpoint_step
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
@@ -106,15 +107,18 @@ from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many 
 HAPTIC_WATCHDOG_S = 0.02
 """The Phantom driver zeroes its torque this long (s) after the last valid command."""
 _PUBLISHED_KEEP = 8192
-"""Master positions (utime, force map) the Phantom driver keeps, in a ring: 4 s at 2 kHz, more than
+"""Master states (utime, joint positions) the Phantom driver keeps, in a ring: 4 s at 2 kHz, more than
 a stalled lab publishes between a command's state and the command's arrival."""
 _NO_TORQUE = np.zeros(NUM_JOINTS)
 _NO_TORQUE.flags.writeable = False
 _NO_TORQUE_VALUES = (0.0,) * NUM_JOINTS
 """The arm driver's torques (measured, commanded, external), which the stand-in does not model."""
-_NAN_WRENCH = [math.nan] * 6
+_NAN_WRENCH = np.frombuffer(struct.pack(">6d", *[math.nan] * 6), dtype=np.uint8)
+"""A sample's wrench of NaNs as its message carries it (six big-endian doubles)."""
 _WRENCH_SATURATED = 0x3F
 """The flag bits of the six wrench axes (``heft_ft_sample.saturated``)."""
+_UTIME, _COUNTER, _WRENCH, _ACCELERATION, _SATURATED, _ERROR = range(1, 1 + len(FIELDS))
+"""Columns of ``ft_messages.OFFSETS``: where each field of a sample starts."""
 _MASK64 = (1 << 64) - 1
 _MASTER, _SLAVE, _FT, _GRIPPER = range(4)
 """Channel indices; channel i loses messages on random stream i and reorders them on 4 + i, but the
@@ -211,6 +215,51 @@ class _Outlet:
             self._held = None
 
 
+@compiled("float64(CHAIN[:], float64[:], float64[:], float64[:, :])", CHAIN=chain_dtype(NUM_JOINTS))
+def stylus_force_at(chain, position, torque, work) -> float:
+    """|f| (N) of the wrench [f; τ_E] that joint ``torque`` (N·m) renders on the hand at joint ``position``
+    (rad): the solution of J_Mᵀ·[f; τ_E] = τ, J_M the ``chain``'s Jacobian there (a ``SerialChain.record``,
+    overwritten), by Gaussian elimination with partial pivoting on ``work`` (n, n + 1)."""
+    c = chain[0]
+    J, n = c["J"], position.shape[0]
+    chain_kinematics(c["axes"], c["points"], c["M_R"], c["M_p"], position, c["zeros"], c["zeros"], c["gravity_B"],
+                     c["R"], c["p"], J, c["motion"], c["work"])
+    for r in range(n):  # [J_Mᵀ | τ]
+        for k in range(n):
+            work[r, k] = J[k, r]
+        work[r, n] = torque[r]
+    for k in range(n):
+        pivot = k
+        for r in range(k + 1, n):
+            if abs(work[r, k]) > abs(work[pivot, k]):
+                pivot = r
+        for col in range(k, n + 1):
+            work[k, col], work[pivot, col] = work[pivot, col], work[k, col]
+        for r in range(k + 1, n):
+            factor = work[r, k] / work[k, k]
+            for col in range(k, n + 1):
+                work[r, col] -= factor * work[k, col]
+    for k in range(n - 1, -1, -1):  # back substitution: [f; τ_E] into the last column
+        total = work[k, n]
+        for col in range(k + 1, n):
+            total -= work[k, col] * work[col, n]
+        work[k, n] = total / work[k, k]
+    return math.sqrt(work[0, n] * work[0, n] + work[1, n] * work[1, n] + work[2, n] * work[2, n])
+
+
+@compiled("int64(int64[:], int64, int64, int64)")
+def ring_slot(utimes, newest, filled, utime) -> int:
+    """The slot of ``utime`` among the ``filled`` slots of the ring ``utimes`` that end at slot ``newest``,
+    searched from the newest back; −1 if none holds it."""
+    for back in range(filled):
+        slot = newest - back
+        if slot < 0:
+            slot += utimes.shape[0]
+        if utimes[slot] == utime:
+            return slot
+    return -1
+
+
 class _Master:
     """The Phantom's joints moved by the operator's reference motion through the master's
     Jacobian at its start pose: q = q₀ + J_M(q₀)⁻¹·[Δp; Δrpy](t), q̇ = its derivative."""
@@ -227,18 +276,12 @@ class _Master:
         self._amplitude = np.linalg.solve(self._chain.J, np.concatenate((operator.amplitude,
                                                                          operator.rotation_amplitude)))
         self.position, self.velocity = self._initial.copy(), np.zeros(NUM_JOINTS)
+        self._solve_work = np.empty((NUM_JOINTS, NUM_JOINTS + 1))
 
     def stylus_force(self, torque, position) -> float:
         """|f| (N) of the wrench that joint ``torque`` (N·m) renders on the hand at joint
-        ``position`` (rad): τ = J_Mᵀ·[f; τ_E]."""
-        self._chain.update(position)
-        return float(np.linalg.norm(np.linalg.solve(self._chain.J.T, torque)[:3]))
-
-    def force_map(self, position, out: np.ndarray) -> None:
-        """Writes into ``out`` (3, 6) the map from joint torque (N·m) to the force f (N) it renders
-        on the hand at joint ``position`` (rad): the first three rows of J_M⁻ᵀ."""
-        self._chain.update(position)
-        out[:] = np.linalg.inv(self._chain.J.T)[:3]
+        ``position`` (rad): τ = J_Mᵀ·[f; τ_E] (``stylus_force_at``)."""
+        return stylus_force_at(self._chain.record, float_array(position), float_array(torque), self._solve_work)
 
     def update(self, t: float) -> None:
         """Moves the joints to the operator's reference at time ``t`` (s)."""
@@ -246,6 +289,44 @@ class _Master:
         offset, self.velocity = smooth_sine_offset(t, operator.start_time, operator.frequency, self._amplitude,
                                                   operator.stroke_scales)
         self.position = self._initial + offset
+
+
+@compiled("void(float64[:, :], float64[:], float64, float64[:], float64[:], float64[:], float64[:, :], float64[:])")
+def slave_setpoint_step(A, B, w, max_step, command, setpoint, state, acceleration) -> None:
+    """The arm driver's setpoint filter one status step on, in place: the ``setpoint`` u (rad) moves toward
+    the ``command`` by at most ``max_step`` (rad, each joint), the filter's ``state`` [q; q̇] (2, n) steps on
+    it (``setpoint_step``: A, B), and ``acceleration`` is its q̈ = ω²(u − q) − 2ω·q̇ (rad/s²; ω = ``w``,
+    rad/s) at the new state."""
+    for k in range(setpoint.shape[0]):
+        setpoint[k] += min(max(command[k] - setpoint[k], -max_step[k]), max_step[k])
+    setpoint_step(A, B, state, setpoint)
+    for k in range(setpoint.shape[0]):
+        acceleration[k] = w * w * (setpoint[k] - state[0, k]) - 2 * w * state[1, k]
+
+
+@compiled("void(uint8[:], int64[:], int64, float64, float64, float64[:, :], float64[:, :], float64[:, :], "
+          "float64[:, :])")
+def ft_samples_into(message, starts, first, rate, saturate_at, wrench, acceleration, wrench_saturated,
+                    acceleration_saturated) -> None:
+    """Fills the ``heft_ft_samples`` ``message`` (fingerprint and count set; ``starts``, its row of
+    ``ft_messages.OFFSETS``) with the JR3 driver's samples ``first`` … ``first`` + n − 1 (n, the rows of
+    ``wrench``; sample j at j/``rate`` s): its utime (µs), counter, the measured ``wrench`` negated (the
+    sensor's sign: the load on it), ``acceleration``, the flags (bit k: wrench axis k saturated, bit 6 + k:
+    acceleration axis k; every wrench axis from ``saturate_at`` s on) and no error."""
+    for k in range(wrench.shape[0]):
+        tick = first + k
+        put_wire_int(message, starts[_UTIME] + 8 * k, 8, np.int64(np.rint(tick / rate * 1e6)))
+        put_wire_int(message, starts[_COUNTER] + 8 * k, 8, tick)
+        flags = _WRENCH_SATURATED if tick / rate >= saturate_at else 0
+        for axis in range(NUM_AXES):
+            put_wire_double(message, starts[_WRENCH] + 48 * k + 8 * axis, -wrench[k, axis])
+            put_wire_double(message, starts[_ACCELERATION] + 48 * k + 8 * axis, acceleration[k, axis])
+            if wrench_saturated[k, axis] != 0.0:
+                flags |= 1 << axis
+            if acceleration_saturated[k, axis] != 0.0:
+                flags |= 1 << (NUM_AXES + axis)
+        put_wire_int(message, starts[_SATURATED] + 2 * k, 2, flags)
+        message[starts[_ERROR] + k] = 0
 
 
 def _command_values(layout: FixedLayout, message_type, payload: bytes, *names: str):
@@ -316,10 +397,12 @@ class StandIn:
         self._w = 2 * math.pi * scenario.slave_setpoint_bandwidth  # rad/s, the filter's ω
         self._slave = np.zeros((2, NUM_JOINTS))
         self._slave[0] = scenario.slave_initial_q
+        self._q, self._qd = self._slave  # views of the rows
+        self._qdd = np.zeros(NUM_JOINTS)  # the filter's q̈ at its state (rad/s²)
         self.stylus_force_peak = 0.0
-        # The master positions published lately: their utimes and force maps, a ring.
+        # The master states published lately: their utimes and (encoder-quantised) joint positions, a ring.
         self._published_utime = np.full(_PUBLISHED_KEEP, -1, dtype=np.int64)
-        self._force_maps = np.zeros((_PUBLISHED_KEEP, 3, NUM_JOINTS))
+        self._published_position = np.zeros((_PUBLISHED_KEEP, NUM_JOINTS))
         self._published_count = 0
         self._now = 0.0  # the lab's time at the step under way (s)
         self.slave_command = np.array(scenario.slave_initial_q, dtype=float)
@@ -339,7 +422,7 @@ class StandIn:
         self._accelerometer = SixAxisSampler(scenario.accelerometer, ACCELEROMETER_STREAM, ft_period, per_step)
         self.truth = TruthRecord(channels.ft_sample.rate, self._wrist.phis) if record_truth else None
         self.offsets = np.zeros(6)
-        self._bits = 1 << np.arange(2 * NUM_AXES)
+        self._ft_messages = {}  # samples → a heft_ft_samples of that many, rewritten for each message
 
         self._master = _Master(scenario)
         self._master_step = 2 * math.pi / MASTER_ENCODER_COUNTS_PER_REV
@@ -427,7 +510,7 @@ class StandIn:
                                      "enable", "master_utime")
             if values is not None and values[1] and math.isfinite(sum(values[0])):
                 limits = self._master.effort_limits
-                self._torque_commanded = np.clip(values[0], -limits, limits)
+                self._torque_commanded = np.minimum(np.maximum(values[0], -limits), limits)
                 self._torque_until = now + HAPTIC_WATCHDOG_S
                 self._observe_stylus_force(self._torque_commanded, values[2])
             else:
@@ -439,23 +522,20 @@ class StandIn:
         the present position if it published none then (another publisher's state, or none)."""
         if not torque.any():
             return
-        published = np.flatnonzero(self._published_utime == master_utime)
-        if published.size:
-            force = float(np.linalg.norm(self._force_maps[published[0]] @ torque))
-        else:
-            force = self._master.stylus_force(torque, self._master.position)
-        self.stylus_force_peak = max(self.stylus_force_peak, force)
+        count = self._published_count
+        slot = ring_slot(self._published_utime, (count - 1) % _PUBLISHED_KEEP, min(count, _PUBLISHED_KEEP),
+                         master_utime)
+        position = self._published_position[slot] if slot >= 0 else self._master.position
+        self.stylus_force_peak = max(self.stylus_force_peak, self._master.stylus_force(torque, position))
 
     def _applied_torque(self, t: float) -> np.ndarray:
         """The torque (N·m) the haptic driver applies at ``t`` (s)."""
         return self._torque_commanded if t < self._torque_until else _NO_TORQUE
 
     def _slave_tick(self, tick: int, t: float) -> int:
-        x, u, w = self._slave, self._setpoint, self._w
-        u += np.minimum(np.maximum(self.slave_command - u, -self._max_setpoint_step), self._max_setpoint_step)
-        setpoint_step(self._A, self._B, x, u)
-        q, qd = x
-        self._wrist.update(t, q, qd, w * w * (u - q) - 2 * w * qd)  # q̈ of the filter's ODE
+        u, q, qd, qdd = self._setpoint, self._q, self._qd, self._qdd
+        slave_setpoint_step(self._A, self._B, self._w, self._max_setpoint_step, self.slave_command, u, self._slave, qdd)
+        self._wrist.update(t, q, qd, qdd)
         measured = quantize(q, self._slave_step)
         velocity = qd if self._velocity is None else self._velocity.update(measured)
         outlet = self._outlets[_SLAVE]
@@ -475,7 +555,7 @@ class StandIn:
         utime = round(t * 1e6)
         ring = self._published_count % _PUBLISHED_KEEP
         self._published_utime[ring] = utime
-        master.force_map(measured, self._force_maps[ring])
+        self._published_position[ring] = measured
         self._published_count += 1
         position = measured.tolist()
         buttons = CLUTCH_BUTTON if self._clutch[0] <= t < self._clutch[1] else 0
@@ -499,19 +579,24 @@ class StandIn:
         faults, outlet, newest = self._faults, self._outlets[_FT], last / rate
         if outlet.lost(last, newest):
             return count
-        ticks = range(first, last + 1)
-        wrenches = (-wrench).ravel().tolist()  # the sensor's sign: the load on it
-        saturated = (wrench_saturated @ self._bits[:NUM_AXES]
-                     + acceleration_saturated @ self._bits[NUM_AXES:]).astype(int).tolist()
-        for k, tick in enumerate(ticks):
-            if faults.nan_rate > 0.0 and _uniform(faults.seed, _NAN_STREAM, tick) < faults.nan_rate:
-                wrenches[6 * k:6 * k + 6] = _NAN_WRENCH
-            if tick / rate >= faults.saturate_at_s:
-                saturated[k] |= _WRENCH_SATURATED
-        payload = pack_samples([round(tick / rate * 1e6) for tick in ticks], ticks, wrenches,
-                               acceleration.ravel().tolist(), saturated, [False] * count)
-        self._delayed.append((newest + faults.added_delay_s, last, payload))
+        message, starts = self._ft_message(count), OFFSETS[count]
+        ft_samples_into(message, starts, first, rate, faults.saturate_at_s, wrench, acceleration, wrench_saturated,
+                        acceleration_saturated)
+        if faults.nan_rate > 0.0:
+            for k, tick in enumerate(range(first, last + 1)):
+                if _uniform(faults.seed, _NAN_STREAM, tick) < faults.nan_rate:
+                    message[starts[_WRENCH] + 48 * k:starts[_WRENCH] + 48 * (k + 1)] = _NAN_WRENCH
+        self._delayed.append((newest + faults.added_delay_s, last, message.tobytes()))
         return count
+
+    def _ft_message(self, count: int) -> np.ndarray:
+        """The bytes (writable) of a ``heft_ft_samples`` of ``count`` samples, its fingerprint and count set."""
+        message = self._ft_messages.get(count)
+        if message is None:
+            message = self._ft_messages[count] = np.frombuffer(bytearray(pack_samples(
+                [0] * count, [0] * count, [0.0] * 6 * count, [0.0] * 6 * count, [0] * count, [False] * count)),
+                dtype=np.uint8)
+        return message
 
     def _gripper_tick(self, tick: int, t: float) -> int:
         outlet, grasp = self._outlets[_GRIPPER], self._grasp

@@ -18,8 +18,9 @@ from heft.diagrams.plants import MakeSlavePlant, mount_for, phi_about_S
 from heft.diagrams.scenario import Scenario
 from heft.hardware_interface.lcmtypes import heft_gripper_state
 from heft.systems.accelerometer_reading import reading_from_motion
+from heft.systems.compiled import compiled
 from heft.systems.load_dynamics import GRAVITY_W, regressor_into
-from heft.systems.serial_chain import SerialChain
+from heft.systems.serial_chain import ACCELERATION, GRAVITY, OMEGA, SerialChain, chain_dtype, chain_kinematics
 from heft.systems.sensor_models import (NUM_AXES, HeldLowpass, SixAxisMeasurement, SixAxisSensorParams, lowpass,
                                         lowpass_coefficients)
 from heft.systems.slave_kinematics import NUM_JOINTS
@@ -73,11 +74,14 @@ class SixAxisSampler:
         rows = slice(first - self._start, first - self._start + count)
         if count != len(self._filtered):
             self._filtered, self._measured, self._saturated = np.empty((3, count, NUM_AXES))
+        held = self._held_lowpass
+        if held is not None and count == held.count and not math.isnan(self._lowpass_state[0, 0]):
+            held.measure(self._model, self._lowpass_state, value, self._disturbance[rows], self._measured,
+                         self._saturated)
+            return self._measured, self._offsets[rows], self._saturated
         filtered = self._filtered
         if self._lowpass is None:
             filtered[:] = value
-        elif count == self._held_lowpass.count and not np.isnan(self._lowpass_state[0, 0]):
-            self._held_lowpass(self._lowpass_state, value, filtered)
         else:
             filtered[:] = lowpass(self._lowpass, self._lowpass_state, np.repeat(value[np.newaxis], count, axis=0))
         filtered += self._disturbance[rows]
@@ -125,6 +129,44 @@ class GraspTimes:
         return OBJECT_WIDTH_M if state == heft_gripper_state.HOLDING else GRIPPER_OPEN_WIDTH_M
 
 
+@compiled("void(float64[:, :], float64[:], float64[:])")
+def _regressor_times(V, phi, out) -> None:
+    """``out`` = V·φ (6) of a regressor ``V`` (6, 10) and inertial parameters ``phi`` (10)."""
+    for r in range(6):
+        total = 0.0
+        for j in range(10):
+            total += V[r, j] * phi[j]
+        out[r] = total
+
+
+@compiled("void(CHAIN[:], float64[:], float64[:], float64[:], float64[:], float64[:, :], float64[:])",
+          CHAIN=chain_dtype(NUM_JOINTS))
+def rigid_wrench(chain, q, qd, qdd, phi, V, rigid) -> None:
+    """S's motion at joint positions ``q`` (rad), velocities ``qd`` (rad/s) and accelerations ``qdd``
+    (rad/s²) into the ``chain``'s arrays (``chain_kinematics`` on a ``SerialChain.record``), the regressor
+    ``V`` (6, 10, Eq. 5) of that motion and ``rigid`` = V·φ (6), the wrench that moves a load of ``phi``
+    (10, about S) rigidly with S."""
+    c = chain[0]
+    motion = c["motion"]
+    chain_kinematics(c["axes"], c["points"], c["M_R"], c["M_p"], q, qd, qdd, c["gravity_B"], c["R"], c["p"], c["J"],
+                     motion, c["work"])
+    regressor_into(motion[0:3], motion[3:6], motion[6:9], motion[9:12], V)
+    _regressor_times(V, phi, rigid)
+
+
+@compiled("void(float64[:, :], float64[:], float64[:, :], float64[:], float64[:])")
+def object_wrench(V, phi, inertia, deflection_acceleration, out) -> None:
+    """``out`` = V·φ + M·ξ̈ (6): the wrench that moves an object of ``phi`` (10, about S) and spatial
+    ``inertia`` M (6, 6, heft's order) with the load frame L, from S's regressor ``V`` and L's
+    ``deflection_acceleration`` ξ̈ (6) against S."""
+    _regressor_times(V, phi, out)
+    for r in range(6):
+        total = 0.0
+        for c in range(6):
+            total += inertia[r, c] * deflection_acceleration[c]
+        out[r] += total
+
+
 class Wrist:
     """The slave arm with its wrist sensor and load, evaluated at each of the arm's steps
     (``period`` s): the motion of S from the joint state, the load on its compliant mount (the
@@ -167,14 +209,11 @@ class Wrist:
 
     def _motion(self, q, qd, qdd) -> np.ndarray:
         """Sets ``acceleration``, ``reading`` and the rigid wrench V·φ from the joint state; returns V."""
-        chain = self._chain
-        chain.update(q, qd, qdd)
-        self.acceleration[:] = chain.motion[:6]
-        omega, gravity = chain.motion[6:9], chain.motion[9:]
-        self.reading[:] = reading_from_motion(self.acceleration, gravity, omega, self._accelerometer)
-        V = self._V
-        regressor_into(self.acceleration[:3], self.acceleration[3:], omega, gravity, V)
-        np.dot(V, self.phi, out=self._rigid)
+        chain, V = self._chain, self._V
+        rigid_wrench(chain.record, q, qd, qdd, self.phi, V, self._rigid)
+        self.acceleration[:] = chain.motion[ACCELERATION]
+        self.reading[:] = reading_from_motion(self.acceleration, chain.motion[GRAVITY], chain.motion[OMEGA],
+                                              self._accelerometer)
         return V
 
     def update(self, t: float, q, qd, qdd) -> None:
@@ -190,9 +229,8 @@ class Wrist:
             self._deflection_acceleration[:] = 0.0
         else:
             self._mounts[holding].step(self._mount_state, self._rigid, self.wrench, self._deflection_acceleration)
-        if holding and self._phi_object is not None:  # the object moves with L: V(S's motion)·φ_obj + M_obj·ξ̈
-            np.dot(V, self._phi_object, out=self.wrench_object)
-            self.wrench_object += self._object_inertia @ self._deflection_acceleration
+        if holding and self._phi_object is not None:  # the object moves with L
+            object_wrench(V, self._phi_object, self._object_inertia, self._deflection_acceleration, self.wrench_object)
         else:
             self.wrench_object[:] = 0.0
 
