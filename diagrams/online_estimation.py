@@ -17,8 +17,8 @@ def AddOnlineLoadEstimator(builder: DiagramBuilder, params: LoadEstimationParams
                            accelerometer: AccelerometerConvention, force_scaling, slave_kinematics) -> OutputPort:
     """Adds the online estimator of φ̂ (10), starting from ``phi``, to ``builder`` and returns its
     output: ``AccelerometerToMotion`` (the reading in ``accelerometer``'s convention → S's
-    kinematic [a; α]), ``EstimatorGate`` (which samples it takes; contact judged by
-    ``contact``), ``EstimatorPrefilter`` (unless ``params.prefilter`` is 0) and
+    kinematic [a; α]), ``EstimatorGate`` (which samples it takes: their excitation judged on the
+    prefiltered motion, contact by ``contact``), ``EstimatorPrefilter`` (unless ``params.prefilter`` is 0) and
     ``LoadEstimatorSystem`` (``params.method``), ticking every ``period`` s. φ alone is
     estimated, from f − ô = c + V·φ̂ (``force_scaling``'s outputs): the offsets are the
     OffsetTracker's, so the weight cannot trade against the force offsets. ``slave_kinematics``
@@ -39,8 +39,6 @@ def AddOnlineLoadEstimator(builder: DiagramBuilder, params: LoadEstimationParams
     connect(force_scaling.GetOutputPort("wrench_noncontact"), unbiased.get_input_port(1))
     connect(gravity, to_motion.GetInputPort("gravity"))
     connect(omega, to_motion.GetInputPort("omega"))
-    connect(to_motion.GetOutputPort("acceleration"), gate.GetInputPort("acceleration"))
-    connect(omega, gate.GetInputPort("omega"))
     connect(force_scaling.GetOutputPort("wrench_contact"), gate.GetInputPort("wrench_contact"))
     connect(force_scaling.GetOutputPort("fault"), gate.GetInputPort("fault"))
     connect(gate.GetOutputPort("enable"), estimator.GetInputPort("enable"))
@@ -54,4 +52,6 @@ def AddOnlineLoadEstimator(builder: DiagramBuilder, params: LoadEstimationParams
         inputs = {name: prefilter.GetOutputPort(name) for name in inputs}
     for name, source in inputs.items():
         connect(source, estimator.GetInputPort(name))
+    for name in ("acceleration", "omega"):  # the excitation of the sample learned from
+        connect(inputs[name], gate.GetInputPort(name))
     return estimator.GetOutputPort("phi")

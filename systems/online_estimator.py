@@ -28,8 +28,8 @@ from heft.systems.recursive_estimation import (
     RecursiveLeastSquares, least_squares_start_from, least_squares_update)
 
 ENABLED, SKIPPED, NEW_LOAD = 1, 2, 4
-"""The bits of ``online_estimate_step``'s result: the sample was taken; taken but its filtered inputs
-were not finite; a new load started at this sample."""
+"""The bits of ``online_estimate_step``'s result: the sample was taken; the gate was open but the sample
+learned from held a NaN or inf (not learned); a new load started at this sample."""
 
 
 @compiled("int64(float64[:], float64[:], float64, float64[:], float64[:], float64[:], float64[:], float64[:], "
@@ -41,18 +41,12 @@ def online_estimate_step(settings, clocks, requests, contact, noncontact, accele
                          row, V, row_scale, forgetting, sqrt_forgetting, pull, sqrt_prior):
     """``OnlineLoadEstimator.step``'s tick (its docstring; ``fault`` includes stale readings): the gate
     (``settings``, ``clocks`` (3), the reset ``requests`` counter, ``no_gravity`` and ``gate_V`` its
-    scratch), then the RLS (``least_squares_update`` on ``state`` and the arrays after it) learning from
-    the prefilter's output (``filtered``, ``STATE_SIZE``, with ``coefficients`` if ``prefiltered``, else
-    this tick's ``sample`` (``WIDTH``)), φ̂ copied into ``phi`` (10); then the prefilter takes the sample.
+    scratch; the excitation judged on the sample learned from, the contact on this tick's), then the RLS
+    (``least_squares_update`` on ``state`` and the arrays after it) learning from the prefilter's output
+    (``filtered``, ``STATE_SIZE``, with ``coefficients`` if ``prefiltered``, else this tick's ``sample``
+    (``WIDTH``)), φ̂ copied into ``phi`` (10); then the prefilter takes the sample.
     Returns ``ENABLED`` | ``SKIPPED`` | ``NEW_LOAD`` bits."""
     since_reset, seen, since_spoiled = clocks_now(clocks, requests)
-    flags = 0
-    if gate_open(settings, acceleration, omega, contact, fault, since_reset, since_spoiled, no_gravity, gate_V):
-        flags |= ENABLED
-    if seen > clocks[1]:  # a new load: forget the data before this sample
-        least_squares_start_from(state, p, sqrt_prior, phi)
-        flags |= NEW_LOAD
-    advance_clocks(clocks, settings, since_reset, seen, since_spoiled, contact, fault, dt)
     for i in range(6):
         sample[i] = contact[i] + noncontact[i]
         sample[6 + i] = acceleration[i]
@@ -60,6 +54,14 @@ def online_estimate_step(settings, clocks, requests, contact, noncontact, accele
         sample[12 + i] = omega[i]
         sample[15 + i] = gravity[i]
     learned = filtered if prefiltered else sample
+    flags = 0
+    if gate_open(settings, learned[6:12], learned[12:15], contact, fault, since_reset, since_spoiled, no_gravity,
+                 gate_V):
+        flags |= ENABLED
+    if seen > clocks[1]:  # a new load: forget the data before this sample
+        least_squares_start_from(state, p, sqrt_prior, phi)
+        flags |= NEW_LOAD
+    advance_clocks(clocks, settings, since_reset, seen, since_spoiled, contact, fault, dt)
     if flags & ENABLED:
         finite = True
         for i in range(WIDTH):
@@ -84,8 +86,8 @@ class OnlineLoadEstimator:
     ``new_load()`` (the grasp, a release, a new tool) forgets the data at the next step but keeps
     the estimate as the prior, and reopens the gate's learning window; ``start_from(phi)`` does the
     same from another estimate. After ``step``: ``phi`` (updated in place), ``enabled`` (the sample
-    was taken), ``num_skipped`` (enabled ticks whose filtered inputs were not finite: the
-    prefilter's first tick, or a restart after a fault), ``num_stale`` (ticks since the last new load
+    was taken), ``num_skipped`` (ticks the gate opened whose sample learned from held a NaN
+    or inf, as ``LoadEstimatorSystem`` counts them), ``num_stale`` (ticks since the last new load
     whose readings were older than ``max_input_age``: they spoil the sample as a fault does),
     ``since_reset`` (s)."""
 

@@ -147,7 +147,7 @@ for k in range(40):
     prefilter_step(coefficients, state, rng.normal(0, 3, WIDTH) if k != 20 else np.full(WIDTH, np.nan))
     out["prefilter"].append(np.nan_to_num(state, nan=-1.0))
 # The online estimator's tick: a new load at 20, a faulted sample at 30, contact from 40 to 45, stale
-# readings at 50; the gate open on the others.
+# readings at 50; the gate open on the others once the prefilter has a sample.
 from heft.systems.contact_threshold import ContactThresholdParams
 from heft.systems.load_estimation_params import LoadEstimationParams
 from heft.systems.online_estimator import OnlineLoadEstimator
@@ -278,7 +278,7 @@ def test_the_plain_python_kernels_equal_the_compiled_ones(tmp_path):
     assert refused >= {"undecodable", "joint_count", "non_finite", "out_of_range", "driver_error"}, refused
     assert fallback["station"][:, 0].any() and not fallback["station"][:, 0].all()  # healthy, and not always
     enabled = fallback["online"][:, 10]
-    assert enabled.any() and not enabled.all() and fallback["online"][-1, 11:13].all()  # skipped, stale
+    assert enabled.any() and not enabled.all() and fallback["online"][-1, 12] > 0  # and stale ticks
     for name, expected in fallback.items():
         assert np.abs(expected).max() > 0, name
         assert machine_code[name].shape == expected.shape, name
