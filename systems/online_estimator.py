@@ -44,7 +44,8 @@ def online_estimate_step(settings, clocks, requests, contact, noncontact, accele
     scratch; the excitation judged on the sample learned from, the contact on this tick's), then the RLS
     (``least_squares_update`` on ``state`` and the arrays after it) learning from the prefilter's output
     (``filtered``, ``STATE_SIZE``, with ``coefficients`` if ``prefiltered``, else this tick's ``sample``
-    (``WIDTH``)), φ̂ copied into ``phi`` (10); then the prefilter takes the sample.
+    (``WIDTH``; both laid out as ``estimator_prefilter.SIGNALS``)), φ̂ copied into ``phi`` (10); then the
+    prefilter takes the sample.
     Returns ``ENABLED`` | ``SKIPPED`` | ``NEW_LOAD`` bits."""
     since_reset, seen, since_spoiled = clocks_now(clocks, requests)
     for i in range(6):

@@ -185,8 +185,9 @@ def test_the_stylus_force_stays_within_the_devices_limits(two_process_run):
         assert results[1.0]["stylus_force_peak"] <= MAX_FORCE + 1e-9
 
 
-@pytest.mark.xfail(strict=True, reason="not met yet, as in one process (test_grasp_lab): while moving the fed-back "
-                                       "force is off by up to 6.7 % of the object's weight")
+@pytest.mark.xfail(strict=True, reason="not met yet: in one process (test_grasp_lab) the fed-back force is off by up "
+                                       "to 6.1 % of the object's weight while moving; across two, where judged, by "
+                                       "far more (the stand-in's arm rings the load: the README's grasp section)")
 def test_while_moving_the_stylus_follows_contact_and_eta_of_the_objects_wrench(two_process_run):
     result = judged(two_process_run[3])[1.0]
     assert len(result["moving"]) > 50 and max(result["moving"]) <= BOUND
