@@ -90,7 +90,7 @@ from heft.diagrams.stations.sim_station import MASTER_ENCODER_COUNTS_PER_REV
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import CLUTCH_BUTTON
 from heft.hardware_interface.fixed_layout import FixedLayout, put_wire_double, put_wire_int
-from heft.hardware_interface.ft_messages import FIELDS, OFFSETS, pack_samples
+from heft.hardware_interface.ft_messages import FIELDS, OFFSETS, SAMPLE_BYTES, pack_samples
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, open_buses, pump
 from heft.diagrams.stations.stand_in_wrist import GraspTimes, SixAxisSampler, TruthRecord, Wrist
 from heft.hardware_interface.lcmtypes import heft_gripper_state, heft_haptic_command, heft_haptic_state
@@ -113,12 +113,13 @@ _NO_TORQUE = np.zeros(NUM_JOINTS)
 _NO_TORQUE.flags.writeable = False
 _NO_TORQUE_VALUES = (0.0,) * NUM_JOINTS
 """The arm driver's torques (measured, commanded, external), which the stand-in does not model."""
-_NAN_WRENCH = np.frombuffer(struct.pack(">6d", *[math.nan] * 6), dtype=np.uint8)
-"""A sample's wrench of NaNs as its message carries it (six big-endian doubles)."""
 _WRENCH_SATURATED = 0x3F
 """The flag bits of the six wrench axes (``heft_ft_sample.saturated``)."""
 _UTIME, _COUNTER, _WRENCH, _ACCELERATION, _SATURATED, _ERROR = range(1, 1 + len(FIELDS))
 """Columns of ``ft_messages.OFFSETS``: where each field of a sample starts."""
+_TIME_BYTES, _COUNTER_BYTES, _VECTOR_BYTES, _FLAG_BYTES = (int(SAMPLE_BYTES[column - 1]) for column in (
+    _UTIME, _COUNTER, _WRENCH, _SATURATED))
+"""Bytes a sample's utime, counter, wrench (or acceleration) and flags take (``ft_messages.SAMPLE_BYTES``)."""
 _MASK64 = (1 << 64) - 1
 _MASTER, _SLAVE, _FT, _GRIPPER = range(4)
 """Channel indices; channel i loses messages on random stream i and reorders them on 4 + i, but the
@@ -315,17 +316,17 @@ def ft_samples_into(message, starts, first, rate, saturate_at, wrench, accelerat
     acceleration axis k; every wrench axis from ``saturate_at`` s on) and no error."""
     for k in range(wrench.shape[0]):
         tick = first + k
-        put_wire_int(message, starts[_UTIME] + 8 * k, 8, np.int64(np.rint(tick / rate * 1e6)))
-        put_wire_int(message, starts[_COUNTER] + 8 * k, 8, tick)
+        put_wire_int(message, starts[_UTIME] + _TIME_BYTES * k, _TIME_BYTES, np.int64(np.rint(tick / rate * 1e6)))
+        put_wire_int(message, starts[_COUNTER] + _COUNTER_BYTES * k, _COUNTER_BYTES, tick)
         flags = _WRENCH_SATURATED if tick / rate >= saturate_at else 0
         for axis in range(NUM_AXES):
-            put_wire_double(message, starts[_WRENCH] + 48 * k + 8 * axis, -wrench[k, axis])
-            put_wire_double(message, starts[_ACCELERATION] + 48 * k + 8 * axis, acceleration[k, axis])
+            put_wire_double(message, starts[_WRENCH] + _VECTOR_BYTES * k + 8 * axis, -wrench[k, axis])
+            put_wire_double(message, starts[_ACCELERATION] + _VECTOR_BYTES * k + 8 * axis, acceleration[k, axis])
             if wrench_saturated[k, axis] != 0.0:
                 flags |= 1 << axis
             if acceleration_saturated[k, axis] != 0.0:
                 flags |= 1 << (NUM_AXES + axis)
-        put_wire_int(message, starts[_SATURATED] + 2 * k, 2, flags)
+        put_wire_int(message, starts[_SATURATED] + _FLAG_BYTES * k, _FLAG_BYTES, flags)
         message[starts[_ERROR] + k] = 0
 
 
@@ -585,7 +586,8 @@ class StandIn:
         if faults.nan_rate > 0.0:
             for k, tick in enumerate(range(first, last + 1)):
                 if _uniform(faults.seed, _NAN_STREAM, tick) < faults.nan_rate:
-                    message[starts[_WRENCH] + 48 * k:starts[_WRENCH] + 48 * (k + 1)] = _NAN_WRENCH
+                    for axis in range(NUM_AXES):
+                        put_wire_double(message, starts[_WRENCH] + _VECTOR_BYTES * k + 8 * axis, math.nan)
         self._delayed.append((newest + faults.added_delay_s, last, message.tobytes()))
         return count
 
