@@ -49,6 +49,14 @@ x = np.zeros((2, 6))
 for u in rng.uniform(-1, 1, (50, 6)):
     setpoint_step(A, B, x, u)
 out["setpoint"] = x
+from heft.diagrams.stations.slave_servo import servo_step, servo_step_matrices
+
+servo_A, servo_C = servo_step_matrices(20.0, [4e4, 4e4, 2e4, 2e3, 2e3, 5e2], [900.0, 1100.0, 400.0, 25.0, 30.0, 3.3],
+                                       np.diag([4.8, 7.9, 2.4, 0.08, 0.11, 0.005]) + 0.01, 5e-4)
+arm, setpoint, deviation, qdd, out["servo"] = np.zeros((4, 6)), np.zeros(6), np.zeros(24), np.zeros(6), []
+for command in rng.uniform(-1, 1, (50, 6)):
+    servo_step(servo_A, servo_C, np.full(6, 0.002), command, setpoint, arm, deviation, qdd)
+    out["servo"].append(np.concatenate((arm.ravel(), setpoint, qdd)))
 from heft.systems.accelerometer_reading import AccelerometerConvention, motion_from_reading
 from heft.systems.force_scaling import (EVALUATION_SIZE, evaluate, initial_memory, next_memory_and_scales,
                                         notch_coefficients)

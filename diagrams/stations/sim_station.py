@@ -20,6 +20,7 @@ from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, Satu
 
 from heft.diagrams.plants import AddMaster, AddSlave, SlaveParts, phi_about_S
 from heft.diagrams.scenario import Scenario
+from heft.diagrams.stations.slave_servo import slave_servo_gains
 from heft.systems.encoders import AddEncoderVelocityEstimate, EncoderQuantizer
 from heft.systems.gravity_compensation import GravityCompensation
 from heft.systems.load_dynamics import GRAVITY_W
@@ -70,19 +71,14 @@ def _add_slave(builder: DiagramBuilder, scenario: Scenario):
         AddSheetSpring(plant, scenario.environment)
     plant.mutable_gravity_field().set_gravity_vector(GRAVITY_W)
 
-    # The robot controller's model of arm + payload, for gravity feed-forward and servo damping.
+    # The robot controller's model of arm + payload, for gravity feed-forward.
     control_plant = MultibodyPlant(time_step=0.0)
     AddSlave(control_plant, scenario)
     control_plant.mutable_gravity_field().set_gravity_vector(GRAVITY_W)
     control_plant.Finalize()
-    control_context = control_plant.CreateDefaultContext()
-    control_plant.SetPositions(control_context, scenario.slave_initial_q)
-    inertia_diagonal = np.diag(control_plant.CalcMassMatrix(control_context))
 
-    # Stiff joint servo standing in for the robot's own 10 kHz loop: implicit PD in SAP,
-    # damping for the chosen damping ratio at the joint's inertia in the start pose.
-    kp = np.asarray(scenario.slave_servo_stiffness, dtype=float)
-    kd = 2 * scenario.slave_servo_damping_ratio * np.sqrt(kp * inertia_diagonal)
+    # Stiff joint servo standing in for the robot's own 10 kHz loop: implicit PD in SAP.
+    kp, kd, _ = slave_servo_gains(scenario)
     # (GetJointActuatorIndices is empty before Finalize; the arm's actuators come in joint order.)
     arm_actuators = [plant.get_mutable_joint_actuator(JointActuatorIndex(i)) for i in range(plant.num_actuators())
                      if plant.get_joint_actuator(JointActuatorIndex(i)).model_instance() == parts.arm]

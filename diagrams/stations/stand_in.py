@@ -17,13 +17,13 @@ Models (frames as docs/design.md §4: W world = R slave base, B master base, S w
   faster than the arm's joint speed limits (its controller's own limit: a command
   that jumps, as after a late or stalled stand-in, is not a jump of the arm), through
   the robot controller's critically damped setpoint filter
-  (``critically_damped_step_matrices``, ``Scenario.slave_setpoint_bandwidth``),
-  stepped exactly at the status rate; an ideal servo: the measured position is
-  the filter's (encoder-quantised), the estimated velocity the arm controller's
-  estimate from those encoder readings (``EncoderVelocityEstimator``, the simulated
-  station's ``slave_velocity_filter``; the filter's own q̇ when that is 0).
+  (``Scenario.slave_setpoint_bandwidth``) and the simulated station's joint servo on the
+  arm's inertia in the start pose (``slave_servo``), stepped exactly at the status rate: the
+  measured position is the joints' (encoder-quantised), the estimated velocity the arm
+  controller's estimate from those encoder readings (``EncoderVelocityEstimator``, the
+  simulated station's ``slave_velocity_filter``; the joints' own q̇ when that is 0).
 * Sensor frame S: pose, ω, and the kinematic acceleration [a; α] of S in S from
-  the filter's state (``SerialChain``, from the plant's URDF): A_WS = J·q̈ + J̇·q̇, with q̈ the filter's own
+  the joints' state (``SerialChain``, from the plant's URDF): A_WS = J·q̈ + J̇·q̇, with q̈ the joints'
   acceleration after each step. Gravity in S is R_SW·g_W. The accelerometer
   reports what a real one does (``accelerometer_reading``: specific force a − g
   unless the scenario's ``accelerometer.includes_gravity`` is False) at its
@@ -55,9 +55,9 @@ Models (frames as docs/design.md §4: W world = R slave base, B master base, S w
   [``clutch_at``, ``clutch_release_at``).
 
 Left out against ``MakeSimStation``: contact and the environment (no sheet
-spring: the wrench is the load's own only), the arm's link dynamics and servo
-error (an ideal servo: the arm is exactly where its filter says, and the mount's
-load does not move the wrist), the mount's second-order terms
+spring: the wrench is the load's own only), the arm's link dynamics but its inertia
+in the start pose (no Coriolis or centrifugal torques, no change of inertia with the
+pose; the mount's load does not move the wrist), the mount's second-order terms
 (``MountUnderMovingSensor``), the object's approach and lift (it weighs on the
 gripper all at once when the fingers close), the operator's impedance and the
 master's dynamics (the applied torque does not move the master; the stylus follows
@@ -92,6 +92,7 @@ from heft.hardware_interface.hardware_station import CLUTCH_BUTTON
 from heft.hardware_interface.fixed_layout import FixedLayout, put_wire_double, put_wire_int
 from heft.hardware_interface.ft_messages import FIELDS, OFFSETS, SAMPLE_BYTES, pack_samples
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, open_buses, pump
+from heft.diagrams.stations.slave_servo import SERVO_ROWS, servo_step, servo_step_matrices, slave_servo_gains
 from heft.diagrams.stations.stand_in_wrist import GraspTimes, SixAxisSampler, TruthRecord, Wrist
 from heft.hardware_interface.lcmtypes import heft_gripper_state, heft_haptic_command, heft_haptic_state
 from heft.systems.compiled import compiled, float_array
@@ -100,7 +101,6 @@ from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 from heft.systems.operator_hand import smooth_sine_offset
 from heft.systems.serial_chain import SerialChain, chain_dtype, chain_kinematics
 from heft.systems.sensor_models import ACCELEROMETER_STREAM, FORCE_TORQUE_STREAM, NUM_AXES, quantize
-from heft.systems.setpoint_filter import critically_damped_step_matrices, setpoint_step
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
 """Joints of the master and of the slave."""
@@ -292,19 +292,6 @@ class _Master:
         self.position = self._initial + offset
 
 
-@compiled("void(float64[:, :], float64[:], float64, float64[:], float64[:], float64[:], float64[:, :], float64[:])")
-def slave_setpoint_step(A, B, w, max_step, command, setpoint, state, acceleration) -> None:
-    """The arm driver's setpoint filter one status step on, in place: the ``setpoint`` u (rad) moves toward
-    the ``command`` by at most ``max_step`` (rad, each joint), the filter's ``state`` [q; q̇] (2, n) steps on
-    it (``setpoint_step``: A, B), and ``acceleration`` is its q̈ = ω²(u − q) − 2ω·q̇ (rad/s²; ω = ``w``,
-    rad/s) at the new state."""
-    for k in range(setpoint.shape[0]):
-        setpoint[k] += min(max(command[k] - setpoint[k], -max_step[k]), max_step[k])
-    setpoint_step(A, B, state, setpoint)
-    for k in range(setpoint.shape[0]):
-        acceleration[k] = w * w * (setpoint[k] - state[0, k]) - 2 * w * state[1, k]
-
-
 @compiled("void(uint8[:], int64[:], int64, float64, float64, float64[:, :], float64[:, :], float64[:, :], "
           "float64[:, :])")
 def ft_samples_into(message, starts, first, rate, saturate_at, wrench, acceleration, wrench_saturated,
@@ -392,14 +379,15 @@ class StandIn:
         self._haptic_commands = LcmMailbox(command_bus, channels.master_command.name, keep=64)
         self._slave_commands = LcmMailbox(command_bus, channels.slave_command.name, keep=64)
 
-        # Slave: the setpoint filter on the (2, 6) state [q; q̇], and S's motion.
+        # Slave: the setpoint filter and the joint servo on the (4, 6) state [q_f; q̇_f; q; q̇], and S's motion.
         slave_period = 1.0 / channels.slave_status.rate
-        self._A, self._B = critically_damped_step_matrices(scenario.slave_setpoint_bandwidth, slave_period)
-        self._w = 2 * math.pi * scenario.slave_setpoint_bandwidth  # rad/s, the filter's ω
-        self._slave = np.zeros((2, NUM_JOINTS))
-        self._slave[0] = scenario.slave_initial_q
-        self._q, self._qd = self._slave  # views of the rows
-        self._qdd = np.zeros(NUM_JOINTS)  # the filter's q̈ at its state (rad/s²)
+        self._servo = servo_step_matrices(scenario.slave_setpoint_bandwidth, *slave_servo_gains(scenario),
+                                          slave_period)
+        self._slave = np.zeros((SERVO_ROWS, NUM_JOINTS))
+        self._deviation = np.zeros(SERVO_ROWS * NUM_JOINTS)  # servo_step's working space
+        self._slave[0] = self._slave[2] = scenario.slave_initial_q
+        self._q, self._qd = self._slave[2], self._slave[3]  # views of the joints' rows
+        self._qdd = np.zeros(NUM_JOINTS)  # the joints' q̈ at their state (rad/s²)
         self.stylus_force_peak = 0.0
         # The master states published lately: their utimes and (encoder-quantised) joint positions, a ring.
         self._published_utime = np.full(_PUBLISHED_KEEP, -1, dtype=np.int64)
@@ -411,11 +399,11 @@ class StandIn:
         arm, _ = MakeArmPlant(scenario.robot)
         self._max_setpoint_step = arm.GetVelocityUpperLimits() * slave_period  # rad per status step
         self._slave_step = 2 * math.pi / scenario.encoder_counts_per_rev  # rad per encoder count
-        self._velocity = (EncoderVelocityEstimator(quantize(self._slave[0], self._slave_step), slave_period,
+        self._velocity = (EncoderVelocityEstimator(quantize(self._q, self._slave_step), slave_period,
                                                    scenario.slave_velocity_filter)
-                          if scenario.slave_velocity_filter > 0 else None)  # else the filter's own q̇
-        self._wrist = Wrist(scenario, slave_period, grasp, self._slave[0])
-        self._wrist.update(0.0, self._slave[0], self._slave[1], np.zeros(NUM_JOINTS))
+                          if scenario.slave_velocity_filter > 0 else None)  # else the joints' own q̇
+        self._wrist = Wrist(scenario, slave_period, grasp, self._q)
+        self._wrist.update(0.0, self._q, self._qd, np.zeros(NUM_JOINTS))
 
         ft_period = 1.0 / channels.ft_sample.rate
         per_step = max(1, round(channels.ft_sample.rate / channels.slave_status.rate))  # FT samples per arm step
@@ -439,7 +427,7 @@ class StandIn:
 
     @property
     def slave_position(self) -> np.ndarray:
-        return self._slave[0]
+        return self._q
 
     @property
     def master_position(self) -> np.ndarray:
@@ -535,7 +523,7 @@ class StandIn:
 
     def _slave_tick(self, tick: int, t: float) -> int:
         u, q, qd, qdd = self._setpoint, self._q, self._qd, self._qdd
-        slave_setpoint_step(self._A, self._B, self._w, self._max_setpoint_step, self.slave_command, u, self._slave, qdd)
+        servo_step(*self._servo, self._max_setpoint_step, self.slave_command, u, self._slave, self._deviation, qdd)
         self._wrist.update(t, q, qd, qdd)
         measured = quantize(q, self._slave_step)
         velocity = qd if self._velocity is None else self._velocity.update(measured)
