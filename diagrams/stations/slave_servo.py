@@ -11,9 +11,9 @@ The stand-in runs the filter and the servo on the arm's inertia in the start pos
 gravity cancelled by the feed-forward: M·q̈ = Kp·(q_f − q) + Kd·(q̇_f − q̇), linear, stepped
 exactly (``servo_step_matrices``, ``servo_step``); it leaves out the inertia's change with the pose
 and the Coriolis and centrifugal torques. What this keeps of the plant is what matters to the
-wrench at the wrist: the arm lags its filter as the simulated station's does, the joints pulling on
-each other, and its acceleration is continuous when the command jumps (a command that arrives late,
-or two at once), as a real arm's is, instead of stepping with the filter's input.
+wrench at the wrist: the arm lags its filter as Drake's plant of it does, the joints pulling on each
+other, and its acceleration stays continuous when the command jumps (a command that arrives late, or
+two at once), as a real arm's does, instead of stepping with the filter's input.
 """
 
 import numpy as np
@@ -69,16 +69,14 @@ def servo_step(A, C, max_step, command, setpoint, state, deviation, acceleration
     n = setpoint.shape[0]
     for j in range(n):
         setpoint[j] += min(max(command[j] - setpoint[j], -max_step[j]), max_step[j])
+        acceleration[j] = 0.0
         for row in range(SERVO_ROWS):
             deviation[row * n + j] = state[row, j] - (setpoint[j] if row % 2 == 0 else 0.0)
     for i in range(SERVO_ROWS * n):
-        value = 0.0
+        stepped = 0.0
         for k in range(SERVO_ROWS * n):
-            value += A[i, k] * deviation[k]
+            stepped += A[i, k] * deviation[k]
         row, j = divmod(i, n)
-        state[row, j] = value + (setpoint[j] if row % 2 == 0 else 0.0)
-    for j in range(n):
-        value = 0.0
-        for k in range(SERVO_ROWS * n):
-            value += C[j, k] * (state[k // n, k % n] - (setpoint[k % n] if (k // n) % 2 == 0 else 0.0))
-        acceleration[j] = value
+        state[row, j] = stepped + (setpoint[j] if row % 2 == 0 else 0.0)
+        for m in range(n):
+            acceleration[m] += C[m, i] * stepped
