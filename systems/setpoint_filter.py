@@ -10,11 +10,19 @@ from scipy.linalg import expm
 from heft.systems.compiled import compiled
 
 
-def critically_damped_step_matrices(bandwidth_hz: float, period: float):
-    """Exact zero-order-hold discretisation (A_d, B_d) of q̈ = ω²(u − q) − 2ωq̇ for one joint,
-    state [q; q̇], ω = 2π·bandwidth (rad/s)."""
+def critically_damped_dynamics(bandwidth_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """The filter of one joint, q̈ = ω²(u − q) − 2ωq̇ with ω = 2π·bandwidth (rad/s), as
+    d/dt [q; q̇] = F·[q; q̇] + G·u: (F (2, 2), G (2,))."""
     w = 2 * np.pi * bandwidth_hz
-    continuous = np.array([[0.0, 1.0, 0.0], [-w * w, -2 * w, w * w], [0.0, 0.0, 0.0]])
+    return np.array([[0.0, 1.0], [-w * w, -2 * w]]), np.array([0.0, w * w])
+
+
+def critically_damped_step_matrices(bandwidth_hz: float, period: float):
+    """Exact zero-order-hold discretisation (A_d, B_d) of ``critically_damped_dynamics`` for one
+    joint, state [q; q̇]."""
+    F, G = critically_damped_dynamics(bandwidth_hz)
+    continuous = np.zeros((3, 3))
+    continuous[:2, :2], continuous[:2, 2] = F, G
     step = expm(continuous * period)
     return step[:2, :2], step[:2, 2]
 

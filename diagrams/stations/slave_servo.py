@@ -23,6 +23,7 @@ from scipy.linalg import expm
 from heft.diagrams.plants import AddSlave
 from heft.diagrams.scenario import Scenario
 from heft.systems.compiled import compiled
+from heft.systems.setpoint_filter import critically_damped_dynamics
 
 SERVO_ROWS = 4
 """The rows of the arm's state in ``servo_step``: the filter's q_f, q̇_f and the joints' q, q̇ (rad, rad/s)."""
@@ -43,18 +44,16 @@ def slave_servo_gains(scenario: Scenario) -> tuple[np.ndarray, np.ndarray, np.nd
 
 def servo_step_matrices(bandwidth_hz: float, kp, kd, mass_matrix, period: float):
     """The filter and the servo over ``period`` s with the setpoint u held, exactly: A (4n, 4n) steps the
-    state [q_f; q̇_f; q; q̇] (flattened) as its deviation from rest at u, [u; 0; u; 0], for
-    q̈_f = ω²(u − q_f) − 2ω·q̇_f (ω = 2π·``bandwidth_hz``, each joint) and
-    M·q̈ = Kp·(q_f − q) + Kd·(q̇_f − q̇); C (n, 4n) gives q̈ = C·state (also of the deviation:
-    C·[u; 0; u; 0] = 0)."""
-    w = 2 * np.pi * bandwidth_hz
+    state [q_f; q̇_f; q; q̇] (flattened) as its deviation from rest at u, [u; 0; u; 0], for each
+    joint's setpoint filter (``critically_damped_dynamics``) and M·q̈ = Kp·(q_f − q) + Kd·(q̇_f − q̇);
+    C (n, 4n) gives q̈ = C·state (also of the deviation: C·[u; 0; u; 0] = 0)."""
     kp, kd = np.diag(np.asarray(kp, dtype=float)), np.diag(np.asarray(kd, dtype=float))
     n = kp.shape[0]
     C = np.linalg.solve(mass_matrix, np.hstack((kp, kd, -kp, -kd)))
-    eye = np.eye(n)
     continuous = np.zeros((SERVO_ROWS * n, SERVO_ROWS * n))
-    continuous[:n, n:2 * n] = continuous[2 * n:3 * n, 3 * n:] = eye
-    continuous[n:2 * n, :2 * n] = np.hstack((-w * w * eye, -2 * w * eye))
+    # The filter on every joint (its input term drops out of the deviation from rest), then the servo.
+    continuous[:2 * n, :2 * n] = np.kron(critically_damped_dynamics(bandwidth_hz)[0], np.eye(n))
+    continuous[2 * n:3 * n, 3 * n:] = np.eye(n)
     continuous[3 * n:] = C
     return expm(continuous * period), C
 
