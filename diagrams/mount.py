@@ -130,9 +130,9 @@ def softened(mount: MountSpec, factor: float) -> MountSpec:
 
 class MountUnderMovingSensor:
     """A load of inertial parameters ``phi`` (about S at rest, Eq. 6) on a mount of ``constants`` below
-    a sensor frame S whose motion is prescribed (the stand-in's arm, an ideal servo), linear in the
-    load frame L's deflection ξ = [d; θ] against S (m, rad; S's axes; heft's order [translation;
-    rotation], as wrenches [f; τ]):
+    a sensor frame S whose motion is prescribed (the stand-in's arm), linear in the load frame L's
+    deflection ξ = [d; θ] against S (m, rad; S's axes; heft's order [translation; rotation], as
+    wrenches [f; τ]):
 
         M·ξ̈ + C·ξ̇ + K·ξ = −w,    w_S = −(K·ξ + C·ξ̇) = w + M·ξ̈,
 
@@ -140,21 +140,25 @@ class MountUnderMovingSensor:
     exerts on the load through the mount, M the load's spatial inertia about S, K and C the bushing's
     (``stiffness``, ``damping``). Left out, second order in the deflection: ξ̇'s Coriolis terms with
     S's ω, gravity's turn with θ (m·g·|c| against the torque stiffness: 7e-4 for the paper's tool), the
-    moment of the deflection d (|d| ≈ 30 µm for the tool's weight). Discretised exactly for w held over
-    each ``period`` s (the matrix exponential of the 12-state system): stable at any step for M, K
-    positive and C ≥ 0, where the plant's semi-implicit step needs the bound of the module's notes."""
+    moment of the deflection d (|d| ≈ 30 µm for the tool's weight). Discretised exactly for w going
+    linearly from one step's value to the next over each ``period`` s (the matrix exponential of the
+    12-state system with w and ẇ): stable at any step for M, K positive and C ≥ 0, where the plant's
+    semi-implicit step needs the bound of the module's notes; and, unlike w held over the period, with
+    no lag of half a period behind S's motion."""
 
     def __init__(self, constants: MountSpec, phi, period: float):
         order = np.ix_(_WRENCH_ORDER, _WRENCH_ORDER)
         inertia, K, C = inertia_in_wrench_order(phi), stiffness(constants)[order], damping(constants)[order]
         inverse_inertia = np.linalg.inv(inertia)
-        generator = np.zeros((18, 18))  # d/dt [ξ; ξ̇; w] with w constant over the period
+        generator = np.zeros((24, 24))  # d/dt [ξ; ξ̇; w; ẇ] with ẇ constant over the period
         generator[:6, 6:12] = np.eye(6)
         generator[6:12, :6], generator[6:12, 6:12] = -inverse_inertia @ K, -inverse_inertia @ C
-        generator[6:12, 12:] = -inverse_inertia
+        generator[6:12, 12:18] = -inverse_inertia
+        generator[12:18, 18:] = np.eye(6)
         step = scipy.linalg.expm(generator * period)
-        self.transition, self.input_gain = step[:12, :12], step[:12, 12:]
-        """State [ξ; ξ̇] one period on: transition @ state + input_gain @ w."""
+        rate_gain = step[:12, 18:] / period  # of w's change over the period
+        self.transition, self.gain_start, self.gain_end = step[:12, :12], step[:12, 12:18] - rate_gain, rate_gain
+        """State [ξ; ξ̇] one period on: transition @ state + gain_start @ w_start + gain_end @ w_end."""
         self.inverse_inertia, self.stiffness = inverse_inertia, K
         self.output = -np.hstack((K, C))
         """w_S = output @ state (6×12)."""
@@ -164,36 +168,48 @@ class MountUnderMovingSensor:
         """The state [ξ; ξ̇] (12,) at rest under a constant rigid wrench ``wrench`` (w, (6,)): ξ = −K⁻¹·w."""
         return np.concatenate((-np.linalg.solve(self.stiffness, wrench), np.zeros(6)))
 
-    def step(self, state: np.ndarray, wrench: np.ndarray, sensor_wrench: np.ndarray,
+    def step(self, state: np.ndarray, previous_wrench: np.ndarray, wrench: np.ndarray, sensor_wrench: np.ndarray,
              deflection_acceleration: np.ndarray) -> None:
-        """Writes w_S and ξ̈ (6 each) at the start of a period from ``state`` and the rigid ``wrench`` w
-        held over it, then advances ``state`` (12) to the period's end; all in place (``mount_step``)."""
-        mount_step(self.transition, self.input_gain, self.output, self.inverse_inertia, state, wrench, sensor_wrench,
-                   deflection_acceleration, self._next)
+        """Advances ``state`` (12) over the period that ends now, the rigid wrench w going linearly from
+        ``previous_wrench`` (the period's start) to ``wrench`` (now), and writes w_S and ξ̈ (6 each) now;
+        all in place (``mount_step``)."""
+        mount_step(self.transition, self.gain_start, self.gain_end, self.output, self.inverse_inertia, state,
+                   previous_wrench, wrench, sensor_wrench, deflection_acceleration, self._next)
+
+    def deflection_acceleration(self, sensor_wrench: np.ndarray, wrench: np.ndarray, out: np.ndarray) -> None:
+        """Writes ξ̈ = M⁻¹·(w_S − w) (6) into ``out``: this load's, at a deflection whose w_S another
+        load's step gave (the load changes now)."""
+        deflection_acceleration(self.inverse_inertia, sensor_wrench, wrench, out)
 
 
-@compiled("void(float64[:, :], float64[:, :], float64[:, :], float64[:, :], float64[:], float64[:], float64[:], "
-          "float64[:], float64[:])")
-def mount_step(transition, input_gain, output, inverse_inertia, state, wrench, sensor_wrench, deflection_acceleration,
-               scratch) -> None:
-    """``MountUnderMovingSensor.step`` with its matrices: w_S = output·x, ξ̈ = M⁻¹·(w_S − w), then
-    x ← transition·x + input_gain·w, with ``scratch`` (12) holding the new state until it is copied."""
+@compiled("void(float64[:, :], float64[:], float64[:], float64[:])")
+def deflection_acceleration(inverse_inertia, sensor_wrench, wrench, out) -> None:
+    """ξ̈ = M⁻¹·(w_S − w) into ``out`` (6)."""
+    for r in range(6):
+        total = 0.0
+        for c in range(6):
+            total += inverse_inertia[r, c] * (sensor_wrench[c] - wrench[c])
+        out[r] = total
+
+
+@compiled("void(float64[:, :], float64[:, :], float64[:, :], float64[:, :], float64[:, :], float64[:], float64[:], "
+          "float64[:], float64[:], float64[:], float64[:])")
+def mount_step(transition, gain_start, gain_end, output, inverse_inertia, state, previous_wrench, wrench,
+               sensor_wrench, acceleration, scratch) -> None:
+    """``MountUnderMovingSensor.step`` with its matrices: x ← transition·x + gain_start·w_start +
+    gain_end·w (``scratch`` (12) holding the new state until it is copied), then w_S = output·x and
+    the ``acceleration`` ξ̈ = M⁻¹·(w_S − w)."""
+    for r in range(12):
+        total = 0.0
+        for c in range(12):
+            total += transition[r, c] * state[c]
+        for c in range(6):
+            total += gain_start[r, c] * previous_wrench[c] + gain_end[r, c] * wrench[c]
+        scratch[r] = total
+    state[:] = scratch
     for r in range(6):
         total = 0.0
         for c in range(12):
             total += output[r, c] * state[c]
         sensor_wrench[r] = total
-    for r in range(6):
-        total = 0.0
-        for c in range(6):
-            total += inverse_inertia[r, c] * (sensor_wrench[c] - wrench[c])
-        deflection_acceleration[r] = total
-    for r in range(12):
-        total = 0.0
-        for c in range(12):
-            total += transition[r, c] * state[c]
-        forced = 0.0
-        for c in range(6):
-            forced += input_gain[r, c] * wrench[c]
-        scratch[r] = total + forced
-    state[:] = scratch
+    deflection_acceleration(inverse_inertia, sensor_wrench, wrench, acceleration)

@@ -104,9 +104,6 @@ def test_the_stylus_force_stays_within_the_devices_limits(lab_run):
     assert results[1.0]["stylus_force_peak"] <= MAX_FORCE + 1e-9
 
 
-@pytest.mark.xfail(strict=True, reason="not met yet: while moving, the fed-back force is off by up to 5.2 % of the "
-                                       "object's weight (p50 3.2 %), mostly the load lagging S on its mount: the "
-                                       "README's grasp section")
 def test_while_moving_the_stylus_follows_contact_and_eta_of_the_objects_wrench(lab_run):
     _, results = lab_run
     result = results[1.0]

@@ -197,7 +197,7 @@ class Wrist:
             self._object_inertia = mount.inertia_in_wrench_order(self._phi_object)
         self.wrench, self.wrench_object, self._V = np.zeros(6), np.zeros(6), np.zeros((6, 10))
         self.acceleration, self.reading = np.zeros(6), np.zeros(6)
-        self._rigid, self._deflection_acceleration = np.zeros(6), np.zeros(6)
+        self._rigid, self._rigid_before, self._deflection_acceleration = np.zeros(6), np.zeros(6), np.zeros(6)
         if scenario.load.mount.rigid:
             self._mounts = None
         else:
@@ -206,6 +206,7 @@ class Wrist:
                             for holding, phi in self.phis.items() if phi[0] > 0}  # a tool: always "holding"
             self._motion(q0, np.zeros(NUM_JOINTS), np.zeros(NUM_JOINTS))
             self._mount_state = self._mounts[self.holding].at_rest(self._rigid)  # settled under the load
+        self._rigid_before[:] = self._rigid
 
     def _motion(self, q, qd, qdd) -> np.ndarray:
         """Sets ``acceleration``, ``reading`` and the rigid wrench V·φ from the joint state; returns V."""
@@ -217,18 +218,27 @@ class Wrist:
         return V
 
     def update(self, t: float, q, qd, qdd) -> None:
-        """Evaluates the wrist at time ``t`` (s; the gripper's state then) and joint positions ``q``
-        (rad), velocities ``qd`` (rad/s), accelerations ``qdd`` (rad/s²); steps the mount on to the
-        next step, the motion held."""
-        holding = self._grasp.holding(t)
-        if holding != self.holding:
-            self.holding, self.phi = holding, self.phis[holding]
+        """Evaluates the wrist at time ``t`` (s) and joint positions ``q`` (rad), velocities ``qd``
+        (rad/s), accelerations ``qdd`` (rad/s²), once per step: the mount stepped on from the last call
+        (one period before; at the first, at rest) under the load it carried meanwhile, S's motion going
+        linearly from that call's to this one's; then the gripper's state at ``t`` (a grasp or a
+        release takes effect now)."""
         V = self._motion(q, qd, qdd)
         if self._mounts is None:
             self.wrench[:] = self._rigid
             self._deflection_acceleration[:] = 0.0
         else:
-            self._mounts[holding].step(self._mount_state, self._rigid, self.wrench, self._deflection_acceleration)
+            self._mounts[self.holding].step(self._mount_state, self._rigid_before, self._rigid, self.wrench,
+                                            self._deflection_acceleration)
+        holding = self._grasp.holding(t)
+        if holding != self.holding:
+            self.holding, self.phi = holding, self.phis[holding]
+            np.dot(V, self.phi, out=self._rigid)
+            if self._mounts is None:
+                self.wrench[:] = self._rigid
+            else:  # the same deflection, under the new load
+                self._mounts[holding].deflection_acceleration(self.wrench, self._rigid, self._deflection_acceleration)
+        self._rigid_before[:] = self._rigid
         if holding and self._phi_object is not None:  # the object moves with L
             object_wrench(V, self._phi_object, self._object_inertia, self._deflection_acceleration, self.wrench_object)
         else:
