@@ -47,6 +47,24 @@ def test_a_small_overrun_delays_the_next_tick_instead_of_skipping_it(fake_clock)
     assert [round(t / PERIOD, 6) for t in starts] == [0, 1, 2, 3.2, 4, 5]
 
 
+def test_the_rate_is_the_loops_not_counting_the_collection_after_it(fake_clock, monkeypatch):
+    """The cyclic garbage collector runs once the loop has ended (0.1 s here): the run's elapsed time
+    and so its achieved rate are the loop's own."""
+    from heft.diagrams.running import realtime
+
+    clock = fake_clock
+    monkeypatch.setattr(realtime.gc, "collect", lambda: setattr(clock, "t", clock.t + 0.1))
+
+    def tick(now, dt):
+        clock.t += 0.0001
+
+    times = run_realtime(tick, PERIOD, 0.0195, clock=clock, sleep=clock.sleep)
+    summary = timing_summary(times)
+    assert summary["ticks"] == 20 and summary["skipped_ticks"] == 0
+    assert times.elapsed == pytest.approx(0.02, abs=PERIOD)
+    assert summary["achieved_rate_hz"] == pytest.approx(1000.0, rel=0.05)
+
+
 def test_a_tick_that_asks_to_stop_ends_the_loop(fake_clock):
     clock = fake_clock
     times = run_realtime(lambda now, dt: now >= 0.0045, PERIOD, 1.0, clock=clock, sleep=clock.sleep)

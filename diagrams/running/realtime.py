@@ -42,7 +42,8 @@ class HardwareRunFailed(RuntimeError):
 @dataclasses.dataclass
 class TickTimes:
     """Per-tick measurements (s): wall and CPU time of each ``tick``, its start's lateness after
-    its grid point; ``skipped`` grid points, ``elapsed`` wall time of the whole run."""
+    its grid point; ``skipped`` grid points, ``elapsed`` wall time of the loop (its start to its
+    end: not the garbage collection after it, which took ~0.1 s, 2 % of a 5 s run's rate)."""
 
     wall: np.ndarray
     cpu: np.ndarray
@@ -101,10 +102,11 @@ def run_realtime(tick, period: float, duration: float, clock=time.perf_counter, 
             following = max(grid + 1, math.ceil(done / period - LATE_TOLERANCE))
             skipped += following - grid - 1
             grid = following
+        elapsed = clock() - start
     finally:
         gc.enable()
         gc.collect()
-    return TickTimes(wall[:ticks], cpu[:ticks], lateness[:ticks], skipped, clock() - start, period)
+    return TickTimes(wall[:ticks], cpu[:ticks], lateness[:ticks], skipped, elapsed, period)
 
 
 class StopOnSignal:
