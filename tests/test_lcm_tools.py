@@ -89,3 +89,22 @@ def test_probe_receiver_gets_the_channel_with_the_kernels_arrival_time(netns):
     result = subprocess.run(["ip", "netns", "exec", netns, sys.executable, "-c", PROBE_RECEIVER_CHECK],
                             capture_output=True, text=True, timeout=60)
     assert result.returncode == 0 and "ok" in result.stdout, result.stderr
+
+
+def test_the_bench_waits_for_a_line_and_leaves_the_rest_to_communicate():
+    """`heft bench lcm` starts the controller once the stand-in says it publishes: the line is found
+    among others written at once, what follows it reaches ``communicate``, and a process that ends
+    without it is an error that shows what it wrote."""
+    import subprocess
+    import sys
+
+    from heft.diagrams.commands.bench_lcm import _wait_for_line
+
+    script = "import sys, time; print('a\\nready: go\\nb', flush=True); time.sleep(0.2); print('c')"
+    process = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True)
+    assert _wait_for_line(process, "ready:", 30.0).splitlines() == ["a", "ready: go", "b"]
+    assert process.communicate(timeout=30)[0] == "c\n"
+    silent = subprocess.Popen([sys.executable, "-c", "print('starting'); raise SystemExit(3)"],
+                              stdout=subprocess.PIPE, text=True)
+    with pytest.raises(RuntimeError, match="(?s)no line beginning 'ready:'.*starting"):
+        _wait_for_line(silent, "ready:", 30.0)

@@ -213,13 +213,31 @@ def _namespace():
     return ["ip", "netns", "exec", name], lambda: subprocess.run(["ip", "netns", "del", name], capture_output=True)
 
 
-def _finish(processes: dict) -> None:
+def _wait_for_line(process: subprocess.Popen, start: str, timeout: float) -> str:
+    """Reads ``process``'s output (a pipe, read here unbuffered so that ``communicate`` later gets
+    the rest) until a line begins with ``start``; returns what it read. Raises RuntimeError with
+    that output if the process ends first or ``timeout`` s pass."""
+    read, deadline, fd = b"", time.monotonic() + timeout, process.stdout.fileno()
+    while time.monotonic() < deadline:
+        if select.select([fd], [], [], 0.1)[0]:
+            chunk = os.read(fd, 65536)
+            read += chunk
+            if any(line.startswith(start.encode()) for line in read.split(b"\n")[:-1]):
+                return read.decode(errors="replace")
+            if not chunk:
+                break
+    process.kill()
+    raise RuntimeError(f"no line beginning {start!r} within {timeout:g} s:\n{read.decode(errors='replace')}")
+
+
+def _finish(processes: dict, already: dict | None = None) -> None:
     """Waits for each {label: (Popen, timeout s)} in turn; kills what is left; raises with
-    every process's output if one failed."""
-    outputs = {}
+    every process's output (after what ``already`` {label: text} holds of it) if one failed."""
+    outputs = dict(already or {})
     try:
         for label, (process, timeout) in processes.items():
-            outputs[label], _ = process.communicate(timeout=timeout)
+            rest, _ = process.communicate(timeout=timeout)
+            outputs[label] = outputs.get(label, "") + rest
     finally:
         for process, _ in processes.values():
             if process.poll() is None:
@@ -304,14 +322,16 @@ def bench_stand_in(rate_hz: float, duration: float, channels, scenario: str, fol
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONUNBUFFERED="1")
     cli = [*prefix, sys.executable, "-m", "heft.diagrams.cli"]
     stand_in = subprocess.Popen(
-        [*cli, "stand-in", "--scenario", scenario, *_url_arguments(channels), "--duration", str(duration + 2 * SETTLE),
+        [*cli, "stand-in", "--scenario", scenario, *_url_arguments(channels), "--duration", str(duration + 4 * SETTLE),
          "--out", str(stand_in_path)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
+    # The controller's run starts once the lab publishes, so that all of it counts.
+    started = _wait_for_line(stand_in, "stand-in: publishing", 120.0)
     teleop = subprocess.Popen(
         [*cli, "teleop", "--hardware", *_url_arguments(channels), "--scenario", scenario,
          "--set", lab_settings_text(resolve_scenario(scenario)), "--rate", str(rate_hz),
          "--busy-wait", str(busy_wait), "--duration", str(duration), "--out", str(teleop_path)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
-    _finish({"teleop": (teleop, duration + 120), "stand-in": (stand_in, duration + 120)})
+    _finish({"teleop": (teleop, duration + 120), "stand-in": (stand_in, duration + 120)}, {"stand-in": started})
     controller, lab = json.loads(teleop_path.read_text()), json.loads(stand_in_path.read_text())
     # The controller ran inside the stand-in's run: its commands per second of its own run.
     lab["received_hz_while_controlled"] = {name: count / controller["duration"]
