@@ -26,7 +26,8 @@ def AddOnlineLoadEstimator(builder: DiagramBuilder, params: LoadEstimationParams
     and exports ``estimator_reset`` (1, a request counter: a new load)."""
     to_motion = builder.AddNamedSystem("accelerometer_to_motion", AccelerometerToMotion(accelerometer))
     estimator = builder.AddNamedSystem("phi_hat", LoadEstimatorSystem(
-        method=params.method, offsets=False, period=period, forgetting=params.forgetting, initial_theta=phi))
+        method=params.method, offsets=False, period=period, forgetting=params.forgetting, initial_theta=phi,
+        initial_covariance=params.prior_covariance))
     unbiased = builder.AddNamedSystem("wrench_without_offsets", Adder(2, 6))
     gate = builder.AddNamedSystem("estimator_gate", EstimatorGate(params, contact, period))
     omega, gravity = slave_kinematics.GetOutputPort("omega_S"), slave_kinematics.GetOutputPort("gravity_S")

@@ -24,6 +24,14 @@ class LoadEstimationParams:
     forgetting: float = 0.9995
     """λ per tick: a memory of 1/(1 − λ) = 2000 ticks, 1 s at 2 kHz."""
 
+    prior_covariance: float = 1.0
+    """P₀ of the RLS's prior on the estimate it starts from, and keeps on a new load (per entry of φ:
+    kg², (kg·m)², (kg·m²)²): how far a sample may pull φ̂ in the directions it barely excites; the
+    stabilized forgetting relaxes those directions to it. 1 lets a grasped object's mass in at its
+    first samples, but not one sample's noise into what the motion hardly sees: with 1e6 (no prior)
+    the first sample of strokes started past ``learning_window`` set the gripper's I_yy to
+    −2.9 kg·m² to fit 0.06 N, and the contact that φ̂ then saw closed the gate for good."""
+
     min_excitation: float = 2.0
     """Least ‖V(a, α, ω, 0)‖ (Frobenius; m/s², rad/s², rad²/s² mixed) of a sample taken."""
 
@@ -58,6 +66,8 @@ class LoadEstimationParams:
                              f"instruments, RTLS a prior mean); got {self.method!r}")
         if not 0.5 <= self.forgetting <= 1.0:
             raise ValueError(f"estimator forgetting must lie in [0.5, 1]; got {self.forgetting}")
+        if not (math.isfinite(self.prior_covariance) and self.prior_covariance > 0):
+            raise ValueError(f"estimator prior_covariance must be finite and > 0; got {self.prior_covariance}")
         if not self.max_input_age > 0:  # NaN too
             raise ValueError(f"estimator max_input_age must be > 0 s (inf: never judged); got {self.max_input_age}")
         for name in ("min_excitation", "learning_window", "new_load_wait", "prefilter"):

@@ -97,7 +97,8 @@ class OnlineLoadEstimator:
         if params.mode != "online":
             raise ValueError(f"OnlineLoadEstimator needs controller.estimator.mode 'online'; got {params.mode!r}")
         self._params = params
-        self._rls = RecursiveLeastSquares(offsets=False, forgetting=params.forgetting)  # as LoadEstimatorSystem's
+        self._rls = RecursiveLeastSquares(offsets=False, forgetting=params.forgetting,
+                                          initial_covariance=params.prior_covariance)  # as LoadEstimatorSystem's
         self._rls.start_from(phi)
         self.phi = self._rls.phi
         self._prefiltered = params.prefilter > 0
