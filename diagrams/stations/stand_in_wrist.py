@@ -233,7 +233,7 @@ class Wrist:
         holding = self._grasp.holding(t)
         if holding != self.holding:
             self.holding, self.phi = holding, self.phis[holding]
-            np.dot(V, self.phi, out=self._rigid)
+            self._motion(q, qd, qdd)  # the rigid wrench of the new load
             if self._mounts is None:
                 self.wrench[:] = self._rigid
             else:  # the same deflection, under the new load
