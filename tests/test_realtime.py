@@ -131,3 +131,44 @@ def test_a_drivers_process_leaves_the_loops_cpu(cpus):
     expected = cpus[:-1] or cpus
     assert json.loads(caller) == expected and json.loads(early) == expected, run.stdout
     assert (f"off CPU {cpus[-1]}" in said) == (len(cpus) > 1), said
+
+
+LAB_CLAIM = """
+import json, os, sys, threading
+from heft.diagrams.running.realtime import claim_lab_realtime
+said = claim_lab_realtime(int(sys.argv[1]))
+seen = {}
+thread = threading.Thread(target=lambda: seen.update(policy=os.sched_getscheduler(0),
+                                                     priority=os.sched_getparam(0).sched_priority))
+thread.start()
+thread.join()
+print(json.dumps({"said": said, "cpus": sorted(os.sched_getaffinity(0)), **seen}))
+"""
+
+
+@pytest.mark.parametrize("priority", [40, 0])
+def test_a_drivers_process_runs_real_time_off_the_loops_cpu_and_its_threads_inherit_it(priority):
+    """``claim_lab_realtime`` (`heft stand-in --rt-priority`): off the loop's CPU, ``SCHED_FIFO`` at the
+    priority asked for a thread started afterwards too, or a refusal that says how to grant it; 0 leaves
+    the scheduling normal."""
+    run = subprocess.run([sys.executable, "-c", LAB_CLAIM, str(priority)], capture_output=True, text=True,
+                         check=True)
+    result = json.loads(run.stdout)
+    mine = os.sched_getaffinity(0)
+    assert result["cpus"] == (sorted(mine - {max(mine)}) or sorted(mine)), result
+    if priority and "refused" not in result["said"]:
+        assert result["policy"] == os.SCHED_FIFO and result["priority"] == priority, result
+        assert result["said"].endswith(f"SCHED_FIFO priority {priority}"), result
+    else:
+        assert result["policy"] == os.SCHED_OTHER and result["priority"] == 0, result
+        assert ("ulimit -r" in result["said"]) == (priority != 0), result
+
+
+def test_a_real_time_priority_outside_1_to_99_is_refused_before_anything_changes():
+    from heft.diagrams.running.realtime import claim_lab_realtime, claim_realtime
+
+    before = os.sched_getaffinity(0)
+    for claim in (claim_realtime, claim_lab_realtime):
+        with pytest.raises(ValueError, match="real-time priority must be 1–99"):
+            claim(100)
+    assert os.sched_getaffinity(0) == before

@@ -22,7 +22,7 @@ from heft.diagrams.plants import _add_compliant_mount, _add_load, mount_for
 from heft.diagrams.scenario import Scenario, overrides_text, resolve_scenario
 from heft.diagrams.stations.sim_station import settle_mount
 from heft.diagrams.stations.stand_in import StandIn
-from heft.diagrams.stations.stand_in_wrist import GRIPPER_CLOSING_S, GraspTimes
+from heft.diagrams.stations.stand_in_wrist import GRIPPER_CLOSING_S, GraspTimes, _Rows
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
 from heft.hardware_interface.ft_messages import decode_samples
@@ -258,3 +258,16 @@ def test_the_mount_rings_while_the_arm_moves_and_rests_on_the_weight():
     welded, mounted = published
     assert np.abs(mounted - welded)[:, :3].max() > 1.0  # N
     np.testing.assert_allclose(mounted[-1], welded[-1], atol=2e-2)  # N, N·m: settled (4 % damped, 0.95 s)
+
+
+def test_the_truths_rows_come_back_in_order_across_its_blocks(monkeypatch):
+    """The truth keeps its rows in blocks that are never copied while the lab runs; read back, they are
+    the rows appended, in order, whatever the appends' sizes against the blocks'."""
+    monkeypatch.setattr(_Rows, "BLOCK", 5)
+    rows, appended = _Rows(3), []
+    for k in (1, 4, 0, 7, 5, 2, 11):
+        chunk = np.random.default_rng(k).normal(size=(k, 3))
+        rows.append(chunk)
+        appended.append(chunk)
+        np.testing.assert_array_equal(rows.array(), np.concatenate(appended))
+    assert len(rows.array()) == 30

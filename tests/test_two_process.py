@@ -37,24 +37,19 @@ RUN_TIMEOUT = 120.0
 FOREVER = "1000"
 """--duration of a process that the test stops itself (s)."""
 STAND_IN_SENSOR = lab_settings_text(resolve_scenario("fig6"))  # the stand-in's sensor, stated as a lab states its own
-LAB_NICENESS = -10
-"""The stand-in plays the lab's drivers, which on a lab PC run ahead of other work (as the
-controller does, with its real-time claim): it runs at this niceness, so that a busy machine slows
-the tests' other processes (recorders, ``heft load``, pytest, whatever else runs), not the lab."""
 
 
 class _Process:
-    """A `heft` subcommand inside the namespace (`heft stand-in` at ``LAB_NICENESS``); output to a
-    file in ``folder``."""
+    """A `heft` subcommand inside the namespace (`heft stand-in` claims real-time scheduling itself, as
+    a lab's drivers run); output to a file in ``folder``."""
 
     def __init__(self, ns, folder, label, *args, script=None):
         self.log = folder / f"{label}.log"
         env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONUNBUFFERED="1")
         program = [script] if script else ["-m", "heft.diagrams.cli"]
-        lab = ["nice", "-n", str(LAB_NICENESS)] if args[:1] == ("stand-in",) else []
         with open(self.log, "w") as out:
             self.popen = subprocess.Popen(
-                ["ip", "netns", "exec", ns, *lab, sys.executable, *program, *args],
+                ["ip", "netns", "exec", ns, sys.executable, *program, *args],
                 stdout=out, stderr=subprocess.STDOUT, cwd=folder, env=env)
 
     def text(self) -> str:

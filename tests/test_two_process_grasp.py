@@ -161,10 +161,6 @@ def test_the_grasp_is_heard_and_answered(two_process_run):
     assert any(event.startswith(("object learned over", "object not learned over")) for event in events), events
 
 
-@pytest.mark.xfail(reason="not met where last judged: the object's mass 2.2–3.6 % off (target 2 %) across two "
-                          "processes, when the stand-in's arm was its setpoint filter alone and rang the load with "
-                          "each irregularity of the command stream (the README's grasp section); judged only when "
-                          "the stand-in keeps its clock")
 def test_the_object_is_learned(two_process_run):
     results = judged(two_process_run[3])
     assert results[1.0]["object_mass"] > 0.4
@@ -186,10 +182,10 @@ def test_the_stylus_force_stays_within_the_devices_limits(two_process_run):
         assert results[1.0]["stylus_force_peak"] <= MAX_FORCE + 1e-9
 
 
-@pytest.mark.xfail(reason="not met where last judged: across two processes the fed-back force was off by far more "
-                          "than 5 % of the object's weight while moving, before the stand-in's arm had its servo and "
-                          "its mount its linear step (in one process now within 3.2 %: test_grasp_lab); judged only "
-                          "when the stand-in keeps its clock")
+@pytest.mark.xfail(reason="met in 3 of 5 judged runs (max 3.1–4.4 %; 5.5 and 9.9 % in the others): the stand-in's "
+                          "compliant mount rang at 50 Hz for tenths of a second in the others, its arm taking the "
+                          "same commands as in the good runs on its own 2 kHz clock, and the stylus force did not "
+                          "follow the ring in phase (the README's grasp section)", strict=False)
 def test_while_moving_the_stylus_follows_contact_and_eta_of_the_objects_wrench(two_process_run):
     result = judged(two_process_run[3])[1.0]
     assert len(result["moving"]) > 50 and max(result["moving"]) <= BOUND

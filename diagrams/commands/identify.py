@@ -4,6 +4,7 @@ in simulation or on the hardware, or from a lab's recording."""
 from __future__ import annotations
 
 from heft.diagrams.commands.options import add_lcm_urls, add_set, add_station, require_lab_settings, scenario_from
+from heft.diagrams.running.realtime import LOOP_PRIORITY
 
 HELP = ("identify the load's inertial parameters and the sensor "
        "offsets from an excitation motion (Sec. IV)")
@@ -35,9 +36,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--watchdog-timeout", type=float,
                           help="with --hardware: stale-channel timeout (s; default: the scenario's "
                                "lab.station.watchdog.timeout, 0.02)")
-    parser.add_argument("--rt-priority", type=int, default=50,
+    parser.add_argument("--rt-priority", type=int, default=LOOP_PRIORITY,
                           help="with --hardware: SCHED_FIFO priority of the loop, pinned to the last CPU "
-                               "(default 50; 0: normal)")
+                               f"(default {LOOP_PRIORITY}; 0: normal)")
 
 
 def run(args) -> int:

@@ -8,6 +8,7 @@ from pathlib import Path
 
 
 from heft.diagrams.commands.options import add_lcm_urls, add_set, scenario_from
+from heft.diagrams.running.realtime import LAB_PRIORITY
 
 HELP = ("a lightweight lab behind the drivers' LCM channels, at real time")
 
@@ -34,6 +35,9 @@ def add_arguments(parser) -> None:
                         help="a 'gripper_object' load's gripper closes on the object at this time (s; default the "
                              "scenario's load.grasp_at)")
     parser.add_argument("--release-at", type=float, default=math.inf, help="and opens, letting it go, at this time (s)")
+    parser.add_argument("--rt-priority", type=int, default=LAB_PRIORITY,
+                        help=f"SCHED_FIFO priority of the lab, off the CPU a controller here claims (default "
+                             f"{LAB_PRIORITY}, below the controller's: a lab's drivers run real-time; 0: normal)")
     parser.add_argument("--out", help="also write the summary as JSON here, and the truth of every FT sample beside "
                                       "it (its name with .truth.npz)")
 
@@ -44,7 +48,7 @@ def truth_path(out: str) -> Path:
 
 
 def run(args) -> int:
-    from heft.diagrams.running.realtime import StopOnSignal, leave_loop_cpu
+    from heft.diagrams.running.realtime import StopOnSignal, claim_lab_realtime
     from heft.diagrams.stations.stand_in import FaultInjection, run_stand_in
     from heft.diagrams.stations.stand_in_wrist import GraspTimes
 
@@ -57,7 +61,7 @@ def run(args) -> int:
                             seed=args.seed, reorder_rate=args.reorder_rate)
     channels = scenario.lab.lcm
     print(f"stand-in: {args.scenario} on {channels.lcm_url} (commands on {channels.command_lcm_url()}) for "
-          f"{args.duration:g} s at real time; {leave_loop_cpu()}", flush=True)
+          f"{args.duration:g} s at real time; {claim_lab_realtime(args.rt_priority)}", flush=True)
     with StopOnSignal() as stop:
         summary = run_stand_in(scenario, channels, args.duration, faults, args.clutch_at, args.clutch_release_at,
                                ready=lambda epoch: print(f"stand-in: publishing; its stamps count from {epoch:.6f} s "

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from heft.diagrams.commands.options import add_lcm_urls, add_set, require_lab_settings, scenario_from
+from heft.diagrams.running.realtime import LOOP_PRIORITY
 
 HELP = ("the teleoperation controller on the lab's LCM channels")
 
@@ -31,8 +32,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--rate", type=float, help="controller rate (Hz; default: the scenario's, 1/controller_period, "
                                                    "2000)")
     parser.add_argument("--record", help="record the LCM traffic to this file (lcm-logger format, for lcm-logplayer)")
-    parser.add_argument("--rt-priority", type=int, default=50,
-                        help="SCHED_FIFO priority of the control loop, pinned to the last CPU (default 50; 0: normal)")
+    parser.add_argument("--rt-priority", type=int, default=LOOP_PRIORITY,
+                        help=f"SCHED_FIFO priority of the control loop, pinned to the last CPU (default "
+                             f"{LOOP_PRIORITY}; 0: normal)")
     parser.add_argument("--busy-wait", type=float, default=0.0,
                         help="share of each period before a tick that the control loop waits busy instead of "
                              "asleep (0 to 0.8, default 0): a shorter tick tail where a sleeping CPU wakes late, "

@@ -9,7 +9,8 @@ overran by more are skipped, never replayed, so after a stall the loop resumes a
 the next grid point with one tick whose ``dt`` says how long the stall was.
 ``timing_summary`` turns the measurements into what a lab needs at exit: achieved
 rate, skipped ticks, lateness and the tick cost p50/p99. ``claim_realtime`` asks
-the OS for real-time scheduling of the loop's process.
+the OS for real-time scheduling of the loop's process, ``claim_lab_realtime`` of a process that
+plays the lab's drivers beside it.
 """
 
 from __future__ import annotations
@@ -25,6 +26,12 @@ import time
 import numpy as np
 
 
+LOOP_PRIORITY = 50
+"""The control loop's default ``SCHED_FIFO`` priority (`heft teleop`, `heft identify --hardware`)."""
+LAB_PRIORITY = 40
+"""The default ``SCHED_FIFO`` priority of a process that plays the lab's drivers (`heft stand-in`):
+below ``LOOP_PRIORITY``, so that the controller's LCM receive thread, on that process's CPU,
+preempts it."""
 LATE_TOLERANCE = 0.5
 """A tick may start up to this many periods after its grid point; later than that it is skipped."""
 MAX_DUTY = 0.8
@@ -157,6 +164,23 @@ def leave_loop_cpu() -> str:
     return f"off CPU {loop} (a real-time controller's), on CPU " + ", ".join(str(cpu) for cpu in sorted(others))
 
 
+def _check_priority(priority: int) -> None:
+    """Raises ValueError unless ``priority`` is a ``SCHED_FIFO`` priority (1–99) or 0 (normal scheduling)."""
+    if not 0 <= priority <= 99:
+        raise ValueError(f"real-time priority must be 1–99 (SCHED_FIFO), or 0 for normal scheduling; got {priority}")
+
+
+def _claim_fifo(priority: int) -> str | None:
+    """Asks for ``SCHED_FIFO`` at ``priority`` (1–99) for the calling thread; None if granted, else
+    why not and how to grant it."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+    except PermissionError:
+        return (f"normal scheduling: SCHED_FIFO {priority} was refused (run as root, or allow it with "
+                "`ulimit -r` / an rtprio line in /etc/security/limits.conf)")
+    return None
+
+
 def claim_realtime(priority: int) -> str:
     """Asks the OS to run the calling thread as a real-time one: ``SCHED_FIFO`` at ``priority``
     (1–99; 0 leaves the scheduling alone), pinned to the last CPU so that other processes
@@ -165,18 +189,32 @@ def claim_realtime(priority: int) -> str:
     receive thread then runs at the loop's priority instead of waiting behind every other
     process for a CPU (``keep_cpu_for_loop`` then moves it to another CPU). Returns what was
     granted, or why not and how to grant it; never raises for a refusal."""
+    _check_priority(priority)
     if priority == 0:
         return "normal scheduling (real-time priority 0)"
-    if not 1 <= priority <= 99:
-        raise ValueError(f"real-time priority must be 1–99 (SCHED_FIFO), or 0 for normal scheduling; got {priority}")
     cpu = loop_cpu(os.sched_getaffinity(0))
-    try:
-        os.sched_setaffinity(0, {cpu})
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
-    except PermissionError:
-        return (f"normal scheduling: SCHED_FIFO {priority} was refused (run as root, or allow it with "
-                "`ulimit -r` / an rtprio line in /etc/security/limits.conf); ticks may be preempted")
+    os.sched_setaffinity(0, {cpu})
+    refused = _claim_fifo(priority)
+    if refused is not None:
+        return refused + "; ticks may be preempted"
     return f"SCHED_FIFO priority {priority} on CPU {cpu}"
+
+
+def claim_lab_realtime(priority: int) -> str:
+    """For a process that plays the lab's drivers (``heft stand-in``): ``leave_loop_cpu``, then
+    ``SCHED_FIFO`` at ``priority`` (0 leaves the scheduling alone) on the CPUs left, inherited by
+    the threads started afterwards, as a lab's drivers run. At normal scheduling on an otherwise
+    idle 2-core machine a 0.4 ms sleep overslept up to 1.5 ms; the stand-in's arm, its master
+    state late by 2 ms, shook its compliant mount with the stalled, then jumping, command stream
+    that answered it. Claim it before opening an LCM bus. Returns what was done and granted."""
+    _check_priority(priority)
+    placed = leave_loop_cpu()
+    if priority == 0:
+        return f"{placed}; normal scheduling (real-time priority 0)"
+    refused = _claim_fifo(priority)
+    if refused is not None:
+        return f"{placed}; {refused}: its messages may be late"
+    return f"{placed}; SCHED_FIFO priority {priority}"
 
 
 def keep_cpu_for_loop() -> str:

@@ -245,6 +245,33 @@ class Wrist:
             self.wrench_object[:] = 0.0
 
 
+class _Rows:
+    """Rows of ``width`` numbers appended in blocks allocated as they fill and never copied while
+    running: a growing array copied whole at each doubling stalled the stand-in's step 1.6 ms at
+    4.1 s of a run (its arm then fell behind its clock and shook the mount)."""
+
+    BLOCK = 16384
+
+    def __init__(self, width: int):
+        self._blocks, self._used = [np.empty((self.BLOCK, width))], 0  # rows used in the last block
+
+    def append(self, rows: np.ndarray) -> None:
+        """Appends ``rows`` (k, width)."""
+        while len(rows):
+            block = self._blocks[-1]
+            if self._used == len(block):
+                block = np.empty_like(block)
+                self._blocks.append(block)
+                self._used = 0
+            taken = min(len(rows), len(block) - self._used)
+            block[self._used:self._used + taken] = rows[:taken]
+            rows, self._used = rows[taken:], self._used + taken
+
+    def array(self) -> np.ndarray:
+        """All rows appended, (n, width), in one new array."""
+        return np.concatenate(self._blocks[:-1] + [self._blocks[-1][:self._used]])
+
+
 class TruthRecord:
     """What the stand-in's wrist sensor carried at each of its samples, one row per sample it took
     (published or lost), in heft's convention (the module's): the samples between two of the arm's
@@ -258,29 +285,25 @@ class TruthRecord:
 
     def __init__(self, rate: float, phis: dict[bool, np.ndarray]):
         self._rate, self._phis = rate, phis  # ``Wrist.phis``: holding the object, and not
-        self._steps = np.zeros((1024, 15))  # first sample, count, holding, wrench, wrench_object
-        self._offsets = np.zeros((4096, NUM_AXES))
-        self._count, self._samples = 0, 0
+        self._steps = _Rows(15)  # first sample, count, holding, wrench, wrench_object
+        self._offsets = _Rows(NUM_AXES)
+        self._step = np.zeros(15)
 
     def add(self, first: int, count: int, wrist: Wrist, offsets: np.ndarray) -> None:
         """Samples ``first`` … ``first + count − 1`` of the sensor (at ``rate`` Hz) on the ``wrist``'s
         present truth, with their ``offsets`` (count, 6)."""
-        if self._count == len(self._steps):
-            self._steps = np.concatenate((self._steps, np.zeros_like(self._steps)))
-        if self._samples + count > len(self._offsets):
-            self._offsets = np.concatenate((self._offsets, np.zeros((len(self._offsets) + count, NUM_AXES))))
-        row = self._steps[self._count]
-        row[0], row[1], row[2] = first, count, wrist.holding
-        row[3:9], row[9:15] = wrist.wrench, wrist.wrench_object
-        self._offsets[self._samples:self._samples + count] = offsets
-        self._count, self._samples = self._count + 1, self._samples + count
+        step = self._step
+        step[0], step[1], step[2] = first, count, wrist.holding
+        step[3:9], step[9:15] = wrist.wrench, wrist.wrench_object
+        self._steps.append(step[None, :])
+        self._offsets.append(offsets)
 
     def arrays(self, through: int | None = None) -> dict[str, np.ndarray]:
         """The record as named arrays (the archive's), of the samples up to counter ``through`` (the
         last the lab's clock reached; the sensor samples ahead to the arm's next step), else all."""
-        steps = self._steps[:self._count]
+        steps = self._steps.array()
         counts = steps[:, 1].astype(np.int64)
-        rows = np.repeat(np.arange(self._count), counts)
+        rows = np.repeat(np.arange(len(steps)), counts)
         counters = np.repeat(steps[:, 0].astype(np.int64), counts) + (
             np.arange(len(rows)) - np.repeat(np.cumsum(counts) - counts, counts))
         keep = slice(None) if through is None else counters <= through
@@ -289,7 +312,7 @@ class TruthRecord:
         return {"sample_counter": counters, "utime": np.round(counters / self._rate * 1e6).astype(np.int64),
                 "phi": np.where(holding[:, None], self._phis[True], self._phis[False]),
                 "wrench_noncontact": steps[rows, 3:9], "wrench_noncontact_object": steps[rows, 9:15],
-                "wrench_contact": np.zeros((len(rows), 6)), "ft_offsets": self._offsets[:self._samples][keep],
+                "wrench_contact": np.zeros((len(rows), 6)), "ft_offsets": self._offsets.array()[keep],
                 "phi_gripper": self._phis[False]}
 
     def save(self, path, through: int | None = None) -> None:
