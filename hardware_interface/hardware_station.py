@@ -23,6 +23,8 @@ is measured on the caller's clock (s, wall-clock, monotonic), never in ticks:
 """
 
 import math
+import select
+import time
 
 import lcm
 import numpy as np
@@ -57,6 +59,7 @@ FT_KEEP = 64
 JOINT_KEEP = 8
 """Joint states kept between two ticks: the driver's newest and what another publisher
 interleaves with it, so that a second publisher is seen rather than hidden behind the last."""
+_NO_FDS: list = []  # select()'s write and error sets: none
 CLUTCH_BUTTON = 1
 """Bit of ``heft_haptic_state.buttons`` held while the operator couples master and slave."""
 
@@ -188,6 +191,7 @@ class HardwareStation:
         params.watchdog.validate()
         self._bus, self._channels, self._params = bus, channels, params
         self._command_bus = bus if command_bus is None else command_bus
+        self._bus_fd = [bus.fileno()]
         self._limits = np.asarray(limits.slave_velocity, dtype=float)
         self._mail = (LcmMailbox(bus, channels.master_state.name, keep=JOINT_KEEP),
                       LcmMailbox(bus, channels.slave_status.name, keep=JOINT_KEEP),
@@ -272,6 +276,37 @@ class HardwareStation:
     def clocks(self) -> dict:
         """Per checked channel, its source's ``SourceClock`` (offsets, restarts)."""
         return {name: reader.clock for name, reader in zip(CHECKED_CHANNELS, self._readers)}
+
+    def wait_for_slave_status(self, seconds: float) -> bool:
+        """Waits up to ``seconds`` (s) for the arm driver's status: True once one has arrived since the
+        last ``receive`` (at once if one already has; valid or not, ``receive`` checks it), False if
+        none did. The bus's messages are handled meanwhile, into the mailboxes ``receive`` reads: a
+        loop anchored here (``run_realtime``'s ``anchor``) ticks as the arm's status arrives, so that
+        each arm step receives one command."""
+        mailbox, deadline = self._mail[1], time.perf_counter() + seconds
+        while True:
+            pump(self._bus)
+            if mailbox.waiting:
+                return True
+            left = deadline - time.perf_counter()
+            if left <= 0.0:
+                return False
+            select.select(self._bus_fd, _NO_FDS, _NO_FDS, left)
+
+    def loop_anchor(self, rate: float, busy_wait: float):
+        """(``wait_for_slave_status`` or None, what the loop ticks on): a loop at ``rate`` (Hz) follows the
+        arm's status where ``tick_on_slave_status`` asks and the loop runs at the status's nominal rate
+        without a busy wait. Ticking on its own clock, a loop whose grid lay near the arm's step in phase
+        had the arm take no command at one step and two at the next, which rang the load on its mount."""
+        status = self._channels.slave_status
+        if not self._params.tick_on_slave_status:
+            return None, "ticks on its own clock (lab.station.tick_on_slave_status: false)"
+        if busy_wait:
+            return None, "ticks on its own clock (it waits busy before each tick)"
+        if not math.isclose(rate, status.rate):
+            return None, (f"ticks on its own clock ({rate:g} Hz, not the {status.rate:g} Hz of the arm's status on "
+                          f"{status.name})")
+        return self.wait_for_slave_status, f"ticks as the arm's status arrives ({status.name}, {status.rate:g} Hz)"
 
     def receive(self, now: float) -> None:
         """Pumps LCM, checks every new message, updates the readings, ages and watchdog at ``now`` (s)."""

@@ -28,3 +28,7 @@ class HardwareStationParams:
     """Limits of the hardware station; loadable with ``yaml_load_typed``."""
 
     watchdog: WatchdogParams = dataclasses.field(default_factory=WatchdogParams)
+    tick_on_slave_status: bool = True
+    """The control loop ticks as the arm driver's status arrives, one tick per status, where it runs at
+    the status's nominal rate and does not wait busy (``HardwareStation.loop_anchor``); else on its own
+    clock, whose phase against the arm's steps is then chance."""

@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from heft.diagrams.running.realtime import MAX_DUTY, run_realtime, timing_summary
+from heft.diagrams.running.realtime import ANCHOR_SETTLE, ANCHOR_WINDOW, MAX_DUTY, run_realtime, timing_summary
 
 from conftest import FakeClock
 
@@ -97,6 +97,60 @@ def test_a_period_that_is_not_positive_or_a_busy_wait_beyond_the_duty_limit_is_r
         run_realtime(lambda now, dt: True, 0.0, 1.0)
     with pytest.raises(ValueError, match="busy wait is a share of the period from 0 to 0.8"):
         run_realtime(lambda now, dt: True, 0.001, 1.0, busy_wait=0.9)
+
+
+class Arrivals:
+    """Messages arriving on ``clock`` at the times (s since the loop's start) given; ``wait`` is a
+    loop's ``anchor``: it waits on the clock for the next one not yet taken, and takes it."""
+
+    def __init__(self, clock, times):
+        self.clock, self.start, self.times = clock, clock.t, list(times)
+
+    def wait(self, seconds):
+        now = self.clock.t - self.start
+        if self.times and self.times[0] <= now + seconds:
+            self.clock.t = self.start + max(now, self.times.pop(0))
+            while self.times and self.times[0] <= self.clock.t - self.start:  # two at once: one tick takes both
+                self.times.pop(0)
+            return True
+        self.clock.t += seconds
+        return False
+
+
+def test_a_loop_anchored_to_a_message_ticks_as_it_arrives_and_on_its_own_grid_while_none_does(fake_clock):
+    """Messages every period, 0.4 of a period off the loop's grid: the grid moves by the window a tick
+    until they arrive inside it, then every tick starts as one arrives. While none arrives the loop
+    ticks at its period, the window late; messages that come back half a period off are followed."""
+    clock, starts = fake_clock, []
+    first = [0.4 * PERIOD + k * PERIOD for k in range(10)]
+    later = [15.5 * PERIOD + k * PERIOD for k in range(8)]
+    arrivals = Arrivals(clock, first + later)
+
+    def tick(now, dt):
+        starts.append(now)
+        clock.t += 0.1 * PERIOD
+
+    times = run_realtime(tick, PERIOD, 23.2 * PERIOD, clock=clock, sleep=clock.sleep, anchor=arrivals.wait)
+    window, settle = ANCHOR_WINDOW * PERIOD, ANCHOR_SETTLE * PERIOD
+    # The first tick waits the window for a message 0.4 periods after its grid point, and ticks the
+    # window late; the next three wake at their window's opening, the message already there, and tick
+    # the settling time later, the grid following them; from the fourth message on each tick starts
+    # the settling time after one arrives.
+    assert starts[:4] == pytest.approx([window] + [k * (PERIOD - window + settle) for k in (1, 2, 3)])
+    locked = [start for start in starts if start < first[-1] + 0.5 * PERIOD][4:]
+    assert len(locked) == 7 and locked == pytest.approx([t + settle for t in first[3:]], abs=1e-12)
+    # Silence: on its own period, the window late (the lateness is measured from the grid).
+    silent = [start for start in starts if first[-1] + 0.5 * PERIOD < start < later[0] - window]
+    assert len(silent) >= 4 and all(b - a == pytest.approx(PERIOD) for a, b in zip(silent, silent[1:]))
+    assert max(times.lateness) == pytest.approx(window)
+    # The messages come back half a period off the grid the loop kept: followed within two ticks.
+    assert starts[-3:] == pytest.approx([t + settle for t in later[-3:]], abs=1e-12)
+    assert times.skipped == 0
+
+
+def test_a_loop_that_follows_a_message_does_not_also_wait_busy():
+    with pytest.raises(ValueError, match="one or the other"):
+        run_realtime(lambda now, dt: True, PERIOD, 1.0, busy_wait=0.2, anchor=lambda seconds: True)
 
 
 LEAVE_LOOP_CPU = """

@@ -302,6 +302,26 @@ def test_malformed_slave_commands_keep_the_last_setpoint():
     assert lab.stand_in.received[CHANNELS.slave_command.name] == 4
 
 
+
+def test_the_arm_counts_its_steps_that_take_two_commands_after_one_that_took_none():
+    """One valid command a step is the controller in step with the arm; none, then two, is one count
+    (the setpoint stalled, then jumped); a malformed command beside a valid one is not a second."""
+    lab = Lab()
+    q0, rate = np.asarray(lab.scenario.slave_initial_q), CHANNELS.slave_status.rate
+    for k in range(1, 5):
+        lab.command_slave(q0 + k * 1e-3)
+        lab.step(k / rate)
+    assert lab.stand_in.arm_steps_after_a_held_one == 0
+    lab.step(5 / rate)  # no command: the arm holds
+    lab.command_slave(q0 + 5e-3)
+    lab.command_slave(q0 + 6e-3)
+    lab.step(6 / rate)
+    lab.command_slave(q0 + 7e-3)
+    lab.bus.publish(CHANNELS.slave_command.name, b"not a command")
+    lab.step(7 / rate)
+    assert lab.stand_in.arm_steps_after_a_held_one == 1
+    np.testing.assert_array_equal(lab.stand_in.slave_command, q0 + 7e-3)
+
 # --- the master --------------------------------------------------------------------------------
 
 def test_master_follows_the_operator_reference():

@@ -72,7 +72,8 @@ def run(args) -> int:
                       for kind in ("published", "received"))
     print(f"stand-in: stopped at t = {summary['duration_s']:.3f} s{' (died, as injected)' if summary['died'] else ''}"
           f"; {rates}; CPU {summary['cpu_s']:.2f} s; max lateness {summary['max_lateness_ms']:.2f} ms; largest force "
-          f"rendered on the stylus {summary['stylus_force_peak']:.4g} N", flush=True)
+          f"rendered on the stylus {summary['stylus_force_peak']:.4g} N; arm steps that took two commands after one "
+          f"that took none {summary['arm_steps_after_a_held_one']}", flush=True)
     if args.out:
         summary["truth"] = truth_path(args.out).name
         Path(args.out).write_text(json.dumps(summary, indent=2) + "\n")

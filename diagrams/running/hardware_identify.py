@@ -118,9 +118,12 @@ def record_on_hardware(scenario: Scenario, trajectory, duration: float, channels
                                      command_bus)
         if priority:
             print(f"identify: {keep_cpu_for_loop()}", flush=True)
+        anchor, ticking = run.station.loop_anchor(1.0 / period, 0.0)
+        print(f"identify: {ticking}", flush=True)
         with StopOnSignal() as stop:
             try:
-                times = run_realtime(lambda now, dt: run.tick(now, dt) or stop.requested, period, budget)
+                times = run_realtime(lambda now, dt: run.tick(now, dt) or stop.requested, period, budget,
+                                     anchor=anchor)
             finally:
                 run.station.stop(run.now)
                 run.station.publish_status(run.now, force=True)

@@ -320,12 +320,15 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float,
             print(f"teleop: {placement}", flush=True)
         if busy_wait:
             scheduling += f"; the last {busy_wait:g} of each period waited busy"
+        anchor, ticking = teleop.station.loop_anchor(rate, busy_wait)
+        scheduling += f"; {ticking}"
+        print(f"teleop: {ticking}", flush=True)
         teleop.station.epoch = time.time()
         with StopOnSignal() as stop:
             print("teleop: running (Ctrl-C stops with forces off and the slave held)", flush=True)
             try:
                 times = run_realtime(lambda now, dt: teleop.tick(now, dt) or stop.requested, 1.0 / rate, duration,
-                                     busy_wait=busy_wait)
+                                     busy_wait=busy_wait, anchor=anchor)
                 summary = teleop.summary(times.elapsed)
             finally:
                 teleop.station.stop(teleop.now)

@@ -34,6 +34,15 @@ below ``LOOP_PRIORITY``, so that the controller's LCM receive thread, on that pr
 preempts it."""
 LATE_TOLERANCE = 0.5
 """A tick may start up to this many periods after its grid point; later than that it is skipped."""
+ANCHOR_WINDOW = 0.25
+"""A loop that ticks as a message arrives (``run_realtime``'s ``anchor``) waits for it from this share
+of a period before its grid point to as long after: a message that arrives elsewhere moves the grid
+by up to this share a tick until it arrives inside."""
+ANCHOR_SETTLE = 0.1
+"""Such a loop ticks this share of a period after the message arrives, so that what its sender
+published in the same step has arrived too (``heft stand-in`` publishes the arm's status, then the
+master's state and the FT samples: ticking on the status alone, one tick in 25 saw the master's
+state of the step before, and the next two new ones, which stalled and jumped the slave command)."""
 MAX_DUTY = 0.8
 """A busy wait (``run_realtime``'s ``busy_wait``) shortens so that it and the last tick take at most
 this share of a period: a ``SCHED_FIFO`` loop busy beyond Linux's real-time budget (95 % of each
@@ -67,32 +76,51 @@ def check_busy_wait(busy_wait: float) -> None:
 
 
 def run_realtime(tick, period: float, duration: float, clock=time.perf_counter, sleep=time.sleep,
-                 busy_wait: float = 0.0) -> TickTimes:
+                 busy_wait: float = 0.0, anchor=None) -> TickTimes:
     """Runs ``tick(now, dt)`` every ``period`` s of ``clock`` for ``duration`` s, or until it
     returns True. ``clock`` must be monotonic (s); ``sleep(s)`` waits, but for the last ``busy_wait``
-    of a period (a share, within ``MAX_DUTY``) before each tick, waited busy on ``clock``. The cyclic garbage
-    collector is off during the loop (reference counting frees what a tick makes; a pass
-    over the heap would stall a tick for milliseconds) and collects once at its end."""
+    of a period (a share, within ``MAX_DUTY``) before each tick, waited busy on ``clock``.
+
+    With ``anchor`` (``anchor(s)``: waits up to s seconds for the message the loop follows, True once
+    it has arrived since the last tick, at once if it already has), each tick waits for it from
+    ``ANCHOR_WINDOW`` of a period before its grid point to as long after, and the grid moves to the
+    tick that it wakes, ``ANCHOR_SETTLE`` of a period later: the loop ticks as that message arrives
+    (one tick per message when both run at the same rate), and on its own grid, at most the window
+    late, while none comes. Not with ``busy_wait``.
+
+    The cyclic garbage collector is off during the loop (reference counting frees what a tick makes;
+    a pass over the heap would stall a tick for milliseconds) and collects once at its end."""
     if not (math.isfinite(period) and period > 0):
         raise ValueError(f"period must be a positive number of seconds; got {period}")
     check_busy_wait(busy_wait)
+    if anchor is not None and busy_wait:
+        raise ValueError("a loop that ticks as a message arrives does not also wait busy: give one or the other")
     capacity = int(duration / period) + 2
     wall, cpu, lateness = np.empty(capacity), np.empty(capacity), np.empty(capacity)
+    window, settle = ANCHOR_WINDOW * period, ANCHOR_SETTLE * period
     gc.collect()
     gc.disable()
     start = clock()
-    grid, last, ticks, skipped, busy_before = 0, 0.0, 0, 0, 0.0
+    origin, grid, last, ticks, skipped, busy_before = 0.0, 0, 0.0, 0, 0, 0.0
     try:
         while ticks < capacity:
-            due = grid * period
+            due = origin + grid * period
+            opens = due - window if anchor is not None else due
             now = clock() - start
-            if now < due:
-                if due - now > busy_before:
-                    sleep(due - now - busy_before)
+            if now < opens:
+                if opens - now > busy_before:
+                    sleep(opens - now - busy_before)
                 if busy_before > 0.0:
                     while clock() - start < due:
                         pass
                 now = clock() - start
+            if anchor is not None:
+                if anchor(max(0.0, due + window - now)):
+                    sleep(settle)  # for what its sender published with it
+                    now = clock() - start
+                    origin += now - due  # the grid follows the message
+                else:
+                    now = clock() - start
             if now >= duration:
                 break
             c0 = time.thread_time()
@@ -106,7 +134,7 @@ def run_realtime(tick, period: float, duration: float, clock=time.perf_counter, 
                 break
             # The next grid point that this tick's end leaves at most LATE_TOLERANCE periods late:
             # the ones before it are skipped.
-            following = max(grid + 1, math.ceil(done / period - LATE_TOLERANCE))
+            following = max(grid + 1, math.ceil((done - origin) / period - LATE_TOLERANCE))
             skipped += following - grid - 1
             grid = following
         elapsed = clock() - start

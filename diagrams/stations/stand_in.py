@@ -342,7 +342,10 @@ class StandIn:
     the last valid setpoint; ``slave_initial_q`` before the first), ``master_position``
     (6, rad, true joints), ``master_torque`` (6, N·m, the torque the haptic driver applies
     now), ``stylus_force_peak`` (N, the largest force a command's torque rendered on the hand,
-    ``_observe_stylus_force``), ``published`` / ``received`` (channel name → messages),
+    ``_observe_stylus_force``), ``arm_steps_after_a_held_one`` (the arm's steps that took two
+    or more new commands, as many steps before them having taken none: the setpoint stalled, then
+    jumped),
+    ``published`` / ``received`` (channel name → messages),
     ``phi_true`` (10, φ about S in S of what the sensor carries now, Eq. 6), ``offsets`` (6, N, N·m: the FT
     offsets in the latest sample, heft's sign), ``next_due`` (s, the nominal time of the next message),
     ``truth`` (the ``TruthRecord`` of every FT sample with ``record_truth``, else None).
@@ -389,6 +392,7 @@ class StandIn:
         self._q, self._qd = self._slave[2], self._slave[3]  # views of the joints' rows
         self._qdd = np.zeros(NUM_JOINTS)  # the joints' q̈ at their state (rad/s²)
         self.stylus_force_peak = 0.0
+        self.arm_steps_after_a_held_one, self._commands_since_step = 0, 0
         # The master states published lately: their utimes and (encoder-quantised) joint positions, a ring.
         self._published_utime = np.full(_PUBLISHED_KEEP, -1, dtype=np.int64)
         self._published_position = np.zeros((_PUBLISHED_KEEP, NUM_JOINTS))
@@ -494,6 +498,7 @@ class StandIn:
             position = _command_values(self._command_layouts[_SLAVE], lcmt_iiwa_command, payload, "joint_position")
             if position is not None and math.isfinite(sum(position)):
                 self.slave_command[:] = position
+                self._commands_since_step += 1
         for payload in self._haptic_commands.take():
             values = _command_values(self._command_layouts[_MASTER], heft_haptic_command, payload, "torque",
                                      "enable", "master_utime")
@@ -522,6 +527,9 @@ class StandIn:
         return self._torque_commanded if t < self._torque_until else _NO_TORQUE
 
     def _slave_tick(self, tick: int, t: float) -> int:
+        if self._commands_since_step > 1:
+            self.arm_steps_after_a_held_one += 1
+        self._commands_since_step = 0
         u, q, qd, qdd = self._setpoint, self._q, self._qd, self._qdd
         servo_step(*self._servo, self._max_setpoint_step, self.slave_command, u, self._slave, self._deviation, qdd)
         self._wrist.update(t, q, qd, qdd)
@@ -610,7 +618,7 @@ def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
     (channel name → messages per wall second),
     "max_lateness_ms": the latest a message was published after its nominal time,
     "lateness_ms_by_second": the same for the messages due in each second of the lab's clock, "cpu_s":
-    this process's CPU time over the run, "stylus_force_peak": ``StandIn.stylus_force_peak``}.
+    this process's CPU time over the run, "stylus_force_peak", "arm_steps_after_a_held_one": ``StandIn``'s}.
     ``ready(epoch)``, if given, is called once the lab is built, as it starts publishing, with
     the wall-clock time (s since the Unix epoch) of its clock's zero, the time its ``utime``
     stamps count from; ``stop()``, if given, ends the run early once it returns True. With a
@@ -652,7 +660,8 @@ def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
                "received_hz": {name: count / elapsed for name, count in received.items()},
                "max_lateness_ms": 1e3 * lateness, "lateness_ms_by_second": [1e3 * late for late in by_second],
                "cpu_s": time.process_time() - cpu_start,
-               "stylus_force_peak": lab.stylus_force_peak}
+               "stylus_force_peak": lab.stylus_force_peak,
+               "arm_steps_after_a_held_one": lab.arm_steps_after_a_held_one}
     if truth_path is not None:
         lab.truth.save(truth_path, lab.ft_samples_due)
     return summary
