@@ -148,6 +148,20 @@ def test_a_loop_anchored_to_a_message_ticks_as_it_arrives_and_on_its_own_grid_wh
     assert times.skipped == 0
 
 
+def test_a_flood_of_the_followed_message_speeds_the_loop_by_a_bounded_share(fake_clock):
+    """A message always waiting (a second publisher flooding the arm's channel) moves each tick to its
+    window's opening: the loop then ticks every 1 − ANCHOR_WINDOW + ANCHOR_SETTLE periods, no faster."""
+    clock, starts = fake_clock, []
+
+    def tick(now, dt):
+        starts.append(now)
+        clock.t += 0.1 * PERIOD
+
+    run_realtime(tick, PERIOD, 20 * PERIOD, clock=clock, sleep=clock.sleep, anchor=lambda seconds: True)
+    spacing = [b - a for a, b in zip(starts, starts[1:])]
+    assert spacing == pytest.approx([(1 - ANCHOR_WINDOW + ANCHOR_SETTLE) * PERIOD] * len(spacing))
+
+
 def test_a_loop_that_follows_a_message_does_not_also_wait_busy():
     with pytest.raises(ValueError, match="one or the other"):
         run_realtime(lambda now, dt: True, PERIOD, 1.0, busy_wait=0.2, anchor=lambda seconds: True)

@@ -86,7 +86,9 @@ def run_realtime(tick, period: float, duration: float, clock=time.perf_counter, 
     ``ANCHOR_WINDOW`` of a period before its grid point to as long after, and the grid moves to the
     tick that it wakes, ``ANCHOR_SETTLE`` of a period later: the loop ticks as that message arrives
     (one tick per message when both run at the same rate), and on its own grid, at most the window
-    late, while none comes. Not with ``busy_wait``.
+    late, while none comes; a message always waiting (a flood from a second publisher) moves each
+    tick to its window's opening, a period of 1 − ``ANCHOR_WINDOW`` + ``ANCHOR_SETTLE``, no shorter.
+    Not with ``busy_wait``.
 
     The cyclic garbage collector is off during the loop (reference counting frees what a tick makes;
     a pass over the heap would stall a tick for milliseconds) and collects once at its end."""
