@@ -134,6 +134,29 @@ def test_controller_runs_against_the_stand_in(netns, tmp_path):
         assert counts.get(channel.name, 0) > 100, counts
 
 
+def test_the_per_block_diagram_steps_in_the_real_time_loop_against_the_stand_in(netns, tmp_path):
+    """`heft bench lcm`'s measurement of the per-block controller Diagram on hardware: stepped by the
+    real-time loop against the stand-in, it goes healthy, every tick's commands reach the lab, and the
+    forces it renders stay within the Phantom's 8.5 N."""
+    stand_in = diagram = None
+    try:
+        stand_in = _stand_in(netns, tmp_path, "--duration", "6", "--out", str(tmp_path / "stand_in.json"))
+        diagram = _Process(netns, tmp_path, "diagram", "heft.diagrams.commands.bench_lcm", "--diagram-controller",
+                           "fig6", LCM_URL, LcmChannels(lcm_url=LCM_URL).command_lcm_url(), "2000", "2",
+                           str(tmp_path / "diagram.json"), script="-m")
+        assert diagram.wait() == 0, diagram.text()
+        assert stand_in.wait() == 0, stand_in.text()
+    finally:
+        _stop_all(diagram, stand_in)
+    loop = json.loads((tmp_path / "diagram.json").read_text())
+    lab = json.loads((tmp_path / "stand_in.json").read_text())
+    assert loop["healthy_ticks"] > 0.5 * loop["ticks"] and loop["timing"]["ticks"] == loop["ticks"], loop
+    channels = LcmChannels()
+    for channel in (channels.master_command, channels.slave_command):
+        assert lab["received"][channel.name] >= loop["ticks"], (lab["received"], loop["ticks"])
+    assert 0.0 < lab["stylus_force_peak"] <= 8.5 + 1e-9
+
+
 def test_controller_goes_safe_when_the_stand_in_dies(netns, tmp_path):
     """Under 5 % drops and 5 % NaN samples the lab dies mid-run: every master command is finite
     and within the device's limits, and the forces go off when a channel's last message gets

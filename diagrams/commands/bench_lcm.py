@@ -252,6 +252,61 @@ def _url_arguments(channels) -> list[str]:
     return ["--lcm-url", channels.lcm_url, "--command-url", channels.command_lcm_url()]
 
 
+def run_diagram_controller(scenario_name: str, channels, rate_hz: float, duration: float, out: Path) -> None:
+    """The per-block controller Diagram (``MakeTeleopController``) stepped by the real-time loop on
+    ``channels`` for ``duration`` s at ``rate_hz``, as `heft teleop --hardware` steps its fused step
+    (real-time claim, the hardware station's checks and watchdog, ticks on the arm's status): each tick
+    the station's readings fixed on its inputs, one forced discrete update, its two commands read and
+    sent (the forces off while the station is unhealthy). For measurement against a stand-in: no load
+    commands, no start from the measured pose. Writes the loop's timing and counts to ``out``."""
+    from heft.diagrams.commands.bench_step import DiagramTick
+    from heft.diagrams.device_limits import device_limits
+    from heft.diagrams.running.realtime import (LOOP_PRIORITY, claim_realtime, keep_cpu_for_loop, run_realtime,
+                                                timing_summary)
+    from heft.diagrams.running.simulation import true_load
+    from heft.diagrams.scenario import layered, resolve_scenario
+    from heft.diagrams.commands.options import lab_settings_text
+    from heft.diagrams.teleop import MakeTeleopController
+    from heft.hardware_interface.hardware_station import HardwareStation
+    from heft.hardware_interface.lcm_mailbox import open_buses
+
+    scenario = layered(resolve_scenario(scenario_name), lab_settings_text(resolve_scenario(scenario_name)))
+    load, _ = true_load(scenario)
+    period = 1.0 / rate_hz
+    diagram = MakeTeleopController(scenario.controller, load, scenario.robot, period, scenario.slave_initial_q,
+                                   accelerometer=scenario.accelerometer.convention())
+    scheduling = claim_realtime(LOOP_PRIORITY)
+    bus, command_bus = open_buses(channels)
+    station = HardwareStation(bus, channels, device_limits(scenario), scenario.lab.station, command_bus)
+    scheduling += f"; {keep_cpu_for_loop()}"
+    clutch, zero = np.zeros(1), np.zeros(6)
+    ticking = DiagramTick(diagram, {
+        "master.position_measured": station.master_position, "master.velocity_estimated": station.master_velocity,
+        "slave.position_measured": station.slave_position, "slave.velocity_estimated": station.slave_velocity,
+        "ft.wrench_measured": station.wrench, "ft.acceleration_measured": station.acceleration, "clutch": clutch})
+    counts = {"ticks": 0, "healthy_ticks": 0, "now": 0.0}
+
+    def tick(now, dt):
+        station.receive(now)
+        counts["ticks"] += 1
+        counts["now"] = now
+        if station.healthy:
+            counts["healthy_ticks"] += 1
+            clutch[0] = 1.0 if station.clutch else 0.0
+            torque, position = ticking.tick()
+            station.send(now, torque, position)
+        else:
+            station.send(now, zero, None)
+
+    anchor, ticking_on = station.loop_anchor(rate_hz, 0.0)
+    try:
+        times = run_realtime(tick, period, duration, anchor=anchor)
+    finally:
+        station.stop(counts.pop("now"))
+    out.write_text(json.dumps({"timing": timing_summary(times), **counts, "duration": times.elapsed,
+                               "scheduling": f"{scheduling}; {ticking_on}"}) + "\n")
+
+
 def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder: Path, prefix,
                estimator: str = "fixed", busy_wait: float = 0.0) -> dict:
     """One controller rate with the load ``estimator`` "fixed" or "online" (``ONLINE``) and its loop's
@@ -341,6 +396,44 @@ def bench_stand_in(rate_hz: float, duration: float, channels, scenario: str, fol
                                                              "faults", "timing", "scheduling")}}
 
 
+def bench_diagram_in_loop(rate_hz: float, duration: float, channels, scenario: str, folder: Path, prefix) -> dict:
+    """The per-block controller Diagram stepped by the real-time loop (``run_diagram_controller``) at
+    ``rate_hz`` against ``heft stand-in`` for ``duration`` s: its loop's timing and the commands the
+    stand-in received per second."""
+    diagram_path, stand_in_path = folder / "diagram_in_loop.json", folder / "stand_in_diagram.json"
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONUNBUFFERED="1")
+    python = [*prefix, sys.executable]
+    stand_in = subprocess.Popen(
+        [*python, "-m", "heft.diagrams.cli", "stand-in", "--scenario", scenario, *_url_arguments(channels),
+         "--duration", str(duration + 4 * SETTLE), "--out", str(stand_in_path)],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
+    started = _wait_for_line(stand_in, "stand-in: publishing", 120.0)
+    diagram = subprocess.Popen(
+        [*python, "-m", "heft.diagrams.commands.bench_lcm", "--diagram-controller", scenario, channels.lcm_url,
+         channels.command_lcm_url(), str(rate_hz), str(duration), str(diagram_path)],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
+    _finish({"diagram": (diagram, duration + 120), "stand-in": (stand_in, duration + 120)}, {"stand-in": started})
+    controller, lab = json.loads(diagram_path.read_text()), json.loads(stand_in_path.read_text())
+    return {"rate_hz": rate_hz, "controller": controller,
+            "stand_in_received_hz": {name: count / controller["duration"] for name, count in lab["received"].items()}}
+
+
+def _print_diagram_in_loop(result: dict, fused: dict) -> None:
+    from heft.diagrams.commands.bench_step import FITS_DIAGRAM_P99
+
+    timing, fused_timing = result["controller"]["timing"], fused["controller"]["timing"]
+    fits = timing["tick_wall_p99_us"] < 1e6 * FITS_DIAGRAM_P99
+    print(f"per-block Diagram in the loop against the stand-in at {result['rate_hz']:g} Hz "
+          f"({result['controller']['scheduling']}): sustained {timing['achieved_rate_hz']:.0f} Hz, "
+          f"{timing['skipped_ticks']} ticks skipped, tick wall p50 / p99 {timing['tick_wall_p50_us']:.0f} / "
+          f"{timing['tick_wall_p99_us']:.0f} µs against the fused step's {fused_timing['tick_wall_p50_us']:.0f} / "
+          f"{fused_timing['tick_wall_p99_us']:.0f} µs; the stand-in received "
+          + ", ".join(f"{name} {hz:.0f}/s" for name, hz in result["stand_in_received_hz"].items())
+          + f"; healthy {result['controller']['healthy_ticks']} of {result['controller']['ticks']} ticks; it "
+          f"{'fits' if fits else 'does not fit'} a {1e3 / result['rate_hz']:g} ms tick with p99 < "
+          f"{1e6 * FITS_DIAGRAM_P99:.0f} µs")
+
+
 def _print_stand_in(result: dict) -> None:
     lab, controller = result["stand_in"], result["controller"]
     print(f"stand-in lab, controller at {result['rate_hz']:g} Hz ({controller['scheduling']}): messages per "
@@ -373,6 +466,7 @@ def run(rates, duration: float, scenario: str, channels, busy_wait: float = 0.0)
                     results.append(bench_rate(rate, duration, channels, scenario, Path(folder), prefix, estimator,
                                               busy_wait))
             stand_in = bench_stand_in(rates[0], duration, channels, scenario, Path(folder), prefix, busy_wait)
+            diagram = bench_diagram_in_loop(rates[0], duration, channels, scenario, Path(folder), prefix)
     finally:
         cleanup()
     print(f"{'rate (Hz)':>10s}{'estimator':>10s}{'sustained (Hz)':>16s}{'ratio':>7s}{'skipped':>9s}"
@@ -400,14 +494,24 @@ def run(rates, duration: float, scenario: str, channels, busy_wait: float = 0.0)
         rate, updated = fixed["rate_hz"], 100 * online["estimator_updates_per_tick"]
         print(f"estimator online at {rate:g} Hz (updated on {updated:.0f} % of ticks), against fixed: {costs}")
     _print_stand_in(stand_in)
-    return {"duration_s": duration, "network": where, "busy_wait": busy_wait, "results": results, "stand_in": stand_in}
+    _print_diagram_in_loop(diagram, stand_in)
+    return {"duration_s": duration, "network": where, "busy_wait": busy_wait, "results": results, "stand_in": stand_in,
+            "diagram_in_loop": diagram}
 
 
 if __name__ == "__main__":
-    arguments = argparse.ArgumentParser(description="the driver probe of `heft bench lcm`")
+    arguments = argparse.ArgumentParser(description="the driver probe and the Diagram's loop of `heft bench lcm`")
     arguments.add_argument("--probe", nargs=6, metavar=("URL", "COMMAND_URL", "DURATION", "OUT", "MASTER_Q", "SLAVE_Q"))
-    probe_args = arguments.parse_args().probe
+    arguments.add_argument("--diagram-controller", nargs=6,
+                           metavar=("SCENARIO", "URL", "COMMAND_URL", "RATE", "DURATION", "OUT"))
+    parsed = arguments.parse_args()
     from heft.hardware_interface.channels import LcmChannels
 
-    run_probe(LcmChannels(lcm_url=probe_args[0], command_url=probe_args[1]), float(probe_args[2]),
-              Path(probe_args[3]), json.loads(probe_args[4]), json.loads(probe_args[5]))
+    if parsed.probe:
+        probe_args = parsed.probe
+        run_probe(LcmChannels(lcm_url=probe_args[0], command_url=probe_args[1]), float(probe_args[2]),
+                  Path(probe_args[3]), json.loads(probe_args[4]), json.loads(probe_args[5]))
+    else:
+        name, url, command_url, rate, seconds, out = parsed.diagram_controller
+        run_diagram_controller(name, LcmChannels(lcm_url=url, command_url=command_url), float(rate), float(seconds),
+                               Path(out))

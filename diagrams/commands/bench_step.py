@@ -64,24 +64,41 @@ def time_fused(controller, sequence, period: float, torques: list | None = None)
     return {"wall": _percentiles(wall), "cpu": _percentiles(cpu)}
 
 
+class DiagramTick:
+    """The per-block controller ``diagram`` ticked as a real-time loop would tick it: ``inputs``
+    ({input port name: array}, read again at every ``tick``) fixed on its ports, its periodic
+    discrete update applied, the two commands read: ``tick()`` returns (master torque, slave
+    position), arrays owned by the diagram's context."""
+
+    def __init__(self, diagram, inputs: dict):
+        self._diagram, self._inputs = diagram, inputs
+        self._context = diagram.CreateDefaultContext()
+        self._ports = [(diagram.GetInputPort(name), value) for name, value in inputs.items()]
+        self._torque, self._position = (diagram.GetOutputPort(name) for name in ("master.torque_commanded",
+                                                                                  "slave.position_commanded"))
+        for port, value in self._ports:
+            port.FixValue(self._context, value)
+        diagram.ExecuteInitializationEvents(self._context)
+
+    def tick(self):
+        context = self._context
+        for port, value in self._ports:
+            port.FixValue(context, value)
+        context.SetDiscreteState(self._diagram.EvalUniquePeriodicDiscreteUpdate(context))
+        return self._torque.Eval(context), self._position.Eval(context)
+
+
 def time_diagram(diagram, sequence, torques: list | None = None) -> dict:
-    """Wall and CPU time of each tick of ``diagram``: inputs fixed, the periodic discrete update applied,
-    the commands read; each tick's master torque appended to ``torques`` if given."""
-    context = diagram.CreateDefaultContext()
-    ports = {name: diagram.GetInputPort(name) for name in sequence[0]}
-    torque, position = (diagram.GetOutputPort(name) for name in ("master.torque_commanded",
-                                                                 "slave.position_commanded"))
-    for name, value in sequence[0].items():
-        ports[name].FixValue(context, value)
-    diagram.ExecuteInitializationEvents(context)
+    """Wall and CPU time of each tick of ``diagram`` (``DiagramTick``) on ``sequence``; each tick's
+    master torque appended to ``torques`` if given."""
+    inputs = {name: np.array(value, dtype=float) for name, value in sequence[0].items()}
+    ticking = DiagramTick(diagram, inputs)
     wall, cpu = [], []
-    for inputs in sequence:
+    for readings in sequence:
         w, c = time.perf_counter(), time.process_time()
-        for name, value in inputs.items():
-            ports[name].FixValue(context, value)
-        context.SetDiscreteState(diagram.EvalUniquePeriodicDiscreteUpdate(context))
-        commanded = torque.Eval(context)
-        position.Eval(context)
+        for name, value in readings.items():
+            inputs[name][:] = value
+        commanded, _ = ticking.tick()
         cpu.append(time.process_time() - c)
         wall.append(time.perf_counter() - w)
         if torques is not None:
