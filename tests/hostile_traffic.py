@@ -7,7 +7,8 @@ For DURATION_S of wall time, about 1000 messages a second, each drawn from: rand
 the drivers' types cut short; wrong joint counts; master and slave states beyond the joint
 limits, non-finite, or plausible but elsewhere (stamped on the real driver's clock, heard on
 the bus, and on a clock of its own, the clutch button pressed at random); FT samples stamped
-10 s ahead of the driver's or with their counter going back; non-physical load estimates.
+10 s ahead of the driver's or with their counter going back, each right behind one of the
+driver's (so that it is the newest when the controller reads); non-physical load estimates.
 Its master states carry bit ``MARK`` in ``buttons`` and its slave states ``MARK_TORQUE`` as
 ``joint_torque_external[0]``, fields the controller ignores, so that a test can tell them
 from the drivers' in a recording. Prints "hostile: publishing" when it starts and, at the end,
@@ -31,6 +32,8 @@ MARK_TORQUE = 12345.0
 RATE = 1000.0
 LOAD_COMMAND_EVERY = 50
 """One non-physical load command per this many messages (20 a second)."""
+FT_KINDS = (3, 11, 12)
+"""The kinds (``k % 14`` in ``main``'s ``kinds``) that are FT messages: sent right behind the driver's."""
 
 
 def haptic_state(utime, position, velocity=None, buttons=MARK, num_joints=6) -> bytes:
@@ -150,6 +153,8 @@ def main(url: str, duration: float, seed: int) -> None:
     while time.time() - start < duration:
         while bus.handle_timeout(0) > 0:
             pass
+        if sent % 14 in FT_KINDS:
+            _behind_the_driver(bus, heard)
         channel, payload = kinds(sent)
         if channel == ft:
             own_ft.add(payload)
@@ -159,6 +164,15 @@ def main(url: str, duration: float, seed: int) -> None:
         if pause > 0:
             time.sleep(pause)
     print(f"hostile: stopped at {time.time():.6f} after {sent} messages", flush=True)
+
+
+def _behind_the_driver(bus, heard, timeout: float = 0.002) -> None:
+    """Handles the bus until the driver's next FT message is heard (at most ``timeout`` s), so that an FT
+    message sent next lands right behind it: a controller that reads the newest FT sample first, and
+    ticks as the lab publishes, then reads this one rather than the driver's."""
+    before, deadline = heard["ft"], time.time() + timeout
+    while heard["ft"] == before and time.time() < deadline:
+        bus.handle_timeout(1)
 
 
 def _tolerant(handler, channel, payload):
