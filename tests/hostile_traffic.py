@@ -32,8 +32,10 @@ MARK_TORQUE = 12345.0
 RATE = 1000.0
 LOAD_COMMAND_EVERY = 50
 """One non-physical load command per this many messages (20 a second)."""
+KINDS = 14
+"""The kinds of message ``main``'s ``kinds`` cycles through (the k-th is kind ``k % KINDS``)."""
 FT_KINDS = (3, 11, 12)
-"""The kinds (``k % 14`` in ``main``'s ``kinds``) that are FT messages: sent right behind the driver's."""
+"""The kinds that are FT messages: sent right behind the driver's."""
 
 
 def haptic_state(utime, position, velocity=None, buttons=MARK, num_joints=6) -> bytes:
@@ -115,7 +117,7 @@ def main(url: str, duration: float, seed: int) -> None:
         if k % LOAD_COMMAND_EVERY == 0:
             phi, offsets = NON_PHYSICAL[(k // LOAD_COMMAND_EVERY) % len(NON_PHYSICAL)]
             return channels.load_command.name, load_command(round(time.time() * 1e6), phi, offsets)
-        choice = k % 14
+        choice = k % KINDS
         if choice == 0:
             channel = (master, slave, ft, channels.load_command.name)[rng.integers(4)]
             return channel, rng.bytes(int(rng.integers(0, 300)))
@@ -153,7 +155,7 @@ def main(url: str, duration: float, seed: int) -> None:
     while time.time() - start < duration:
         while bus.handle_timeout(0) > 0:
             pass
-        if sent % 14 in FT_KINDS:
+        if sent % KINDS in FT_KINDS:
             _behind_the_driver(bus, heard)
         channel, payload = kinds(sent)
         if channel == ft:

@@ -270,7 +270,8 @@ def run_diagram_controller(scenario_name: str, channels, rate_hz: float, duratio
     from heft.hardware_interface.hardware_station import HardwareStation
     from heft.hardware_interface.lcm_mailbox import open_buses
 
-    scenario = layered(resolve_scenario(scenario_name), lab_settings_text(resolve_scenario(scenario_name)))
+    named = resolve_scenario(scenario_name)
+    scenario = layered(named, lab_settings_text(named))
     load, _ = true_load(scenario)
     period = 1.0 / rate_hz
     diagram = MakeTeleopController(scenario.controller, load, scenario.robot, period, scenario.slave_initial_q,

@@ -71,7 +71,7 @@ class DiagramTick:
     position), arrays owned by the diagram's context."""
 
     def __init__(self, diagram, inputs: dict):
-        self._diagram, self._inputs = diagram, inputs
+        self._diagram = diagram
         self._context = diagram.CreateDefaultContext()
         self._ports = [(diagram.GetInputPort(name), value) for name, value in inputs.items()]
         self._torque, self._position = (diagram.GetOutputPort(name) for name in ("master.torque_commanded",

@@ -22,8 +22,8 @@ import numpy as np
 from heft.diagrams.device_limits import device_limits
 from heft.diagrams.identify import Recording
 from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
-from heft.diagrams.running.realtime import (HardwareRunFailed, StopOnSignal, claim_realtime, format_timing,
-                                            keep_cpu_for_loop, run_realtime, timing_summary)
+from heft.diagrams.running.realtime import (LOOP_PRIORITY, HardwareRunFailed, StopOnSignal, claim_realtime,
+                                            format_timing, keep_cpu_for_loop, run_realtime, timing_summary)
 from heft.diagrams.scenario import Scenario
 from heft.systems.slave_kinematics import NUM_JOINTS
 from heft.hardware_interface.channels import LcmChannels
@@ -105,7 +105,7 @@ class HardwareIdentification:
 
 
 def record_on_hardware(scenario: Scenario, trajectory, duration: float, channels: LcmChannels, record=None,
-                       params: HardwareStationParams | None = None, priority: int = 50):
+                       params: HardwareStationParams | None = None, priority: int = LOOP_PRIORITY):
     """Runs ``HardwareIdentification`` on ``channels``' two URLs (``open_buses``) in real time at
     the controller rate (real-time ``priority``: ``claim_realtime``, as ``run_hardware_teleop``
     does) until the excitation is done (or aborted); returns (Recording, timing summary)."""
@@ -133,7 +133,7 @@ def record_on_hardware(scenario: Scenario, trajectory, duration: float, channels
 
 
 def hardware_recorder(scenario: Scenario, channels: LcmChannels, record=None,
-                      params: HardwareStationParams | None = None, priority: int = 50):
+                      params: HardwareStationParams | None = None, priority: int = LOOP_PRIORITY):
     """The ``record`` of ``identify`` on the hardware on ``channels`` (``record_on_hardware``); the
     extra metrics are the LCM URLs, the loop's timing and the traffic log's path."""
     def run(trajectory, duration: float):

@@ -34,8 +34,8 @@ import numpy as np
 
 from heft.diagrams.device_limits import device_limits
 from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
-from heft.diagrams.running.realtime import (StopOnSignal, claim_realtime, format_timing, keep_cpu_for_loop,
-                                            run_realtime, timing_summary)
+from heft.diagrams.running.realtime import (LOOP_PRIORITY, StopOnSignal, claim_realtime, format_timing,
+                                            keep_cpu_for_loop, run_realtime, timing_summary)
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop import MakeRealtimeTeleopController
@@ -286,7 +286,7 @@ def command_peaks(peaks, torque_sent, applied_wrench, gain, healthy, position, h
 
 
 def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float, record=None,
-                        priority: int = 50, busy_wait: float = 0.0) -> dict:
+                        priority: int = LOOP_PRIORITY, busy_wait: float = 0.0) -> dict:
     """Runs ``HardwareTeleop`` on the scenario's lab (``scenario.lab``: the LCM channels' two URLs,
     ``open_buses``, and the station's watchdog) at its rate (``controller_period``) for
     ``duration`` s of wall time, with real-time ``priority`` (``claim_realtime``: after the
