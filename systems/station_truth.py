@@ -19,7 +19,8 @@ from pydrake.systems.framework import LeafSystem, ValueProducer
 
 from heft.systems.accelerometer_reading import AT_S, AccelerometerConvention, reading_from_motion
 from heft.systems.drake_conventions import wrench_from_spatial_force
-from heft.systems.load_dynamics import regressor
+from heft.systems.compiled import compiled, float_array
+from heft.systems.load_dynamics import regressor_into
 
 
 class ReactionWrench(LeafSystem):
@@ -44,14 +45,32 @@ def declare_body_motion_inputs(system: LeafSystem):
             system.DeclareAbstractInputPort("body_spatial_accelerations", Value[List[SpatialAcceleration]]()))
 
 
-def frame_motion(X_WB: RigidTransform, V_WB: SpatialVelocity, A_WB: SpatialAcceleration, p_BF, g_W):
-    """(a, α, ω, g), each (3,), in F: the motion of a frame F fixed at ``p_BF`` (m) in body B with
-    B's axes, from B's pose, spatial velocity and acceleration in W, and gravity g_W (m/s²)."""
-    R_WB = X_WB.rotation()
-    w_WB_W = V_WB.rotational()
-    A_WF_W = A_WB.Shift(R_WB @ p_BF, w_WB_W)
-    R_BW = R_WB.inverse().matrix()
-    return R_BW @ A_WF_W.translational(), R_BW @ A_WF_W.rotational(), R_BW @ w_WB_W, R_BW @ g_W
+@compiled("void(float64[:, :], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:])")
+def frame_motion_into(R_WB, w_WB_W, alpha_WB_W, a_WBo_W, p_BF, g_W, motion) -> None:
+    """[a; α; ω; g] (12, each in F, m/s², rad/s², rad/s, m/s²) into ``motion``: the motion of a frame F
+    fixed at ``p_BF`` (m) in body B with B's axes, from B's rotation R_WB, its angular velocity and
+    acceleration and its origin's acceleration in W, and gravity g_W. a_F = a_Bo + α×r + ω×(ω×r),
+    r = R_WB·p_BF (a rigid body's acceleration field, as Drake's ``SpatialAcceleration.Shift``)."""
+    rx = R_WB[0, 0] * p_BF[0] + R_WB[0, 1] * p_BF[1] + R_WB[0, 2] * p_BF[2]
+    ry = R_WB[1, 0] * p_BF[0] + R_WB[1, 1] * p_BF[1] + R_WB[1, 2] * p_BF[2]
+    rz = R_WB[2, 0] * p_BF[0] + R_WB[2, 1] * p_BF[1] + R_WB[2, 2] * p_BF[2]
+    wx, wy, wz = w_WB_W[0], w_WB_W[1], w_WB_W[2]
+    ax, ay, az = alpha_WB_W[0], alpha_WB_W[1], alpha_WB_W[2]
+    vx, vy, vz = wy * rz - wz * ry, wz * rx - wx * rz, wx * ry - wy * rx  # ω × r
+    linear = (a_WBo_W[0] + ay * rz - az * ry + wy * vz - wz * vy,
+              a_WBo_W[1] + az * rx - ax * rz + wz * vx - wx * vz,
+              a_WBo_W[2] + ax * ry - ay * rx + wx * vy - wy * vx)
+    for i in range(3):  # R_BW = R_WBᵀ
+        motion[i] = R_WB[0, i] * linear[0] + R_WB[1, i] * linear[1] + R_WB[2, i] * linear[2]
+        motion[3 + i] = R_WB[0, i] * ax + R_WB[1, i] * ay + R_WB[2, i] * az
+        motion[6 + i] = R_WB[0, i] * wx + R_WB[1, i] * wy + R_WB[2, i] * wz
+        motion[9 + i] = R_WB[0, i] * g_W[0] + R_WB[1, i] * g_W[1] + R_WB[2, i] * g_W[2]
+
+
+def frame_motion(X_WB: RigidTransform, V_WB: SpatialVelocity, A_WB: SpatialAcceleration, p_BF, g_W, motion) -> None:
+    """``frame_motion_into`` from B's pose, spatial velocity and acceleration in W (Drake's values)."""
+    frame_motion_into(X_WB.rotation().matrix(), float_array(V_WB.rotational()), float_array(A_WB.rotational()),
+                      float_array(A_WB.translational()), p_BF, g_W, motion)
 
 
 class SensorFrameKinematics(LeafSystem):
@@ -68,8 +87,8 @@ class SensorFrameKinematics(LeafSystem):
         super().__init__()
         self._accelerometer = accelerometer
         self._body = int(body_index)
-        self._p_BS = np.asarray(p_BS, dtype=float)
-        self._g_W = np.asarray(gravity_W, dtype=float)
+        self._p_BS = float_array(p_BS)
+        self._g_W = float_array(gravity_W)
         self._poses, self._velocities, self._accelerations = declare_body_motion_inputs(self)
         self._motion = self.DeclareCacheEntry(
             "motion", ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(12)), calc=self._calc_motion),
@@ -84,9 +103,8 @@ class SensorFrameKinematics(LeafSystem):
 
     def _calc_motion(self, context, value):
         body = self._body
-        a, alpha, omega, g = frame_motion(self._poses.Eval(context)[body], self._velocities.Eval(context)[body],
-                                          self._accelerations.Eval(context)[body], self._p_BS, self._g_W)
-        value.get_mutable_value()[:] = np.concatenate((a, alpha, omega, g))
+        frame_motion(self._poses.Eval(context)[body], self._velocities.Eval(context)[body],
+                     self._accelerations.Eval(context)[body], self._p_BS, self._g_W, value.get_mutable_value())
 
     def _calc_reading(self, context, output):
         motion = self._motion.Eval(context)
@@ -145,11 +163,12 @@ class TrueNonContactWrench(LeafSystem):
         super().__init__()
         self._load, self._sensor = int(load_body_index), int(sensor_body_index)
         self._p_BS = np.asarray(p_BS, dtype=float)
-        self._g_W = np.asarray(gravity_W, dtype=float)
+        self._g_W = float_array(gravity_W)
         self._poses, self._velocities, self._accelerations = declare_body_motion_inputs(self)
         self._phi = self.DeclareVectorInputPort("phi", 10)
         self._phi_gripper = self.DeclareVectorInputPort("phi_gripper", 10)
         self._X_BS = RigidTransform(self._p_BS)
+        self._motion, self._V = np.empty(12), np.empty((6, 10))  # scratch of ``_calc``
         # Both wrenches at once (12): one evaluation of the load frame's motion per context change.
         self._wrenches = self.DeclareCacheEntry(
             "wrenches", ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(12)), calc=self._calc),
@@ -159,16 +178,36 @@ class TrueNonContactWrench(LeafSystem):
                 self._wrenches.Eval(context)[part]), prerequisites_of_calc={self._wrenches.ticket()})
 
     def _calc(self, context, value):
-        poses, load = self._poses.Eval(context), self._load
-        phi, phi_gripper = self._phi.Eval(context), self._phi_gripper.Eval(context)
-        phi_object = phi - phi_gripper if np.any(phi_gripper) else np.zeros(10)
-        a, alpha, omega, g = frame_motion(poses[load], self._velocities.Eval(context)[load],
-                                          self._accelerations.Eval(context)[load], np.zeros(3), self._g_W)
-        V = regressor(a, alpha, omega, g)
+        poses, load, motion = self._poses.Eval(context), self._load, self._motion
+        frame_motion(poses[load], self._velocities.Eval(context)[load], self._accelerations.Eval(context)[load],
+                     _ORIGIN, self._g_W, motion)
         X_SL = (poses[self._sensor] @ self._X_BS).InvertAndCompose(poses[load])
-        R_SL, p_SL = X_SL.rotation().matrix(), X_SL.translation()
-        out = value.get_mutable_value()
-        for part, share in ((slice(0, 6), phi), (slice(6, 12), phi_object)):
-            wrench_L = V @ share
-            f_S = R_SL @ wrench_L[:3]
-            out[part] = np.concatenate((f_S, R_SL @ wrench_L[3:] + np.cross(p_SL, f_S)))
+        wrenches_at_S_into(motion, self._phi.Eval(context), self._phi_gripper.Eval(context), X_SL.rotation().matrix(),
+                           float_array(X_SL.translation()), self._V, value.get_mutable_value())
+
+
+_ORIGIN = np.zeros(3)
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64[:, :], float64[:], float64[:, :], float64[:])")
+def wrenches_at_S_into(motion, phi, phi_gripper, R_SL, p_SL, V, out) -> None:
+    """[V·φ; V·(φ − φ_gripper)] (12) into ``out``, each moved from L to S and expressed in S:
+    f_S = R_SL·f_L, τ_S = R_SL·τ_L + p_SL × f_S. V is the regressor of L's ``motion`` [a; α; ω; g]
+    (12, in L; ``V`` (6, 10) scratch); the object's share is zero when ``phi_gripper`` is."""
+    regressor_into(motion[0:3], motion[3:6], motion[6:9], motion[9:12], V)
+    split = False
+    for k in range(10):
+        split = split or phi_gripper[k] != 0.0
+    out[:] = 0.0
+    for start in range(0, 12 if split else 6, 6):
+        for row in range(6):  # row r of V·share, rotated into S: column r mod 3 of R_SL
+            w = 0.0
+            for k in range(10):
+                w += V[row, k] * (phi[k] - phi_gripper[k] if start == 6 else phi[k])
+            base = start + (3 if row >= 3 else 0)
+            for i in range(3):
+                out[base + i] += R_SL[i, row % 3] * w
+        fx, fy, fz = out[start], out[start + 1], out[start + 2]
+        out[start + 3] += p_SL[1] * fz - p_SL[2] * fy
+        out[start + 4] += p_SL[2] * fx - p_SL[0] * fz
+        out[start + 5] += p_SL[0] * fy - p_SL[1] * fx

@@ -200,6 +200,17 @@ for k in range(60):
                                              controller.applied_wrench, controller.energy, controller.offsets,
                                              controller.scales, controller.wrench_contact,
                                              [controller.reachable, controller.rezero_status])))
+# The simulated station's truth: a frame's motion, the load's wrenches at S (with and without a split).
+from heft.systems.station_truth import frame_motion_into, wrenches_at_S_into
+
+out["truth"], motion, V_scratch = [], np.empty(12), np.empty((6, 10))
+for k in range(20):
+    chain.update(rng.uniform(-3, 3, 6))
+    frame_motion_into(chain.R, *rng.normal(0, 3, (3, 3)), rng.normal(0, 0.1, 3), np.array(GRAVITY_W), motion)
+    wrenches = np.empty(12)
+    wrenches_at_S_into(motion, phi, phi_gripper if k % 2 else np.zeros(10), chain.R, rng.normal(0, 0.1, 3), V_scratch,
+                       wrenches)
+    out["truth"].append(np.concatenate((motion, wrenches)))
 # The station's readers (every reason a message is refused for), its health and its command gate.
 import lcm
 from drake import lcmt_iiwa_status

@@ -3,6 +3,7 @@ operator, the ports, and scenario files."""
 
 import numpy as np
 import pytest
+from pydrake.math import RollPitchYaw, RotationMatrix
 from pydrake.multibody.math import SpatialAcceleration
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
@@ -15,6 +16,7 @@ from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.load_dynamics import InertialParameters, regressor
 from heft.systems.operator_hand import smooth_sine_offset, stroke_windows
+from heft.systems.station_truth import frame_motion_into
 
 STATION_PORTS = {
     "inputs": {"master.torque_commanded", "slave.position_commanded"},
@@ -70,6 +72,22 @@ def free_space():
 def sheet_spring():
     # the plate 5 mm below the ball at rest
     return Run(layered(ideal(Scenario()), overrides_text({"environment.plate_top_W": [0.552, 0.0, 0.075]})))
+
+
+
+def test_a_frames_motion_is_drakes_shifted_spatial_acceleration_in_the_frame():
+    """``frame_motion_into`` against Drake's ``SpatialAcceleration.Shift`` and rotations."""
+    rng = np.random.default_rng(3)
+    g_W = np.array([0.0, 0.0, -9.81])
+    for _ in range(5):
+        R_WB = RotationMatrix(RollPitchYaw(rng.uniform(-3, 3, 3)))
+        w, alpha, a, p_BF = rng.normal(0, 3, (4, 3))
+        motion = np.empty(12)
+        frame_motion_into(R_WB.matrix(), w, alpha, a, p_BF, g_W, motion)
+        A_WF = SpatialAcceleration(alpha, a).Shift(R_WB @ p_BF, w)
+        R_BW = R_WB.inverse()
+        expected = np.concatenate([R_BW @ x for x in (A_WF.translational(), A_WF.rotational(), w, g_W)])
+        np.testing.assert_allclose(motion, expected, rtol=0, atol=1e-12)
 
 
 def test_station_exports_the_design_ports(free_space):
