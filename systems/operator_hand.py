@@ -8,10 +8,25 @@ import math
 import numpy as np
 from pydrake.common.cpp_param import List
 from pydrake.common.value import Value
-from pydrake.math import RigidTransform, RotationMatrix, RollPitchYaw
+from pydrake.math import RigidTransform
 from pydrake.multibody.math import SpatialForce, SpatialVelocity
 from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 from pydrake.systems.framework import LeafSystem
+
+from heft.systems.compiled import compiled, float_array
+from heft.systems.pose_vectors import pose_into
+
+
+@compiled("UniTuple(float64, 2)(float64, float64, float64, float64[:])")
+def smooth_sine_factors(t, start_time, frequency, stroke_scales) -> tuple[float, float]:
+    """(s_k·(1 − cos 2πf(t − t0))/2, s_k·πf·sin 2πf(t − t0)) for t ≥ t0, else (0, 0): the offset and
+    the rate of ``smooth_sine_offset`` per unit of amplitude."""
+    if t < start_time:
+        return 0.0, 0.0
+    cycles = frequency * (t - start_time)
+    scale = stroke_scales[min(int(cycles), stroke_scales.shape[0] - 1)]
+    phase = 2.0 * math.pi * cycles
+    return scale * 0.5 * (1.0 - math.cos(phase)), scale * math.pi * frequency * math.sin(phase)
 
 
 def smooth_sine_offset(t, start_time, frequency, amplitude, stroke_scales=(1.0,)):
@@ -21,12 +36,8 @@ def smooth_sine_offset(t, start_time, frequency, amplitude, stroke_scales=(1.0,)
     at the start offset, so the reference stays continuous in position and rate.
     Returns (offset, rate) with amplitude's shape."""
     amplitude = np.asarray(amplitude, dtype=float)
-    if t < start_time:
-        return np.zeros_like(amplitude), np.zeros_like(amplitude)
-    cycles = frequency * (t - start_time)
-    amplitude = amplitude * stroke_scales[min(int(cycles), len(stroke_scales) - 1)]
-    phase = 2 * np.pi * cycles
-    return amplitude * 0.5 * (1 - np.cos(phase)), amplitude * np.pi * frequency * np.sin(phase)
+    offset, rate = smooth_sine_factors(float(t), float(start_time), float(frequency), float_array(stroke_scales))
+    return amplitude * offset, amplitude * rate
 
 
 def stroke_windows(start_time, frequency, duration) -> list[tuple[float, float]]:
@@ -38,14 +49,45 @@ def stroke_windows(start_time, frequency, duration) -> list[tuple[float, float]]
     return [(start_time + k / frequency, start_time + (k + 1) / frequency) for k in range(max(count, 0))]
 
 
-def hand_wrench(X_WE, V_WE, X_WE_ref, V_WE_ref, k, d, k_rot, d_rot):
-    """Spatial impedance F = K·(ref − actual) + D·(ref rate − rate) at the stylus
-    origin, in W: translational k (N/m), d (N·s/m); rotational k_rot (N·m/rad)
-    on the axis-angle of R_ref·Rᵀ, d_rot (N·m·s/rad). Returns (f_W, τ_W)."""
-    f = k * (X_WE_ref.translation() - X_WE.translation()) + d * (V_WE_ref[3:] - V_WE[3:])
-    error = (X_WE_ref.rotation() @ X_WE.rotation().inverse()).ToAngleAxis()
-    tau = k_rot * error.angle() * error.axis() + d_rot * (V_WE_ref[:3] - V_WE[:3])
-    return f, tau
+@compiled("void(float64, float64, float64, float64[:], float64[:], float64[:], float64[:, :], float64[:], "
+          "float64[:, :], float64[:], float64[:], float64[:])")
+def reference_into(t, start_time, frequency, stroke_scales, amplitude, rotation_amplitude, R_WE0, p_WE0, R_ref, p_ref,
+                   w_ref, v_ref) -> None:
+    """The hand's reference at time ``t`` into R_ref (3×3), p_ref, w_ref, v_ref (3 each, in W): the start
+    pose (R_WE0, p_WE0) moved by ``smooth_sine_offset`` of ``amplitude`` (m, in W) and of
+    ``rotation_amplitude`` (rad, roll-pitch-yaw, R = R_z(y)·R_y(p)·R_x(r) as Drake's ``RollPitchYaw``,
+    applied in W). For the small angles used, the roll-pitch-yaw rate is the angular velocity to first order."""
+    offset, rate = smooth_sine_factors(t, start_time, frequency, stroke_scales)
+    r, p, y = offset * rotation_amplitude[0], offset * rotation_amplitude[1], offset * rotation_amplitude[2]
+    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+    rpy = ((cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr),
+           (sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr),
+           (-sp, cp * sr, cp * cr))
+    for i in range(3):
+        for j in range(3):
+            R_ref[i, j] = rpy[i][0] * R_WE0[0, j] + rpy[i][1] * R_WE0[1, j] + rpy[i][2] * R_WE0[2, j]
+        p_ref[i] = p_WE0[i] + offset * amplitude[i]
+        w_ref[i], v_ref[i] = rate * rotation_amplitude[i], rate * amplitude[i]
+
+
+@compiled("void(float64[:, :], float64[:], float64[:], float64[:], float64[:, :], float64[:], float64[:], "
+          "float64[:], float64, float64, float64, float64, float64[:, :], float64[:], float64[:])")
+def hand_wrench_into(R_WE, p_WE, w_WE, v_WE, R_ref, p_ref, w_ref, v_ref, k, d, k_rot, d_rot, error, quaternion,
+                     out) -> None:
+    """Spatial impedance F = K·(ref − actual) + D·(ref rate − rate) at the stylus origin, in W, into
+    ``out`` = [τ; f] (6): translational k (N/m), d (N·s/m); rotational k_rot (N·m/rad) on the rotation
+    vector of R_ref·Rᵀ (from its quaternion with w ≥ 0: an angle in [0, π]), d_rot (N·m·s/rad).
+    ``error`` (3×3) and ``quaternion`` (7, a pose vector) are scratch."""
+    for i in range(3):
+        for j in range(3):
+            error[i, j] = R_ref[i, 0] * R_WE[j, 0] + R_ref[i, 1] * R_WE[j, 1] + R_ref[i, 2] * R_WE[j, 2]
+    pose_into(error, p_WE, quaternion)
+    x, y, z = quaternion[4], quaternion[5], quaternion[6]
+    norm = math.sqrt(x * x + y * y + z * z)
+    per_unit = 2.0 * math.atan2(norm, quaternion[3]) / norm if norm > 0.0 else 0.0
+    for i in range(3):
+        out[i] = k_rot * per_unit * quaternion[4 + i] + d_rot * (w_ref[i] - w_WE[i])
+        out[3 + i] = k * (p_ref[i] - p_WE[i]) + d * (v_ref[i] - v_WE[i])
 
 
 class OperatorHand(LeafSystem):
@@ -61,32 +103,32 @@ class OperatorHand(LeafSystem):
     def __init__(self, stylus_body_index, X_WE0: RigidTransform, spec):
         super().__init__()
         self._stylus = int(stylus_body_index)
-        self._X_WE0 = X_WE0
         self._spec = spec
+        self._R_WE0, self._p_WE0 = X_WE0.rotation().matrix(), float_array(X_WE0.translation())
+        self._timing = (float(spec.start_time), float(spec.frequency), float_array(spec.stroke_scales),
+                        float_array(spec.amplitude), float_array(spec.rotation_amplitude))
+        # Scratch of ``_calc_force``: the reference (R, p, ω, v), the error rotation, its quaternion, [τ; f].
+        self._R_ref, self._error = np.empty((2, 3, 3))
+        self._p_ref, self._w_ref, self._v_ref = np.empty((3, 3))
+        self._quaternion, self._wrench = np.empty(7), np.empty(6)
         self._poses = self.DeclareAbstractInputPort("body_poses", Value[List[RigidTransform]]())
         self._velocities = self.DeclareAbstractInputPort("body_spatial_velocities", Value[List[SpatialVelocity]]())
         self._stylus_index = stylus_body_index
         self.DeclareAbstractOutputPort("spatial_force", lambda: Value[List[ExternallyAppliedSpatialForce]](),
                                        self._calc_force)
 
-    def reference(self, t):
-        """(X_WE_ref, V_WE_ref as [ω; v] in W) at time t."""
-        s = self._spec
-        dp, dp_rate = smooth_sine_offset(t, s.start_time, s.frequency, s.amplitude, s.stroke_scales)
-        drpy, drpy_rate = smooth_sine_offset(t, s.start_time, s.frequency, s.rotation_amplitude, s.stroke_scales)
-        R = RotationMatrix(RollPitchYaw(drpy)) @ self._X_WE0.rotation()
-        X_ref = RigidTransform(R, self._X_WE0.translation() + dp)
-        # For the small angles used, the roll-pitch-yaw rate is the angular velocity to first order.
-        return X_ref, np.concatenate((drpy_rate, dp_rate))
-
     def _calc_force(self, context, output):
         s = self._spec
         X_WE = self._poses.Eval(context)[self._stylus]
         V = self._velocities.Eval(context)[self._stylus]
-        X_ref, V_ref = self.reference(context.get_time())
-        f, tau = hand_wrench(X_WE, np.concatenate((V.rotational(), V.translational())), X_ref, V_ref,
-                             s.stiffness, s.damping, s.rotational_stiffness, s.rotational_damping)
+        reference_into(context.get_time(), *self._timing, self._R_WE0, self._p_WE0, self._R_ref, self._p_ref,
+                       self._w_ref, self._v_ref)
+        wrench = self._wrench
+        hand_wrench_into(X_WE.rotation().matrix(), float_array(X_WE.translation()), float_array(V.rotational()),
+                         float_array(V.translational()), self._R_ref, self._p_ref, self._w_ref, self._v_ref,
+                         s.stiffness, s.damping, s.rotational_stiffness, s.rotational_damping, self._error,
+                         self._quaternion, wrench)
         force = ExternallyAppliedSpatialForce()
         force.body_index, force.p_BoBq_B = self._stylus_index, np.zeros(3)
-        force.F_Bq_W = SpatialForce(tau=tau, f=f)
+        force.F_Bq_W = SpatialForce(tau=wrench[:3], f=wrench[3:])
         output.set_value([force])

@@ -83,12 +83,33 @@ def measure_rows(values, full_scale, step, out, saturated) -> None:
 
 def drift_offsets(t, initial_offsets, drifted_offsets, time_constant: float) -> np.ndarray:
     """The deterministic part of the offsets at time ``t`` (s, scalar → (6,), (N,) →
-    (N, 6)): o_d + (o_0 − o_d)·exp(−t/τ)."""
-    initial = np.asarray(initial_offsets, dtype=float)
-    drifted = np.asarray(drifted_offsets, dtype=float)
-    t = np.asarray(t, dtype=float)
-    decay = np.exp(-t / time_constant)[..., np.newaxis] if t.ndim else math.exp(-t / time_constant)
-    return drifted + (initial - drifted) * decay
+    (N, 6)): o_d + (o_0 − o_d)·exp(−t/τ) (``_disturbance_rows`` without the walk)."""
+    times = float_array(np.atleast_1d(t))
+    offsets, none = np.empty((len(times), NUM_AXES)), np.zeros(NUM_AXES)
+    _disturbance_rows(times, np.zeros((len(times), 2 * NUM_AXES)), none.copy(), False, True, True,
+                      float_array(initial_offsets), float_array(drifted_offsets), time_constant, none, False, none,
+                      offsets, offsets)
+    return offsets if np.ndim(t) else offsets[0]
+
+
+@compiled("void(float64[:], float64[:, :], float64[:], boolean, boolean, boolean, float64[:], float64[:], float64, "
+          "float64[:], boolean, float64[:], float64[:, :], float64[:, :])")
+def _disturbance_rows(t, normals, walk, advance_walk, drift_on, offsets_on, initial, drifted, time_constant,
+                      walk_step_rms, white_noise_on, white_noise_rms, offsets, disturbed) -> None:
+    """``SixAxisMeasurement.disturbance`` of the samples at times ``t`` into ``offsets`` and ``disturbed``
+    (N, 6), ``walk`` (6) advanced in place: o = o_d + (o_0 − o_d)·exp(−t/τ) + w (w ← w + q·√T·ν at each
+    sample) with drift, the initial offsets without it, zero without offsets; plus σ·n with white noise."""
+    for j in range(t.shape[0]):
+        decay = math.exp(-t[j] / time_constant) if drift_on else 0.0
+        for k in range(walk.shape[0]):
+            if drift_on:
+                if advance_walk:
+                    walk[k] += walk_step_rms[k] * normals[j, NUM_AXES + k]
+                offset = drifted[k] + (initial[k] - drifted[k]) * decay + walk[k]
+            else:
+                offset = initial[k] if offsets_on else 0.0
+            offsets[j, k] = offset
+            disturbed[j, k] = offset + white_noise_rms[k] * normals[j, k] if white_noise_on else offset
 
 
 def lowpass_coefficients(cutoff: float, period: float) -> np.ndarray | None:
@@ -237,29 +258,29 @@ class SixAxisMeasurement:
         self.steps = np.zeros(NUM_AXES) if self.step is None else self.step
         """The rounding steps (6) that ``measure_rows`` takes: ``step``, or 0 without quantisation."""
         self.key = noise_key(params.seed, stream)
+        self._white_noise_rms = np.zeros(NUM_AXES) if self.white_noise_rms is None else self.white_noise_rms
 
     def normals(self, sample_index) -> np.ndarray | None:
         """The 12 standard normal draws of each sample (white noise, then walk steps), or
         None if the model draws none; ``sample_index`` as ``standard_normals``."""
         return standard_normals(self.key, sample_index, 2 * NUM_AXES) if self.draws_noise else None
 
-    def disturbance(self, t, normals, walk, advance_walk: bool = True):
+    def disturbance(self, t, normals, walk, advance_walk: bool = True, offsets: np.ndarray | None = None,
+                    disturbed: np.ndarray | None = None):
         """(offsets o_k, o_k + n_k, the walk w after the last sample) for the samples at
         times ``t`` (N,) (s) with their draws ``normals`` (N, 12) or None; ``walk`` (6) is
-        w before the first, advanced at each sample unless ``advance_walk`` is False."""
+        w before the first, advanced at each sample unless ``advance_walk`` is False. The
+        results go into ``offsets`` and ``disturbed`` (N, 6) if given; ``walk`` is not changed."""
+        t = float_array(np.atleast_1d(t))
         count = len(t)
-        if self.drift_on:
-            walks = walk + np.cumsum(self.walk_step_rms * normals[:, NUM_AXES:], axis=0) if advance_walk \
-                else np.tile(walk, (count, 1))
-            offsets = drift_offsets(t, self.initial_offsets, self.drifted_offsets, self.drift_time_constant) + walks
-            walk = walks[-1]
-        elif self.offsets_on:
-            offsets = np.tile(self.initial_offsets, (count, 1))
-        else:
-            offsets = np.zeros((count, NUM_AXES))
-        if self.white_noise_rms is None:
-            return offsets, offsets, walk
-        return offsets, offsets + self.white_noise_rms * normals[:, :NUM_AXES], walk
+        offsets = np.empty((count, NUM_AXES)) if offsets is None else offsets
+        disturbed = np.empty((count, NUM_AXES)) if disturbed is None else disturbed
+        walk = np.array(walk, dtype=float)
+        _disturbance_rows(t, np.zeros((count, 2 * NUM_AXES)) if normals is None else float_array(normals), walk,
+                          advance_walk, self.drift_on, self.offsets_on, self.initial_offsets, self.drifted_offsets,
+                          self.drift_time_constant, self.walk_step_rms, self.white_noise_rms is not None,
+                          self._white_noise_rms, offsets, disturbed)
+        return offsets, disturbed, walk
 
     def measure(self, value, out: np.ndarray | None = None,
                 saturated: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -294,6 +315,7 @@ class _SampledSixAxisSensor(LeafSystem):
         # (first sample index, draws): a memo of the pure function standard_normals,
         # not generator state, so Contexts and their clones stay independent.
         self._noise_block = (0, np.empty((0, 2 * NUM_AXES)))
+        self._time, self._disturbed = np.empty(1), np.empty((1, NUM_AXES))  # scratch of ``_take_sample``
 
         self._input = self.DeclareVectorInputPort(input_name, NUM_AXES)
         self._measured = self.DeclareDiscreteState(NUM_AXES)
@@ -334,21 +356,23 @@ class _SampledSixAxisSensor(LeafSystem):
         return block[index - start:index - start + 1]
 
     def _take_sample(self, context, discrete_state, advance_walk: bool):
-        walk_and_index = context.get_discrete_state(self._walk_and_index).get_value()
-        index = int(walk_and_index[NUM_AXES])
-        t = context.get_time()
-        offsets, disturbance, walk = self._model.disturbance(
-            np.array([t]), self._normals(index), walk_and_index[:NUM_AXES], advance_walk)
-        value = self._input.Eval(context)
+        # discrete_state holds the current values: each group is updated in place.
+        walk_and_index = discrete_state.get_mutable_value(self._walk_and_index)
+        index, t = int(walk_and_index[NUM_AXES]), context.get_time()
+        self._time[0] = t
+        disturbed = self._disturbed
+        offsets = discrete_state.get_mutable_value(self._offsets)[np.newaxis]
+        _, _, walk_and_index[:NUM_AXES] = self._model.disturbance(self._time, self._normals(index),
+                                                                  walk_and_index[:NUM_AXES], advance_walk, offsets,
+                                                                  disturbed)
+        value = self._input.Eval(context)[np.newaxis]
         if self._lowpass is not None:
-            state = context.get_discrete_state(self._lowpass_state).get_value().reshape(2, NUM_AXES).copy()
-            value = lowpass(self._lowpass, state, value[np.newaxis])[0]
-            discrete_state.set_value(self._lowpass_state, state.ravel())
-        value, saturated = self._model.measure(value + disturbance[0])
-        discrete_state.set_value(self._measured, value)
-        discrete_state.set_value(self._offsets, offsets[0])
-        discrete_state.set_value(self._saturated, saturated)
-        discrete_state.set_value(self._walk_and_index, np.append(walk, [index + 1, t]))
+            value = lowpass(self._lowpass, discrete_state.get_mutable_value(self._lowpass_state).reshape(2, NUM_AXES),
+                            value)
+        disturbed += value
+        self._model.measure(disturbed, discrete_state.get_mutable_value(self._measured)[np.newaxis],
+                            discrete_state.get_mutable_value(self._saturated)[np.newaxis])
+        walk_and_index[NUM_AXES:] = index + 1, t
 
 
 class ForceTorqueSensorModel(_SampledSixAxisSensor):

@@ -211,6 +211,18 @@ for k in range(20):
     wrenches_at_S_into(motion, phi, phi_gripper if k % 2 else np.zeros(10), chain.R, rng.normal(0, 0.1, 3), V_scratch,
                        wrenches)
     out["truth"].append(np.concatenate((motion, wrenches)))
+# The simulated operator's hand: its reference and impedance.
+from heft.systems.operator_hand import hand_wrench_into, reference_into
+
+out["hand"], reference, hand = [], [np.empty(n) for n in ((3, 3), 3, 3, 3)], np.empty(6)
+for k in range(20):
+    chain.update(rng.uniform(-3, 3, 6))
+    reference_into(0.05 * k, 0.1, 2.5, np.array([1.0, 0.5]), *rng.normal(0, 0.2, (2, 3)), chain.R, chain.p,
+                   *reference)
+    chain.update(rng.uniform(-3, 3, 6))
+    hand_wrench_into(chain.R, chain.p, *rng.normal(0, 1, (2, 3)), *reference, 800.0, 15.0, 2.0, 0.05,
+                     np.empty((3, 3)), np.empty(7), hand)
+    out["hand"].append(np.concatenate((reference[0].ravel(), *reference[1:], hand)))
 # The station's readers (every reason a message is refused for), its health and its command gate.
 import lcm
 from drake import lcmt_iiwa_status

@@ -3,7 +3,7 @@ operator, the ports, and scenario files."""
 
 import numpy as np
 import pytest
-from pydrake.math import RollPitchYaw, RotationMatrix
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.math import SpatialAcceleration
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
@@ -15,7 +15,7 @@ from heft.diagrams.plants import AddSlave, mount_for
 from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.load_dynamics import InertialParameters, regressor
-from heft.systems.operator_hand import smooth_sine_offset, stroke_windows
+from heft.systems.operator_hand import hand_wrench_into, reference_into, smooth_sine_offset, stroke_windows
 from heft.systems.station_truth import frame_motion_into
 
 STATION_PORTS = {
@@ -88,6 +88,32 @@ def test_a_frames_motion_is_drakes_shifted_spatial_acceleration_in_the_frame():
         R_BW = R_WB.inverse()
         expected = np.concatenate([R_BW @ x for x in (A_WF.translational(), A_WF.rotational(), w, g_W)])
         np.testing.assert_allclose(motion, expected, rtol=0, atol=1e-12)
+
+
+def test_the_hands_reference_and_impedance_against_drakes_rotations():
+    """``reference_into`` and ``hand_wrench_into`` against Drake's ``RollPitchYaw`` and ``ToAngleAxis``."""
+    rng = np.random.default_rng(8)
+    R_ref, error, p_ref, w_ref, v_ref, quaternion, out = (np.empty(n) for n in ((3, 3), (3, 3), 3, 3, 3, 7, 6))
+    scales = np.array([1.0, 0.5])
+    for n in range(8):
+        t, amplitude, rotation_amplitude = rng.uniform(0.0, 1.0), rng.normal(0, 0.05, 3), rng.normal(0, 0.4, 3)
+        X_0 = RigidTransform(RotationMatrix(RollPitchYaw(rng.uniform(-3, 3, 3))), rng.normal(0, 0.3, 3))
+        reference_into(t, 0.1, 2.5, scales, amplitude, rotation_amplitude, X_0.rotation().matrix(),
+                       np.array(X_0.translation()), R_ref, p_ref, w_ref, v_ref)
+        (offset, _, _), (rate, _, _) = smooth_sine_offset(t, 0.1, 2.5, np.ones(3), scales)
+        R_expected = RotationMatrix(RollPitchYaw(offset * rotation_amplitude)) @ X_0.rotation()
+        np.testing.assert_allclose(R_ref, R_expected.matrix(), rtol=0, atol=1e-14)
+        np.testing.assert_allclose(p_ref, X_0.translation() + offset * amplitude, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(np.concatenate((w_ref, v_ref)), rate * np.concatenate((rotation_amplitude, amplitude)))
+        # The stylus anywhere, up to a half turn from the reference (n = 0: at it).
+        R_WE = R_expected if n == 0 else RotationMatrix(RollPitchYaw(rng.uniform(-3, 3, 3)))
+        p_WE, w_WE, v_WE = rng.normal(0, 0.3, (3, 3))
+        hand_wrench_into(R_WE.matrix(), p_WE, w_WE, v_WE, R_ref, p_ref, w_ref, v_ref, 800.0, 15.0, 2.0, 0.05,
+                         error, quaternion, out)
+        angle_axis = (R_expected @ R_WE.inverse()).ToAngleAxis()
+        tau = 2.0 * angle_axis.angle() * angle_axis.axis() + 0.05 * (w_ref - w_WE)
+        f = 800.0 * (p_ref - p_WE) + 15.0 * (v_ref - v_WE)
+        np.testing.assert_allclose(out, np.concatenate((tau, f)), rtol=0, atol=1e-11)
 
 
 def test_station_exports_the_design_ports(free_space):
