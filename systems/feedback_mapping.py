@@ -21,7 +21,7 @@ from pydrake.systems.framework import LeafSystem
 
 from heft.systems.compiled import compiled, float_array
 from heft.systems.feedback_mapping_params import FeedbackMappingParams
-from heft.systems.pose_vectors import POSE_SIZE, rigid_transform
+from heft.systems.pose_vectors import POSE_SIZE, rotation_into
 
 WRENCH_SIZE = 6
 JACOBIAN_SIZE = 36
@@ -62,6 +62,31 @@ def joint_torque(jacobian, wrench_E) -> np.ndarray:
     return np.reshape(jacobian, (6, 6)).T @ np.asarray(wrench_E, dtype=float)
 
 
+@compiled("void(float64[:, :], float64[:, :], float64[:, :])")
+def rotation_product_into(R_AB, R_BC, R_AC) -> None:
+    """R_AC = R_AB·R_BC (3×3 each) into ``R_AC``."""
+    for r in range(3):
+        for c in range(3):
+            R_AC[r, c] = R_AB[r, 0] * R_BC[0, c] + R_AB[r, 1] * R_BC[1, c] + R_AB[r, 2] * R_BC[2, c]
+
+
+@compiled("boolean(float64[:], float64[:], float64[:, :], float64, float64, float64, float64, float64[:, :], "
+          "float64[:, :], float64[:])")
+def wrench_on_hand_into(wrench_S, pose_RS, R_BR, force_scale, torque_scale, max_force, max_torque, R_RS, R_BS,
+                        out) -> bool:
+    """``rendered_wrench_into`` of ``wrench_S`` with R_BS = R_BR·R_RS, R_RS of ``pose_RS`` (``rotation_into``;
+    R_RS, R_BS (3×3) scratch). False, ``out`` untouched, when the wrench is not 6 finite numbers or the
+    pose is not a pose (``rotation_into``)."""
+    total = 0.0
+    for value in wrench_S:
+        total += value
+    if wrench_S.shape[0] != WRENCH_SIZE or not math.isfinite(total) or not rotation_into(pose_RS, R_RS):
+        return False
+    rotation_product_into(R_BR, R_RS, R_BS)
+    rendered_wrench_into(wrench_S, R_BS, force_scale, torque_scale, max_force, max_torque, out)
+    return True
+
+
 class FeedbackMapping(LeafSystem):
     """Sensor wrench → wrench on the operator's hand and master joint torques.
 
@@ -85,7 +110,8 @@ class FeedbackMapping(LeafSystem):
         params = params or FeedbackMappingParams()
         params.validate()
         self._params = params
-        self._R_BR = RotationMatrix(RollPitchYaw(list(R_RB))).inverse()
+        self._R_BR = RotationMatrix(RollPitchYaw(list(R_RB))).inverse().matrix()
+        self._R_RS, self._R_BS, self._scratch = np.empty((3, 3)), np.empty((3, 3)), np.empty(WRENCH_SIZE)
         self._wrench_S = self.DeclareVectorInputPort("wrench_S", WRENCH_SIZE)
         self._pose_RS = self.DeclareVectorInputPort("pose_RS", POSE_SIZE)
         self._jacobian = self.DeclareVectorInputPort("jacobian", JACOBIAN_SIZE)
@@ -96,22 +122,20 @@ class FeedbackMapping(LeafSystem):
         self.DeclareVectorOutputPort("torque", WRENCH_SIZE, self._calc_torque, prerequisites_of_calc=all_inputs)
         self.DeclareVectorOutputPort("fault", 1, self._calc_fault, prerequisites_of_calc=all_inputs)
 
-    def _wrench_inputs_ok(self, context) -> bool:
-        pose = self._pose_RS.Eval(context)
-        return bool(np.isfinite(self._wrench_S.Eval(context)).all() and np.isfinite(pose).all()
-                    and np.linalg.norm(pose[3:]) > 1e-9)
+    def _wrench_E_into(self, context, out) -> bool:
+        """The hand's wrench into ``out`` (6); False, ``out`` untouched, while ``wrench_S`` or ``pose_RS`` is bad."""
+        p = self._params
+        return wrench_on_hand_into(self._wrench_S.Eval(context), self._pose_RS.Eval(context), self._R_BR, p.force_scale,
+                                   p.torque_scale, p.max_force, p.max_torque, self._R_RS, self._R_BS, out)
 
     def _inputs_ok(self, context) -> bool:
-        return self._wrench_inputs_ok(context) and bool(np.isfinite(self._jacobian.Eval(context)).all())
+        return (self._wrench_E_into(context, self._scratch)
+                and bool(np.isfinite(self._jacobian.Eval(context)).all()))
 
     def _calc_wrench(self, context, output):
-        if not self._wrench_inputs_ok(context):
-            output.SetFromVector(np.zeros(WRENCH_SIZE))
-            return
-        p = self._params
-        R_BS = (self._R_BR @ rigid_transform(self._pose_RS.Eval(context)).rotation()).matrix()
-        output.SetFromVector(rendered_wrench(self._wrench_S.Eval(context), R_BS, p.force_scale, p.torque_scale,
-                                             p.max_force, p.max_torque))
+        wrench_E = output.get_mutable_value()
+        if not self._wrench_E_into(context, wrench_E):
+            wrench_E[:] = 0.0
 
     def _calc_torque(self, context, output):
         if not self._inputs_ok(context):

@@ -33,7 +33,7 @@ from heft.systems.accelerometer_reading import (AccelerometerConvention, kernel_
 from heft.systems.contact_threshold import ContactThresholdParams
 from heft.systems.load_estimation_params import LoadEstimationParams
 from heft.systems.compiled import compiled, float_array, record_views
-from heft.systems.feedback_mapping import FeedbackMappingParams, rendered_wrench_into
+from heft.systems.feedback_mapping import FeedbackMappingParams, rendered_wrench_into, rotation_product_into
 from heft.systems.force_scaling import (
     CONTACT,
     EVALUATION_SIZE,
@@ -375,10 +375,8 @@ def controller_step(dt, master_position, master_velocity, slave_position, slave_
                         s["time_constant"], s["max_force_rate"], s["max_torque_rate"], s["contact_force"],
                         s["contact_torque"], float(rezero_requests))
     motion_from_reading_into(s["motion_S"], reading, gravity_S, omega_S, includes_gravity, p_SA, R_SA, u, bias)
-    R_BR, R_BS = s["R_BR"], s["R_BS"]
-    for r in range(3):  # R_BS = R_BR·R_RS
-        for c in range(3):
-            R_BS[r, c] = R_BR[r, 0] * R_RS[0, c] + R_BR[r, 1] * R_RS[1, c] + R_BR[r, 2] * R_RS[2, c]
+    R_BS = s["R_BS"]
+    rotation_product_into(s["R_BR"], R_RS, R_BS)
     max_force, max_torque, wrench_B = s["max_force"], s["max_torque"], s["master_wrench"]
     rendered_wrench_into(evaluation[FEEDBACK], R_BS, s["force_scale"], s["torque_scale"], max_force, max_torque,
                          wrench_B)

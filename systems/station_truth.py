@@ -133,10 +133,14 @@ class ContactWrenchAtSensor(LeafSystem):
         if results.num_hydroelastic_contacts():
             raise RuntimeError("ContactWrenchAtSensor sums point contacts only; "
                                "build the plant with contact_model='point'")
+        count = results.num_point_pair_contacts()
+        if not count:
+            output.SetZero()
+            return
         X_WB = self._poses.Eval(context)[self._sensor]
         p_WS = X_WB @ self._p_BS
         f_W, tau_W = np.zeros(3), np.zeros(3)  # environment on load, about S
-        for i in range(results.num_point_pair_contacts()):
+        for i in range(count):
             info = results.point_pair_contact_info(i)
             sign = (int(info.bodyB_index()) in self._load) - (int(info.bodyA_index()) in self._load)
             if sign:
