@@ -121,12 +121,18 @@ def lowpass_coefficients(cutoff: float, period: float) -> np.ndarray | None:
     return np.concatenate((b, a[1:]))
 
 
+def start_lowpass(coefficients: np.ndarray, state: np.ndarray, value: np.ndarray) -> None:
+    """Starts a filter not started (its ``state`` (2, n) NaN) in the steady state of ``value`` (n,);
+    leaves a started one alone."""
+    if math.isnan(state[0, 0]):
+        state[:] = lfilter_zi(coefficients[:3], np.concatenate(([1.0], coefficients[3:])))[:, np.newaxis] * value
+
+
 def lowpass(coefficients: np.ndarray, state: np.ndarray, values: np.ndarray) -> np.ndarray:
     """The filter (transposed direct form II, ``scipy.signal.lfilter``) on ``values`` (count, n),
     one sample a row, each column alone: returns the outputs and advances ``state`` (2, n) in
     place. A NaN state (a filter not started) starts in the steady state of the first row."""
-    if np.isnan(state[0, 0]):
-        state[:] = lfilter_zi(coefficients[:3], np.concatenate(([1.0], coefficients[3:])))[:, np.newaxis] * values[0]
+    start_lowpass(coefficients, state, values[0])
     out = np.empty(np.shape(values))
     _lowpass_rows(coefficients, state, float_array(values), out)
     return out
@@ -145,6 +151,29 @@ def _lowpass_rows(coefficients, state, values, out) -> None:
             z2 = b2 * x - a2 * y
             out[j, k] = y
         state[0, k], state[1, k] = z1, z2
+
+
+@compiled("void(float64[:], float64[:, :], float64[:], boolean, boolean, boolean, float64[:], float64[:], float64, "
+          "float64[:], boolean, float64[:], boolean, float64[:], float64[:, :], float64[:, :], float64[:], float64[:], "
+          "float64[:, :], float64[:, :], float64[:, :])")
+def _sample_into(t, normals, walk, advance_walk, drift_on, offsets_on, initial, drifted, time_constant, walk_step_rms,
+                 white_noise_on, white_noise_rms, filtered, coefficients, lowpass_state, value, full_scale, step,
+                 offsets, measured, saturated) -> None:
+    """``SixAxisMeasurement.sample_into``: the disturbance into ``offsets`` and ``measured``, plus the value
+    (low-passed if ``filtered``; ``saturated`` holds it meanwhile), then ``measure_rows`` in place."""
+    _disturbance_rows(t, normals, walk, advance_walk, drift_on, offsets_on, initial, drifted, time_constant,
+                      walk_step_rms, white_noise_on, white_noise_rms, offsets, measured)
+    if filtered:
+        _lowpass_rows(coefficients, lowpass_state, value, saturated)
+    else:
+        saturated[:, :] = value
+    for j in range(measured.shape[0]):
+        for k in range(measured.shape[1]):
+            measured[j, k] += saturated[j, k]
+    measure_rows(measured, full_scale, step, measured, saturated)
+
+
+_NO_DRAWS, _NO_LOWPASS = np.zeros((1, 2 * NUM_AXES)), np.zeros(5)  # stand-ins where a model draws none, filters not
 
 
 class HeldLowpass:
@@ -258,7 +287,11 @@ class SixAxisMeasurement:
         self.steps = np.zeros(NUM_AXES) if self.step is None else self.step
         """The rounding steps (6) that ``measure_rows`` takes: ``step``, or 0 without quantisation."""
         self.key = noise_key(params.seed, stream)
-        self._white_noise_rms = np.zeros(NUM_AXES) if self.white_noise_rms is None else self.white_noise_rms
+        self._disturbance_settings = (
+            self.drift_on, self.offsets_on, self.initial_offsets, self.drifted_offsets, self.drift_time_constant,
+            self.walk_step_rms, self.white_noise_rms is not None,
+            np.zeros(NUM_AXES) if self.white_noise_rms is None else self.white_noise_rms)
+        """The model as ``_disturbance_rows`` takes it, after its draws and walk."""
 
     def normals(self, sample_index) -> np.ndarray | None:
         """The 12 standard normal draws of each sample (white noise, then walk steps), or
@@ -277,10 +310,20 @@ class SixAxisMeasurement:
         disturbed = np.empty((count, NUM_AXES)) if disturbed is None else disturbed
         walk = np.array(walk, dtype=float)
         _disturbance_rows(t, np.zeros((count, 2 * NUM_AXES)) if normals is None else float_array(normals), walk,
-                          advance_walk, self.drift_on, self.offsets_on, self.initial_offsets, self.drifted_offsets,
-                          self.drift_time_constant, self.walk_step_rms, self.white_noise_rms is not None,
-                          self._white_noise_rms, offsets, disturbed)
+                          advance_walk, *self._disturbance_settings, offsets, disturbed)
         return offsets, disturbed, walk
+
+    def sample_into(self, time: np.ndarray, normals: np.ndarray | None, walk: np.ndarray, advance_walk: bool,
+                    lowpass_coefficients: np.ndarray | None, lowpass_state: np.ndarray, value: np.ndarray,
+                    offsets: np.ndarray, measured: np.ndarray, saturated: np.ndarray) -> None:
+        """One sample at ``time`` (1,) (s) with its draws ``normals`` (1, 12) or None: ``disturbance``
+        into ``offsets``, ``walk`` advanced in place, then the measurement of ``value`` (1, 6) low-passed
+        (``lowpass``, its ``lowpass_state`` (2, 6) started; no filter for None) into ``measured`` and
+        ``saturated`` (1, 6 each)."""
+        filtered = lowpass_coefficients is not None
+        _sample_into(time, _NO_DRAWS if normals is None else normals, walk, advance_walk, *self._disturbance_settings,
+                     filtered, lowpass_coefficients if filtered else _NO_LOWPASS, lowpass_state, value, self.limits,
+                     self.steps, offsets, measured, saturated)
 
     def measure(self, value, out: np.ndarray | None = None,
                 saturated: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -315,7 +358,7 @@ class _SampledSixAxisSensor(LeafSystem):
         # (first sample index, draws): a memo of the pure function standard_normals,
         # not generator state, so Contexts and their clones stay independent.
         self._noise_block = (0, np.empty((0, 2 * NUM_AXES)))
-        self._time, self._disturbed = np.empty(1), np.empty((1, NUM_AXES))  # scratch of ``_take_sample``
+        self._time = np.empty(1)  # scratch of ``_take_sample``
 
         self._input = self.DeclareVectorInputPort(input_name, NUM_AXES)
         self._measured = self.DeclareDiscreteState(NUM_AXES)
@@ -359,19 +402,16 @@ class _SampledSixAxisSensor(LeafSystem):
         # discrete_state holds the current values: each group is updated in place.
         walk_and_index = discrete_state.get_mutable_value(self._walk_and_index)
         index, t = int(walk_and_index[NUM_AXES]), context.get_time()
-        self._time[0] = t
-        disturbed = self._disturbed
-        offsets = discrete_state.get_mutable_value(self._offsets)[np.newaxis]
-        _, _, walk_and_index[:NUM_AXES] = self._model.disturbance(self._time, self._normals(index),
-                                                                  walk_and_index[:NUM_AXES], advance_walk, offsets,
-                                                                  disturbed)
         value = self._input.Eval(context)[np.newaxis]
+        lowpass_state = discrete_state.get_mutable_value(self._lowpass_state).reshape(2, NUM_AXES)
         if self._lowpass is not None:
-            value = lowpass(self._lowpass, discrete_state.get_mutable_value(self._lowpass_state).reshape(2, NUM_AXES),
-                            value)
-        disturbed += value
-        self._model.measure(disturbed, discrete_state.get_mutable_value(self._measured)[np.newaxis],
-                            discrete_state.get_mutable_value(self._saturated)[np.newaxis])
+            start_lowpass(self._lowpass, lowpass_state, value[0])
+        self._time[0] = t
+        self._model.sample_into(self._time, self._normals(index), walk_and_index[:NUM_AXES], advance_walk,
+                                self._lowpass, lowpass_state, value,
+                                discrete_state.get_mutable_value(self._offsets)[np.newaxis],
+                                discrete_state.get_mutable_value(self._measured)[np.newaxis],
+                                discrete_state.get_mutable_value(self._saturated)[np.newaxis])
         walk_and_index[NUM_AXES:] = index + 1, t
 
 

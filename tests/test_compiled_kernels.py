@@ -41,6 +41,14 @@ for _ in range(10):
 params = ForceTorqueSensorParams()
 out["measured"], out["saturated"] = SixAxisMeasurement(params, 0, 1 / 8000).measure(
     rng.normal(0, 1, (64, 6)) * np.array(params.full_scale))
+model, coefficients = SixAxisMeasurement(params, 0, 5e-4), lowpass_coefficients(500.0, 5e-4)
+draws = np.random.default_rng(12)  # its own stream: the draws below stay those the other checks were written for
+walk, filter_state, out["sampled"] = np.zeros(6), draws.normal(0, 1, (2, 6)), []
+for k in range(1, 30):  # the simulated sensor's samples: drift, walk, noise, low-pass, saturation, counts
+    offsets, measured, saturated = np.empty((3, 1, 6))
+    model.sample_into(np.array([5e-4 * k]), model.normals(np.array([k])), walk, True, coefficients if k % 3 else None,
+                      filter_state, draws.normal(0, 1, (1, 6)) * np.array(params.full_scale), offsets, measured, saturated)
+    out["sampled"].append(np.concatenate((offsets[0], measured[0], saturated[0], walk)))
 held, state = HeldLowpass(lowpass_coefficients(500.0, 1 / 8000), 4), rng.normal(0, 1, (2, 6))
 out["held"] = np.concatenate([held(state, value) for value in rng.normal(0, 50, (20, 6))])
 out["lowpass"] = lowpass(lowpass_coefficients(500.0, 1 / 8000), np.full((2, 6), np.nan), rng.normal(0, 50, (40, 6)))
