@@ -73,44 +73,6 @@ def frame_motion(X_WB: RigidTransform, V_WB: SpatialVelocity, A_WB: SpatialAccel
                       float_array(A_WB.translational()), p_BF, g_W, motion)
 
 
-class SensorFrameKinematics(LeafSystem):
-    """Motion of the sensor frame S, fixed at p_BS (m) in body B's frame.
-
-    Inputs: the plant's ``body_poses``, ``body_spatial_velocities``,
-    ``body_spatial_accelerations``. Outputs: ``acceleration`` [a; α] of S in S
-    (m/s², rad/s²), ``omega`` ω_WS in S (rad/s), ``gravity`` g in S (m/s²), and
-    ``accelerometer_reading``, what an ideal accelerometer in the sensor reports
-    (``accelerometer_reading`` with the ``accelerometer`` convention: at p_SA, in S's axes).
-    """
-
-    def __init__(self, body_index, p_BS, gravity_W, accelerometer: AccelerometerConvention = AT_S):
-        super().__init__()
-        self._accelerometer = accelerometer
-        self._body = int(body_index)
-        self._p_BS = float_array(p_BS)
-        self._g_W = float_array(gravity_W)
-        self._poses, self._velocities, self._accelerations = declare_body_motion_inputs(self)
-        self._motion = self.DeclareCacheEntry(
-            "motion", ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(12)), calc=self._calc_motion),
-            prerequisites_of_calc={self._poses.ticket(), self._velocities.ticket(), self._accelerations.ticket()})
-        for name, part in (("acceleration", slice(0, 6)), ("omega", slice(6, 9)), ("gravity", slice(9, 12))):
-            self.DeclareVectorOutputPort(name, part.stop - part.start,
-                                         lambda context, output, part=part: output.SetFromVector(
-                                             self._motion.Eval(context)[part]),
-                                         prerequisites_of_calc={self._motion.ticket()})
-        self.DeclareVectorOutputPort("accelerometer_reading", 6, self._calc_reading,
-                                     prerequisites_of_calc={self._motion.ticket()})
-
-    def _calc_motion(self, context, value):
-        body = self._body
-        frame_motion(self._poses.Eval(context)[body], self._velocities.Eval(context)[body],
-                     self._accelerations.Eval(context)[body], self._p_BS, self._g_W, value.get_mutable_value())
-
-    def _calc_reading(self, context, output):
-        motion = self._motion.Eval(context)
-        output.SetFromVector(reading_from_motion(motion[:6], motion[9:], motion[6:9], self._accelerometer))
-
-
 class ContactWrenchAtSensor(LeafSystem):
     """The contact part of the sensor's wrench (Eq. 11): minus the sum of the
     environment's contact forces on the load bodies, moved to S and expressed in S.
@@ -151,43 +113,60 @@ class ContactWrenchAtSensor(LeafSystem):
         output.SetFromVector(-np.concatenate((R_SW @ f_W, R_SW @ tau_W)))
 
 
-class TrueNonContactWrench(LeafSystem):
-    """The load's non-contact wrench at S, in S: V(a, α, ω, g)·φ (Eq. 12) of the true φ with the
-    true motion of the load's own frame L (at S when the load is welded there; on a compliant
-    mount it moves against S), moved from L to S. So it equals the sensor's reaction minus the
-    contact wrench (Eq. 11) on either mount.
+class SensorAndLoadMotion(LeafSystem):
+    """Motion of the sensor frame S, fixed at p_BS (m) in body B's frame, and the load's non-contact
+    wrench at S: V(a, α, ω, g)·φ (Eq. 12) of the true φ with the true motion of the load's own frame L
+    (at S when the load is welded there; on a compliant mount it moves against S), moved from L to S,
+    in S. So the wrench equals the sensor's reaction minus the contact wrench (Eq. 11) on either mount.
+    One system for both: each reads the plant's body lists, which cost more than the arithmetic.
 
-    Inputs: the plant's ``body_poses``, ``body_spatial_velocities``,
-    ``body_spatial_accelerations``; ``phi`` (10, the load's true φ about L's origin in L) and
-    ``phi_gripper`` (10, the gripper's share, Eq. 14). Outputs ``wrench`` (6, for φ) and
-    ``wrench_object`` (6, for the gripped object's share φ − φ_gripper; zero without a split).
+    Inputs: the plant's ``body_poses``, ``body_spatial_velocities``, ``body_spatial_accelerations``;
+    ``phi`` (10, the load's true φ about L's origin in L) and ``phi_gripper`` (10, the gripper's share,
+    Eq. 14). Outputs: ``acceleration`` [a; α] of S in S (m/s², rad/s²), ``omega`` ω_WS in S (rad/s),
+    ``gravity`` g in S (m/s²), ``accelerometer_reading``, what an ideal accelerometer in the sensor
+    reports (``accelerometer_reading`` with the ``accelerometer`` convention: at p_SA, in S's axes);
+    ``wrench`` (6, for φ) and ``wrench_object`` (6, for the gripped object's share φ − φ_gripper; zero
+    without a split).
     """
 
-    def __init__(self, load_body_index, sensor_body_index, p_BS, gravity_W):
+    def __init__(self, sensor_body_index, p_BS, load_body_index, gravity_W,
+                 accelerometer: AccelerometerConvention = AT_S):
         super().__init__()
-        self._load, self._sensor = int(load_body_index), int(sensor_body_index)
-        self._p_BS = np.asarray(p_BS, dtype=float)
+        self._accelerometer = accelerometer
+        self._sensor, self._load = int(sensor_body_index), int(load_body_index)
+        self._p_BS = float_array(p_BS)
         self._g_W = float_array(gravity_W)
+        self._X_BS = RigidTransform(self._p_BS)
         self._poses, self._velocities, self._accelerations = declare_body_motion_inputs(self)
         self._phi = self.DeclareVectorInputPort("phi", 10)
         self._phi_gripper = self.DeclareVectorInputPort("phi_gripper", 10)
-        self._X_BS = RigidTransform(self._p_BS)
-        self._motion, self._V = np.empty(12), np.empty((6, 10))  # scratch of ``_calc``
-        # Both wrenches at once (12): one evaluation of the load frame's motion per context change.
-        self._wrenches = self.DeclareCacheEntry(
-            "wrenches", ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(12)), calc=self._calc),
+        self._load_motion, self._V = np.empty(12), np.empty((6, 10))  # scratch of ``_calc``
+        # [S's a, α, ω, g; the wrenches] (24), once per context change.
+        self._values = self.DeclareCacheEntry(
+            "values", ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(24)), calc=self._calc),
             prerequisites_of_calc={self.all_input_ports_ticket()})
-        for name, part in (("wrench", slice(0, 6)), ("wrench_object", slice(6, 12))):
-            self.DeclareVectorOutputPort(name, 6, lambda context, output, part=part: output.SetFromVector(
-                self._wrenches.Eval(context)[part]), prerequisites_of_calc={self._wrenches.ticket()})
+        for name, part in (("acceleration", slice(0, 6)), ("omega", slice(6, 9)), ("gravity", slice(9, 12)),
+                           ("wrench", slice(12, 18)), ("wrench_object", slice(18, 24))):
+            self.DeclareVectorOutputPort(name, part.stop - part.start,
+                                         lambda context, output, part=part: output.SetFromVector(
+                                             self._values.Eval(context)[part]),
+                                         prerequisites_of_calc={self._values.ticket()})
+        self.DeclareVectorOutputPort("accelerometer_reading", 6, self._calc_reading,
+                                     prerequisites_of_calc={self._values.ticket()})
 
     def _calc(self, context, value):
-        poses, load, motion = self._poses.Eval(context), self._load, self._motion
-        frame_motion(poses[load], self._velocities.Eval(context)[load], self._accelerations.Eval(context)[load],
-                     _ORIGIN, self._g_W, motion)
-        X_SL = (poses[self._sensor] @ self._X_BS).InvertAndCompose(poses[load])
-        wrenches_at_S_into(motion, self._phi.Eval(context), self._phi_gripper.Eval(context), X_SL.rotation().matrix(),
-                           float_array(X_SL.translation()), self._V, value.get_mutable_value())
+        poses, velocities, accelerations = (port.Eval(context) for port in
+                                            (self._poses, self._velocities, self._accelerations))
+        out, sensor, load = value.get_mutable_value(), self._sensor, self._load
+        frame_motion(poses[sensor], velocities[sensor], accelerations[sensor], self._p_BS, self._g_W, out[:12])
+        frame_motion(poses[load], velocities[load], accelerations[load], _ORIGIN, self._g_W, self._load_motion)
+        X_SL = (poses[sensor] @ self._X_BS).InvertAndCompose(poses[load])
+        wrenches_at_S_into(self._load_motion, self._phi.Eval(context), self._phi_gripper.Eval(context),
+                           X_SL.rotation().matrix(), float_array(X_SL.translation()), self._V, out[12:])
+
+    def _calc_reading(self, context, output):
+        motion = self._values.Eval(context)
+        output.SetFromVector(reading_from_motion(motion[:6], motion[9:12], motion[6:9], self._accelerometer))
 
 
 _ORIGIN = np.zeros(3)

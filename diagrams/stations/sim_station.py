@@ -27,8 +27,7 @@ from heft.systems.load_dynamics import GRAVITY_W
 from heft.systems.operator_hand import OperatorHand
 from heft.systems.setpoint_filter import SetpointFilter
 from heft.systems.sensor_models import AccelerometerModel, ForceTorqueSensorModel
-from heft.systems.station_truth import (ContactWrenchAtSensor, ReactionWrench, SensorFrameKinematics,
-                                       TrueNonContactWrench)
+from heft.systems.station_truth import ContactWrenchAtSensor, ReactionWrench, SensorAndLoadMotion
 
 # Point-contact stiffness of the ball tip on the plate (N/m): steel on steel is far stiffer than the
 # sheet spring, which then sets the felt stiffness; stiffer would only shrink the stable time step.
@@ -128,38 +127,36 @@ def _add_wrist_sensor(builder: DiagramBuilder, scenario: Scenario, plant: Multib
     p_BS = parts.S.GetFixedPoseInBodyFrame().translation()
     reaction = builder.AddSystem(ReactionWrench(parts.sensor_weld.index()))
     builder.Connect(plant.get_reaction_forces_output_port(), reaction.get_input_port())
-    kinematics = builder.AddSystem(SensorFrameKinematics(parts.sensor_body.index(), p_BS, GRAVITY_W,
-                                                         scenario.accelerometer.convention()))
-    _connect_body_motion(builder, plant, kinematics)
     contact = builder.AddSystem(ContactWrenchAtSensor([b.index() for b in parts.load_bodies],
                                                       parts.sensor_body.index(), p_BS))
     builder.Connect(plant.get_contact_results_output_port(), contact.GetInputPort("contact_results"))
     builder.Connect(plant.get_body_poses_output_port(), contact.GetInputPort("body_poses"))
-
-    ft = builder.AddSystem(ForceTorqueSensorModel(scenario.ft_sensor))
-    builder.Connect(reaction.get_output_port(), ft.GetInputPort("wrench_true"))
-    accelerometer = builder.AddSystem(AccelerometerModel(scenario.accelerometer))
-    builder.Connect(kinematics.GetOutputPort("accelerometer_reading"), accelerometer.GetInputPort("acceleration_true"))
-    builder.ExportOutput(ft.GetOutputPort("wrench_measured"), "ft.wrench_measured")
-    builder.ExportOutput(accelerometer.GetOutputPort("acceleration_measured"), "ft.acceleration_measured")
 
     L, undeflected = parts.load_bodies[0].body_frame(), _undeflected(plant, parts)  # L: at S on the mount at rest
     phi = phi_about_S(plant, L, parts.load_bodies, undeflected)
     phi_gripper = phi_about_S(plant, L, parts.gripper_bodies, undeflected) if parts.gripper_bodies else np.zeros(10)
     truth_phi = builder.AddNamedSystem("truth_phi", ConstantVectorSource(phi))  # set_holding changes it
     truth_phi_gripper = builder.AddSystem(ConstantVectorSource(phi_gripper))
-    noncontact = builder.AddSystem(TrueNonContactWrench(parts.load_bodies[0].index(), parts.sensor_body.index(),
-                                                        p_BS, GRAVITY_W))
-    _connect_body_motion(builder, plant, noncontact)
-    builder.Connect(truth_phi.get_output_port(), noncontact.GetInputPort("phi"))
-    builder.Connect(truth_phi_gripper.get_output_port(), noncontact.GetInputPort("phi_gripper"))
+    motion = builder.AddSystem(SensorAndLoadMotion(parts.sensor_body.index(), p_BS, parts.load_bodies[0].index(),
+                                                   GRAVITY_W, scenario.accelerometer.convention()))
+    _connect_body_motion(builder, plant, motion)
+    builder.Connect(truth_phi.get_output_port(), motion.GetInputPort("phi"))
+    builder.Connect(truth_phi_gripper.get_output_port(), motion.GetInputPort("phi_gripper"))
+
+    ft = builder.AddSystem(ForceTorqueSensorModel(scenario.ft_sensor))
+    builder.Connect(reaction.get_output_port(), ft.GetInputPort("wrench_true"))
+    accelerometer = builder.AddSystem(AccelerometerModel(scenario.accelerometer))
+    builder.Connect(motion.GetOutputPort("accelerometer_reading"), accelerometer.GetInputPort("acceleration_true"))
+    builder.ExportOutput(ft.GetOutputPort("wrench_measured"), "ft.wrench_measured")
+    builder.ExportOutput(accelerometer.GetOutputPort("acceleration_measured"), "ft.acceleration_measured")
+
     for port, name in ((reaction.get_output_port(), "truth.wrench_sensor"),
                        (contact.get_output_port(), "truth.wrench_contact"),
-                       (noncontact.GetOutputPort("wrench"), "truth.wrench_noncontact"),
-                       (noncontact.GetOutputPort("wrench_object"), "truth.wrench_noncontact_object"),
-                       (kinematics.GetOutputPort("acceleration"), "truth.acceleration"),
-                       (kinematics.GetOutputPort("omega"), "truth.omega"),
-                       (kinematics.GetOutputPort("gravity"), "truth.gravity_S"),
+                       (motion.GetOutputPort("wrench"), "truth.wrench_noncontact"),
+                       (motion.GetOutputPort("wrench_object"), "truth.wrench_noncontact_object"),
+                       (motion.GetOutputPort("acceleration"), "truth.acceleration"),
+                       (motion.GetOutputPort("omega"), "truth.omega"),
+                       (motion.GetOutputPort("gravity"), "truth.gravity_S"),
                        (ft.GetOutputPort("offsets_true"), "truth.ft_offsets"),
                        (ft.GetOutputPort("saturated"), "truth.ft_saturated"),
                        (accelerometer.GetOutputPort("saturated"), "truth.accelerometer_saturated"),
