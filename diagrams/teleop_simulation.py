@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import (Adder, ConstantVectorSource, DiscreteTimeDelay, LogVectorOutput,
+from pydrake.systems.primitives import (Adder, ConstantVectorSource, DiscreteTimeDelay, LogVectorOutput, Multiplexer,
                                         TrajectorySource)
 from pydrake.trajectories import PiecewisePolynomial
 
@@ -63,11 +63,25 @@ def ConnectControllerToStation(builder: DiagramBuilder, controller, station, del
                     controller.GetInputPort("clutch"))
 
 
-def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, meshcat=None):
-    """The controller closed around the simulated station, with loggers.
+class SimulationLog:
+    """The signals a simulation logs, in one VectorLogSink behind a Multiplexer (one publish a tick
+    instead of one per signal): ``arrays(context)`` gives them by log key, (N, size) each, with the
+    sample times under ``"t"`` (s)."""
 
-    Returns (diagram, loggers) where loggers maps a log key to its VectorLogSink
-    (sampled every controller period); a ``meshcat`` shows the slave live (``MakeSimStation``).
+    def __init__(self, logger, columns: dict[str, slice]):
+        self.logger, self.columns = logger, columns
+
+    def arrays(self, context) -> dict[str, np.ndarray]:
+        log = self.logger.FindLog(context)
+        data = log.data().T
+        return {"t": log.sample_times().copy(), **{key: data[:, part].copy() for key, part in self.columns.items()}}
+
+
+def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, meshcat=None):
+    """The controller closed around the simulated station, with its log.
+
+    Returns (diagram, log): ``log`` a ``SimulationLog`` of ``STATION_LOG``'s and ``CONTROLLER_LOG``'s
+    signals, sampled every controller period; a ``meshcat`` shows the slave live (``MakeSimStation``).
     """
     spec = scenario.controller
     builder = DiagramBuilder()
@@ -85,10 +99,15 @@ def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, meshcat=None):
         step = PiecewisePolynomial.ZeroOrderHold([0.0, grasp_at, grasp_at + 1.0], [[0.0, 1.0, 1.0]])
         builder.Connect(builder.AddNamedSystem("grasp_event", TrajectorySource(step)).get_output_port(),
                         controller.GetInputPort("estimator_reset"))
-    loggers = {key: LogVectorOutput(station.GetOutputPort(name), builder, period)
-               for name, key in STATION_LOG.items()}
-    for name in CONTROLLER_LOG:
-        loggers[name.removeprefix("log.")] = LogVectorOutput(controller.GetOutputPort(name), builder, period)
+    ports = {key: station.GetOutputPort(name) for name, key in STATION_LOG.items()}
+    ports.update({name.removeprefix("log."): controller.GetOutputPort(name) for name in CONTROLLER_LOG})
+    sizes = [port.size() for port in ports.values()]
+    signals = builder.AddSystem(Multiplexer(sizes))
+    columns, start = {}, 0
+    for i, (key, port) in enumerate(ports.items()):
+        builder.Connect(port, signals.get_input_port(i))
+        columns[key], start = slice(start, start + sizes[i]), start + sizes[i]
+    log = SimulationLog(LogVectorOutput(signals.get_output_port(), builder, period), columns)
     diagram = builder.Build()
     diagram.set_name("teleop_simulation")
-    return diagram, loggers
+    return diagram, log

@@ -55,7 +55,7 @@ def run_teleop(scenario: Scenario, load: LoadEstimate, label: str = "", meshcat=
     the log arrays (names as the README's log.npz) and the achieved real-time factor; a
     ``meshcat`` shows the run live; ``quiet`` hides the progress bar."""
     sigma = scenario.controller.force.sigma
-    diagram, loggers = MakeTeleopSimulation(scenario, load, meshcat=meshcat)
+    diagram, log = MakeTeleopSimulation(scenario, load, meshcat=meshcat)
     simulator = Simulator(diagram)
     ApplySimulatorConfig(scenario.simulator, simulator)
     context = simulator.get_mutable_context()
@@ -77,15 +77,13 @@ def run_teleop(scenario: Scenario, load: LoadEstimate, label: str = "", meshcat=
         progress.update(t)
     wall = time.perf_counter() - start
     progress.close()
-    logs = {key: logger.FindLog(context) for key, logger in loggers.items()}
     phi_gripper = station.GetOutputPort("truth.phi_gripper").Eval(station.GetMyContextFromRoot(context))
-    data = {key: log.data().T.copy() for key, log in logs.items()}
+    data = log.arrays(context)
     # A logger publishes before the discrete updates of its instant, so at t_k it sees the
     # sensor sample taken at t_{k−1} (and what the controller made of it) beside the plant's
     # truth at t_k. Delay the truth by one sample: each row pairs a sample with its truth.
     for key in SAMPLE_ALIGNED_TRUTH:
         data[key] = np.concatenate((data[key][:1], data[key][:-1]))
-    data["t"] = logs["wrench_measured"].sample_times().copy()
     data["master_force"] = data.pop("master_wrench")
     data["phi_gripper_true"] = np.asarray(phi_gripper).copy()
     data["phi_gripper_hat"] = np.asarray(scenario.controller.force.phi_gripper or np.zeros(10), dtype=float)
