@@ -274,6 +274,10 @@ class ForceScalingElimination(LeafSystem):
                              else np.array(params.phi_gripper, dtype=float))
         self._decay_per_tick = decay_factor(period, params.fault_decay_time)
         self._notch = notch_coefficients(params.mount_notch, params.mount_notch_quality, period)
+        # The options as the kernels take them (``evaluate``, ``next_memory_and_scales``), set once.
+        self._gripper_args = ((_NO_GRIPPER, False) if self._phi_gripper is None else (self._phi_gripper, True))
+        self._convention_args = kernel_convention(accelerometer)
+        self._notch_args = (_NO_NOTCH, False) if self._notch is None else (self._notch, True)
 
         self._signals = tuple(self.DeclareVectorInputPort(name, size) for name, size in (
             ("wrench", 6), ("acceleration", 6), ("omega", 3), ("gravity", 3), ("phi", 10),
@@ -305,16 +309,15 @@ class ForceScalingElimination(LeafSystem):
 
     def _evaluate(self, context, value):
         wrench, acceleration, omega, gravity, phi, offsets = (port.Eval(context) for port in self._signals)
-        evaluate(value.get_mutable_value(), wrench, acceleration, omega, gravity, phi, offsets,
-                 context.get_discrete_state(self._scales).get_value(),
-                 context.get_discrete_state(self._memory).get_value(), self._decay_per_tick, self._phi_gripper,
-                 self._accelerometer, self._notch)
+        evaluate_into(value.get_mutable_value(), wrench, acceleration, omega, gravity, phi, offsets,
+                      float_array(context.get_discrete_state(self._scales).get_value()),
+                      float_array(context.get_discrete_state(self._memory).get_value()), self._decay_per_tick,
+                      *self._gripper_args, *self._convention_args, *self._notch_args, _SCRATCH)
 
     def _update(self, context, discrete_state):
-        requested = [port.Eval(context)[0] if port.HasValue(context) else default
-                     for port, default in zip(self._requests, self._defaults)]
-        memory = context.get_discrete_state(self._memory).get_value().copy()
-        scales = context.get_discrete_state(self._scales).get_value().copy()
-        next_memory_and_scales(memory, scales, self._evaluation.Eval(context), requested, self._max_step, self._notch)
-        discrete_state.set_value(self._memory, memory)
-        discrete_state.set_value(self._scales, scales)
+        # discrete_state holds the current memory and scales: updated in place.
+        sigma, gamma, eta = (port.Eval(context)[0] if port.HasValue(context) else default
+                             for port, default in zip(self._requests, self._defaults))
+        next_memory_and_scales_into(discrete_state.get_mutable_value(self._memory),
+                                    discrete_state.get_mutable_value(self._scales), self._evaluation.Eval(context),
+                                    float(sigma), float(gamma), float(eta), self._max_step, *self._notch_args)

@@ -186,8 +186,10 @@ class PassivityController(LeafSystem):
             raise ValueError(f"max_force and max_torque must be > 0; got {max_force}, {max_torque}")
         self._period = period
         self._limits = (max_force, max_torque)
-        self._max_damping = ((params.max_translational_damping, params.max_rotational_damping)
-                             if params.enabled else (0.0, 0.0))
+        self._max_damping = np.array((params.max_translational_damping, params.max_rotational_damping)
+                                     if params.enabled else (0.0, 0.0))
+        # Scratch of ``_update``: the wrench applied, the energy dissipated this tick, the twist.
+        self._applied, self._dissipated_now, self._twist = np.empty(6), np.empty(2), np.empty(6)
         self._wrench = self.DeclareVectorInputPort("wrench", 6)
         self._velocity = self.DeclareVectorInputPort("velocity", 6)
         self._jacobian = self.DeclareVectorInputPort("jacobian", 36)
@@ -202,12 +204,10 @@ class PassivityController(LeafSystem):
         self.DeclareStateOutputPort("energy_dissipated", self._dissipated)
 
     def _update(self, context, discrete_state):
-        torque, _, energy, damping, dissipated = master_torque(
-            self._wrench.Eval(context), self._velocity.Eval(context), self._jacobian.Eval(context).reshape(6, 6),
-            context.get_discrete_state(self._energy).get_value().copy(), self._period, self._max_damping,
-            *self._limits)
-        discrete_state.set_value(self._torque, torque)
-        discrete_state.set_value(self._energy, energy)
-        discrete_state.set_value(self._damping, damping)
-        discrete_state.set_value(
-            self._dissipated, context.get_discrete_state(self._dissipated).get_value() + dissipated)
+        # discrete_state holds the current values: the energy advances in place, the dissipation adds up.
+        dissipated, state = self._dissipated_now, discrete_state.get_mutable_value
+        master_torque_into(self._wrench.Eval(context), self._velocity.Eval(context),
+                           self._jacobian.Eval(context).reshape(6, 6), state(self._energy), self._period,
+                           self._max_damping, *self._limits, state(self._torque), self._applied, state(self._damping),
+                           dissipated, self._twist)
+        discrete_state.get_mutable_value(self._dissipated)[:] += dissipated
