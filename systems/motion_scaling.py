@@ -168,6 +168,7 @@ class MotionScaling(LeafSystem):
         period = require_period(period)
         self._params = params
         self._R_RB = RotationMatrix(RollPitchYaw(params.R_RB)).matrix()
+        self._scratch = np.empty(POSE_SIZE)  # of ``motion_scaling_step``
         self._pose_BE = self.DeclareVectorInputPort("pose_BE", POSE_SIZE)
         self._clutch = self.DeclareVectorInputPort("clutch", 1)
         self._measured = self.DeclareVectorInputPort("pose_RT_measured", POSE_SIZE)
@@ -184,24 +185,21 @@ class MotionScaling(LeafSystem):
     def _scale(self, context, port, default: float) -> float:
         return float(port.Eval(context)[0]) if port.HasValue(context) else default
 
-    def _tick(self, context, discrete_state, memory, desired):
-        memory, desired = motion_scaling_update(
-            memory, desired, self._pose_BE.Eval(context), self._clutch.Eval(context)[0] > 0.5,
-            self._measured.Eval(context),
-            self._scale(context, self._translation_scale, self._params.translation_scale),
-            self._scale(context, self._rotation_scale, self._params.rotation_scale), self._R_RB)
-        discrete_state.set_value(self._memory, memory)
-        discrete_state.set_value(self._desired, desired)
+    def _tick(self, context, discrete_state):
+        # discrete_state holds the memory and the desired pose to start from: updated in place.
+        motion_scaling_step(discrete_state.get_mutable_value(self._memory),
+                            discrete_state.get_mutable_value(self._desired), self._pose_BE.Eval(context),
+                            self._clutch.Eval(context)[0] > 0.5, self._measured.Eval(context),
+                            self._scale(context, self._translation_scale, self._params.translation_scale),
+                            self._scale(context, self._rotation_scale, self._params.rotation_scale), self._R_RB,
+                            self._scratch)
 
     def _initialize(self, context, discrete_state):
-        memory = context.get_discrete_state(self._memory).get_value().copy()
-        memory[_ENGAGED] = 0.0
+        discrete_state.get_mutable_value(self._memory)[_ENGAGED] = 0.0
         measured = float_array(self._measured.Eval(context))
-        desired = context.get_discrete_state(self._desired).get_value().copy()
         if valid_pose(measured):
-            unit_pose_into(measured, desired)
-        self._tick(context, discrete_state, memory, desired)
+            unit_pose_into(measured, discrete_state.get_mutable_value(self._desired))
+        self._tick(context, discrete_state)
 
     def _update(self, context, discrete_state):
-        self._tick(context, discrete_state, context.get_discrete_state(self._memory).get_value(),
-                   context.get_discrete_state(self._desired).get_value())
+        self._tick(context, discrete_state)
