@@ -23,8 +23,14 @@ class EncoderQuantizer(LeafSystem):
         self.DeclareVectorOutputPort("position", size, self._calc)
 
     def _calc(self, context, output):
-        q = self._input.Eval(context)
-        output.SetFromVector(np.round(q / self.step) * self.step)
+        quantize_into(self._input.Eval(context), self.step, output.get_mutable_value())
+
+
+@compiled("void(float64[:], float64, float64[:])")
+def quantize_into(position, step, out) -> None:
+    """Each of ``position`` rounded to the nearest whole multiple of ``step`` (rad per count), into ``out``."""
+    for k in range(position.shape[0]):
+        out[k] = np.round(position[k] / step) * step
 
 
 def velocity_lowpass_keep(period: float, cutoff_hz: float) -> float:

@@ -148,8 +148,8 @@ class OffsetTracker(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
 
     def _update(self, context, discrete_state):
-        state = context.get_discrete_state(self._state).get_value().copy()
+        # discrete_state holds the current state: updated in place.
         requests = self._rezero.Eval(context)[0] if self._rezero.HasValue(context) else 0.0
-        offsets_update_into(state, float_array(self._contact.Eval(context)), self._fault.Eval(context)[0] > 0.5,
-                            float_array(self._velocity.Eval(context)), self._period, *self._settings, float(requests))
-        discrete_state.set_value(self._state, state)
+        offsets_update_into(discrete_state.get_mutable_value(self._state), self._contact.Eval(context),
+                            self._fault.Eval(context)[0] > 0.5, self._velocity.Eval(context), self._period,
+                            *self._settings, float(requests))

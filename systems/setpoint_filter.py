@@ -66,6 +66,6 @@ class SetpointFilter(LeafSystem):
         return EventStatus.Succeeded()
 
     def _update(self, context, discrete_state):
-        x = context.get_discrete_state(self._state).get_value().reshape(2, self._size).copy()
-        setpoint_step(self._A, self._B, x, self._input.Eval(context))
-        discrete_state.set_value(self._state, x.ravel())
+        # discrete_state holds the current state: stepped in place.
+        setpoint_step(self._A, self._B, discrete_state.get_mutable_value(self._state).reshape(2, self._size),
+                      self._input.Eval(context))

@@ -219,6 +219,12 @@ for k in range(20):
     wrenches_at_S_into(motion, phi, phi_gripper if k % 2 else np.zeros(10), chain.R, rng.normal(0, 0.1, 3), V_scratch,
                        wrenches)
     out["truth"].append(np.concatenate((motion, wrenches)))
+# The encoders' counts, half-counts included.
+from heft.systems.encoders import quantize_into
+
+step = 2 * np.pi / 4096
+out["counts"] = np.empty(40)
+quantize_into(np.concatenate((rng.uniform(-3, 3, 36), step * np.array([0.5, 1.5, -0.5, -2.5]))), step, out["counts"])
 # The simulated operator's hand: its reference and impedance.
 from heft.systems.operator_hand import hand_wrench_into, reference_into
 
