@@ -85,10 +85,10 @@ def drift_offsets(t, initial_offsets, drifted_offsets, time_constant: float) -> 
     """The deterministic part of the offsets at time ``t`` (s, scalar → (6,), (N,) →
     (N, 6)): o_d + (o_0 − o_d)·exp(−t/τ) (``_disturbance_rows`` without the walk)."""
     times = float_array(np.atleast_1d(t))
-    offsets, none = np.empty((len(times), NUM_AXES)), np.zeros(NUM_AXES)
-    _disturbance_rows(times, np.zeros((len(times), 2 * NUM_AXES)), none.copy(), False, True, True,
-                      float_array(initial_offsets), float_array(drifted_offsets), time_constant, none, False, none,
-                      offsets, offsets)
+    offsets, zeros = np.empty((len(times), NUM_AXES)), np.zeros(NUM_AXES)
+    no_draws = np.zeros((len(times), 2 * NUM_AXES))
+    _disturbance_rows(times, no_draws, zeros, False, True, True, float_array(initial_offsets),
+                      float_array(drifted_offsets), time_constant, zeros, False, zeros, offsets, offsets)
     return offsets if np.ndim(t) else offsets[0]
 
 
@@ -298,17 +298,13 @@ class SixAxisMeasurement:
         None if the model draws none; ``sample_index`` as ``standard_normals``."""
         return standard_normals(self.key, sample_index, 2 * NUM_AXES) if self.draws_noise else None
 
-    def disturbance(self, t, normals, walk, advance_walk: bool = True, offsets: np.ndarray | None = None,
-                    disturbed: np.ndarray | None = None):
+    def disturbance(self, t, normals, walk, advance_walk: bool = True):
         """(offsets o_k, o_k + n_k, the walk w after the last sample) for the samples at
         times ``t`` (N,) (s) with their draws ``normals`` (N, 12) or None; ``walk`` (6) is
-        w before the first, advanced at each sample unless ``advance_walk`` is False. The
-        results go into ``offsets`` and ``disturbed`` (N, 6) if given; ``walk`` is not changed."""
+        w before the first, advanced at each sample unless ``advance_walk`` is False."""
         t = float_array(np.atleast_1d(t))
         count = len(t)
-        offsets = np.empty((count, NUM_AXES)) if offsets is None else offsets
-        disturbed = np.empty((count, NUM_AXES)) if disturbed is None else disturbed
-        walk = np.array(walk, dtype=float)
+        offsets, disturbed, walk = np.empty((count, NUM_AXES)), np.empty((count, NUM_AXES)), np.array(walk, dtype=float)
         _disturbance_rows(t, np.zeros((count, 2 * NUM_AXES)) if normals is None else float_array(normals), walk,
                           advance_walk, *self._disturbance_settings, offsets, disturbed)
         return offsets, disturbed, walk

@@ -23,6 +23,7 @@ import lcm
 import numpy as np
 import pytest
 import yaml
+from heft.diagrams.commands.bench_lcm import MIN_HEALTHY_SHARE
 from heft.diagrams.commands.options import lab_settings_text
 from heft.diagrams.device_limits import device_limits
 from heft.diagrams.scenario import overrides_text, resolve_scenario
@@ -150,7 +151,7 @@ def test_the_per_block_diagram_steps_in_the_real_time_loop_against_the_stand_in(
         _stop_all(diagram, stand_in)
     loop = json.loads((tmp_path / "diagram.json").read_text())
     lab = json.loads((tmp_path / "stand_in.json").read_text())
-    assert loop["healthy_ticks"] > 0.5 * loop["ticks"] and loop["timing"]["ticks"] == loop["ticks"], loop
+    assert loop["healthy_ticks"] > MIN_HEALTHY_SHARE * loop["ticks"] and loop["timing"]["ticks"] == loop["ticks"], loop
     channels = LcmChannels()
     for channel in (channels.master_command, channels.slave_command):
         assert lab["received"][channel.name] >= loop["ticks"], (lab["received"], loop["ticks"])

@@ -305,7 +305,8 @@ def run_diagram_controller(scenario_name: str, channels, rate_hz: float, duratio
     finally:
         station.stop(counts.pop("now"))
     out.write_text(json.dumps({"timing": timing_summary(times), **counts, "duration": times.elapsed,
-                               "scheduling": f"{scheduling}; {ticking_on}"}) + "\n")
+                               "scheduling": f"{scheduling}; {ticking_on}", "received": station.received,
+                               "rejections": station.rejections, "conflicts": station.conflicts}) + "\n")
 
 
 def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder: Path, prefix,
@@ -397,6 +398,10 @@ def bench_stand_in(rate_hz: float, duration: float, channels, scenario: str, fol
                                                              "faults", "timing", "scheduling")}}
 
 
+MIN_HEALTHY_SHARE = 0.5
+"""The share of its ticks on which the Diagram in the loop must have stepped for its timing to count."""
+
+
 def bench_diagram_in_loop(rate_hz: float, duration: float, channels, scenario: str, folder: Path, prefix) -> dict:
     """The per-block controller Diagram stepped by the real-time loop (``run_diagram_controller``) at
     ``rate_hz`` against ``heft stand-in`` for ``duration`` s: its loop's timing and the commands the
@@ -422,7 +427,14 @@ def bench_diagram_in_loop(rate_hz: float, duration: float, channels, scenario: s
 def _print_diagram_in_loop(result: dict, fused: dict) -> None:
     from heft.diagrams.commands.bench_step import FITS_DIAGRAM_P99
 
-    timing, fused_timing = result["controller"]["timing"], fused["controller"]["timing"]
+    controller = result["controller"]
+    timing, fused_timing = controller["timing"], fused["controller"]["timing"]
+    if controller["healthy_ticks"] < MIN_HEALTHY_SHARE * controller["ticks"]:
+        print(f"per-block Diagram in the loop against the stand-in at {result['rate_hz']:g} Hz: not measured, the "
+              f"station was healthy on {controller['healthy_ticks']} of {controller['ticks']} ticks only (received "
+              f"{controller['received']}, rejected {controller['rejections']}, conflict bits "
+              f"{controller['conflicts']})")
+        return
     fits = timing["tick_wall_p99_us"] < 1e6 * FITS_DIAGRAM_P99
     print(f"per-block Diagram in the loop against the stand-in at {result['rate_hz']:g} Hz "
           f"({result['controller']['scheduling']}): sustained {timing['achieved_rate_hz']:.0f} Hz, "
