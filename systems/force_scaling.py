@@ -267,17 +267,15 @@ class ForceScalingElimination(LeafSystem):
         params = params or ForceScalingParams()
         params.validate()
         period = require_period(period)
-        self._accelerometer = accelerometer
         self._max_step = params.slew_rate * period
         self._defaults = (params.sigma, params.gamma, params.eta)
-        self._phi_gripper = (None if params.phi_gripper is None
-                             else np.array(params.phi_gripper, dtype=float))
         self._decay_per_tick = decay_factor(period, params.fault_decay_time)
-        self._notch = notch_coefficients(params.mount_notch, params.mount_notch_quality, period)
         # The options as the kernels take them (``evaluate``, ``next_memory_and_scales``), set once.
-        self._gripper_args = ((_NO_GRIPPER, False) if self._phi_gripper is None else (self._phi_gripper, True))
+        self._gripper_args = ((_NO_GRIPPER, False) if params.phi_gripper is None
+                              else (np.array(params.phi_gripper, dtype=float), True))
         self._convention_args = kernel_convention(accelerometer)
-        self._notch_args = (_NO_NOTCH, False) if self._notch is None else (self._notch, True)
+        notch = notch_coefficients(params.mount_notch, params.mount_notch_quality, period)
+        self._notch_args = (_NO_NOTCH, False) if notch is None else (notch, True)
 
         self._signals = tuple(self.DeclareVectorInputPort(name, size) for name, size in (
             ("wrench", 6), ("acceleration", 6), ("omega", 3), ("gravity", 3), ("phi", 10),
