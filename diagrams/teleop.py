@@ -35,7 +35,7 @@ STATION_OUTPUTS_READ = ("master.position_measured", "master.velocity_estimated",
 STATION_INPUTS_DRIVEN = ("master.torque_commanded", "slave.position_commanded")
 # Controller outputs logged for analysis (name → size).
 CONTROLLER_LOG = {"log.wrench_feedback": 6, "log.wrench_contact": 6, "log.wrench_noncontact": 6,
-                  "log.master_wrench": 6, "log.pose_RS_desired": 7, "log.passivity_energy": 2,
+                  "log.master_wrench": 6, "log.applied_wrench": 6, "log.pose_RS_desired": 7, "log.passivity_energy": 2,
                   "log.passivity_damping": 2, "log.ik_status": 2, "log.force_fault": 1, "log.scales": 3,
                   "log.offsets": 6, "log.rezero_status": 1, "log.phi_hat": 10}
 
@@ -138,6 +138,7 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
                        ("log.pose_RS_desired", motion.GetOutputPort("pose_RT_desired")),
                        ("log.passivity_energy", passivity.GetOutputPort("energy_observed")),
                        ("log.passivity_damping", passivity.GetOutputPort("damping")),
+                       ("log.applied_wrench", passivity.GetOutputPort("applied_wrench")),
                        ("log.ik_status", ik.GetOutputPort("status")),
                        ("log.force_fault", force.GetOutputPort("fault")),
                        ("log.scales", force.GetOutputPort("scales")),

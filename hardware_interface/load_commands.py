@@ -46,10 +46,12 @@ class LoadCommandServer:
     ``serve(now_utime, healthy)`` once per tick: carries out every command that arrived and
     answers it; a re-zero is refused while the station is not healthy (the controller is
     not stepping). ``events`` lists what happened (utime, message) for the run's summary, the
-    first ``MAX_EVENTS`` of them (a flood of commands grows nothing further)."""
+    first ``MAX_EVENTS`` of them (a flood of commands grows nothing further). With a ``refusal``
+    (a controller that takes no load commands), every command and gripper event is answered with it."""
 
     def __init__(self, bus: lcm.LCM, channels: LcmChannels, controller, wrench_full_scale,
-                 command_bus: lcm.LCM | None = None):
+                 command_bus: lcm.LCM | None = None, refusal: str | None = None):
+        self._refusal = refusal
         self._command_bus = bus if command_bus is None else command_bus
         self._full_scale = np.asarray(wrench_full_scale, dtype=float)
         self._channel, self._controller = channels.load_status.name, controller
@@ -70,8 +72,10 @@ class LoadCommandServer:
             except Exception:  # whatever a malformed payload makes the generated decoder raise
                 self._answer(now_utime, 0, False, "a message on the load command channel is not a heft_load_command")
                 continue
-            accepted, message = self._apply(command, healthy)
+            accepted, message = (False, self._refusal) if self._refusal else self._apply(command, healthy)
             self._answer(now_utime, command.utime, accepted, message)
+        if self._refusal:
+            return
         controller = self._controller
         if healthy and controller.rezero_status == COLLECTING:  # the window advances with the steps
             self._average_at_rest(reading)
@@ -121,7 +125,7 @@ class LoadCommandServer:
     def gripper(self, now_utime: int, event: str) -> None:
         """Serves a grasp or release (``gripper_state_reader.GRASP``/``RELEASE``) the gripper's driver
         reported, as the same ``heft load`` action, answered with ``command_utime`` 0."""
-        accepted, message = self._grasp_or_release(event == GRASP, 0)
+        accepted, message = (False, self._refusal) if self._refusal else self._grasp_or_release(event == GRASP, 0)
         self._answer(now_utime, 0, accepted, f"gripper driver: {message}")
 
     def _object_learned(self) -> str:

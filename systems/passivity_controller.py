@@ -162,7 +162,8 @@ class PassivityController(LeafSystem):
     J_Mᵀ·applied wrench, N·m, the wrench within ``max_force`` (N) and ``max_torque``
     (N·m), the device's limits), ``energy_observed`` (2, [E_t, E_r] after the PC, J),
     ``damping`` (2, [α_t (N·s/m), α_r (N·m·s/rad)] applied), ``energy_dissipated``
-    (2, cumulative energy the PC removed, J).
+    (2, cumulative energy the PC removed, J), ``applied_wrench`` (6, the wrench the torque renders
+    on the hand: [f; τ] at E in B, N, N·m).
 
     Timing: every ``period`` the update samples the inputs and computes the
     torque, which is held until the next sample, as a device driver does (read
@@ -188,8 +189,8 @@ class PassivityController(LeafSystem):
         self._limits = (max_force, max_torque)
         self._max_damping = np.array((params.max_translational_damping, params.max_rotational_damping)
                                      if params.enabled else (0.0, 0.0))
-        # Scratch of ``_update``: the wrench applied, the energy dissipated this tick, the twist.
-        self._applied, self._dissipated_now, self._twist = np.empty(6), np.empty(2), np.empty(6)
+        # Scratch of ``_update``: the energy dissipated this tick, the twist.
+        self._dissipated_now, self._twist = np.empty(2), np.empty(6)
         self._wrench = self.DeclareVectorInputPort("wrench", 6)
         self._velocity = self.DeclareVectorInputPort("velocity", 6)
         self._jacobian = self.DeclareVectorInputPort("jacobian", 36)
@@ -197,17 +198,19 @@ class PassivityController(LeafSystem):
         self._energy = self.DeclareDiscreteState(2)
         self._damping = self.DeclareDiscreteState(2)
         self._dissipated = self.DeclareDiscreteState(2)
+        self._applied = self.DeclareDiscreteState(6)
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
         self.DeclareStateOutputPort("torque", self._torque)
         self.DeclareStateOutputPort("energy_observed", self._energy)
         self.DeclareStateOutputPort("damping", self._damping)
         self.DeclareStateOutputPort("energy_dissipated", self._dissipated)
+        self.DeclareStateOutputPort("applied_wrench", self._applied)
 
     def _update(self, context, discrete_state):
         # discrete_state holds the current values: the energy advances in place, the dissipation adds up.
         dissipated, state = self._dissipated_now, discrete_state.get_mutable_value
         master_torque_into(self._wrench.Eval(context), self._velocity.Eval(context),
                            self._jacobian.Eval(context).reshape(6, 6), state(self._energy), self._period,
-                           self._max_damping, *self._limits, state(self._torque), self._applied, state(self._damping),
-                           dissipated, self._twist)
+                           self._max_damping, *self._limits, state(self._torque), state(self._applied),
+                           state(self._damping), dissipated, self._twist)
         discrete_state.get_mutable_value(self._dissipated)[:] += dissipated

@@ -54,7 +54,7 @@ def input_sequence(scenario: Scenario, period: float) -> list[dict]:
 SIGNALS_READ = ("master.position_measured", "master.velocity_estimated", "slave.position_measured",
                 "slave.velocity_estimated", "ft.wrench_measured", "ft.acceleration_measured")
 STATE_LOGS = ("master.torque_commanded", "slave.position_commanded", "log.pose_RS_desired", "log.passivity_energy",
-              "log.passivity_damping", "log.scales", "log.offsets", "log.rezero_status", "log.phi_hat")
+              "log.passivity_damping", "log.applied_wrench", "log.scales", "log.offsets", "log.rezero_status", "log.phi_hat")
 
 
 def run_both(scenario: Scenario, load, sequence: list[dict]):
@@ -94,7 +94,8 @@ def run_both(scenario: Scenario, load, sequence: list[dict]):
                       "log.wrench_feedback": fused.wrench_feedback.copy(), "log.wrench_contact":
                       fused.wrench_contact.copy(), "log.master_wrench": fused.master_wrench.copy(),
                       "log.pose_RS_desired": fused.pose_RS_desired.copy(), "log.passivity_energy": fused.energy.copy(),
-                      "log.passivity_damping": fused.damping.copy(), "log.scales": fused.scales.copy(),
+                      "log.passivity_damping": fused.damping.copy(), "log.applied_wrench": fused.applied_wrench.copy(),
+                      "log.scales": fused.scales.copy(),
                       "log.offsets": fused.offsets.copy(), "log.rezero_status": [fused.rezero_status],
                       "log.phi_hat": fused.phi.copy(),
                       "enabled": fused.estimator is not None and fused.estimator.enabled})
@@ -120,7 +121,8 @@ def both_runs():
 
 
 COMPARED = ["master.torque_commanded", "log.wrench_feedback", "log.wrench_contact", "log.master_wrench",
-            "log.pose_RS_desired", "log.passivity_energy", "log.passivity_damping", "log.scales", "log.offsets",
+            "log.pose_RS_desired", "log.passivity_energy", "log.passivity_damping", "log.applied_wrench", "log.scales",
+            "log.offsets",
             "log.rezero_status", "log.phi_hat"]
 
 

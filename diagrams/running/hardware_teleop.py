@@ -33,6 +33,7 @@ import lcm
 import numpy as np
 
 from heft.diagrams.device_limits import device_limits
+from heft.diagrams.diagram_teleop_controller import NO_LOAD_COMMANDS, DiagramTeleopController
 from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
 from heft.diagrams.running.realtime import (LOOP_PRIORITY, StopOnSignal, claim_realtime, format_timing,
                                             keep_cpu_for_loop, run_realtime, timing_summary)
@@ -48,6 +49,9 @@ from heft.systems.compiled import compiled
 from heft.systems.load_dynamics import wrench_norms
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
+CONTROLLERS = ("fused", "diagram")
+"""What steps in the loop: the fused step (``MakeRealtimeTeleopController``, the default) or the per-block
+Diagram (``DiagramTeleopController``, the lab's reference path)."""
 PHI_SAMPLE_PERIOD = 0.01
 """s between the samples of φ̂ a run's summary keeps while the estimator learns online."""
 MAX_PHI_SAMPLES = 60_000
@@ -64,7 +68,7 @@ class HardwareTeleop:
 
     def __init__(self, scenario: Scenario, load: LoadEstimate, bus: lcm.LCM, channels: LcmChannels,
                  params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None,
-                 publish_state: bool = False):
+                 publish_state: bool = False, controller: str = "fused"):
         estimator = scenario.controller.estimator
         slowest = max(WATCHED_CHANNELS, key=lambda name: 1.0 / getattr(channels, name).rate)
         period = 1.0 / getattr(channels, slowest).rate
@@ -73,14 +77,17 @@ class HardwareTeleop:
                              f"twice the period of the slowest channel the station watches ({slowest} at "
                              f"{getattr(channels, slowest).rate:g} Hz: {1e3 * period:g} ms), or the online estimator "
                              f"would refuse the ticks of a healthy stream; set it to {2.5e3 * period:g} ms or more")
+        if controller not in CONTROLLERS:
+            raise ValueError(f"unknown controller {controller!r}: choose one of {', '.join(CONTROLLERS)}")
         # The controller's models first (about a second): the station's subscriptions then
         # start receiving only when the loop is about to pump them.
-        self.controller = MakeRealtimeTeleopController(
-            scenario.controller, load, scenario.robot, scenario.controller_period,
-            accelerometer=scenario.accelerometer.convention())
+        make = DiagramTeleopController if controller == "diagram" else MakeRealtimeTeleopController
+        self.controller = make(scenario.controller, load, scenario.robot, scenario.controller_period,
+                               accelerometer=scenario.accelerometer.convention())
         limits = device_limits(scenario)
         self.station = HardwareStation(bus, channels, limits, params, command_bus)
-        self.load_commands = LoadCommandServer(bus, channels, self.controller, limits.wrench_full_scale, command_bus)
+        self.load_commands = LoadCommandServer(bus, channels, self.controller, limits.wrench_full_scale, command_bus,
+                                               NO_LOAD_COMMANDS if controller == "diagram" else None)
         self.state = (TeleopStatePublisher(bus if command_bus is None else command_bus, channels) if publish_state
                       else None)
         self.starts = 0
@@ -286,7 +293,7 @@ def command_peaks(peaks, torque_sent, applied_wrench, gain, healthy, position, h
 
 
 def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float, record=None,
-                        priority: int = LOOP_PRIORITY, busy_wait: float = 0.0) -> dict:
+                        priority: int = LOOP_PRIORITY, busy_wait: float = 0.0, controller: str = "fused") -> dict:
     """Runs ``HardwareTeleop`` on the scenario's lab (``scenario.lab``: the LCM channels' two URLs,
     ``open_buses``, and the station's watchdog) at its rate (``controller_period``) for
     ``duration`` s of wall time, with real-time ``priority`` (``claim_realtime``: after the
@@ -294,13 +301,17 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float,
     LCM's receive thread shares it; then ``keep_cpu_for_loop`` moves that thread off the loop's
     CPU); returns its summary with ``timing`` (``timing_summary``), ``scheduling``, ``lcm_log``
     and ``epoch`` (wall-clock s since the Unix epoch at the loop's time 0). ``busy_wait``: the share of
-    each period before a tick that the loop waits busy (``run_realtime``).
+    each period before a tick that the loop waits busy (``run_realtime``); ``controller``: one of
+    ``CONTROLLERS``.
     SIGINT (Ctrl-C) or SIGTERM end the run early as its duration does: the station's
     last commands turn the forces off and hold the slave (``HardwareStation.stop``).
     ``record``: a path to record the LCM traffic to (``lcm-logger`` format), or None."""
     print(f"teleop: {scenario.accelerometer.convention()}", flush=True)
     print(f"teleop: {scenario.controller.force.mount_notch_summary()}", flush=True)
     estimator = scenario.controller.estimator
+    stepping = ("the per-block Diagram (the blocks the simulation runs)" if controller == "diagram"
+                else "the blocks composed in one step")
+    print(f"teleop: {stepping} steps each tick", flush=True)
     print("teleop: load estimate " + (
         "fixed (`heft load --estimate` changes it)" if estimator.mode == "fixed" else
         f"learned online ({estimator.method}, forgetting {estimator.forgetting:g} per tick, prefilter "
@@ -313,7 +324,7 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float,
         print(f"teleop: {scheduling}", flush=True)
         bus, command_bus = open_buses(channels)
         teleop = HardwareTeleop(scenario, load, bus, channels, scenario.lab.station, command_bus,
-                                publish_state=record is not None)
+                                publish_state=record is not None, controller=controller)
         if priority:
             placement = keep_cpu_for_loop()
             scheduling += f"; {placement}"

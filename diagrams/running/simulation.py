@@ -85,6 +85,7 @@ def run_teleop(scenario: Scenario, load: LoadEstimate, label: str = "", meshcat=
     for key in SAMPLE_ALIGNED_TRUTH:
         data[key] = np.concatenate((data[key][:1], data[key][:-1]))
     data["master_force"] = data.pop("master_wrench")
+    data["master_force_applied"] = data.pop("applied_wrench")  # the names of a hardware run's log (analysis.run_log)
     data["phi_gripper_true"] = np.asarray(phi_gripper).copy()
     data["phi_gripper_hat"] = np.asarray(scenario.controller.force.phi_gripper or np.zeros(10), dtype=float)
     data["offsets_hat"] = data.pop("offsets")  # (N, 6): the estimate at start, then tracked
