@@ -77,7 +77,9 @@ class DiagramTeleopController:
                           "log.applied_wrench", "log.passivity_energy", "log.passivity_damping",
                           "log.wrench_feedback", "log.wrench_contact", "log.wrench_noncontact", "log.scales",
                           "log.offsets", "log.phi_hat", "log.rezero_status")]
-        self._context, self._fixed, self._values = None, [], {}
+        self._context, self._fixed = None, []
+        # Zero until the first start, as the fused controller's arrays are (the loop reports them every tick).
+        self._values = {port.get_name(): np.zeros(port.size()) for port in self._outputs}
 
     @property
     def started(self) -> bool:

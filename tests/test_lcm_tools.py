@@ -120,9 +120,10 @@ def test_the_bench_never_times_a_diagram_that_did_not_step(capsys):
 
     timing = {"achieved_rate_hz": 1997.0, "skipped_ticks": 2, "tick_wall_p50_us": 9.0, "tick_wall_p99_us": 34.0}
     fused = {"controller": {"timing": timing}}
-    idle = {"rate_hz": 2000.0, "stand_in_received_hz": {}, "controller": {
-        "timing": timing, "scheduling": "", "healthy_ticks": 0, "ticks": 9987, "conflicts": 1,
-        "received": {"master_state": 9990}, "rejections": {"master_state": {"stamped_behind": 12}}}}
+    idle = {"rate_hz": 2000.0, "stand_in": {"received_hz_while_controlled": {}}, "controller": {
+        "timing": timing, "scheduling": "", "healthy_ticks": 0, "ticks": 9987, "second_publishers": [],
+        "received_hz": {"master_state": 1999.0}, "rejected": {"master_state": {"stamped_behind": 12}},
+        "faults": []}}
     _print_diagram_in_loop(idle, fused)
     printed = capsys.readouterr().out
     assert "not measured" in printed and "0 of 9987" in printed and "stamped_behind" in printed

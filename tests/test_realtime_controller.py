@@ -14,6 +14,7 @@ from heft.systems.accelerometer_reading import AT_S
 from heft.diagrams.running.simulation import true_load
 from heft.systems.offset_tracking import COLLECTING, DONE
 from heft.diagrams.teleop import MakeRealtimeTeleopController, MakeTeleopController
+from heft.systems.rx_inverse_kinematics import RxKinematics
 
 TICKS = 440
 FAULT_TICK = 300
@@ -54,7 +55,8 @@ def input_sequence(scenario: Scenario, period: float) -> list[dict]:
 SIGNALS_READ = ("master.position_measured", "master.velocity_estimated", "slave.position_measured",
                 "slave.velocity_estimated", "ft.wrench_measured", "ft.acceleration_measured")
 STATE_LOGS = ("master.torque_commanded", "slave.position_commanded", "log.pose_RS_desired", "log.passivity_energy",
-              "log.passivity_damping", "log.applied_wrench", "log.scales", "log.offsets", "log.rezero_status", "log.phi_hat")
+              "log.passivity_damping", "log.applied_wrench", "log.scales", "log.offsets", "log.rezero_status",
+              "log.phi_hat")
 
 
 def run_both(scenario: Scenario, load, sequence: list[dict]):
@@ -102,9 +104,9 @@ def run_both(scenario: Scenario, load, sequence: list[dict]):
     return blocks, steps, fused
 
 
-@pytest.fixture(scope="module")
-def both_runs():
-    scenario = layered(Scenario(), overrides_text({
+def both_runs_scenario() -> Scenario:
+    """The scenario ``both_runs`` runs."""
+    return layered(Scenario(), overrides_text({
         "controller.motion.translation_scale": 2.0,
         "controller.motion.R_RB": [0.0, 0.0, 0.4],  # the master's base turned: both map the feedback back through it
         "controller.force.sigma": 0.5,
@@ -113,6 +115,11 @@ def both_runs():
         **{f"controller.offsets.{gate}": 1e3
            for gate in ("rezero_force", "rezero_torque")},
         "controller.contact.force": 1e3, "controller.contact.torque": 1e3}))
+
+
+@pytest.fixture(scope="module")
+def both_runs():
+    scenario = both_runs_scenario()
     load, _ = true_load(scenario)
     assert scenario.accelerometer.convention().displaced  # displaced from S: the transport runs in both
     assert scenario.controller.force.mount_notch > 0  # and so does the notch on the contact
@@ -171,3 +178,31 @@ def test_step_before_start_is_refused():
         fused.step(5e-4, *([np.zeros(6)] * 6), True)
     with pytest.raises(ValueError, match="finite"):
         fused.start([0.0, np.nan, 0, 0, 0, 0])
+
+
+def test_the_diagram_controller_steps_the_per_block_diagram_tick_for_tick(both_runs):
+    """``DiagramTeleopController`` (``--controller diagram``) on the same sequence: its commands and logged
+    signals are the per-block Diagram's as the simulator steps it, exactly, up to the re-zero it does not
+    take; restarted, it starts over from the slave's position and keeps the offsets."""
+    from heft.diagrams.diagram_teleop_controller import DiagramTeleopController
+
+    blocks, _ = both_runs
+    scenario = both_runs_scenario()
+    load, _ = true_load(scenario)
+    sequence = input_sequence(scenario, PERIOD)
+    controller = DiagramTeleopController(scenario.controller, load, scenario.robot, PERIOD,
+                                         accelerometer=scenario.accelerometer.convention())
+    controller.start(sequence[0]["slave.position_measured"])
+    for k, inputs in enumerate(sequence[:REZERO_TICK]):
+        controller.step(PERIOD, *(inputs[name] for name in SIGNALS_READ), inputs["clutch"][0] > 0.5)
+        for name, value in (("master.torque_commanded", controller.torque),
+                            ("slave.position_commanded", controller.position),
+                            ("log.applied_wrench", controller.applied_wrench), ("log.offsets", controller.offsets),
+                            ("log.passivity_energy", controller.energy), ("log.phi_hat", controller.phi)):
+            np.testing.assert_array_equal(value, blocks[k][name], err_msg=f"{name} at tick {k}")
+    offsets = controller.offsets.copy()
+    controller.start(sequence[0]["slave.position_measured"])
+    arm = RxKinematics.rx90() if scenario.robot == "rx90" else RxKinematics.rx60()
+    np.testing.assert_array_equal(controller.position, np.clip(sequence[0]["slave.position_measured"], arm.lower,
+                                                               arm.upper))
+    np.testing.assert_array_equal(controller.offsets, offsets)

@@ -252,63 +252,6 @@ def _url_arguments(channels) -> list[str]:
     return ["--lcm-url", channels.lcm_url, "--command-url", channels.command_lcm_url()]
 
 
-def run_diagram_controller(scenario_name: str, channels, rate_hz: float, duration: float, out: Path) -> None:
-    """The per-block controller Diagram (``MakeTeleopController``) stepped by the real-time loop on
-    ``channels`` for ``duration`` s at ``rate_hz``, as `heft teleop --hardware` steps its fused step
-    (real-time claim, the hardware station's checks and watchdog, ticks on the arm's status): each tick
-    the station's readings fixed on its inputs, one forced discrete update, its two commands read and
-    sent (the forces off while the station is unhealthy). For measurement against a stand-in: no load
-    commands, no start from the measured pose. Writes the loop's timing and counts to ``out``."""
-    from heft.diagrams.commands.bench_step import DiagramTick
-    from heft.diagrams.device_limits import device_limits
-    from heft.diagrams.running.realtime import (LOOP_PRIORITY, claim_realtime, keep_cpu_for_loop, run_realtime,
-                                                timing_summary)
-    from heft.diagrams.running.simulation import true_load
-    from heft.diagrams.scenario import layered, resolve_scenario
-    from heft.diagrams.commands.options import lab_settings_text
-    from heft.diagrams.teleop import MakeTeleopController
-    from heft.hardware_interface.hardware_station import HardwareStation
-    from heft.hardware_interface.lcm_mailbox import open_buses
-
-    named = resolve_scenario(scenario_name)
-    scenario = layered(named, lab_settings_text(named))
-    load, _ = true_load(scenario)
-    period = 1.0 / rate_hz
-    diagram = MakeTeleopController(scenario.controller, load, scenario.robot, period, scenario.slave_initial_q,
-                                   accelerometer=scenario.accelerometer.convention())
-    scheduling = claim_realtime(LOOP_PRIORITY)
-    bus, command_bus = open_buses(channels)
-    station = HardwareStation(bus, channels, device_limits(scenario), scenario.lab.station, command_bus)
-    scheduling += f"; {keep_cpu_for_loop()}"
-    clutch, zero = np.zeros(1), np.zeros(6)
-    ticking = DiagramTick(diagram, {
-        "master.position_measured": station.master_position, "master.velocity_estimated": station.master_velocity,
-        "slave.position_measured": station.slave_position, "slave.velocity_estimated": station.slave_velocity,
-        "ft.wrench_measured": station.wrench, "ft.acceleration_measured": station.acceleration, "clutch": clutch})
-    counts = {"ticks": 0, "healthy_ticks": 0, "now": 0.0}
-
-    def tick(now, dt):
-        station.receive(now)
-        counts["ticks"] += 1
-        counts["now"] = now
-        if station.healthy:
-            counts["healthy_ticks"] += 1
-            clutch[0] = 1.0 if station.clutch else 0.0
-            torque, position = ticking.tick()
-            station.send(now, torque, position)
-        else:
-            station.send(now, zero, None)
-
-    anchor, ticking_on = station.loop_anchor(rate_hz, 0.0)
-    try:
-        times = run_realtime(tick, period, duration, anchor=anchor)
-    finally:
-        station.stop(counts.pop("now"))
-    out.write_text(json.dumps({"timing": timing_summary(times), **counts, "duration": times.elapsed,
-                               "scheduling": f"{scheduling}; {ticking_on}", "received": station.received,
-                               "rejections": station.rejections, "conflicts": station.conflicts}) + "\n")
-
-
 def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder: Path, prefix,
                estimator: str = "fixed", busy_wait: float = 0.0) -> dict:
     """One controller rate with the load ``estimator`` "fixed" or "online" (``ONLINE``) and its loop's
@@ -369,13 +312,14 @@ def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder:
 
 
 def bench_stand_in(rate_hz: float, duration: float, channels, scenario: str, folder: Path, prefix,
-                   busy_wait: float = 0.0) -> dict:
-    """The controller at ``rate_hz`` (its loop's ``busy_wait``) against ``heft stand-in`` for ``duration`` s
-    of wall time: messages per wall second each way, as each side counted them."""
+                   busy_wait: float = 0.0, controller: str = "fused") -> dict:
+    """The ``controller`` (``heft teleop --hardware --controller``) at ``rate_hz`` (its loop's ``busy_wait``)
+    against ``heft stand-in`` for ``duration`` s of wall time: messages per wall second each way, as each
+    side counted them, and the controller's summary."""
     from heft.diagrams.commands.options import lab_settings_text
     from heft.diagrams.scenario import resolve_scenario
 
-    teleop_path, stand_in_path = folder / "teleop_stand_in.json", folder / "stand_in.json"
+    teleop_path, stand_in_path = folder / f"teleop_stand_in_{controller}.json", folder / f"stand_in_{controller}.json"
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONUNBUFFERED="1")
     cli = [*prefix, sys.executable, "-m", "heft.diagrams.cli"]
     stand_in = subprocess.Popen(
@@ -386,64 +330,46 @@ def bench_stand_in(rate_hz: float, duration: float, channels, scenario: str, fol
     teleop = subprocess.Popen(
         [*cli, "teleop", "--hardware", *_url_arguments(channels), "--scenario", scenario,
          "--set", lab_settings_text(resolve_scenario(scenario)), "--rate", str(rate_hz),
-         "--busy-wait", str(busy_wait), "--duration", str(duration), "--out", str(teleop_path)],
+         "--busy-wait", str(busy_wait), "--controller", controller, "--duration", str(duration),
+         "--out", str(teleop_path)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
     _finish({"teleop": (teleop, duration + 120), "stand-in": (stand_in, duration + 120)}, {"stand-in": started})
-    controller, lab = json.loads(teleop_path.read_text()), json.loads(stand_in_path.read_text())
+    summary, lab = json.loads(teleop_path.read_text()), json.loads(stand_in_path.read_text())
     # The controller ran inside the stand-in's run: its commands per second of its own run.
-    lab["received_hz_while_controlled"] = {name: count / controller["duration"]
+    lab["received_hz_while_controlled"] = {name: count / summary["duration"]
                                            for name, count in lab["received"].items()}
     return {"rate_hz": rate_hz, "stand_in": lab,
-            "controller": {key: controller[key] for key in ("sent_hz", "received_hz", "healthy_ticks", "ticks",
-                                                             "faults", "timing", "scheduling")}}
+            "controller": {key: summary[key] for key in ("sent_hz", "received_hz", "healthy_ticks", "ticks",
+                                                          "faults", "timing", "scheduling", "rejected",
+                                                          "second_publishers")}}
 
 
 MIN_HEALTHY_SHARE = 0.5
 """The share of its ticks on which the Diagram in the loop must have stepped for its timing to count."""
 
 
-def bench_diagram_in_loop(rate_hz: float, duration: float, channels, scenario: str, folder: Path, prefix) -> dict:
-    """The per-block controller Diagram stepped by the real-time loop (``run_diagram_controller``) at
-    ``rate_hz`` against ``heft stand-in`` for ``duration`` s: its loop's timing and the commands the
-    stand-in received per second."""
-    diagram_path, stand_in_path = folder / "diagram_in_loop.json", folder / "stand_in_diagram.json"
-    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONUNBUFFERED="1")
-    python = [*prefix, sys.executable]
-    stand_in = subprocess.Popen(
-        [*python, "-m", "heft.diagrams.cli", "stand-in", "--scenario", scenario, *_url_arguments(channels),
-         "--duration", str(duration + 4 * SETTLE), "--out", str(stand_in_path)],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
-    started = _wait_for_line(stand_in, "stand-in: publishing", 120.0)
-    diagram = subprocess.Popen(
-        [*python, "-m", "heft.diagrams.commands.bench_lcm", "--diagram-controller", scenario, channels.lcm_url,
-         channels.command_lcm_url(), str(rate_hz), str(duration), str(diagram_path)],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
-    _finish({"diagram": (diagram, duration + 120), "stand-in": (stand_in, duration + 120)}, {"stand-in": started})
-    controller, lab = json.loads(diagram_path.read_text()), json.loads(stand_in_path.read_text())
-    return {"rate_hz": rate_hz, "controller": controller,
-            "stand_in_received_hz": {name: count / controller["duration"] for name, count in lab["received"].items()}}
-
-
 def _print_diagram_in_loop(result: dict, fused: dict) -> None:
+    """``heft teleop --hardware --controller diagram`` against the stand-in (``bench_stand_in``), beside the
+    fused step's run: its tick, and whether it fits the tick; not judged if it hardly ever stepped."""
     from heft.diagrams.commands.bench_step import FITS_DIAGRAM_P99
 
-    controller = result["controller"]
+    controller, rate = result["controller"], result["rate_hz"]
     timing, fused_timing = controller["timing"], fused["controller"]["timing"]
+    healthy = f"healthy {controller['healthy_ticks']} of {controller['ticks']} ticks"
     if controller["healthy_ticks"] < MIN_HEALTHY_SHARE * controller["ticks"]:
-        print(f"per-block Diagram in the loop against the stand-in at {result['rate_hz']:g} Hz: not measured, the "
-              f"station was healthy on {controller['healthy_ticks']} of {controller['ticks']} ticks only (received "
-              f"{controller['received']}, rejected {controller['rejections']}, conflict bits "
-              f"{controller['conflicts']})")
+        print(f"per-block Diagram in the loop against the stand-in at {rate:g} Hz: not measured, {healthy} only "
+              f"(received per second {controller['received_hz']}, rejected {controller['rejected']}, second "
+              f"publishers {controller['second_publishers']}, faults {controller['faults'][:3]})")
         return
     fits = timing["tick_wall_p99_us"] < 1e6 * FITS_DIAGRAM_P99
-    print(f"per-block Diagram in the loop against the stand-in at {result['rate_hz']:g} Hz "
-          f"({result['controller']['scheduling']}): sustained {timing['achieved_rate_hz']:.0f} Hz, "
+    received = result["stand_in"]["received_hz_while_controlled"]
+    print(f"per-block Diagram in the loop against the stand-in at {rate:g} Hz (`heft teleop --hardware "
+          f"--controller diagram`; {controller['scheduling']}): sustained {timing['achieved_rate_hz']:.0f} Hz, "
           f"{timing['skipped_ticks']} ticks skipped, tick wall p50 / p99 {timing['tick_wall_p50_us']:.0f} / "
           f"{timing['tick_wall_p99_us']:.0f} µs against the fused step's {fused_timing['tick_wall_p50_us']:.0f} / "
           f"{fused_timing['tick_wall_p99_us']:.0f} µs; the stand-in received "
-          + ", ".join(f"{name} {hz:.0f}/s" for name, hz in result["stand_in_received_hz"].items())
-          + f"; healthy {result['controller']['healthy_ticks']} of {result['controller']['ticks']} ticks; it "
-          f"{'fits' if fits else 'does not fit'} a {1e3 / result['rate_hz']:g} ms tick with p99 < "
+          + ", ".join(f"{name} {hz:.0f}/s" for name, hz in received.items())
+          + f"; {healthy}; it {'fits' if fits else 'does not fit'} a {1e3 / rate:g} ms tick with p99 < "
           f"{1e6 * FITS_DIAGRAM_P99:.0f} µs")
 
 
@@ -479,7 +405,8 @@ def run(rates, duration: float, scenario: str, channels, busy_wait: float = 0.0)
                     results.append(bench_rate(rate, duration, channels, scenario, Path(folder), prefix, estimator,
                                               busy_wait))
             stand_in = bench_stand_in(rates[0], duration, channels, scenario, Path(folder), prefix, busy_wait)
-            diagram = bench_diagram_in_loop(rates[0], duration, channels, scenario, Path(folder), prefix)
+            diagram = bench_stand_in(rates[0], duration, channels, scenario, Path(folder), prefix, busy_wait,
+                                     controller="diagram")
     finally:
         cleanup()
     print(f"{'rate (Hz)':>10s}{'estimator':>10s}{'sustained (Hz)':>16s}{'ratio':>7s}{'skipped':>9s}"
@@ -513,18 +440,11 @@ def run(rates, duration: float, scenario: str, channels, busy_wait: float = 0.0)
 
 
 if __name__ == "__main__":
-    arguments = argparse.ArgumentParser(description="the driver probe and the Diagram's loop of `heft bench lcm`")
-    arguments.add_argument("--probe", nargs=6, metavar=("URL", "COMMAND_URL", "DURATION", "OUT", "MASTER_Q", "SLAVE_Q"))
-    arguments.add_argument("--diagram-controller", nargs=6,
-                           metavar=("SCENARIO", "URL", "COMMAND_URL", "RATE", "DURATION", "OUT"))
-    parsed = arguments.parse_args()
+    arguments = argparse.ArgumentParser(description="the driver probe of `heft bench lcm`")
+    arguments.add_argument("--probe", nargs=6, metavar=("URL", "COMMAND_URL", "DURATION", "OUT", "MASTER_Q", "SLAVE_Q"),
+                           required=True)
+    probe_args = arguments.parse_args().probe
     from heft.hardware_interface.channels import LcmChannels
 
-    if parsed.probe:
-        probe_args = parsed.probe
-        run_probe(LcmChannels(lcm_url=probe_args[0], command_url=probe_args[1]), float(probe_args[2]),
-                  Path(probe_args[3]), json.loads(probe_args[4]), json.loads(probe_args[5]))
-    else:
-        name, url, command_url, rate, seconds, out = parsed.diagram_controller
-        run_diagram_controller(name, LcmChannels(lcm_url=url, command_url=command_url), float(rate), float(seconds),
-                               Path(out))
+    run_probe(LcmChannels(lcm_url=probe_args[0], command_url=probe_args[1]), float(probe_args[2]),
+              Path(probe_args[3]), json.loads(probe_args[4]), json.loads(probe_args[5]))
