@@ -28,8 +28,13 @@ NO_LOAD_COMMANDS = ("refused: the per-block Diagram controller (--controller dia
 """What a load command or a gripper's event is answered with while the Diagram controls."""
 
 
+_READ: list[str] = ["log.rezero_status"]
+"""The Diagram's outputs read after each start and step: every ``_output``'s, and the re-zero status."""
+
+
 def _output(port: str, doc: str) -> property:
     """The value of the Diagram's output ``port`` after the last ``start`` or ``step``."""
+    _READ.append(port)
     return property(lambda self: self._values[port], doc=doc)
 
 
@@ -72,11 +77,7 @@ class DiagramTeleopController:
         self._offsets_block = diagram.GetSubsystemByName("offsets_hat")
         # The readings fixed on the inputs: ``STATION_OUTPUTS_READ``, then the clutch.
         self._ports = [diagram.GetInputPort(name) for name in (*STATION_OUTPUTS_READ, "clutch")]
-        self._outputs = [diagram.GetOutputPort(name) for name in
-                         ("master.torque_commanded", "slave.position_commanded", "log.master_wrench",
-                          "log.applied_wrench", "log.passivity_energy", "log.passivity_damping",
-                          "log.wrench_feedback", "log.wrench_contact", "log.wrench_noncontact", "log.scales",
-                          "log.offsets", "log.phi_hat", "log.rezero_status")]
+        self._outputs = [diagram.GetOutputPort(name) for name in _READ]
         self._context, self._fixed = None, []
         # Zero until the first start, as the fused controller's arrays are (the loop reports them every tick).
         self._values = {port.get_name(): np.zeros(port.size()) for port in self._outputs}
