@@ -99,7 +99,7 @@ def analyze_log(log: dict, robot: str = "rx90", twist=None, wrench_lag: int = 1)
     has one): per channel the master port's energy in/out and final value, the PC's summary,
     and the largest gap between the observer's energy and the port energy plus what the PC
     dissipated (J) (zero up to rounding when the log and the observer agree); where the log has the
-    wrench applied on the hand (``master_force_applied``: a hardware log), what the device's clamp
+    wrench applied on the hand (``master_force_applied``), what the device's clamp
     withheld from the hand, Σ (f_PC − f_applied)·v·T (J, ``passivity_controller`` key
     ``c_clamp_withheld_J``), which the observer counts back; with the environment keys, the
     environment port's energies too. ``twist``: `stylus_twists` of the
@@ -116,8 +116,9 @@ def analyze_log(log: dict, robot: str = "rx90", twist=None, wrench_lag: int = 1)
     dissipated = np.cumsum(damping * speed_squared * holds[:, None], axis=0)
     withheld = np.zeros_like(dissipated)
     if "master_force_applied" in log:  # the PC's wrench f − α·v, less what reached the hand
+        # The PC's output: in either log, on the row of the twist the observer paired it with.
         unclamped = wrench - np.repeat(damping, 3, axis=1) * twist
-        cut = (unclamped - paired_wrench(log["master_force_applied"], wrench_lag)) * twist
+        cut = (unclamped - np.asarray(log["master_force_applied"], dtype=float)) * twist
         withheld = np.cumsum(np.stack((cut[:, :3].sum(1), cut[:, 3:].sum(1)), axis=1) * holds[:, None], axis=0)
         for i, name in enumerate(CHANNELS):
             summary[f"{name}_clamp_withheld_J"] = float(withheld[-1, i])
