@@ -285,17 +285,18 @@ def test_bench_step_ticks_the_diagram_as_the_fused_step_ticks():
     from heft.diagrams.commands import bench_step
     from heft.diagrams.running.simulation import true_load
     from heft.diagrams.scenario import Scenario
-    from heft.diagrams.teleop import MakeRealtimeTeleopController, MakeTeleopController
+    from heft.diagrams.diagram_teleop_controller import DiagramTeleopController
+    from heft.diagrams.teleop import MakeRealtimeTeleopController
 
     scenario = Scenario()
     load, _ = true_load(scenario)
     period, convention = scenario.controller_period, scenario.accelerometer.convention()
     sequence = bench_step.readings(scenario, 60, period)
     fused, blocks = [], []
-    bench_step.time_fused(MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, period,
-                                                       accelerometer=convention), sequence, period, fused)
-    bench_step.time_diagram(MakeTeleopController(scenario.controller, load, scenario.robot, period,
-                                                 scenario.slave_initial_q, accelerometer=convention), sequence, blocks)
+    bench_step.time_controller(MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, period,
+                                                            accelerometer=convention), sequence, period, fused)
+    bench_step.time_controller(DiagramTeleopController(scenario.controller, load, scenario.robot, period,
+                                                       accelerometer=convention), sequence, period, blocks)
     assert np.abs(fused).max() > 0.01
     np.testing.assert_allclose(blocks, fused, rtol=0, atol=1e-9)
 

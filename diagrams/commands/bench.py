@@ -96,19 +96,18 @@ def _bench_lcm(args) -> int:
 
 def _bench_step(args) -> int:
     from heft.diagrams.commands import bench_step as bench
+    from heft.diagrams.diagram_teleop_controller import DiagramTeleopController
     from heft.diagrams.running.simulation import true_load
-    from heft.diagrams.teleop import MakeRealtimeTeleopController, MakeTeleopController
+    from heft.diagrams.teleop import MakeRealtimeTeleopController
 
     scenario = scenario_from(args)
     load, _ = true_load(scenario)
     period, convention = scenario.controller_period, scenario.accelerometer.convention()
     sequence = bench.readings(scenario, args.ticks, period)
     results = {"ticks": args.ticks,
-               "fused": bench.time_fused(MakeRealtimeTeleopController(
-                   scenario.controller, load, scenario.robot, period, accelerometer=convention), sequence, period),
-               "diagram": bench.time_diagram(MakeTeleopController(
-                   scenario.controller, load, scenario.robot, period, scenario.slave_initial_q,
-                   accelerometer=convention), sequence)}
+               **{kind: bench.time_controller(make(scenario.controller, load, scenario.robot, period,
+                                                   accelerometer=convention), sequence, period)
+                  for kind, make in (("fused", MakeRealtimeTeleopController), ("diagram", DiagramTeleopController))}}
     bench.report(results, period)
     if args.out:
         Path(args.out).write_text(json.dumps(results, indent=2) + "\n")

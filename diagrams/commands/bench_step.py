@@ -2,11 +2,10 @@
 
 Both get the same station readings, tick by tick, in one process: the stylus and the arm on smooth
 sines, the clutch engaged, a steady load on the sensor with a contact in the middle third. The fused
-step (``MakeRealtimeTeleopController``) is timed per ``step``. The per-block Diagram
-(``MakeTeleopController``) is ticked as a real-time loop would tick it: the readings fixed on its
-input ports, its periodic discrete update (every block's, at the one controller period:
-``EvalUniquePeriodicDiscreteUpdate``) applied, the two commands read off its outputs. Each tick is
-timed on the wall clock (the machine's load included) and the CPU clock.
+step (``MakeRealtimeTeleopController``) is timed per ``step``, and so is the per-block Diagram as
+``heft teleop --hardware --controller diagram`` ticks it (``DiagramTeleopController``: the readings fixed
+on its input ports, its periodic discrete update applied, the commands read off its outputs). Each tick
+is timed on the wall clock (the machine's load included) and the CPU clock.
 """
 
 from __future__ import annotations
@@ -46,8 +45,9 @@ def _percentiles(seconds: list[float]) -> dict:
             "mean_us": float(values.mean())}
 
 
-def time_fused(controller, sequence, period: float, torques: list | None = None) -> dict:
-    """Wall and CPU time of each ``controller.step`` on ``sequence``; each tick's master torque appended
+def time_controller(controller, sequence, period: float, torques: list | None = None) -> dict:
+    """Wall and CPU time of each ``controller.step`` on ``sequence`` (the fused ``RealtimeTeleopController``
+    or the per-block ``DiagramTeleopController``: the same interface); each tick's master torque appended
     to ``torques`` if given."""
     controller.start(sequence[0]["slave.position_measured"])
     wall, cpu = [], []
@@ -61,48 +61,6 @@ def time_fused(controller, sequence, period: float, torques: list | None = None)
         wall.append(time.perf_counter() - w)
         if torques is not None:
             torques.append(controller.torque.copy())
-    return {"wall": _percentiles(wall), "cpu": _percentiles(cpu)}
-
-
-class DiagramTick:
-    """The per-block controller ``diagram`` ticked as a real-time loop would tick it: ``inputs``
-    ({input port name: array}, read again at every ``tick``) fixed on its ports, its periodic
-    discrete update applied, the two commands read: ``tick()`` returns (master torque, slave
-    position), arrays owned by the diagram's context."""
-
-    def __init__(self, diagram, inputs: dict):
-        self._diagram = diagram
-        self._context = diagram.CreateDefaultContext()
-        self._ports = [(diagram.GetInputPort(name), value) for name, value in inputs.items()]
-        self._torque, self._position = (diagram.GetOutputPort(name) for name in ("master.torque_commanded",
-                                                                                  "slave.position_commanded"))
-        for port, value in self._ports:
-            port.FixValue(self._context, value)
-        diagram.ExecuteInitializationEvents(self._context)
-
-    def tick(self):
-        context = self._context
-        for port, value in self._ports:
-            port.FixValue(context, value)
-        context.SetDiscreteState(self._diagram.EvalUniquePeriodicDiscreteUpdate(context))
-        return self._torque.Eval(context), self._position.Eval(context)
-
-
-def time_diagram(diagram, sequence, torques: list | None = None) -> dict:
-    """Wall and CPU time of each tick of ``diagram`` (``DiagramTick``) on ``sequence``; each tick's
-    master torque appended to ``torques`` if given."""
-    inputs = {name: np.array(value, dtype=float) for name, value in sequence[0].items()}
-    ticking = DiagramTick(diagram, inputs)
-    wall, cpu = [], []
-    for readings in sequence:
-        w, c = time.perf_counter(), time.process_time()
-        for name, value in readings.items():
-            inputs[name][:] = value
-        commanded, _ = ticking.tick()
-        cpu.append(time.process_time() - c)
-        wall.append(time.perf_counter() - w)
-        if torques is not None:
-            torques.append(commanded.copy())
     return {"wall": _percentiles(wall), "cpu": _percentiles(cpu)}
 
 
