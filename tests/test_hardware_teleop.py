@@ -20,7 +20,7 @@ from heft.diagrams.running.hardware_teleop import HardwareTeleop, format_summary
 from heft.diagrams.running.realtime import TickTimes, timing_summary
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import HardwareStationParams
-from heft.hardware_interface.lcmtypes import heft_load_command, heft_load_status
+from heft.hardware_interface.lcmtypes import heft_load_command, heft_load_status, heft_teleop_state
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.load_dynamics import InertialParameters
@@ -465,10 +465,18 @@ def test_the_per_block_diagram_runs_the_lab_as_the_fused_step_does():
     follow the fused step's on the same lab (one tick later: its IK's command is state) to a fraction
     of the motion."""
     scenario = resolve_scenario("fig6")
-    labs = {kind: Lab(scenario, clutch_at=0.2, controller=kind) for kind in ("fused", "diagram")}
+    labs = {kind: Lab(scenario, clutch_at=0.2, controller=kind, publish_state=kind == "diagram")
+            for kind in ("fused", "diagram")}
+    states = []  # what a recorded run keeps of the Diagram's ticks
+    labs["diagram"].bus.subscribe(LcmChannels().teleop_state.name,
+                                  lambda _, payload: states.append(heft_teleop_state.decode(payload)))
     for lab in labs.values():
         lab.run(1.2)
     diagram = labs["diagram"]
+    # One state a healthy tick (the last tick's not yet handled by the bus).
+    assert diagram.teleop.healthy_ticks - 1 <= len(states) <= diagram.teleop.healthy_ticks
+    applied = np.array([state.applied_wrench for state in states])
+    assert np.linalg.norm(applied[:, :3], axis=1).max() == pytest.approx(diagram.teleop.stylus_force_peak)
     engaged = round(0.2 / PERIOD)
     before = np.array([c for c in diagram.commands[:engaged] if c is not None])
     assert len(before) > 300 and diagram.teleop.first_healthy is not None and not diagram.teleop.faults
