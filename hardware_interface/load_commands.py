@@ -38,7 +38,8 @@ def _listed(values) -> str:
 
 
 class LoadCommandServer:
-    """Serves load commands to ``controller`` (a ``RealtimeTeleopController``) heard on ``bus``,
+    """Serves load commands to ``controller`` (a ``RealtimeTeleopController``, or one that takes none, given
+    with its ``refusal``) heard on ``bus``,
     answered on ``command_bus`` (default ``bus``); a new estimate must fit the sensor's range
     ``wrench_full_scale`` ([f; τ], N, N·m) and be physical (``checked_load``), else it is
     refused with the reason.

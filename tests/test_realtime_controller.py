@@ -183,7 +183,8 @@ def test_step_before_start_is_refused():
 def test_the_diagram_controller_steps_the_per_block_diagram_tick_for_tick(both_runs):
     """``DiagramTeleopController`` (``--controller diagram``) on the same sequence: its commands and logged
     signals are the per-block Diagram's as the simulator steps it, exactly, up to the re-zero it does not
-    take; restarted, it starts over from the slave's position and keeps the offsets."""
+    take (the state its update leaves, and the wrenches the tick computed before it); before its start it
+    reports the load it was given; restarted, it starts over from the slave's position and keeps the offsets."""
     from heft.diagrams.diagram_teleop_controller import DiagramTeleopController
 
     blocks, _ = both_runs
@@ -192,13 +193,19 @@ def test_the_diagram_controller_steps_the_per_block_diagram_tick_for_tick(both_r
     sequence = input_sequence(scenario, PERIOD)
     controller = DiagramTeleopController(scenario.controller, load, scenario.robot, PERIOD,
                                          accelerometer=scenario.accelerometer.convention())
+    np.testing.assert_array_equal(controller.phi, load.phi)
+    np.testing.assert_array_equal(controller.offsets, load.offsets)
     controller.start(sequence[0]["slave.position_measured"])
     for k, inputs in enumerate(sequence[:REZERO_TICK]):
         controller.step(PERIOD, *(inputs[name] for name in SIGNALS_READ), inputs["clutch"][0] > 0.5)
         for name, value in (("master.torque_commanded", controller.torque),
                             ("slave.position_commanded", controller.position),
                             ("log.applied_wrench", controller.applied_wrench), ("log.offsets", controller.offsets),
-                            ("log.passivity_energy", controller.energy), ("log.phi_hat", controller.phi)):
+                            ("log.passivity_energy", controller.energy), ("log.phi_hat", controller.phi),
+                            # what the tick computed from its readings, as the fused step reports it
+                            ("log.wrench_feedback", controller.wrench_feedback),
+                            ("log.wrench_contact", controller.wrench_contact),
+                            ("log.master_wrench", controller.master_wrench)):
             np.testing.assert_array_equal(value, blocks[k][name], err_msg=f"{name} at tick {k}")
     offsets = controller.offsets.copy()
     controller.start(sequence[0]["slave.position_measured"])

@@ -96,11 +96,13 @@ def _bench_lcm(args) -> int:
 
 def _bench_step(args) -> int:
     from heft.diagrams.commands import bench_step as bench
+    from heft.diagrams.commands.bench_lcm import FIXED_ESTIMATE
     from heft.diagrams.diagram_teleop_controller import DiagramTeleopController
+    from heft.diagrams.scenario import layered, overrides_text
     from heft.diagrams.running.simulation import true_load
     from heft.diagrams.teleop import MakeRealtimeTeleopController
 
-    scenario = scenario_from(args)
+    scenario = layered(scenario_from(args), overrides_text(FIXED_ESTIMATE))  # the Diagram's estimate is fixed
     load, _ = true_load(scenario)
     period, convention = scenario.controller_period, scenario.accelerometer.convention()
     sequence = bench.readings(scenario, args.ticks, period)

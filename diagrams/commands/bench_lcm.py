@@ -329,7 +329,8 @@ def bench_stand_in(rate_hz: float, duration: float, channels, scenario: str, fol
     started = _wait_for_line(stand_in, "stand-in: publishing", 120.0)
     teleop = subprocess.Popen(
         [*cli, "teleop", "--hardware", *_url_arguments(channels), "--scenario", scenario,
-         "--set", lab_settings_text(resolve_scenario(scenario)), "--rate", str(rate_hz),
+         "--set", lab_settings_text(resolve_scenario(scenario), FIXED_ESTIMATE if controller == "diagram" else None),
+         "--rate", str(rate_hz),
          "--busy-wait", str(busy_wait), "--controller", controller, "--duration", str(duration),
          "--out", str(teleop_path)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
@@ -344,6 +345,8 @@ def bench_stand_in(rate_hz: float, duration: float, channels, scenario: str, fol
                                                           "second_publishers")}}
 
 
+FIXED_ESTIMATE = {"controller.estimator.mode": "fixed"}
+"""What the Diagram's run lays over the scenario: it keeps its load estimate fixed."""
 MIN_HEALTHY_SHARE = 0.5
 """The share of its ticks on which the Diagram in the loop must have stepped for its timing to count."""
 

@@ -111,9 +111,10 @@ def require_lab_settings(args, *fields: str) -> None:
                          "(otherwise the simulated lab's values would be used)")
 
 
-def lab_settings_text(scenario) -> str:
+def lab_settings_text(scenario, more: dict | None = None) -> str:
     """``--set`` YAML stating ``scenario``'s own values of the ``LAB_SETTINGS``: for a stand-in lab,
-    whose sensor is the scenario's."""
+    whose sensor is the scenario's; ``more``: further dotted fields (``overrides_text``'s) in the same text."""
     from heft.diagrams.scenario import overrides_text
 
-    return overrides_text({name: functools.reduce(getattr, name.split("."), scenario) for name in LAB_SETTINGS})
+    return overrides_text({**{name: functools.reduce(getattr, name.split("."), scenario) for name in LAB_SETTINGS},
+                           **(more or {})})

@@ -2,9 +2,10 @@
 
 ``HardwareTeleop.tick`` is one controller tick on the wall clock: the hardware
 station receives (one LCM pump, the newest message of every channel), the
-controller (``MakeRealtimeTeleopController``, Fig. 4 in one computation)
-steps with the measured tick duration, and the station sends in the same tick,
-so a sensor sample reaches the master's command one tick after it arrives.
+controller steps (by default ``MakeRealtimeTeleopController``, Fig. 4 in one computation,
+with the measured tick duration; or the per-block Diagram, ``DiagramTeleopController``),
+and the station sends in the same tick, so a sensor sample reaches the master's command
+one tick after it arrives.
 
 Start-up and recovery never move the slave: the controller starts only when the
 station is healthy (every channel fresh, so the slave's measured position is
@@ -13,8 +14,8 @@ the clutch disengaged; motion follows the stylus only while the operator holds
 the clutch button, anchored on the slave's measured pose at the press. Load
 commands (``heft load``: re-zero, offset tracking, a new tool's estimate, a grasp
 or release) and the gripper driver's grasps and releases are served after each
-tick's send (``hardware_interface.load_commands``). When the run is recorded, what
-the controller computed goes out beside the commands each tick it steps
+tick's send (``hardware_interface.load_commands``; refused with the reason under the Diagram).
+When the run is recorded, what the controller computed goes out beside the commands each tick it steps
 (``hardware_interface.teleop_state``; about 45 µs a tick, so only then).
 
 ``run_hardware_teleop`` runs it for a while (``diagrams.running.realtime``) and returns
@@ -69,21 +70,24 @@ class HardwareTeleop:
     def __init__(self, scenario: Scenario, load: LoadEstimate, bus: lcm.LCM, channels: LcmChannels,
                  params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None,
                  publish_state: bool = False, controller: str = "fused"):
+        if controller not in CONTROLLERS:
+            raise ValueError(f"unknown controller {controller!r}: choose one of {', '.join(CONTROLLERS)}")
         estimator = scenario.controller.estimator
         slowest = max(WATCHED_CHANNELS, key=lambda name: 1.0 / getattr(channels, name).rate)
         period = 1.0 / getattr(channels, slowest).rate
-        if estimator.mode == "online" and not estimator.max_input_age > 2.0 * period:
+        if estimator.mode == "online" and controller == "fused" and not estimator.max_input_age > 2.0 * period:
             raise ValueError(f"controller.estimator.max_input_age ({1e3 * estimator.max_input_age:g} ms) must exceed "
                              f"twice the period of the slowest channel the station watches ({slowest} at "
                              f"{getattr(channels, slowest).rate:g} Hz: {1e3 * period:g} ms), or the online estimator "
                              f"would refuse the ticks of a healthy stream; set it to {2.5e3 * period:g} ms or more")
-        if controller not in CONTROLLERS:
-            raise ValueError(f"unknown controller {controller!r}: choose one of {', '.join(CONTROLLERS)}")
         # The controller's models first (about a second): the station's subscriptions then
         # start receiving only when the loop is about to pump them.
         make = DiagramTeleopController if controller == "diagram" else MakeRealtimeTeleopController
         self.controller = make(scenario.controller, load, scenario.robot, scenario.controller_period,
                                accelerometer=scenario.accelerometer.convention())
+        # The hold the controller's blocks step by, which a recording carries: the tick's measured
+        # duration for the fused step, the period for the Diagram's blocks.
+        self._fixed_hold = scenario.controller_period if controller == "diagram" else None
         limits = device_limits(scenario)
         self.station = HardwareStation(bus, channels, limits, params, command_bus)
         self.load_commands = LoadCommandServer(bus, channels, self.controller, limits.wrench_full_scale, command_bus,
@@ -125,8 +129,8 @@ class HardwareTeleop:
                             station.oldest_age)
             station.send(now, controller.torque, controller.position)
             if self.state is not None:
-                self.state.publish(round((station.epoch + now) * 1e6), dt, self.starts, station.stamps, controller,
-                                   station.gain)
+                self.state.publish(round((station.epoch + now) * 1e6), self._fixed_hold or dt, self.starts,
+                                   station.stamps, controller, station.gain)
         else:
             station.send(now, self._zero, None)
         utime = round((station.epoch + now) * 1e6)
@@ -313,6 +317,7 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float,
                 else "the blocks composed in one step")
     print(f"teleop: {stepping} steps each tick", flush=True)
     print("teleop: load estimate " + (
+        "fixed (no load commands with the Diagram)" if controller == "diagram" else
         "fixed (`heft load --estimate` changes it)" if estimator.mode == "fixed" else
         f"learned online ({estimator.method}, forgetting {estimator.forgetting:g} per tick, prefilter "
         f"{estimator.prefilter:g} Hz, from readings at most {1e3 * estimator.max_input_age:g} ms old; "
