@@ -117,8 +117,7 @@ class FeedbackMapping(LeafSystem):
         self._jacobian = self.DeclareVectorInputPort("jacobian", JACOBIAN_SIZE)
         wrench_inputs = {self._wrench_S.ticket(), self._pose_RS.ticket()}
         all_inputs = wrench_inputs | {self._jacobian.ticket()}
-        self._wrench_E = self.DeclareVectorOutputPort("wrench_E", WRENCH_SIZE, self._calc_wrench,
-                                                      prerequisites_of_calc=wrench_inputs)
+        self.DeclareVectorOutputPort("wrench_E", WRENCH_SIZE, self._calc_wrench, prerequisites_of_calc=wrench_inputs)
         self.DeclareVectorOutputPort("torque", WRENCH_SIZE, self._calc_torque, prerequisites_of_calc=all_inputs)
         self.DeclareVectorOutputPort("fault", 1, self._calc_fault, prerequisites_of_calc=all_inputs)
 
@@ -129,6 +128,7 @@ class FeedbackMapping(LeafSystem):
                                    p.torque_scale, p.max_force, p.max_torque, self._R_RS, self._R_BS, out)
 
     def _inputs_ok(self, context) -> bool:
+        """All three inputs good; the hand's wrench is then in ``self._scratch``."""
         return (self._wrench_E_into(context, self._scratch)
                 and bool(np.isfinite(self._jacobian.Eval(context)).all()))
 
@@ -141,7 +141,7 @@ class FeedbackMapping(LeafSystem):
         if not self._inputs_ok(context):
             output.SetFromVector(np.zeros(WRENCH_SIZE))
             return
-        output.SetFromVector(joint_torque(self._jacobian.Eval(context), self._wrench_E.Eval(context)))
+        output.SetFromVector(joint_torque(self._jacobian.Eval(context), self._scratch))
 
     def _calc_fault(self, context, output):
         output.SetAtIndex(0, 0.0 if self._inputs_ok(context) else 1.0)
