@@ -15,9 +15,9 @@ window, the distance between the stylus force the torques render at the driver's
 (Drake's Jacobian of the Phantom: τ = Jᵀ·[f; τ_E]) and −k_f·R_RS·(c + η·w_obj) of the truth
 (c the contact, w_obj the object's non-contact wrench, both in S; R_BR = E), as a fraction of the
 object's weight, split into the windows while the slave moves and while it holds still. A moving window
-that overlaps a pause of the loop (``pauses_of_the_loop``) or the ``RING_SETTLE`` after it
-is judged apart, as "after_pause": the arm held its command through the pause, and the load rings on its
-mount (``test_grasp_lab.test_a_paused_loop_rings_the_mount``).
+that overlaps a pause (``pauses_of_the_arm``: the arm stepped on late commands, the truth's
+``arm_late_steps``) or the ``RING_SETTLE`` after it is judged apart, as "after_pause": the arm's held
+setpoint rings the load on its mount (``test_grasp_lab.test_a_paused_loop_rings_the_mount``).
 """
 
 from __future__ import annotations
@@ -25,36 +25,39 @@ from __future__ import annotations
 import numpy as np
 
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
+from heft.hardware_interface.channels import LcmChannels
 from drake_reference import pose_and_jacobian
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 
 WINDOW = 0.01
 """s: the averages judged."""
 GRAVITY = 9.81
-PAUSE_TICKS, PAUSE_SPAN = 2, 0.01
-"""A pause of the loop: ``PAUSE_TICKS`` or more ticks missing (master states that no command names) within
-``PAUSE_SPAN`` s (half the mount's ring period), the arm holding its command meanwhile. In one process one
-tick missing in the strokes keeps every window within the bound; two in a row miss it by 6 %, four by
-17 %, eight by 45 %; across processes a stutter of five single missing ticks in 13 ms missed it by 7.6 %."""
+ARM_PERIOD = 1.0 / LcmChannels().slave_status.rate
+"""s: the stand-in's arm steps as its driver publishes its status (the lab's channels as both tests run it)."""
+PAUSE_STEPS, PAUSE_SPAN = 2, 0.01
+"""A pause: within ``PAUSE_SPAN`` s (half the mount's ring period) the arm stepped on late commands (the
+truth's ``arm_late_steps``) that lagged ``PAUSE_STEPS`` or more of its steps behind in all, beyond the one
+step of a command on time (a command k steps old lags k − 1): as when the controller's loop pauses, or its
+commands reach the arm after the arm's step. In one process, one tick skipped in the strokes (a lag of 1)
+keeps every window within the bound; two (3) miss it by 6 %, four (10) by 17 %, eight (36) by 45 %."""
 RING_SETTLE = 0.4
 """s after a pause: the ring of the grasp scenario's load on its mount (rocking at 48 Hz, 4 % of critical
 damping: its envelope falls e-fold in 83 ms) has fallen below the bound within 0.2 s of a 4 ms pause and
 0.35 s of a 16 ms one in the strokes (in one process)."""
 
 
-def pauses_of_the_loop(command_times, period: float) -> list[tuple[float, float, int]]:
-    """The pauses (``PAUSE_TICKS``) in the commands' (sorted) times, s: [(start, end, ticks missing)], a run
-    of gaps each within ``PAUSE_SPAN`` of the last taken as one."""
-    times = np.asarray(command_times, dtype=float)
-    missing = np.maximum(np.round(np.diff(times) / period) - 1, 0).astype(int)
+def pauses_of_the_arm(late_steps, arm_period: float) -> list[tuple[float, float, int]]:
+    """The pauses (``PAUSE_STEPS``) in the arm's late steps ``late_steps`` (n, 2: time, age, s, by time) of
+    an arm stepping every ``arm_period`` s: [(first, last, lag in steps)], each late step within
+    ``PAUSE_SPAN`` of the last taken into one."""
     clusters = []
-    for k in np.flatnonzero(missing):
-        if clusters and times[k] - clusters[-1][1] <= PAUSE_SPAN:
-            start, _, count = clusters[-1]
-            clusters[-1] = (start, float(times[k + 1]), count + int(missing[k]))
+    for t, age in np.asarray(late_steps, dtype=float).reshape(-1, 2):
+        lag = max(round(age / arm_period) - 1, 0)
+        if clusters and t - clusters[-1][1] <= PAUSE_SPAN:
+            clusters[-1] = (clusters[-1][0], float(t), clusters[-1][2] + lag)
         else:
-            clusters.append((float(times[k]), float(times[k + 1]), int(missing[k])))
-    return [cluster for cluster in clusters if cluster[2] >= PAUSE_TICKS]
+            clusters.append((float(t), float(t), lag))
+    return [cluster for cluster in clusters if cluster[2] >= PAUSE_STEPS]
 
 
 def _latest(stamps, values, t):
@@ -62,11 +65,11 @@ def _latest(stamps, values, t):
     return values[i] if i >= 0 else None
 
 
-def judge(truth, phi_history, phi_gripper, commands, master, slave, *, robot: str, period: float, eta: float,
-          force_scale: float, learned_by: float, still_from: float, end: float) -> dict:
+def judge(truth, phi_history, phi_gripper, commands, master, slave, *, robot: str, eta: float, force_scale: float,
+          learned_by: float, still_from: float, end: float) -> dict:
     """The module docstring's results: "object_mass" (kg), "mass_error_max", "mass_learned_at_start",
     "stylus_force_peak" (N), the window errors "still", "moving" and "after_pause" (fractions of the
-    object's weight), "pauses" (``pauses_of_the_loop``; the loop's ``period``, s) and "still_expected_force" (N)."""
+    object's weight), "pauses" (``pauses_of_the_arm``) and "still_expected_force" (N)."""
     m_object = float(truth["phi"][-1, 0] - truth["phi_gripper"][0])
     weight = m_object * GRAVITY
     learned = [(t, phi[0] - phi_gripper[0]) for t, phi in phi_history if learned_by <= t <= end]
@@ -82,7 +85,7 @@ def judge(truth, phi_history, phi_gripper, commands, master, slave, *, robot: st
     stamps = truth["utime"] * 1e-6
     wrench = truth["wrench_contact"][:, :3] + eta * truth["wrench_noncontact_object"][:, :3]
     times, measured, expected, peak = [], [], [], 0.0
-    pauses = pauses_of_the_loop([t for t, _, _ in commands], period)
+    pauses = [pause for pause in pauses_of_the_arm(truth["arm_late_steps"] * 1e-6, ARM_PERIOD) if pause[0] <= end]
     for t, torque, enabled in commands:
         q_M = _latest(master_t, master_q, t)
         if q_M is None or not enabled:
@@ -126,8 +129,8 @@ def report(result: dict) -> str:
     lines = [f"object {result['object_mass']:.4f} kg: learned {result['mass_learned_at_start']:.4f} kg as the judged "
              f"span starts, worst since {100 * result['mass_error_max']:.2f} %; stylus force peak "
              f"{result['stylus_force_peak']:.3f} N"]
-    pauses = [f"{missing} ticks in {first:.4f}–{last:.4f} s" for first, last, missing in result["pauses"]]
-    lines.append(f"pauses of the loop ({PAUSE_TICKS}+ ticks missing within {1e3 * PAUSE_SPAN:g} ms): "
+    pauses = [f"{first:.4f}–{last:.4f} s ({lag})" for first, last, lag in result["pauses"]]
+    lines.append(f"pauses (the arm's commands {PAUSE_STEPS}+ steps late in all within {1e3 * PAUSE_SPAN:g} ms; s, lag): "
                  f"{', '.join(pauses) or 'none'}")
     for phase in ("still", "moving", "after_pause"):
         errors = np.array(result[phase])

@@ -135,7 +135,7 @@ def _run(netns, folder):
     history = [(summary["epoch"] + t - epoch, phi) for t, phi in summary["estimator"]["phi_history"]]
     holding_from = GRASP_AT + GRIPPER_CLOSING_S
     results = {after: judge(truth, history, summary["estimator"]["phi_gripper"] or phi_gripper, commands, master,
-                            slave, robot=scenario.robot, period=scenario.controller_period, eta=ETA, force_scale=1.0,
+                            slave, robot=scenario.robot, eta=ETA, force_scale=1.0,
                             learned_by=holding_from + after, still_from=STILL_FROM, end=END)
                for after in (1.0, 2.0)}
     for after, result in results.items():

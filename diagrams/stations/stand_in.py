@@ -393,6 +393,9 @@ class StandIn:
         self._qdd = np.zeros(NUM_JOINTS)  # the joints' q̈ at their state (rad/s²)
         self.stylus_force_peak = 0.0
         self.arm_steps_after_a_held_one, self._commands_since_step = 0, 0
+        # The master state (its utime, s) the latest master command names, and the one the arm's command was
+        # computed from (the master command's of the tick that sent it): None before the first.
+        self._state_named = self._arm_command_state = None
         # The master states published lately: their utimes and (encoder-quantised) joint positions, a ring.
         self._published_utime = np.full(_PUBLISHED_KEEP, -1, dtype=np.int64)
         self._published_position = np.zeros((_PUBLISHED_KEEP, NUM_JOINTS))
@@ -413,7 +416,8 @@ class StandIn:
         per_step = max(1, round(channels.ft_sample.rate / channels.slave_status.rate))  # FT samples per arm step
         self._ft = SixAxisSampler(scenario.ft_sensor, FORCE_TORQUE_STREAM, ft_period, per_step)
         self._accelerometer = SixAxisSampler(scenario.accelerometer, ACCELEROMETER_STREAM, ft_period, per_step)
-        self.truth = TruthRecord(channels.ft_sample.rate, self._wrist.phis) if record_truth else None
+        self.truth = TruthRecord(channels.ft_sample.rate, self._wrist.phis, channels.slave_status.rate) \
+            if record_truth else None
         self.offsets = np.zeros(6)
         self._ft_messages = {}  # samples → a heft_ft_samples of that many, rewritten for each message
 
@@ -502,6 +506,8 @@ class StandIn:
         for payload in self._haptic_commands.take():
             values = _command_values(self._command_layouts[_MASTER], heft_haptic_command, payload, "torque",
                                      "enable", "master_utime")
+            if values is not None:
+                self._state_named = values[2] * 1e-6
             if values is not None and values[1] and math.isfinite(sum(values[0])):
                 limits = self._master.effort_limits
                 self._torque_commanded = np.minimum(np.maximum(values[0], -limits), limits)
@@ -529,6 +535,10 @@ class StandIn:
     def _slave_tick(self, tick: int, t: float) -> int:
         if self._commands_since_step > 1:
             self.arm_steps_after_a_held_one += 1
+        if self._commands_since_step:
+            self._arm_command_state = self._state_named
+        if self.truth is not None and self._arm_command_state is not None:
+            self.truth.arm_step(t, t - self._arm_command_state)
         self._commands_since_step = 0
         u, q, qd, qdd = self._setpoint, self._q, self._qd, self._qdd
         servo_step(*self._servo, self._max_setpoint_step, self.slave_command, u, self._slave, self._deviation, qdd)

@@ -272,6 +272,11 @@ class _Rows:
         return np.concatenate(self._blocks[:-1] + [self._blocks[-1][:self._used]])
 
 
+LATE_STEPS = 1.5
+"""A command the arm steps on is late when computed from a state older than this many of its steps: on
+time, the tick that answers the arm's status of one step sends the command its next step takes."""
+
+
 class TruthRecord:
     """What the stand-in's wrist sensor carried at each of its samples, one row per sample it took
     (published or lost), in heft's convention (the module's): the samples between two of the arm's
@@ -280,14 +285,20 @@ class TruthRecord:
     clock), as in the published ``heft_ft_sample``; ``phi`` (N, 10, Eq. 6: what the sensor carries);
     ``wrench_noncontact``, ``wrench_noncontact_object``, ``wrench_contact`` (N, 6: the load's own
     wrench, the object's share of it, and contact, zero: the stand-in has no environment);
-    ``ft_offsets`` (N, 6, the offsets inside the measurement); ``phi_gripper`` (10). Kept per arm
-    step while running (a few µs), expanded to samples when read."""
+    ``ft_offsets`` (N, 6, the offsets inside the measurement); ``phi_gripper`` (10); and
+    ``arm_late_steps`` (n, 2: utime, age, µs), the arm's steps whose command was computed from a state
+    more than ``LATE_STEPS`` of its steps old (as through a pause of the controller: the arm holds its
+    last command; the age of a command is its step's time less that of the master state the tick that
+    sent it named, ``heft_haptic_command.master_utime``). Kept per arm step while running (a few µs),
+    expanded to samples when read."""
 
-    def __init__(self, rate: float, phis: dict[bool, np.ndarray]):
+    def __init__(self, rate: float, phis: dict[bool, np.ndarray], arm_rate: float):
         self._rate, self._phis = rate, phis  # ``Wrist.phis``: holding the object, and not
+        self._late_age = LATE_STEPS / arm_rate
         self._steps = _Rows(15)  # first sample, count, holding, wrench, wrench_object
         self._offsets = _Rows(NUM_AXES)
         self._step = np.zeros(15)
+        self._arm_late = []
 
     def add(self, first: int, count: int, wrist: Wrist, offsets: np.ndarray) -> None:
         """Samples ``first`` … ``first + count − 1`` of the sensor (at ``rate`` Hz) on the ``wrist``'s
@@ -297,6 +308,11 @@ class TruthRecord:
         step[3:9], step[9:15] = wrist.wrench, wrist.wrench_object
         self._steps.append(step[None, :])
         self._offsets.append(offsets)
+
+    def arm_step(self, t: float, age: float) -> None:
+        """The arm stepped at ``t`` (s) on a command computed from a state ``age`` s old."""
+        if age > self._late_age:
+            self._arm_late.append((t, age))
 
     def arrays(self, through: int | None = None) -> dict[str, np.ndarray]:
         """The record as named arrays (the archive's), of the samples up to counter ``through`` (the
@@ -309,8 +325,11 @@ class TruthRecord:
         keep = slice(None) if through is None else counters <= through
         rows, counters = rows[keep], counters[keep]
         holding = steps[rows, 2].astype(bool)
+        late = np.round(np.array(self._arm_late, dtype=float).reshape(-1, 2) * 1e6).astype(np.int64)
+        if through is not None:
+            late = late[late[:, 0] <= round(through / self._rate * 1e6)]
         return {"sample_counter": counters, "utime": np.round(counters / self._rate * 1e6).astype(np.int64),
-                "phi": np.where(holding[:, None], self._phis[True], self._phis[False]),
+                "arm_late_steps": late, "phi": np.where(holding[:, None], self._phis[True], self._phis[False]),
                 "wrench_noncontact": steps[rows, 3:9], "wrench_noncontact_object": steps[rows, 9:15],
                 "wrench_contact": np.zeros((len(rows), 6)), "ft_offsets": self._offsets.array()[keep],
                 "phi_gripper": self._phis[False]}
