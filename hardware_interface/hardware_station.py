@@ -34,6 +34,7 @@ from heft.systems.compiled import compiled, float_array
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
 from heft.hardware_interface.channels import LcmChannels
+from heft.hardware_interface.command_echo import CommandEcho
 from heft.hardware_interface.fixed_layout import FixedLayout, put_wire_double, put_wire_int
 from heft.hardware_interface.ft_receiver import FtSampleReader
 from heft.hardware_interface.gripper_state_reader import GripperStateReader
@@ -207,6 +208,9 @@ class HardwareStation:
         self._ft = FtSampleReader(np.concatenate([limits.wrench_full_scale, limits.acceleration_full_scale]), silence)
         self._gripper = GripperStateReader(silence)
         self._readers = (self._master, self._slave, self._ft, self._gripper)
+        self.command_echo = CommandEcho(1.0 / channels.slave_status.rate)
+        """How late the arm stepped on the slave commands sent, from its status's echo (``command_echo``)."""
+        self._echo_utime = 0
         self.gripper_events: list[str] = []
         """The grasps and releases the gripper's driver reported since the last ``receive``
         (``gripper_state_reader``: GRASP, RELEASE)."""
@@ -315,6 +319,9 @@ class HardwareStation:
         master.take(mail[0].take(), now)
         self.clutch = bool(master.buttons & CLUTCH_BUTTON)
         slave.take(mail[1].take(), now)
+        if slave.utime != self._echo_utime:
+            self._echo_utime = slave.utime
+            self.command_echo.heard(slave.utime, slave.commanded)
         ft.take(mail[2].take(), now)
         self.gripper_events = self._gripper.take(mail[3].take(), now)
         watchdog = self._params.watchdog
@@ -372,3 +379,4 @@ class HardwareStation:
         self.position_sent = self._position
         encode_slave_command(self._slave_command, self._slave_at, utime, self._position)
         self._command_bus.publish(self._channels.slave_command.name, self._slave_command.tobytes())
+        self.command_echo.sent(self._position, self._slave.utime)

@@ -29,24 +29,27 @@ from heft.hardware_interface.message_order import (LATE_TOLERANCE, SourceClock, 
 NOT_OF_LAYOUT = -2
 """``joint_state_rejection``'s code for a payload it cannot read: not a six-joint message of the type."""
 # Where a type carries the state (``JointStateFields.at``): the message's size, then the byte offsets of
-# utime, num_joints, the positions, the velocities, the error flag and the buttons (−1: none).
-SIZE, UTIME, COUNT, POSITION, VELOCITY, ERROR, BUTTONS = range(7)
+# utime, num_joints, the positions, the velocities, the error flag, the buttons and the commanded
+# positions (−1: none).
+SIZE, UTIME, COUNT, POSITION, VELOCITY, ERROR, BUTTONS, COMMANDED = range(8)
 # The reader's memory: the last accepted stamp (s, the driver's clock), its buttons and its utime (µs).
 STAMP, BUTTON_BITS, STAMP_UTIME = range(3)
 
 
 class JointStateFields:
-    """Where a joint-state type carries (utime, num_joints, position, velocity, error, buttons): the
-    fields named ``position`` and ``velocity``, and ``error`` / ``buttons`` if it has them (else
-    False / 0). ``at`` holds their byte offsets in a message of six joints (``SIZE`` … ``BUTTONS``)."""
+    """Where a joint-state type carries (utime, num_joints, position, velocity, error, buttons,
+    commanded): the fields named ``position`` and ``velocity``, and ``error`` / ``buttons`` /
+    ``commanded`` (the command the driver steps on) if it has them (else False / 0 / none). ``at``
+    holds their byte offsets in a message of six joints (``SIZE`` … ``COMMANDED``)."""
 
     def __init__(self, lcm_type, position: str, velocity: str, error: str | None = None,
-                 buttons: str | None = None):
+                 buttons: str | None = None, commanded: str | None = None):
         self.lcm_type = lcm_type
         layout = FixedLayout(lcm_type, num_joints=NUM_JOINTS)
         self.fingerprint = layout.fingerprint
         self.at = np.array([layout.size] + [-1 if name is None else layout.offset(name) for name in
-                                            ("utime", "num_joints", position, velocity, error, buttons)],
+                                            ("utime", "num_joints", position, velocity, error, buttons,
+                                             commanded)],
                            dtype=np.int64)
         self._position, self._velocity = position, velocity
 
@@ -57,8 +60,9 @@ class JointStateFields:
 
 
 HAPTIC_STATE = JointStateFields(heft_haptic_state, "position", "velocity", "error", "buttons")
-IIWA_STATUS = JointStateFields(lcmt_iiwa_status, "joint_position_measured", "joint_velocity_estimated")
-"""The arm driver's status carries no error flag and no buttons."""
+IIWA_STATUS = JointStateFields(lcmt_iiwa_status, "joint_position_measured", "joint_velocity_estimated",
+                               commanded="joint_position_commanded")
+"""The arm driver's status carries no error flag and no buttons; it echoes the command it steps on."""
 
 
 class JointStateReader:
@@ -68,18 +72,19 @@ class JointStateReader:
     ``joint_range`` is what the device can report; a source silent for ``silence`` s gives way to
     the next (``SourceClock``). After ``take``: ``position``, ``velocity`` (rad, rad/s; updated in
     place), ``buttons``, ``t_good`` (the station time, s, of the last accepted message; −inf before
-    the first), ``utime`` (its stamp, µs on the driver's clock; 0 before the first), ``rejections``
-    and ``clock``."""
+    the first), ``utime`` (its stamp, µs on the driver's clock; 0 before the first), ``commanded``
+    (rad: the command the driver says it stepped on, where its type carries one; else zeros),
+    ``rejections`` and ``clock``."""
 
     def __init__(self, fields: JointStateFields, joint_range: JointRange, silence: float):
         self._fields = fields
-        self.position, self.velocity = np.zeros(NUM_JOINTS), np.zeros(NUM_JOINTS)
+        self.position, self.velocity, self.commanded = np.zeros(NUM_JOINTS), np.zeros(NUM_JOINTS), np.zeros(NUM_JOINTS)
         self.rejections = Rejections()
         self.clock = SourceClock(silence)
         self._memory = np.zeros(3)
         self._arguments = (fields.fingerprint, fields.at, self.clock.state, self._memory, joint_range.lower,
                            joint_range.upper, joint_range.velocity, joint_range.speed, self.position, self.velocity,
-                           np.zeros(2 * NUM_JOINTS), self.rejections.by_code)
+                           self.commanded, np.zeros(2 * NUM_JOINTS), self.rejections.by_code)
 
     @property
     def t_good(self) -> float:
@@ -114,8 +119,8 @@ class JointStateReader:
 
 
 @compiled(f"int64({PAYLOAD}, float64, int64[:], float64[:], float64[:], float64[:], float64[:], float64[:], "
-          "float64[:], float64[:], float64[:], float64[:])")
-def _rejection(payload, now, at, clock, memory, lower, upper, max_velocity, speed, position, velocity,
+          "float64[:], float64[:], float64[:], float64[:], float64[:])")
+def _rejection(payload, now, at, clock, memory, lower, upper, max_velocity, speed, position, velocity, commanded,
                scratch) -> int:
     """``joint_state_rejection`` of a payload of the layout, uncounted."""
     if wire_int(payload, at[COUNT], 4) != NUM_JOINTS:
@@ -149,22 +154,25 @@ def _rejection(payload, now, at, clock, memory, lower, upper, max_velocity, spee
     for j in range(NUM_JOINTS):
         position[j] = q[j]
         velocity[j] = v[j]
+    if at[COMMANDED] >= 0:
+        for j in range(NUM_JOINTS):
+            commanded[j] = wire_double(payload, at[COMMANDED] + 8 * j)
     return ACCEPT
 
 
 @compiled(f"int64({PAYLOAD}, float64, {PAYLOAD}, int64[:], float64[:], float64[:], float64[:], float64[:], "
-          "float64[:], float64[:], float64[:], float64[:], float64[:], int64[:])")
+          "float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], int64[:])")
 def joint_state_rejection(payload, now, fingerprint, at, clock, memory, lower, upper, max_velocity, speed, position,
-                          velocity, scratch, rejected) -> int:
+                          velocity, commanded, scratch, rejected) -> int:
     """Checks one payload read at station time ``now`` (s), in place: accepted, it becomes the
-    reader's state (``position``, ``velocity``, ``memory``); rejected, its reason is counted in
+    reader's state (``position``, ``velocity``, ``commanded``, ``memory``); rejected, its reason is counted in
     ``rejected`` (per code). Returns ``ACCEPT``, the reason's code, or ``NOT_OF_LAYOUT`` (nothing
     counted). ``fingerprint`` and ``at`` are the type's (``JointStateFields``), ``clock`` the
     source's (``message_order``), the limits a ``JointRange``'s; ``scratch``: 12 floats."""
     if not of_layout(payload, fingerprint, at[SIZE]):
         return NOT_OF_LAYOUT
     code = _rejection(payload, now, at, clock, memory, lower, upper, max_velocity, speed, position, velocity,
-                      scratch)
+                      commanded, scratch)
     if code != ACCEPT:
         rejected[code] += 1
     return code

@@ -250,7 +250,7 @@ limits = DeviceLimits(*[np.full(6, value) for value in (-3.0, 3.0, 6.0, -3.0, 3.
                       np.full(6, 100.0))
 bus, channels = lcm.LCM("memq://"), LcmChannels()
 station = HardwareStation(bus, channels, limits)
-out["station"], out["readings"], out["rejected"] = [], [], []
+out["station"], out["readings"], out["rejected"], sent = [], [], [], [np.zeros(6)]
 for k in range(120):
     now = 0.002 * k
     master = heft_haptic_state()
@@ -267,9 +267,11 @@ for k in range(120):
     status.utime, status.num_joints = int(1e6 * now) + 1000 if k != 80 else 3, 6 if k != 90 else 5
     status.joint_position_measured = list(np.full(status.num_joints, 0.2) + 1e-4 * k)
     status.joint_velocity_estimated = [0.01] * status.num_joints
-    for name in ("joint_position_commanded", "joint_position_ipo", "joint_torque_measured",
-                 "joint_torque_commanded", "joint_torque_external"):
+    for name in ("joint_position_ipo", "joint_torque_measured", "joint_torque_commanded", "joint_torque_external"):
         setattr(status, name, [0.0] * status.num_joints)
+    # The command the arm steps on: the last one sent, now and then an older one, or none of ours.
+    echoed = sent[-1 - min(k % 5, len(sent) - 1)] if k % 11 else np.full(6, 9.0)
+    status.joint_position_commanded = list(echoed[:status.num_joints])
     samples = [heft_ft_sample() for _ in range(4)]
     for i, sample in enumerate(samples):
         sample.utime, sample.sample_counter = int(1e6 * now) + 50 * i + 1, 4 * k + i
@@ -295,7 +297,9 @@ for k in range(120):
     out["station"].append([station.healthy, station.gain, station.fault, station.conflicts, station.clutch,
                            station.reanchored, *station.torque_sent, *(station.position_sent
                                                                        if station.position_sent is not None
-                                                                       else np.zeros(6))])
+                                                                       else np.zeros(6)), station.command_echo.lag])
+    if station.position_sent is not None:
+        sent.append(station.position_sent.copy())
     out["rejected"].append(np.concatenate([reader.rejections.by_code for reader in station._readers]))
 np.savez(sys.argv[1], **{name: np.asarray(value) for name, value in out.items()})
 """

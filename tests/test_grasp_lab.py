@@ -91,6 +91,8 @@ def lab_run():
 
 def test_the_grasp_is_heard_from_the_driver_and_the_object_learned(lab_run):
     summary, results = lab_run
+    lag = summary["arm_command_lag"]  # one clock: every command on time, each echoed
+    assert lag["statuses"] > 10000 and (lag["late"], lag["unmeasured"]) == (0, 0)
     events = summary["load_events"]
     assert "re-zeroed" in events[1] and events[2].startswith("gripper driver: grasp"), events
     assert summary["estimator"]["holding"]
@@ -142,6 +144,10 @@ def test_a_paused_loop_rings_the_mount(pause):
     late = truth["arm_late_steps"] * 1e-6
     np.testing.assert_allclose(late, np.column_stack((PAUSE_AT + PERIOD * np.arange(2, skipped + 2),
                                                       PERIOD * np.arange(2, skipped + 2))), atol=1e-7)
+    # The controller saw the same from the arm's echo, at the one status it read after the pause.
+    lag = summary["arm_command_lag"]
+    assert (lag["late"], lag["max_lag"], lag["unmeasured"]) == (1, skipped, 0)
+    assert lag["max_lag_utime"] * 1e-6 == pytest.approx(late[-1, 0])
     if skipped == 1:
         assert result["pauses"] == [] and result["after_pause"] == []
     else:

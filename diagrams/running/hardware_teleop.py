@@ -42,6 +42,7 @@ from heft.diagrams.scenario import Scenario
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop import MakeRealtimeTeleopController
 from heft.hardware_interface.channels import LcmChannels
+from heft.hardware_interface.command_echo import SENT_KEEP
 from heft.hardware_interface.hardware_station import WATCHED_CHANNELS, HardwareStation, HardwareStationParams
 from heft.hardware_interface.lcm_mailbox import open_buses
 from heft.hardware_interface.load_commands import LoadCommandServer
@@ -234,6 +235,7 @@ class HardwareTeleop:
             "stylus_force_peak": self.stylus_force_peak,
             "stylus_torque_peak": self.stylus_torque_peak,
             "max_slave_command_step": self.max_slave_step,
+            "arm_command_lag": station.command_echo.summary(),
             "slave_reanchors": {"count": self.reanchors, "max_step": self.max_reanchor_step},
             "rejected": station.rejections,
             "unread": station.unread,
@@ -259,6 +261,21 @@ class HardwareTeleop:
             summary |= {"samples_since_new_load": estimator.num_samples, "skipped": estimator.num_skipped,
                         "stale_since_new_load": estimator.num_stale, "phi_history": self.phi_history}
         return summary
+
+
+def format_command_lag(lag: dict) -> str:
+    """The line of ``summary``'s "arm_command_lag" (``CommandEcho.summary``)."""
+    if not lag["statuses"]:
+        return "the arm's commands: no status heard after a command"
+    measured = lag["statuses"] - lag["unmeasured"]
+    text = (f"the arm's commands, as its status echoes them: late at {lag['late']} of {measured} statuses "
+            f"(stepped on an older one than the last status's answer)")
+    if lag["late"]:
+        text += f", by up to {lag['max_lag']} step(s) (status at {lag['max_lag_utime'] * 1e-6:.4f} s on its clock)"
+    if lag["unmeasured"]:
+        text += (f"; {lag['unmeasured']} echoed none of the last {SENT_KEEP} commands sent (not measured; at every "
+                 "status: a driver that filters its commands or echoes none)")
+    return text
 
 
 TORQUE_NOT_FINITE, TORQUE_PEAK, STYLUS_FORCE_PEAK, STYLUS_TORQUE_PEAK, SLAVE_STEP, REANCHOR_STEP = range(6)
@@ -380,6 +397,7 @@ def format_summary(summary: dict, lcm_url: str) -> str:
         f"stylus; largest slave command step {summary['max_slave_command_step']:.3g} rad (besides "
         f"{reanchors['count']} start(s) from the measured position, up to {reanchors['max_step']:.3g} rad from the "
         "last command)",
+        format_command_lag(summary["arm_command_lag"]),
         "load commands: " + ("; ".join(f"{count}× {event}" if count > 1 else event
                                        for event, count in collections.Counter(summary["load_events"]).items())
                              or "none"),

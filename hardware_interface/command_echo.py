@@ -1,0 +1,80 @@
+"""How late the arm stepped on our commands, from its status's echo of the command it steps on.
+
+The controller answers the arm's status of one step with a command its next step should take.
+When the loop pauses, or its command reaches the driver after the step, the arm steps on an
+older one and holds its setpoint: in fast strokes that rings a compliant tool mount
+(README, "The grasp on hardware"). ``lcmt_iiwa_status.joint_position_commanded`` says which
+command the arm stepped on; ``CommandEcho`` remembers the last ``SENT_KEEP`` commands sent with
+the status each answered, finds the echoed one (the newest equal to it: an echo is a copy) and
+measures its lag: the steps between the status it answered and the status that echoes it, less
+the one of a command on time. A driver whose echo matches none of them (one that filters its
+commands, or echoes none) leaves the lag unmeasured, and says so by its count.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from heft.systems.compiled import compiled
+from heft.systems.slave_kinematics import NUM_JOINTS
+
+SENT_KEEP = 64
+"""Commands remembered: 32 ms at 2 kHz, past the watchdog's 20 ms."""
+
+
+@compiled("int64(float64[:, :], int64[:], int64, float64[:])")
+def echoed_status_utime(sent, answered, count, commanded) -> int:
+    """The utime (µs, the driver's) of the status that the newest of the last ``count`` commands sent
+    (ring ``sent`` (K, 6) rad, ``answered`` (K,) the utimes of the statuses they answered) equal to
+    ``commanded`` (6, rad) answered; −1 if none of the last K is."""
+    keep = sent.shape[0]
+    for back in range(min(count, keep)):
+        row = (count - 1 - back) % keep
+        same = True
+        for j in range(sent.shape[1]):
+            if sent[row, j] != commanded[j]:
+                same = False
+                break
+        if same:
+            return answered[row]
+    return -1
+
+
+class CommandEcho:
+    """The lag of the commands the arm stepped on (module docstring), for an arm stepping every
+    ``step`` s. After each ``heard``: ``lag`` (steps; −1 unmeasured), and over the run ``statuses``
+    (heard after a command was sent), ``late`` (lag ≥ 1), ``unmeasured``, ``max_lag`` and ``max_lag_utime``
+    (µs, the status that showed it)."""
+
+    def __init__(self, step: float):
+        self._step_us = step * 1e6
+        self._sent, self._answered, self._count = np.zeros((SENT_KEEP, NUM_JOINTS)), np.zeros(SENT_KEEP, np.int64), 0
+        self.lag, self.statuses, self.late, self.unmeasured, self.max_lag, self.max_lag_utime = -1, 0, 0, 0, 0, 0
+
+    def sent(self, position: np.ndarray, answered_utime: int) -> None:
+        """A command ``position`` (6, rad) sent in answer to the status stamped ``answered_utime`` (µs)."""
+        row = self._count % SENT_KEEP
+        self._sent[row] = position
+        self._answered[row] = answered_utime
+        self._count += 1
+
+    def heard(self, utime: int, commanded: np.ndarray) -> None:
+        """A new status stamped ``utime`` (µs) echoing ``commanded`` (6, rad, float64)."""
+        if not self._count:
+            return
+        self.statuses += 1
+        answered = echoed_status_utime(self._sent, self._answered, self._count, commanded)
+        if answered < 0:
+            self.lag = -1
+            self.unmeasured += 1
+            return
+        self.lag = max(round((utime - answered) / self._step_us) - 1, 0)
+        if self.lag:
+            self.late += 1
+            if self.lag > self.max_lag:
+                self.max_lag, self.max_lag_utime = self.lag, utime
+
+    def summary(self) -> dict:
+        """The counts (JSON-serialisable)."""
+        return {"statuses": self.statuses, "late": self.late, "unmeasured": self.unmeasured, "max_lag": self.max_lag,
+                "max_lag_utime": self.max_lag_utime}
