@@ -73,7 +73,8 @@ class JointStateReader:
     the next (``SourceClock``). After ``take``: ``position``, ``velocity`` (rad, rad/s; updated in
     place), ``buttons``, ``t_good`` (the station time, s, of the last accepted message; −inf before
     the first), ``utime`` (its stamp, µs on the driver's clock; 0 before the first), ``commanded``
-    (rad: the command the driver says it stepped on, where its type carries one; else zeros),
+    (rad: the command the driver says it stepped on, where its type carries one, else zeros; not
+    checked, as the station only compares it with the commands it sent: ``command_echo``),
     ``rejections`` and ``clock``."""
 
     def __init__(self, fields: JointStateFields, joint_range: JointRange, silence: float):

@@ -122,14 +122,14 @@ def test_while_moving_the_stylus_follows_contact_and_eta_of_the_objects_wrench(l
 def test_a_paused_loop_rings_the_mount(pause):
     """The controller's computer pauses once in the strokes (from ``PAUSE_AT`` s), the lab's drivers running
     on: the arm holds its last command through the pause, then takes the command the master's motion
-    meanwhile asks for; the stand-in's truth records each step its arm took on a late command. One tick
-    skipped (the loop's usual hiccup: a tick 1 ms after the last) leaves every window within the bound,
-    and the judge sees no pause. A 4 ms pause in these strokes (the slave's joints
-    at up to 2 rad/s) brakes the arm hard enough to ring the load on its compliant mount, and the ring is
-    the object's own non-contact wrench, which the stylus does not render: the accelerometer sits on the
-    sensor, not on the rocking load, and the contact channel's notch holds the ring back from the stylus by
-    design. The windows in the pause and its ring miss the bound (the judge sets them apart); those before
-    and after it meet it."""
+    meanwhile asks for; the stand-in's truth records each step its arm took on a late command, and the
+    controller sees the lag in the arm's echo of the command it took. One tick skipped (the loop's usual
+    hiccup: a tick 1 ms after the last) leaves every window within the bound, and the judge sees no pause.
+    A 4 ms pause in these strokes (the slave's joints at up to 2 rad/s) brakes the arm hard enough to ring
+    the load on its compliant mount, and the ring is the object's own non-contact wrench, which the stylus
+    does not render: the accelerometer sits on the sensor, not on the rocking load, and the contact
+    channel's notch holds the ring back from the stylus by design. The windows in the pause and its ring
+    miss the bound (the judge sets them apart); those before and after it meet it."""
     end = STILL_FROM + 0.1
     summary, truth, commands, master, slave, scenario = run_lab(
         end, pauses=lambda now: 0 < round((now - PAUSE_AT) / PERIOD) <= round(pause / PERIOD))
