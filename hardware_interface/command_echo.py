@@ -19,7 +19,7 @@ from heft.systems.compiled import compiled
 from heft.systems.slave_kinematics import NUM_JOINTS
 
 SENT_KEEP = 64
-"""Commands remembered: 32 ms at 2 kHz, past the watchdog's 20 ms."""
+"""Commands remembered: an echo can be found while at most this many were sent after it (32 ms at 2 kHz)."""
 
 
 @compiled("int64(float64[:, :], int64[:], int64, float64[:])")
@@ -43,13 +43,17 @@ def echoed_status_utime(sent, answered, count, commanded) -> int:
 class CommandEcho:
     """The lag of the commands the arm stepped on (module docstring), for an arm stepping every
     ``step`` s. After each ``heard``: ``lag`` (steps; −1 unmeasured), and over the run ``statuses``
-    (heard after a command was sent), ``late`` (lag ≥ 1), ``unmeasured``, ``max_lag`` and ``max_lag_utime``
-    (µs, the status that showed it)."""
+    (heard after a command was sent), ``late`` (lag ≥ 1), ``unmeasured`` (since the first echo found: the
+    status before it echoes what the driver held before the first command), ``max_lag`` and
+    ``max_lag_at`` (s after the first status heard after a command, on the driver's clock). A status
+    stamped at or before the last (a restarted driver) starts it afresh: the commands sent before answered
+    another clock."""
 
     def __init__(self, step: float):
         self._step_us = step * 1e6
         self._sent, self._answered, self._count = np.zeros((SENT_KEEP, NUM_JOINTS)), np.zeros(SENT_KEEP, np.int64), 0
-        self.lag, self.statuses, self.late, self.unmeasured, self.max_lag, self.max_lag_utime = -1, 0, 0, 0, 0, 0
+        self._last_utime, self._first_utime, self._matched = None, None, False
+        self.lag, self.statuses, self.late, self.unmeasured, self.max_lag, self.max_lag_at = -1, 0, 0, 0, 0, 0.0
 
     def sent(self, position: np.ndarray, answered_utime: int) -> None:
         """A command ``position`` (6, rad) sent in answer to the status stamped ``answered_utime`` (µs)."""
@@ -60,21 +64,29 @@ class CommandEcho:
 
     def heard(self, utime: int, commanded: np.ndarray) -> None:
         """A new status stamped ``utime`` (µs) echoing ``commanded`` (6, rad, float64)."""
+        if self._last_utime is not None and utime <= self._last_utime:
+            self._count, self._matched, self._first_utime = 0, False, None
+        self._last_utime = utime
         if not self._count:
             return
-        self.statuses += 1
+        if self._first_utime is None:
+            self._first_utime = utime
         answered = echoed_status_utime(self._sent, self._answered, self._count, commanded)
-        if answered < 0:
+        if answered < 0 or utime <= answered:
             self.lag = -1
-            self.unmeasured += 1
+            if self._matched:
+                self.statuses += 1
+                self.unmeasured += 1
             return
-        self.lag = max(round((utime - answered) / self._step_us) - 1, 0)
-        if self.lag:
+        self._matched = True
+        self.statuses += 1
+        self.lag = round((utime - answered) / self._step_us) - 1
+        if self.lag > 0:
             self.late += 1
             if self.lag > self.max_lag:
-                self.max_lag, self.max_lag_utime = self.lag, utime
+                self.max_lag, self.max_lag_at = self.lag, (utime - self._first_utime) * 1e-6
 
     def summary(self) -> dict:
         """The counts (JSON-serialisable)."""
         return {"statuses": self.statuses, "late": self.late, "unmeasured": self.unmeasured, "max_lag": self.max_lag,
-                "max_lag_utime": self.max_lag_utime}
+                "max_lag_at": self.max_lag_at}

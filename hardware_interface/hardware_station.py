@@ -319,9 +319,10 @@ class HardwareStation:
         master.take(mail[0].take(), now)
         self.clutch = bool(master.buttons & CLUTCH_BUTTON)
         slave.take(mail[1].take(), now)
-        if slave.utime != self._echo_utime:
-            self._echo_utime = slave.utime
-            self.command_echo.heard(slave.utime, slave.commanded)
+        utime = slave.utime
+        if utime != self._echo_utime:
+            self._echo_utime = utime
+            self.command_echo.heard(utime, slave.commanded)
         ft.take(mail[2].take(), now)
         self.gripper_events = self._gripper.take(mail[3].take(), now)
         watchdog = self._params.watchdog
@@ -379,4 +380,4 @@ class HardwareStation:
         self.position_sent = self._position
         encode_slave_command(self._slave_command, self._slave_at, utime, self._position)
         self._command_bus.publish(self._channels.slave_command.name, self._slave_command.tobytes())
-        self.command_echo.sent(self._position, self._slave.utime)
+        self.command_echo.sent(self._position, self._echo_utime)

@@ -5,7 +5,7 @@ stand-in's recorded truth.
 Every time is on the stand-in's clock (s). ``judge`` takes
 
 - ``truth``: the stand-in's ``TruthRecord`` arrays (``utime``, ``phi``, ``wrench_noncontact_object``,
-  ``wrench_contact``, ``phi_gripper``);
+  ``wrench_contact``, ``phi_gripper``, ``arm_late_steps``);
 - ``phi_history``: (t, φ̂) the controller used, and ``phi_gripper`` the φ_gr it kept at the grasp;
 - ``commands``: (t, master joint torques sent, enabled), ``master``/``slave``: (t, joint positions)
   as the drivers published them;
@@ -35,12 +35,12 @@ GRAVITY = 9.81
 ARM_PERIOD = 1.0 / LcmChannels().slave_status.rate
 """s: the stand-in's arm steps as its driver publishes its status (the lab's channels as both tests run it)."""
 PAUSE_STEPS, PAUSE_SPAN = 3, 0.01
-"""A pause: within ``PAUSE_SPAN`` s (half the mount's ring period) the arm stepped on late commands (the
-truth's ``arm_late_steps``) that lagged ``PAUSE_STEPS`` or more of its steps behind in all, beyond the one
-step of a command on time (a command k steps old lags k − 1): as when the controller's loop pauses, or its
-commands reach the arm after the arm's step. In one process, in the strokes, one tick skipped (a lag of 1)
-or two a tick apart (2) keep every window within the bound (at most 4.1 %); two in a row (3) miss it by up
-to 6 %, four (10) by 17 %, eight (36) by 45 %."""
+"""A pause: the arm stepped on late commands (the truth's ``arm_late_steps``), each within ``PAUSE_SPAN`` s
+(half the mount's ring period) of the last, that lagged ``PAUSE_STEPS`` or more of its steps behind in all,
+beyond the one step of a command on time (a command k steps old lags k − 1): as when the controller's loop
+pauses, or its commands reach the arm after the arm's step. In one process, in the strokes, one tick
+skipped (a lag of 1) or two a tick apart (2) keep every window within the bound (at most 4.1 %); two in a
+row (3) miss it by up to 6 %, four (10) by 17 %, eight (36) by 45 %."""
 RING_SETTLE = 0.4
 """s after a pause: the ring of the grasp scenario's load on its mount (rocking at 48 Hz, 4 % of critical
 damping: its envelope falls e-fold in 83 ms) has fallen below the bound within 0.2 s of a 4 ms pause and
@@ -131,8 +131,8 @@ def report(result: dict) -> str:
              f"span starts, worst since {100 * result['mass_error_max']:.2f} %; stylus force peak "
              f"{result['stylus_force_peak']:.3f} N"]
     pauses = [f"{first:.4f}–{last:.4f} s ({lag})" for first, last, lag in result["pauses"]]
-    lines.append(f"pauses (the arm's commands {PAUSE_STEPS}+ steps late in all within {1e3 * PAUSE_SPAN:g} ms; "
-                 f"s, lag): {', '.join(pauses) or 'none'}")
+    lines.append(f"pauses (the arm's commands {PAUSE_STEPS}+ steps late in all, {1e3 * PAUSE_SPAN:g} ms apart at "
+                 f"most; s, lag): {', '.join(pauses) or 'none'}")
     for phase in ("still", "moving", "after_pause"):
         errors = np.array(result[phase])
         if errors.size:

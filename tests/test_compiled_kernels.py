@@ -269,7 +269,7 @@ for k in range(120):
     status.joint_velocity_estimated = [0.01] * status.num_joints
     for name in ("joint_position_ipo", "joint_torque_measured", "joint_torque_commanded", "joint_torque_external"):
         setattr(status, name, [0.0] * status.num_joints)
-    # The command the arm steps on: the last one sent, now and then an older one, or none of ours.
+    # The command the arm steps on: the last one sent or one to four older, or (every 11th) none of ours.
     echoed = sent[-1 - min(k % 5, len(sent) - 1)] if k % 11 else np.full(6, 9.0)
     status.joint_position_commanded = list(echoed[:status.num_joints])
     samples = [heft_ft_sample() for _ in range(4)]
@@ -326,6 +326,8 @@ def test_the_plain_python_kernels_equal_the_compiled_ones(tmp_path):
     refused = {REASONS[code] for per_channel in rejected for code in np.flatnonzero(per_channel)}
     assert refused >= {"undecodable", "joint_count", "non_finite", "out_of_range", "driver_error"}, refused
     assert fallback["station"][:, 0].any() and not fallback["station"][:, 0].all()  # healthy, and not always
+    lags = set(fallback["station"][:, -1])  # the arm's echo (its statuses 4 steps apart): lags, and none of ours
+    assert -1 in lags and len(lags) >= 4, lags
     enabled = fallback["online"][:, 10]
     assert enabled.any() and not enabled.all() and fallback["online"][-1, 12] > 0  # and stale ticks
     for name, expected in fallback.items():

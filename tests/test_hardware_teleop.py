@@ -114,11 +114,11 @@ def test_the_summary_says_when_the_controller_was_first_healthy():
     assert "healthy in 0 (never)" in format_summary({**summary, "healthy_ticks": 0, "first_healthy": None}, "memq://")
     lag = summary["arm_command_lag"]  # one clock: the arm steps on each answer, its status echoes it
     assert lag["statuses"] > 50 and (lag["late"], lag["unmeasured"]) == (0, 0), lag
-    assert f"late at 0 of {lag['statuses']} statuses" in format_summary(summary, "memq://")
-    late = {**summary, "arm_command_lag": {**lag, "late": 3, "max_lag": 8, "max_lag_utime": 3730000, "unmeasured": 2}}
-    assert ("late at 3 of " + str(lag["statuses"] - 2) + " statuses (stepped on an older one than the last status's "
-            "answer), by up to 8 step(s) (status at 3.7300 s on its clock); 2 echoed none") in format_summary(
-        late, "memq://")
+    assert f"late at 0 of {lag['statuses']} statuses read" in format_summary(summary, "memq://")
+    late = {**summary, "arm_command_lag": {**lag, "late": 3, "max_lag": 8, "max_lag_at": 3.73, "unmeasured": 2}}
+    assert (f"late at 3 of {lag['statuses'] - 2} statuses read (the newest each tick; stepped on an older command "
+            "than the answer to the status before), by up to 8 step(s) (3.7300 s after its first status); 2 echoed "
+            "none") in format_summary(late, "memq://")
 
 
 @pytest.mark.parametrize("sigma", [0.0, 0.2])

@@ -122,6 +122,7 @@ def _run(netns, folder):
         _stop_all(teleop, stand_in, rezero)
     print(stand_in.text(), rezero.text())
     lab = json.loads(stand_in_out.read_text())
+    lab["arm_late_steps"] = np.load(folder / "stand_in.truth.npz")["arm_late_steps"]
     late = max(lab["lateness_ms_by_second"][int(GRASP_AT) - 1:math.ceil(END)])
     if late > LATE_MS:
         return summary, lab, rezero.text(), (
@@ -171,6 +172,16 @@ def test_holding_still_the_stylus_feels_eta_of_the_objects_weight(two_process_ru
     result = judged(two_process_run[3])[1.0]
     assert result["still_expected_force"] == pytest.approx(ETA * result["object_mass"] * 9.81, rel=0.02)
     assert len(result["still"]) > 50 and max(result["still"]) <= BOUND
+
+
+def test_the_controller_sees_the_arms_late_commands_within_what_the_lab_recorded(two_process_run):
+    """Judged or not: the statuses whose echo showed the controller a late command (the newest status each
+    tick) are at most the arm's late steps the stand-in recorded (every step), and lag no more."""
+    summary, lab, _, _ = two_process_run
+    lag, late = summary["arm_command_lag"], lab["arm_late_steps"]
+    assert lag["statuses"] > 10000 and lag["late"] <= len(late)
+    step_us = 1e6 / LcmChannels().slave_status.rate
+    assert lag["max_lag"] <= (round(late[:, 1].max() / step_us) - 1 if len(late) else 0)
 
 
 def test_the_stylus_force_stays_within_the_devices_limits(two_process_run):

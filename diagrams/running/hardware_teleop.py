@@ -266,15 +266,15 @@ class HardwareTeleop:
 def format_command_lag(lag: dict) -> str:
     """The line of ``summary``'s "arm_command_lag" (``CommandEcho.summary``)."""
     if not lag["statuses"]:
-        return "the arm's commands: no status heard after a command"
+        return "the arm's commands: no status echoed one of them"
     measured = lag["statuses"] - lag["unmeasured"]
-    text = (f"the arm's commands, as its status echoes them: late at {lag['late']} of {measured} statuses "
-            f"(stepped on an older one than the last status's answer)")
+    text = (f"the arm's commands, as its status echoes them: late at {lag['late']} of {measured} statuses read "
+            "(the newest each tick; stepped on an older command than the answer to the status before)")
     if lag["late"]:
-        text += f", by up to {lag['max_lag']} step(s) (status at {lag['max_lag_utime'] * 1e-6:.4f} s on its clock)"
+        text += f", by up to {lag['max_lag']} step(s) ({lag['max_lag_at']:.4f} s after its first status)"
     if lag["unmeasured"]:
-        text += (f"; {lag['unmeasured']} echoed none of the last {SENT_KEEP} commands sent (not measured; at every "
-                 "status: a driver that filters its commands or echoes none)")
+        text += (f"; {lag['unmeasured']} echoed none of the last {SENT_KEEP} commands sent (not measured; if most: "
+                 "a driver that filters its commands or echoes none)")
     return text
 
 

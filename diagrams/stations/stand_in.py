@@ -120,6 +120,8 @@ _UTIME, _COUNTER, _WRENCH, _ACCELERATION, _SATURATED, _ERROR = range(1, 1 + len(
 _TIME_BYTES, _COUNTER_BYTES, _VECTOR_BYTES, _FLAG_BYTES = (int(SAMPLE_BYTES[column - 1]) for column in (
     _UTIME, _COUNTER, _WRENCH, _SATURATED))
 """Bytes a sample's utime, counter, wrench (or acceleration) and flags take (``ft_messages.SAMPLE_BYTES``)."""
+_NAMED_KEEP = 64
+"""Master commands whose named state the lab keeps, to date the slave command of the same tick (32 ms at 2 kHz)."""
 _MASK64 = (1 << 64) - 1
 _MASTER, _SLAVE, _FT, _GRIPPER = range(4)
 """Channel indices; channel i loses messages on random stream i and reorders them on 4 + i, but the
@@ -393,9 +395,11 @@ class StandIn:
         self._qdd = np.zeros(NUM_JOINTS)  # the joints' q̈ at their state (rad/s²)
         self.stylus_force_peak = 0.0
         self.arm_steps_after_a_held_one, self._commands_since_step = 0, 0
-        # The master state (its utime, s) the latest master command names, and the one the arm's command was
-        # computed from (the master command's of the tick that sent it): None before the first.
-        self._state_named = self._arm_command_state = None
+        # The master state (s) each of the latest master commands names, by the command's utime (its tick's, which
+        # that tick's slave command shares); the utime of the slave command in force and the state it was computed
+        # from (s; None until its master command is heard).
+        self._states_named = {}
+        self._arm_command_utime = self._arm_command_state = None
         # The master states published lately: their utimes and (encoder-quantised) joint positions, a ring.
         self._published_utime = np.full(_PUBLISHED_KEEP, -1, dtype=np.int64)
         self._published_position = np.zeros((_PUBLISHED_KEEP, NUM_JOINTS))
@@ -499,15 +503,20 @@ class StandIn:
         other decoded (and a wrong joint count or garbage refused)."""
         pump(self._command_bus)
         for payload in self._slave_commands.take():
-            position = _command_values(self._command_layouts[_SLAVE], lcmt_iiwa_command, payload, "joint_position")
-            if position is not None and math.isfinite(sum(position)):
-                self.slave_command[:] = position
+            values = _command_values(self._command_layouts[_SLAVE], lcmt_iiwa_command, payload, "utime",
+                                     "joint_position")
+            if values is not None and math.isfinite(sum(values[1])):
+                self.slave_command[:] = values[1]
                 self._commands_since_step += 1
+                self._arm_command_utime, self._arm_command_state = values[0], None
         for payload in self._haptic_commands.take():
             values = _command_values(self._command_layouts[_MASTER], heft_haptic_command, payload, "torque",
-                                     "enable", "master_utime")
-            if values is not None:
-                self._state_named = values[2] * 1e-6
+                                     "enable", "master_utime", "utime")
+            if values is not None and values[2] > 0:  # 0: the controller had heard no master state
+                named = self._states_named
+                named[values[3]] = values[2] * 1e-6
+                if len(named) > _NAMED_KEEP:
+                    del named[next(iter(named))]
             if values is not None and values[1] and math.isfinite(sum(values[0])):
                 limits = self._master.effort_limits
                 self._torque_commanded = np.minimum(np.maximum(values[0], -limits), limits)
@@ -535,10 +544,11 @@ class StandIn:
     def _slave_tick(self, tick: int, t: float) -> int:
         if self._commands_since_step > 1:
             self.arm_steps_after_a_held_one += 1
-        if self._commands_since_step:
-            self._arm_command_state = self._state_named
-        if self.truth is not None and self._arm_command_state is not None:
-            self.truth.arm_step(t, t - self._arm_command_state)
+        if self.truth is not None and self._arm_command_utime is not None:
+            if self._arm_command_state is None:
+                self._arm_command_state = self._states_named.get(self._arm_command_utime)
+            if self._arm_command_state is not None:
+                self.truth.arm_step(t, t - self._arm_command_state)
         self._commands_since_step = 0
         u, q, qd, qdd = self._setpoint, self._q, self._qd, self._qdd
         servo_step(*self._servo, self._max_setpoint_step, self.slave_command, u, self._slave, self._deviation, qdd)

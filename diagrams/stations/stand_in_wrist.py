@@ -288,9 +288,9 @@ class TruthRecord:
     ``ft_offsets`` (N, 6, the offsets inside the measurement); ``phi_gripper`` (10); and
     ``arm_late_steps`` (n, 2: utime, age, µs), the arm's steps whose command was computed from a state
     more than ``LATE_STEPS`` of its steps old (as through a pause of the controller: the arm holds its
-    last command; the age of a command is its step's time less that of the master state the tick that
-    sent it named, ``heft_haptic_command.master_utime``). Kept per arm step while running (a few µs),
-    expanded to samples when read."""
+    last command; the age of a command is its step's time less that of the master state named by the
+    master command of the same tick, ``heft_haptic_command.master_utime``, the two paired by their
+    ``utime``). Kept per arm step while running (a few µs), expanded to samples when read."""
 
     def __init__(self, rate: float, phis: dict[bool, np.ndarray], arm_rate: float):
         self._rate, self._phis = rate, phis  # ``Wrist.phis``: holding the object, and not
