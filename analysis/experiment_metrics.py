@@ -68,7 +68,8 @@ def stroke_metrics(runs: dict, axis: int, start: float, end: float) -> dict:
     def swing(sigma):
         return float(np.ptp(runs[sigma]["wrench_feedback"][window[sigma], axis]))
 
-    contact = [np.linalg.norm(run["wrench_contact_true"][window[sigma], :3], axis=1).max() for sigma, run in runs.items()]
+    contact = [np.linalg.norm(run["wrench_contact_true"][window[sigma], :3], axis=1).max()
+               for sigma, run in runs.items()]
     return {"start_s": start, "end_s": end, "contact_peak_N": float(max(contact)),
             "raw_swing_N": swing(max(runs)), "eliminated_swing_N": swing(min(runs))}
 

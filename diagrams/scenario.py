@@ -42,10 +42,10 @@ class MountSpec:
     gets a proportionally softer mount there, so that it rocks where that tool does); a stated
     one is kept as stated, and the station refuses a mount its plant step cannot integrate."""
     rigid: bool = False
-    torque_stiffness: typing.Optional[list[float]] = None  # N·m/rad
-    torque_damping: typing.Optional[list[float]] = None  # N·m·s/rad
-    force_stiffness: typing.Optional[list[float]] = None  # N/m
-    force_damping: typing.Optional[list[float]] = None  # N·s/m
+    torque_stiffness: list[float] | None = None  # N·m/rad
+    torque_damping: list[float] | None = None  # N·m·s/rad
+    force_stiffness: list[float] | None = None  # N/m
+    force_damping: list[float] | None = None  # N·s/m
 
     def validate(self) -> None:
         """Raises ValueError naming the first stated field that is out of range (none when rigid)."""

@@ -56,7 +56,8 @@ def test_simulate_writes_the_log_metrics_and_figure(tmp_path):
     station = MakeSimStation(resolve_scenario("fig6"))
     phi = station.GetOutputPort("truth.phi").Eval(station.CreateDefaultContext())
     estimate = tmp_path / "estimate.yaml"
-    estimate.write_text(yaml.safe_dump({"phi": np.asarray(phi).tolist(), "offsets": [2.0, -1.5, 3.0, 0.04, -0.03, 0.02]}))
+    estimate.write_text(yaml.safe_dump({"phi": np.asarray(phi).tolist(),
+                                        "offsets": [2.0, -1.5, 3.0, 0.04, -0.03, 0.02]}))
     out = tmp_path / "run"
     assert main(["simulate", "fig6", "--sigma", "0", "--duration", "0.1", "--estimate", str(estimate),
                  "--out", str(out)]) == 0
@@ -344,4 +345,5 @@ def test_teleop_waits_busy_only_within_the_duty_limit(tmp_path, capsys):
     assert "the busy wait is a share of the period from 0 to 0.8; got 0.9" in capsys.readouterr().err
     assert not (tmp_path / "summary.json").exists()
     assert main([*run, "--busy-wait", "0.3"]) == 0
-    assert "the last 0.3 of each period waited busy" in json.loads((tmp_path / "summary.json").read_text())["scheduling"]
+    scheduling = json.loads((tmp_path / "summary.json").read_text())["scheduling"]
+    assert "the last 0.3 of each period waited busy" in scheduling

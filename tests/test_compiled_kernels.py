@@ -47,7 +47,8 @@ walk, filter_state, out["sampled"] = np.zeros(6), draws.normal(0, 1, (2, 6)), []
 for k in range(1, 30):  # the simulated sensor's samples: drift, walk, noise, low-pass, saturation, counts
     offsets, measured, saturated = np.empty((3, 1, 6))
     model.sample_into(np.array([5e-4 * k]), model.normals(np.array([k])), walk, True, coefficients if k % 3 else None,
-                      filter_state, draws.normal(0, 1, (1, 6)) * np.array(params.full_scale), offsets, measured, saturated)
+                      filter_state, draws.normal(0, 1, (1, 6)) * np.array(params.full_scale), offsets, measured,
+                      saturated)
     out["sampled"].append(np.concatenate((offsets[0], measured[0], saturated[0], walk)))
 held, state = HeldLowpass(lowpass_coefficients(500.0, 1 / 8000), 4), rng.normal(0, 1, (2, 6))
 out["held"] = np.concatenate([held(state, value) for value in rng.normal(0, 50, (20, 6))])

@@ -133,7 +133,7 @@ def test_sensor_frame_motion_matches_finite_differences_of_the_pose_of_S(slave):
     for _ in range(5):
         q, qd, qdd = random_motion(rng)
 
-        def pose(t):
+        def pose(t, q=q, qd=qd, qdd=qdd):
             plant.SetPositions(context, q + qd * t + 0.5 * qdd * t ** 2)
             X = parts.S.CalcPoseInWorld(context)
             return X.translation(), X.rotation().matrix()

@@ -74,7 +74,7 @@ def test_elimination_returns_exactly_the_contact_wrench(scene):
 
 def test_unity_scales_return_the_offset_free_measurement(scene):
     phi = scene["load"].to_phi()
-    for k, wrench, acc, omega, g in samples(scene):
+    for _, wrench, acc, omega, g in samples(scene):
         feedback, _, _ = scale_wrench(wrench, scene["offsets"], phi, acc, omega, g, 1.0, 1.0, 1.0)
         np.testing.assert_allclose(feedback, wrench - scene["offsets"], atol=1e-10)
 

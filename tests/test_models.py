@@ -139,10 +139,12 @@ def test_every_spatial_inertia_is_physically_valid(name):
 
 def _mdh(alpha, a, theta, d):
     """Craig's modified DH link transform Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i)."""
-    Rx = np.array([[1, 0, 0, 0], [0, np.cos(alpha), -np.sin(alpha), 0], [0, np.sin(alpha), np.cos(alpha), 0], [0, 0, 0, 1]])
+    Rx = np.array([[1, 0, 0, 0], [0, np.cos(alpha), -np.sin(alpha), 0], [0, np.sin(alpha), np.cos(alpha), 0],
+                   [0, 0, 0, 1]])
     Tx = np.eye(4)
     Tx[0, 3] = a
-    Rz = np.array([[np.cos(theta), -np.sin(theta), 0, 0], [np.sin(theta), np.cos(theta), 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
+    Rz = np.array([[np.cos(theta), -np.sin(theta), 0, 0], [np.sin(theta), np.cos(theta), 0, 0], [0, 0, 1, 0],
+                   [0, 0, 0, 1]])
     Tz = np.eye(4)
     Tz[2, 3] = d
     return Rx @ Tx @ Rz @ Tz
@@ -151,8 +153,10 @@ def _mdh(alpha, a, theta, d):
 H = np.pi / 2
 # (alpha_{i-1}, a_{i-1}, theta offset, d_i) — the tables cited in SOURCES.md, typed in again here.
 DH_TABLES = {
-    "rx90.urdf": [(0, 0, 0, 0.420), (-H, 0, -H, 0), (0, 0.450, -H, 0), (-H, 0, 0, 0.450), (H, 0, 0, 0), (-H, 0, np.pi, 0.085)],
-    "rx60.urdf": [(0, 0, 0, 0.341), (-H, 0, -H, 0), (0, 0.290, -H, 0.049), (-H, 0, 0, 0.310), (H, 0, 0, 0), (-H, 0, np.pi, 0.065)],
+    "rx90.urdf": [(0, 0, 0, 0.420), (-H, 0, -H, 0), (0, 0.450, -H, 0), (-H, 0, 0, 0.450), (H, 0, 0, 0),
+                  (-H, 0, np.pi, 0.085)],
+    "rx60.urdf": [(0, 0, 0, 0.341), (-H, 0, -H, 0), (0, 0.290, -H, 0.049), (-H, 0, 0, 0.310), (H, 0, 0, 0),
+                  (-H, 0, np.pi, 0.065)],
 }
 BASES = {"rx90.urdf": "rx90_base", "rx60.urdf": "rx60_base"}
 
@@ -217,7 +221,8 @@ def test_rx90_limits_match_the_datasheet():
 def test_rx60_limits_match_their_source():
     lower, upper, velocity, _ = _limits("rx60.urdf")
     np.testing.assert_allclose(upper, [2.7925, 2.2253, 2.3474, np.deg2rad(270), 2.1031, np.deg2rad(270)], atol=1e-9)
-    np.testing.assert_allclose(lower, [-2.7925, -2.2253, -2.3474, -np.deg2rad(270), -1.9111, -np.deg2rad(270)], atol=1e-9)
+    np.testing.assert_allclose(lower, [-2.7925, -2.2253, -2.3474, -np.deg2rad(270), -1.9111, -np.deg2rad(270)],
+                               atol=1e-9)
     np.testing.assert_allclose(velocity, [5.0, 5.0, 5.5, 7.1, 5.5, 12.2], atol=1e-9)
 
 

@@ -106,7 +106,8 @@ def test_the_hands_reference_and_impedance_against_drakes_rotations():
         R_expected = RotationMatrix(RollPitchYaw(offset * rotation_amplitude)) @ X_0.rotation()
         np.testing.assert_allclose(R_ref, R_expected.matrix(), rtol=0, atol=1e-14)
         np.testing.assert_allclose(p_ref, X_0.translation() + offset * amplitude, rtol=0, atol=1e-15)
-        np.testing.assert_allclose(np.concatenate((w_ref, v_ref)), rate * np.concatenate((rotation_amplitude, amplitude)))
+        np.testing.assert_allclose(np.concatenate((w_ref, v_ref)),
+                                   rate * np.concatenate((rotation_amplitude, amplitude)))
         # The stylus anywhere, up to a half turn from the reference (n = 0: at it).
         R_WE = R_expected if n == 0 else RotationMatrix(RollPitchYaw(rng.uniform(-3, 3, 3)))
         p_WE, w_WE, v_WE = rng.normal(0, 0.3, (3, 3))
@@ -142,7 +143,7 @@ def test_free_space_sensor_reads_the_load_dynamics(free_space):
     q0 = np.array(run.scenario.slave_initial_q)
     phi = run.out("truth.phi")
     worst_physics, worst_sensor, peak_dynamic = 0.0, 0.0, 0.0
-    for k in range(600):
+    for _ in range(600):
         t = run.context.get_time()
         run.command(q0 + 0.25 * (1 - np.cos(2 * np.pi * 2.0 * t)) * np.array([1, -1, 1, 1, 1, 1]))
         reaction, accel = run.out("truth.wrench_sensor"), run.out("truth.acceleration")

@@ -393,7 +393,8 @@ def _print_body(name: str, mass: float, com, inertia) -> None:
     inertia = np.asarray(inertia)
     print(f"{name}: mass {mass:.9g} kg")
     print(f"  com xyz            {_fmt(com)}")
-    print(f"  I about com  ixx iyy izz ixy ixz iyz  {_fmt([inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]])}")
+    about_com = [inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]]
+    print(f"  I about com  ixx iyy izz ixy ixz iyz  {_fmt(about_com)}")
 
 
 def main() -> None:

@@ -22,8 +22,9 @@ the model sees what the simulation simulates):
   ``scenario.controller`` (motion k_t, feedback k_f, force σ, γ and the notch on c). The
   model has no compliant mount: the notch enters with its phase only.
 - environment_stiffness, environment_damping: ``scenario.environment`` (the sheet
-  spring, in contact, even for a scenario whose environment is "none"; the ball-plate contact, 2·10⁵ N/m, is taken as rigid and the plate's mass,
-  tens of grams against tens of kilograms of arm, as zero).
+  spring, in contact, even for a scenario whose environment is "none"; the ball-plate contact,
+  2·10⁵ N/m, is taken as rigid and the plate's mass, tens of grams against tens of kilograms of
+  arm, as zero).
 - period: ``scenario.controller_period``; setpoint_bandwidth: ``slave_setpoint_bandwidth``.
 - forward_delay_ticks = 2: motion scaling and inverse kinematics each hold their result
   as state for one tick (`MotionScaling`, `SlaveInverseKinematics`) before the setpoint
