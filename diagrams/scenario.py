@@ -22,6 +22,7 @@ from pydrake.systems.analysis import SimulatorConfig
 
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station_params import HardwareStationParams
+from heft.hardware_interface.netft import NetFtParams
 from heft.systems.contact_threshold import ContactThresholdParams
 from heft.systems.load_estimation_params import LoadEstimationParams
 from heft.systems.feedback_mapping_params import FeedbackMappingParams
@@ -170,6 +171,8 @@ class LabSpec:
     from the scenario's robot models and sensors (``diagrams.device_limits``)."""
     lcm: LcmChannels = dataclasses.field(default_factory=LcmChannels)
     station: HardwareStationParams = dataclasses.field(default_factory=HardwareStationParams)
+    netft: NetFtParams = dataclasses.field(default_factory=NetFtParams)
+    """The wrist sensor as an ATI Net F/T (``heft driver netft``): its calibration and RDT port."""
 
 
 @dataclasses.dataclass

@@ -1,0 +1,214 @@
+"""ATI's Net F/T over its RDT protocol (UDP): the requests, the records, a stream's checks and the client.
+
+The wire format, as ATI's manuals give it (RDT request and record structures), all big-endian:
+
+* a request, 8 bytes: ``uint16 command_header = 0x1234``, ``uint16 command``, ``uint32 sample_count``
+  (0: stream until stopped); ``command`` 0x0000 stops streaming, 0x0002 starts real-time streaming
+  (one record a packet), 0x0003 buffered streaming (the device's RDT buffer size of records a packet);
+* a record, 36 bytes: ``uint32 rdt_sequence`` (1 for a stream's first record, one more each record
+  sent, wrapping after 2³² − 1), ``uint32 ft_sequence`` (the device's internal sample number),
+  ``uint32 status`` (the system status code; bit 31: an error), then ``int32`` Fx, Fy, Fz, Tx, Ty, Tz
+  in counts. A packet holds one or more records.
+
+Counts become N and N·m through the lab's calibration (``NetFtParams``: counts per N, per N·m). The
+wrench is what the sensor reports, the load's on the sensor: heft's FT channel's sign, flipped by
+``ft_receiver`` alone (docs/design.md §4). Every datagram is untrusted: one of another length is
+refused and counted (``unpack_records``), a record not newer than the stream's last is dropped as
+stale, and a gap in ``rdt_sequence`` counts the records lost on the way (``RdtStream``).
+"""
+
+import dataclasses
+import math
+import socket
+import struct
+
+import numpy as np
+
+from heft.hardware_interface.ft_messages import MAX_SAMPLES, pack_samples
+
+RDT_PORT = 49152
+"""The UDP port a Net F/T answers RDT requests on."""
+COMMAND_HEADER = 0x1234
+"""The first field of every RDT request."""
+STOP_STREAMING, START_REALTIME, START_BUFFERED = 0x0000, 0x0002, 0x0003
+"""RDT commands: stop streaming; stream one record a packet; stream the RDT buffer's records a packet."""
+REQUEST = struct.Struct(">HHI")
+"""An RDT request: command_header, command, sample_count."""
+RECORD = np.dtype([("rdt_sequence", ">u4"), ("ft_sequence", ">u4"), ("status", ">u4"), ("counts", ">i4", (6,))])
+"""An RDT record (36 bytes): the two sequence numbers, the status code, [Fx, Fy, Fz, Tx, Ty, Tz] in counts."""
+STATUS_ERROR = 1 << 31
+"""The status code's error bit: a record that carries it is flagged ``error`` on the FT channel."""
+REORDER_WINDOW = 1024
+"""Records an ``rdt_sequence`` may fall behind the stream's newest and still be a late packet of the
+same stream; further back it is a new stream (a restarted device or a new start request)."""
+_WRAP = 1 << 32
+
+
+def pack_request(command: int, sample_count: int = 0) -> bytes:
+    """The 8 bytes of an RDT request."""
+    return REQUEST.pack(COMMAND_HEADER, command, sample_count)
+
+
+def unpack_request(datagram: bytes) -> tuple[int, int] | None:
+    """(command, sample_count) of an RDT request; None if it is not 8 bytes starting with 0x1234."""
+    if len(datagram) != REQUEST.size:
+        return None
+    header, command, sample_count = REQUEST.unpack(datagram)
+    return (command, sample_count) if header == COMMAND_HEADER else None
+
+
+def pack_records(rdt_sequence, ft_sequence, status, counts) -> bytes:
+    """One packet of n records: the three uint32 columns (n each) and ``counts`` (n, 6) int32."""
+    records = np.zeros(len(rdt_sequence), dtype=RECORD)
+    records["rdt_sequence"], records["ft_sequence"], records["status"] = rdt_sequence, ft_sequence, status
+    records["counts"] = counts
+    return records.tobytes()
+
+
+def unpack_records(datagram: bytes) -> np.ndarray | None:
+    """The records of a packet (``RECORD``, oldest first); None if its length is not a positive
+    multiple of 36 bytes."""
+    if not datagram or len(datagram) % RECORD.itemsize:
+        return None
+    return np.frombuffer(datagram, dtype=RECORD)
+
+
+def record_stamps(count: int, arrival: int, period: int, newest: int) -> list[int]:
+    """Stamps (µs) of a packet's ``count`` records taken at ``arrival`` (µs): its newest there, each
+    older one ``period`` (µs, the RDT output period) before the next, and each after ``newest`` (the
+    last stamp given before) by at least 1 µs, so that a channel's stamps strictly increase."""
+    stamps = []
+    for k in range(count):
+        newest = max(arrival - (count - 1 - k) * period, newest + 1)
+        stamps.append(newest)
+    return stamps
+
+
+def ft_messages_of(records: np.ndarray, counters, stamps, counts_per_unit: np.ndarray) -> list[bytes]:
+    """``heft_ft_samples`` of ``records`` (oldest first), at most ``MAX_SAMPLES`` a message: utime
+    ``stamps`` (µs), sample_counter ``counters``, the wrench in N and N·m (counts over
+    ``counts_per_unit``: the load's on the sensor, as the device reports it), no acceleration (a Net
+    F/T has no accelerometer: 0), nothing saturated, ``error`` where the status has ``STATUS_ERROR``."""
+    wrenches = (records["counts"] / counts_per_unit).ravel().tolist()
+    errors = ((records["status"] & STATUS_ERROR) != 0).tolist()
+    messages = []
+    for first in range(0, len(records), MAX_SAMPLES):
+        last = min(first + MAX_SAMPLES, len(records))
+        n = last - first
+        messages.append(pack_samples(stamps[first:last], counters[first:last], wrenches[6 * first:6 * last],
+                                     [0.0] * 6 * n, [0] * n, errors[first:last]))
+    return messages
+
+
+@dataclasses.dataclass
+class NetFtParams:
+    """A lab's Net F/T; ``Scenario.lab.netft``. The calibration has no default: its values are on the
+    device's configuration page (Counts per Force, Counts per Torque), for forces in N and torques in
+    N·m, and its tool transform must put the reported wrench at S, in S (docs/netft.md)."""
+
+    counts_per_force: float = 0.0
+    """Counts per N of Fx, Fy, Fz; 0: not stated."""
+    counts_per_torque: float = 0.0
+    """Counts per N·m of Tx, Ty, Tz; 0: not stated."""
+    port: int = RDT_PORT
+    """The device's RDT port (UDP)."""
+    buffered: bool = True
+    """Ask for buffered streaming (the device's RDT buffer size of records a packet: a packet per
+    controller tick) rather than real-time streaming (one record a packet)."""
+
+    def validate(self) -> None:
+        """Raises ValueError naming a calibration not stated or not a positive number, or a bad port."""
+        for name in ("counts_per_force", "counts_per_torque"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"state lab.netft.{name} (the Net F/T's calibration: {name.replace('_', ' ')}, "
+                                 f"from its configuration page, for N and N*m); got {value}")
+        if not 0 < self.port < 65536:
+            raise ValueError(f"lab.netft.port must be a UDP port; got {self.port}")
+
+    def counts_per_unit(self) -> np.ndarray:
+        """Counts per N (×3) and per N·m (×3), in the records' order."""
+        return np.array([self.counts_per_force] * 3 + [self.counts_per_torque] * 3)
+
+
+class RdtStream:
+    """The client's view of the records it received: which are new, the records lost on the way,
+    the status bits seen. ``take`` returns the new records' index in the packet and heft's sample
+    counter for each: ``ft_sequence`` unwrapped to 64 bits, strictly increasing (a step of 0 or back,
+    a restarted device, counts 1).
+
+    Counts: ``records`` (new), ``lost`` (``rdt_sequence`` gaps), ``stale`` (a record not newer than
+    the newest: a duplicate or a late packet), ``restarts`` (a stream begun anew: ``rdt_sequence``
+    back by more than ``REORDER_WINDOW``), ``status_bits`` (32: new records with each bit set),
+    ``errors`` (new records with ``STATUS_ERROR``)."""
+
+    def __init__(self):
+        self.records = self.lost = self.stale = self.restarts = self.errors = 0
+        self.status_bits = np.zeros(32, dtype=np.int64)
+        self._rdt = self._ft = None  # the newest record's sequence numbers
+        self._counter = 0
+
+    def take(self, records: np.ndarray) -> tuple[list[int], list[int]]:
+        """(indices, counters) of the new records among ``records`` (a packet's, oldest first)."""
+        indices, counters = [], []
+        for k, (rdt, ft, status) in enumerate(zip(records["rdt_sequence"].tolist(), records["ft_sequence"].tolist(),
+                                                  records["status"].tolist())):
+            if self._rdt is not None:
+                ahead = (rdt - self._rdt) % _WRAP
+                if ahead == 0 or ahead >= _WRAP - REORDER_WINDOW:
+                    self.stale += 1
+                    continue
+                if ahead < _WRAP // 2:
+                    self.lost += ahead - 1
+                else:
+                    self.restarts += 1
+                step = (ft - self._ft) % _WRAP
+                self._counter += step if 0 < step < _WRAP // 2 else 1
+            else:
+                self._counter = ft
+            self._rdt, self._ft = rdt, ft
+            self.records += 1
+            if status:
+                self.status_bits += (status >> np.arange(32)) & 1
+                self.errors += bool(status & STATUS_ERROR)
+            indices.append(k)
+            counters.append(self._counter)
+        return indices, counters
+
+    def status_summary(self) -> dict[str, int]:
+        """Each status bit seen: ``"0x80000000"`` → the new records that carried it."""
+        return {f"0x{1 << bit:08x}": int(n) for bit, n in enumerate(self.status_bits) if n}
+
+
+class NetFtClient:
+    """A UDP socket connected to a Net F/T at (``address``, ``port``): the kernel passes on only its
+    datagrams. ``request`` sends an RDT request; ``receive`` the datagrams waiting, with the wall
+    time (s since the epoch) each was taken."""
+
+    def __init__(self, address: str, port: int = RDT_PORT, receive_buffer: int = 1 << 20):
+        self._socket = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self._socket.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, receive_buffer)
+        self._socket.connect((address, port))
+        self._socket.setblocking(False)
+
+    def fileno(self) -> int:
+        return self._socket.fileno()
+
+    def request(self, command: int, sample_count: int = 0) -> None:
+        """Sends an RDT request; a refused send (nothing listening yet) is left to the caller's retries."""
+        try:
+            self._socket.send(pack_request(command, sample_count))
+        except OSError:
+            pass
+
+    def receive(self, clock) -> list[tuple[bytes, float]]:
+        """Every datagram waiting (at most 64 kB each), with ``clock()`` at its taking."""
+        taken = []
+        while True:
+            try:
+                taken.append((self._socket.recv(65536), clock()))
+            except (BlockingIOError, ConnectionRefusedError):
+                return taken
+
+    def close(self) -> None:
+        self._socket.close()

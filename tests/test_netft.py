@@ -1,0 +1,96 @@
+"""The Net F/T's RDT codec against bytes packed by hand with ``struct`` in the layout of ATI's manual
+(request: >HHI with header 0x1234; record: >III6i, 36 bytes), the stream's checks, and the FT
+messages the driver makes of the records."""
+
+import struct
+
+import numpy as np
+import pytest
+
+from heft.hardware_interface.ft_messages import MAX_SAMPLES, decode_samples
+from heft.hardware_interface.netft import (RECORD, START_BUFFERED, START_REALTIME, STATUS_ERROR, STOP_STREAMING,
+                                           NetFtParams, RdtStream, ft_messages_of, pack_records, pack_request,
+                                           record_stamps, unpack_records, unpack_request)
+
+
+def _record(rdt, ft, status, *counts) -> bytes:
+    return struct.pack(">III6i", rdt, ft, status, *counts)
+
+
+def test_requests_are_the_manuals_eight_bytes():
+    assert pack_request(START_REALTIME) == bytes([0x12, 0x34, 0x00, 0x02, 0, 0, 0, 0])
+    assert pack_request(START_BUFFERED, 1000) == struct.pack(">HHI", 0x1234, 3, 1000)
+    assert pack_request(STOP_STREAMING) == struct.pack(">HHI", 0x1234, 0, 0)
+    assert unpack_request(struct.pack(">HHI", 0x1234, 2, 7)) == (2, 7)
+    assert unpack_request(struct.pack(">HHI", 0x4321, 2, 0)) is None  # another header
+    assert unpack_request(struct.pack(">HHI", 0x1234, 2, 0) + b"\0") is None  # another length
+    assert unpack_request(b"") is None
+
+
+def test_records_read_and_written_in_the_manuals_layout():
+    assert RECORD.itemsize == 36
+    packet = _record(1, 4_000_000_000, 0x80000001, -1, 2, -300, 4, 2**31 - 1, -2**31) + _record(2, 5, 0, *range(6))
+    records = unpack_records(packet)
+    assert records["rdt_sequence"].tolist() == [1, 2]
+    assert records["ft_sequence"].tolist() == [4_000_000_000, 5]
+    assert records["status"].tolist() == [0x80000001, 0]
+    assert records["counts"].tolist() == [[-1, 2, -300, 4, 2**31 - 1, -2**31], list(range(6))]
+    assert pack_records([1, 2], [4_000_000_000, 5], [0x80000001, 0], records["counts"]) == packet
+    for length in (0, 1, 35, 37, 71):
+        assert unpack_records(bytes(length)) is None
+
+
+def test_the_stream_counts_gaps_stale_records_restarts_and_status_bits():
+    stream = RdtStream()
+    take = lambda *rows: stream.take(unpack_records(b"".join(_record(*row, 0, 0, 0, 0, 0, 0) for row in rows)))
+    assert take((1, 100, 0), (2, 101, 0)) == ([0, 1], [100, 101])
+    assert take((5, 120, 0x00010000)) == ([0], [120])  # records 3, 4 lost; ft_sequence steps as it does
+    assert (stream.lost, stream.stale) == (2, 0)
+    assert take((5, 120, 0), (4, 119, 0), (6, 121, STATUS_ERROR)) == ([2], [121])  # a duplicate, a late one
+    assert (stream.stale, stream.errors, stream.records) == (2, 1, 4)
+    assert stream.status_summary() == {"0x00010000": 1, "0x80000000": 1}
+    # A new stream (rdt_sequence from 1, far behind) of a restarted device (ft_sequence from 0): counted, and
+    # the counter still increases.
+    assert take((100_000, 130, 0)) == ([0], [130])
+    assert take((1, 0, 0)) == ([0], [131])
+    assert (stream.restarts, stream.lost) == (1, 2 + 100_000 - 7)
+    # Both sequences wrap after 2**32 - 1; the counter goes on past it.
+    wrapping = RdtStream()
+    rows = [(2**32 - 2, 2**32 - 2), (2**32 - 1, 2**32 - 1), (0, 0), (1, 1)]
+    packet = b"".join(_record(rdt, ft, 0, 0, 0, 0, 0, 0, 0) for rdt, ft in rows)
+    assert wrapping.take(unpack_records(packet))[1] == [2**32 - 2, 2**32 - 1, 2**32, 2**32 + 1]
+    assert (wrapping.lost, wrapping.stale, wrapping.restarts) == (0, 0, 0)
+
+
+def test_ft_messages_carry_the_calibrated_wrench_in_the_sensors_sign():
+    params = NetFtParams(counts_per_force=1_000_000.0, counts_per_torque=500.0)
+    records = unpack_records(_record(1, 10, 0, 1_500_000, -2_000_000, 0, 500, -250, 1)
+                             + _record(2, 11, STATUS_ERROR | 1, 0, 0, 0, 0, 0, 0))
+    stamps = record_stamps(2, 1_000_000, 125, 0)
+    assert stamps == [999_875, 1_000_000]
+    (message,) = ft_messages_of(records, [10, 11], stamps, params.counts_per_unit())
+    first, second = decode_samples(message)
+    assert first.wrench == pytest.approx([1.5, -2.0, 0.0, 1.0, -0.5, 0.002])  # the load on the sensor, unflipped
+    assert (first.utime, first.sample_counter, first.error, first.saturated) == (999_875, 10, False, 0)
+    assert first.acceleration == [0.0] * 6
+    assert (second.utime, second.sample_counter, second.error) == (1_000_000, 11, True)
+    many = unpack_records(b"".join(_record(k + 1, k, 0, 0, 0, 0, 0, 0, 0) for k in range(MAX_SAMPLES + 1)))
+    split = ft_messages_of(many, list(range(MAX_SAMPLES + 1)), list(range(1, MAX_SAMPLES + 2)),
+                           params.counts_per_unit())
+    assert [len(decode_samples(m)) for m in split] == [MAX_SAMPLES, 1]
+
+
+def test_stamps_strictly_increase_across_packets():
+    assert record_stamps(3, 1000, 125, 0) == [750, 875, 1000]
+    assert record_stamps(3, 1000, 125, 900) == [901, 902, 1000]  # a packet bunched behind the last
+    assert np.all(np.diff(record_stamps(4, 10, 125, 20)) > 0)
+
+
+def test_the_calibration_must_be_stated():
+    with pytest.raises(ValueError, match="state lab.netft.counts_per_force"):
+        NetFtParams().validate()
+    with pytest.raises(ValueError, match="counts_per_torque"):
+        NetFtParams(counts_per_force=1e6, counts_per_torque=float("nan")).validate()
+    with pytest.raises(ValueError, match="port"):
+        NetFtParams(counts_per_force=1e6, counts_per_torque=1e6, port=0).validate()
+    NetFtParams(counts_per_force=1e6, counts_per_torque=1e6).validate()
