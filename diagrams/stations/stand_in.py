@@ -352,6 +352,9 @@ class StandIn:
     offsets in the latest sample, heft's sign), ``next_due`` (s, the nominal time of the next message),
     ``truth`` (the ``TruthRecord`` of every FT sample with ``record_truth``, else None).
 
+    ``ft_outlet``, if given, takes the FT messages in place of the LCM channel (``name``, ``count``,
+    ``lost(tick, t)``, ``send(tick, payload)``: ``stand_in_netft.NetFtResponder``).
+
     A "gripper_object" load has a gripper driver too: it closes on the object at ``grasp.grasp_at``
     and opens at ``grasp.release_at`` (``GraspTimes``; by default the scenario's ``load.grasp_at``).
     """
@@ -359,7 +362,7 @@ class StandIn:
     def __init__(self, scenario: Scenario, bus: lcm.LCM, channels: LcmChannels = LcmChannels(),
                  faults: FaultInjection | None = None, clutch_at: float = 0.0,
                  clutch_release_at: float = math.inf, command_bus: lcm.LCM | None = None,
-                 grasp: GraspTimes | None = None, record_truth: bool = False):
+                 grasp: GraspTimes | None = None, record_truth: bool = False, ft_outlet=None):
         scenario.validate()
         self._faults = faults = faults or FaultInjection()
         faults.validate()
@@ -380,6 +383,8 @@ class StandIn:
         self._due = [1.0 / rate for rate in self._rates] + [math.inf] * (_GRIPPER + 1 - len(drivers))
         self._outlets = [_Outlet(bus, channel.name, _GRIPPER_STREAM if i == _GRIPPER else i, faults)
                          for i, channel in enumerate(drivers)]
+        if ft_outlet is not None:  # the FT samples go out another way (``stand_in_netft``: as a Net F/T)
+            self._outlets[_FT] = ft_outlet
         self._delayed = collections.deque()  # (release time (s), newest sample's index, payload) of FT messages
         self._haptic_commands = LcmMailbox(command_bus, channels.master_command.name, keep=64)
         self._slave_commands = LcmMailbox(command_bus, channels.slave_command.name, keep=64)
@@ -626,7 +631,7 @@ class StandIn:
 def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
                  faults: FaultInjection | None = None, clutch_at: float = 0.0, clutch_release_at: float = math.inf,
                  clock=time.perf_counter, sleep=time.sleep, ready=None, stop=None, grasp: GraspTimes | None = None,
-                 truth_path=None) -> dict:
+                 truth_path=None, ft_outlet=None) -> dict:
     """Runs ``StandIn`` on ``channels``' two URLs (``open_buses``) in real time on ``clock`` (s)
     for ``duration`` s or until it dies, waiting between due messages (a late lab catches up
     ``_MAX_STEP`` at a time): with the default
@@ -642,11 +647,12 @@ def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
     ``ready(epoch)``, if given, is called once the lab is built, as it starts publishing, with
     the wall-clock time (s since the Unix epoch) of its clock's zero, the time its ``utime``
     stamps count from; ``stop()``, if given, ends the run early once it returns True. With a
-    ``truth_path``, the ``TruthRecord`` of the run is written there at the end (a .npz).
+    ``truth_path``, the ``TruthRecord`` of the run is written there at the end (a .npz). ``ft_outlet``:
+    ``StandIn``'s.
     """
     bus, command_bus = open_buses(channels)
     lab = StandIn(scenario, bus, channels, faults, clutch_at, clutch_release_at, command_bus, grasp,
-                  record_truth=truth_path is not None)
+                  record_truth=truth_path is not None, ft_outlet=ft_outlet)
     if sleep is time.sleep:
         fd = command_bus.fileno()
 
