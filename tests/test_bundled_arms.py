@@ -147,7 +147,8 @@ def test_ur5e_link_masses_and_centres_of_mass_are_urs():
 def _limits(arm):
     plant, _ = _plant(arm)
     joints = _joints(arm)
-    return (np.array([j.position_lower_limits()[0] for j in joints]), np.array([j.position_upper_limits()[0] for j in joints]),
+    return (np.array([j.position_lower_limits()[0] for j in joints]),
+            np.array([j.position_upper_limits()[0] for j in joints]),
             np.array([j.velocity_upper_limits()[0] for j in joints]),
             np.array([plant.GetJointActuatorByName(f"{j.name()}_motor").effort_limit() for j in joints]))
 
