@@ -8,6 +8,7 @@ from importlib.metadata import entry_points, version
 import pytest
 
 from heft.diagrams.cli import main
+from heft.diagrams.commands import exit_status
 
 
 def run_heft(*args):
@@ -82,15 +83,15 @@ def test_simulate_rejects_an_unknown_scenario():
 
 def test_picture_draws_every_block_of_the_controller(tmp_path, capsys):
     """The DOT text (no Graphviz needed) names each block of Fig. 4 and the station's ports."""
-    out = tmp_path / "controller.dot"
-    assert main(["picture", "--out", str(out)]) == 0
-    text = out.read_text()
+    assert main(["picture", "--format", "dot", "--out", str(tmp_path)]) == 0
+    text = (tmp_path / "teleop_controller.dot").read_text()
     for block in ("master_kinematics", "slave_kinematics", "motion_scaling", "slave_ik", "force_scaling",
                   "feedback_mapping", "passivity", "offsets_hat", "ft.acceleration_measured",
                   "master.torque_commanded"):
         assert block in text, block
-    assert main(["picture", "--out", str(tmp_path / "controller.pdf")]) == 2
-    assert ".svg, .png or .dot" in capsys.readouterr().err
+    (tmp_path / "a_file").write_text("")
+    assert main(["picture", "--out", str(tmp_path / "a_file")]) == 2
+    assert "--out names a folder" in capsys.readouterr().err
 
 
 def test_set_lays_yaml_over_the_scenario_and_names_a_wrong_field(capsys):
@@ -171,7 +172,7 @@ def test_load_sends_without_the_numerical_packages():
             "print(returned, [m for m in ('numba', 'scipy.signal', 'scipy.spatial') if m in sys.modules])")
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert "no status from the controller" in result.stderr  # it got as far as waiting for a healthy one
-    assert result.stdout.strip() == "5 []"
+    assert result.stdout.strip() == f"{exit_status.TIMEOUT} []"
 
 
 def test_on_hardware_the_lab_states_its_sensor_and_mount(tmp_path, capsys):
@@ -340,10 +341,10 @@ def test_teleop_waits_busy_only_within_the_duty_limit(tmp_path, capsys):
     says that its loop waited busy."""
     lab = "{accelerometer: {position: [0.0, 0.0, 0.0]}, controller: {force: {mount_notch: 0}}}"
     run = ["teleop", "--hardware", "--scenario", "fig6", "--set", lab, "--lcm-url", "memq://", "--duration", "0.05",
-           "--rt-priority", "0", "--out", str(tmp_path / "summary.json")]
+           "--rt-priority", "0", "--out", str(tmp_path)]
     assert main([*run, "--busy-wait", "0.9"]) == 2
     assert "the busy wait is a share of the period from 0 to 0.8; got 0.9" in capsys.readouterr().err
-    assert not (tmp_path / "summary.json").exists()
+    assert not (tmp_path / "teleop.json").exists()
     assert main([*run, "--busy-wait", "0.3"]) == 0
-    scheduling = json.loads((tmp_path / "summary.json").read_text())["scheduling"]
+    scheduling = json.loads((tmp_path / "teleop.json").read_text())["scheduling"]
     assert "the last 0.3 of each period waited busy" in scheduling

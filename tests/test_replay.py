@@ -171,9 +171,9 @@ def test_cli_hook_writes_the_replay_and_one_summary_line(replay, tmp_path, capsy
     _, log, summary = replay
     parser = argparse.ArgumentParser()
     add_arguments(parser)
-    out = tmp_path / "cli.html"
+    out = tmp_path / "replay.html"
     args = parser.parse_args([str(Path(summary["path"]).with_name("log.npz")), "--scenario", "fig8",
-                              "--out", str(out), "--fps", "20"])
+                              "--out", str(tmp_path), "--fps", "20"])
     assert run(args) == 0
     printed = capsys.readouterr().out.strip().splitlines()
     assert len(printed) == 1 and str(out) in printed[0]

@@ -226,12 +226,11 @@ def test_the_published_samples_are_the_truth_through_the_sensor(grasped):
 
 
 def test_the_cli_writes_the_truth_beside_the_summary(tmp_path):
-    out = tmp_path / "lab.json"
     assert main(["stand-in", "--scenario", "grasp", "--lcm-url", "memq://", "--duration", "0.05",
-                 "--grasp-at", "0.01", "--out", str(out)]) == 0
-    summary = json.loads(out.read_text())
-    assert summary["truth"] == "lab.truth.npz" and CHANNELS.gripper_state.name in summary["published"]
-    truth = np.load(tmp_path / "lab.truth.npz")
+                 "--grasp-at", "0.01", "--out", str(tmp_path)]) == 0
+    summary = json.loads((tmp_path / "stand_in.json").read_text())
+    assert summary["truth"] == "stand_in.truth.npz" and CHANNELS.gripper_state.name in summary["published"]
+    truth = np.load(tmp_path / "stand_in.truth.npz")
     counters = truth["sample_counter"]
     assert len(counters) >= 0.05 * 8000 and (np.diff(counters) == 1).all() and counters[0] == 1
     np.testing.assert_array_equal(truth["utime"], np.round(counters / 8000 * 1e6))

@@ -83,9 +83,9 @@ class _Process:
 
 def _teleop(netns, folder, *args, label="teleop", settings=STAND_IN_SENSOR):
     """The controller with ``settings`` (``--set``), running (its loop started) until the test
-    stops it; its summary goes to ``folder / f"{label}.json"``."""
+    stops it; its summary goes to ``folder / label / "teleop.json"``."""
     teleop = _Process(netns, folder, label, "teleop", "--hardware", "--lcm-url", LCM_URL, "--set", settings,
-                      "--duration", FOREVER, "--out", str(folder / f"{label}.json"), *args)
+                      "--duration", FOREVER, "--out", str(folder / label), *args)
     teleop.wait_for("teleop: running")
     return teleop
 
@@ -101,7 +101,7 @@ def _summary(teleop, folder, label="teleop") -> dict:
     """Stops the controller and returns its summary."""
     assert teleop.finish() == 0, teleop.text()
     print(teleop.text())
-    return json.loads((folder / f"{label}.json").read_text())
+    return json.loads((folder / label / "teleop.json").read_text())
 
 
 def _stop_all(*processes):
@@ -143,7 +143,7 @@ def test_the_per_block_diagram_steps_in_the_real_time_loop_against_the_stand_in(
     seconds = 3.0
     try:
         teleop = _teleop(netns, tmp_path, "--controller", "diagram")
-        stand_in = _stand_in(netns, tmp_path, "--duration", str(seconds), "--out", str(tmp_path / "stand_in.json"))
+        stand_in = _stand_in(netns, tmp_path, "--duration", str(seconds), "--out", str(tmp_path))
         assert stand_in.wait(timeout=RUN_TIMEOUT) == 0, stand_in.text()
         summary = _summary(teleop, tmp_path)
     finally:
@@ -306,7 +306,7 @@ def test_hostile_traffic_never_reaches_the_motors(netns, tmp_path):
     stand_in = teleop = hostile = None
     try:
         stand_in = _stand_in(netns, tmp_path, "--duration", FOREVER, "--clutch-at", "0.0",
-                             "--out", str(tmp_path / "stand_in.json"))
+                             "--out", str(tmp_path))
         teleop = _teleop(netns, tmp_path, "--record", str(log), settings=WHOLE_WEIGHT)
         time.sleep(1.0)
         hostile = _Process(netns, tmp_path, "hostile", LCM_URL, str(HOSTILE_SECONDS), "7",

@@ -102,14 +102,14 @@ def _run(netns, folder):
     try:
         teleop = _Process(netns, folder, "teleop", "teleop", "--hardware", "--scenario", "grasp", "--lcm-url",
                           LCM_URL, "--set", _settings(), "--estimate", str(estimate), "--duration", FOREVER,
-                          "--record", str(log), "--out", str(folder / "teleop.json"))
+                          "--record", str(log), "--out", str(folder))
         teleop.wait_for("teleop: running")
         # Started with the lab, it re-zeroes once the controller is healthy, with the slave still at rest.
         rezero = _Process(netns, folder, "rezero", "load", "--lcm-url", LCM_URL, "--rezero", "--timeout", "30")
         stand_in = _Process(netns, folder, "stand_in", "stand-in", "--scenario", "grasp", "--lcm-url", LCM_URL,
                             "--set", overrides_text({"operator.start_time": MOVE_FROM}), "--duration", str(END + 1.0),
                             "--grasp-at", str(GRASP_AT), "--clutch-at", "0", "--clutch-release-at", str(STILL_FROM),
-                            "--out", str(stand_in_out))
+                            "--out", str(folder))
         stand_in.wait_for("stand-in: publishing")
         epoch = float(re.search(r"stamps count from ([0-9.]+) s", stand_in.text()).group(1))
         while time.time() < epoch + END:

@@ -4,18 +4,19 @@ Runs `diagrams.studies.apparent_mass.apparent_mass_study` on a free-space scenar
 apparent_mass.png and apparent_mass.json to ``--out``.
 """
 
-import sys
 from pathlib import Path
 
-from heft.diagrams.commands.options import parse_numbers
+from heft.diagrams.commands.options import add_noise, add_out, add_scenario, parse_numbers
 from heft.diagrams.studies.apparent_mass import apparent_mass_study, write_study
 from heft.diagrams.scenario import NOISE_OFF, overrides_text, resolve_scenario
+from heft.diagrams.commands.console import logger
+
+say = logger(__name__)
 
 
 def add_arguments(parser) -> None:
     """The options of ``heft analyze apparent-mass``."""
-    parser.add_argument("--scenario", default="fig6",
-                        help="free-space scenario: bundled name or YAML path (default fig6)")
+    add_scenario(parser, more="one in free space")
     parser.add_argument("--sigmas", default="0,0.5,1,1.5,2", help="σ values, comma separated (default 0,0.5,1,1.5,2)")
     parser.add_argument("--etas", default="0,1",
                         help="η values of the gripper/object runs, comma separated; '' skips them (default 0,1)")
@@ -24,8 +25,8 @@ def add_arguments(parser) -> None:
                              "the device limit (default 0.4)")
     parser.add_argument("--duration", type=float, default=None,
                         help="simulated seconds per run (default: the scenario's)")
-    parser.add_argument("--noise", action="store_true", help="keep the sensor models' noise and offsets (default off)")
-    parser.add_argument("--out", default="out/apparent_mass", help="output folder (default out/apparent_mass)")
+    add_noise(parser, default="off")
+    add_out(parser, "apparent_mass.png, apparent_mass.json", default="out/apparent_mass")
 
 
 def run(args) -> int:
@@ -35,13 +36,14 @@ def run(args) -> int:
     if any(eta > 1 for eta in etas):
         raise ValueError(f"--etas values must lie in [0, 1]; got {args.etas}")
     scenario = resolve_scenario(args.scenario, overrides_text(
-        {**({} if args.noise else NOISE_OFF), "duration": args.duration}))
+        {**(NOISE_OFF if args.noise == "off" else {}), "duration": args.duration}))
     study = apparent_mass_study(scenario, sigmas, etas, amplitude_scale=args.amplitude_scale,
-                                progress=lambda label: print(f"  running {label}", file=sys.stderr, flush=True))
+                                progress=lambda label: say.info(f"  running {label}"))
     png, document = write_study(study, Path(args.out))
     parts = [f"σ={row['sigma']:g}: {row['measured_kg']['hand']:.4f}/{row['expected_kg']:.4f} kg"
              for row in study["sigma_runs"]]
     parts += [f"η={row['eta']:g}: {row['measured_kg']['hand']:.4f}/{row['expected_kg']:.4f} kg"
               for row in study["split_runs"]]
-    print(f"apparent mass at the handle, measured/expected (k_f·s·σ·m): {', '.join(parts)}; wrote {png} and {document}")
+    say.info(f"apparent mass at the handle, measured/expected (k_f·s·σ·m): {', '.join(parts)}; "
+             f"wrote {png} and {document}")
     return 0

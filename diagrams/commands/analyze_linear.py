@@ -10,14 +10,18 @@ from pathlib import Path
 from heft.analysis.linear_teleoperator import analyze, write_figures
 from heft.diagrams.studies.linear_model_params import linear_model_params
 from heft.diagrams.scenario import resolve_scenario
+from heft.diagrams.commands.console import logger
+from heft.diagrams.commands.options import add_out, add_scenario
+
+say = logger(__name__)
 
 
 def add_arguments(parser) -> None:
     """The options of ``heft analyze linear``."""
-    parser.add_argument("--scenario", default="fig8", help="bundled scenario name or YAML path (default fig8)")
+    add_scenario(parser, default="fig8")
     parser.add_argument("--stiffness", type=float, default=None,
                         help="environment stiffness K_e (N/m) to analyse instead of the scenario's")
-    parser.add_argument("--out", default=None, help="output folder (default out/linear/<scenario>)")
+    add_out(parser, "linear.json and the figures", shown="out/linear/SCENARIO")
 
 
 def _format(value, unit: str) -> str:
@@ -34,11 +38,11 @@ def run(args) -> int:
     summary = result.summary()
     (out / "linear.json").write_text(json.dumps(summary, indent=2))
     width = summary["z_width"]
-    print(f"K_e = {params.environment_stiffness:.4g} N/m: max |z| = {summary['spectral_radius']:.5f} "
-          f"(margin {summary['stability_margin']:.2e}), Llewellyn "
-          f"{'absolutely stable' if summary['llewellyn_absolutely_stable'] else 'not absolutely stable'}, "
-          f"Z-width: passive up to {_format(width['passive_stiffness_max_N_per_m'], 'N/m')} "
-          f"({_format(width['passive_stiffness_max_with_grip_N_per_m'], 'N/m')} with the grip), "
-          f"predicted stiffness limit {_format(summary['predicted_stiffness_limit_N_per_m'], 'N/m')}; "
-          f"wrote {out}/linear.json and 4 figures")
+    say.info(f"K_e = {params.environment_stiffness:.4g} N/m: max |z| = {summary['spectral_radius']:.5f} "
+             f"(margin {summary['stability_margin']:.2e}), Llewellyn "
+             f"{'absolutely stable' if summary['llewellyn_absolutely_stable'] else 'not absolutely stable'}, "
+             f"Z-width: passive up to {_format(width['passive_stiffness_max_N_per_m'], 'N/m')} "
+             f"({_format(width['passive_stiffness_max_with_grip_N_per_m'], 'N/m')} with the grip), "
+             f"predicted stiffness limit {_format(summary['predicted_stiffness_limit_N_per_m'], 'N/m')}; "
+             f"wrote {out}/linear.json and 4 figures")
     return 0

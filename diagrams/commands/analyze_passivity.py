@@ -34,6 +34,10 @@ from heft.analysis.run_log import KINDS, RunLog, complete_rows, longest_start, r
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
 from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
 from heft.systems.serial_chain import SerialChain
+from heft.diagrams.commands.console import logger
+from heft.diagrams.commands.options import add_out
+
+say = logger(__name__)
 
 REQUIRED_KEYS = ("t", "master_q", "master_v", "master_force", "passivity_energy", "passivity_damping")
 ENVIRONMENT_KEYS = ("slave_q", "wrench_contact_true")
@@ -148,7 +152,7 @@ def add_arguments(parser) -> None:
                         help="the log's kind (default: told by the file's first bytes)")
     parser.add_argument("--robot", default="rx90", choices=("rx90", "rx60"),
                         help="the slave of the run, for the environment port (default rx90)")
-    parser.add_argument("--out", default=None, help="output folder (default: the log's folder)")
+    add_out(parser, "passivity.png, passivity.json", shown="the log's folder")
 
 
 def run(args) -> int:
@@ -172,5 +176,5 @@ def run(args) -> int:
     active = ", ".join(f"{name} {100 * pc[f'{name}_active_fraction']:.1f} % active, "
                        f"{pc[f'{name}_dissipated_J']:.4g} J dissipated" for name in CHANNELS)
     notes = "".join(f"; {note}" for note in run_log.notes)
-    print(f"{ports}; PC: {active}{notes}; wrote {out / 'passivity.png'} and {out / 'passivity.json'}")
+    say.info(f"{ports}; PC: {active}{notes}; wrote {out / 'passivity.png'} and {out / 'passivity.json'}")
     return 0

@@ -16,6 +16,10 @@ from heft.analysis.stability_map import draw_stability_map, stability_limits
 from heft.diagrams.progress import ProgressBar
 from heft.diagrams.scenario import layered, overrides_text, resolve_scenario
 from heft.diagrams.studies.stability_sweep import AXES, point_scenario, sweep
+from heft.diagrams.commands.console import logger
+from heft.diagrams.commands.options import add_dask, add_out, add_scenario
+
+say = logger(__name__)
 
 
 def axis_values(axis: str, count: int, period: float) -> list[float]:
@@ -39,8 +43,7 @@ def axis_values(axis: str, count: int, period: float) -> list[float]:
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--scenario", default="stability_wall",
-                        help="contact scenario: bundled name or YAML path (default stability_wall)")
+    add_scenario(parser, default="stability_wall", more="one in contact")
     parser.add_argument("--axes", default="stiffness,force_scale",
                         help=f"one or two swept parameters, comma separated, of: {', '.join(AXES)} "
                              "(default stiffness,force_scale)")
@@ -50,8 +53,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--duration", type=float, help="simulated seconds per point (default: the scenario's)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the points' sensor noise (default 0)")
     parser.add_argument("--workers", type=int, help="local worker processes (default: every core)")
-    parser.add_argument("--dask", metavar="ADDRESS", help="run on this Dask scheduler (tcp://host:port)")
-    parser.add_argument("--out", default="out/stability", help="output folder (default out/stability)")
+    add_dask(parser)
+    add_out(parser, "stability_map.png, stability_map.json", default="out/stability")
 
 
 def run(args) -> int:
@@ -64,8 +67,8 @@ def run(args) -> int:
     axes = {name: axis_values(name, args.grid, base.controller_period) for name in names}
     axes["passivity"] = {"both": [0.0, 1.0], "on": [1.0], "off": [0.0]}[args.passivity]
     total = int(np.prod([len(v) for v in axes.values()]))
-    print(f"stability sweep: {total} point(s) of {base.duration:g} s "
-          f"({', '.join(f'{n} × {len(v)}' for n, v in axes.items())})", flush=True)
+    say.info(f"stability sweep: {total} point(s) of {base.duration:g} s "
+             f"({', '.join(f'{n} × {len(v)}' for n, v in axes.items())})")
     bar = ProgressBar(total, "stability sweep")
     results = sweep(base, axes, seed=args.seed, dask_address=args.dask, workers=args.workers, progress=bar.update)
     bar.close()
@@ -77,7 +80,7 @@ def run(args) -> int:
     if predicted:
         line += "; linear model's limit " + ", ".join(
             f"{value:.4g} N/m" + (f" at {y} = {level:.3g}" if y else "") for level, value in predicted.items())
-    print(line + f"; wrote {png} and {document}")
+    say.info(line + f"; wrote {png} and {document}")
     return 0
 
 
@@ -96,7 +99,7 @@ def predicted_stiffness_limits(base, levels, y: str | None) -> dict | None:
             limits[level] = predicted_stiffness_limit(linear_model_params(scenario, point=reused))
         return limits
     except ValueError as error:
-        print(f"no linear prediction: {error}", flush=True)
+        say.warning(f"no linear prediction: {error}")
         return None
 
 

@@ -10,11 +10,13 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from pathlib import Path
 
 import numpy as np
 
-from heft.diagrams.commands.options import add_lcm_urls, scenario_from
+from heft.diagrams.commands.options import add_dask, add_lcm_urls, add_out, add_scenario, out_file, scenario_from
+from heft.diagrams.commands.console import logger
+
+say = logger(__name__)
 
 HELP = "benchmarks, each printed beside a reference measured in the same run"
 
@@ -57,11 +59,11 @@ def _bench_identify(args) -> int:
     bounds = {"wrench": bench.cramer_rao_bound(a, alpha, omega, g, noise),
               "wrench+accelerometer": bench.cramer_rao_bound(a, alpha, omega, g, noise, recording.phi_true)}
     cost = np.sqrt(np.diag(bounds["wrench+accelerometer"]) / np.diag(bounds["wrench"]))
-    print("the accelerometer's noise raises the bound's σ by " + ", ".join(
-        f"{name} ×{cost[i]:.2f}" for i, name in enumerate(PARAMETER_NAMES) if name in bench.SHOWN))
+    say.info("the accelerometer's noise raises the bound's σ by " + ", ".join(
+           f"{name} ×{cost[i]:.2f}" for i, name in enumerate(PARAMETER_NAMES) if name in bench.SHOWN))
     methods = args.methods or list(ALL_METHODS)
-    print(f"{len(recording.t)} samples of a {settings.duration:g} s excitation; {args.runs} runs per noise model; "
-          f"noise {noise}")
+    say.info(f"{len(recording.t)} samples of a {settings.duration:g} s excitation; {args.runs} runs per noise model; "
+             f"noise {noise}")
     results = {}
     for label, accelerometer_noise in (("wrench", False), ("wrench+accelerometer", True)):
         bar = ProgressBar(args.runs, label)
@@ -74,11 +76,10 @@ def _bench_identify(args) -> int:
                           results[label])
         bench.print_ratios(results[label], bench.TARGET_RATIO)
     costs = bench.update_costs(exact_wrench, a, alpha, omega, g, noise)
-    print("\ncost per sample (µs): " + ", ".join(f"{m} {1e6 * c:.1f}" for m, c in costs.items()))
-    print(f"a recursive RTLS update costs {costs['rtls'] / costs['tls']:.0f}× a batch TLS solve's share per sample, "
-          f"and {costs['rtls'] / 500e-6:.1%} of a 2 kHz tick")
-    if args.out:
-        Path(args.out).write_text(json.dumps({"accuracy": results, "cost_per_sample_s": costs}, indent=2) + "\n")
+    say.info("\ncost per sample (µs): " + ", ".join(f"{m} {1e6 * c:.1f}" for m, c in costs.items()))
+    say.info(f"a recursive RTLS update costs {costs['rtls'] / costs['tls']:.0f}× a batch TLS solve's share per sample, "
+             f"and {costs['rtls'] / 500e-6:.1%} of a 2 kHz tick")
+    _write(args, {"accuracy": results, "cost_per_sample_s": costs})
     return 0
 
 
@@ -89,8 +90,7 @@ def _bench_lcm(args) -> int:
     check_busy_wait(args.busy_wait)
     rates = [float(r) for r in args.rates.split(",")]
     results = run(rates, args.duration, args.scenario, scenario_from(args).lab.lcm, args.busy_wait)
-    if args.out:
-        Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
+    _write(args, results)
     return 0
 
 
@@ -111,8 +111,7 @@ def _bench_step(args) -> int:
                                                    accelerometer=convention), sequence, period)
                   for kind, make in (("fused", MakeRealtimeTeleopController), ("diagram", DiagramTeleopController))}}
     bench.report(results, period)
-    if args.out:
-        Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
+    _write(args, results)
     return 0
 
 
@@ -128,8 +127,7 @@ def _bench_compensate(args) -> int:
     else:
         with tempfile.TemporaryDirectory(prefix="heft_bench_compensate_") as folder:
             results = bench(durations, formats, folder, args.cpu)
-    if args.out:
-        Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
+    _write(args, results)
     return 0
 
 
@@ -144,25 +142,25 @@ def add_arguments(parser) -> None:
     identify_parser.add_argument("--runs", type=int, default=100, help="noise realisations per model (default 100)")
     identify_parser.add_argument("--seed", type=int, default=0)
     identify_parser.add_argument("--methods", nargs="+", choices=("ols", "wls", "tls", "eiv_ml", "rls", "riv", "rtls"))
-    identify_parser.add_argument("--out", help="write every number as JSON here")
+    add_out(identify_parser, "bench_identify.json (every number)")
     identify_parser.add_argument("--workers", type=int, help="local worker processes (default: every core)")
-    identify_parser.add_argument("--dask", metavar="ADDRESS", help="run on this Dask scheduler (tcp://host:port)")
+    add_dask(identify_parser)
     identify_parser.set_defaults(bench=_bench_identify)
     lcm_parser = benches.add_parser("lcm", help="the controller against a driver probe over LCM in two processes: "
                                                 "sensor-to-torque latency and the loop rate sustained")
     lcm_parser.add_argument("--rates", default="2000,4000", help="controller rates to try (Hz, default 2000,4000)")
     lcm_parser.add_argument("--duration", type=float, default=5.0, help="controller seconds per rate (default 5)")
-    lcm_parser.add_argument("--scenario", default="fig6", help="controller settings (default fig6)")
+    add_scenario(lcm_parser, more="the controller's settings")
     lcm_parser.add_argument("--busy-wait", type=float, default=0.0,
                             help="the controller's `heft teleop --busy-wait` (default 0)")
     add_lcm_urls(lcm_parser)
-    lcm_parser.add_argument("--out", help="write every number as JSON here")
+    add_out(lcm_parser, "bench_lcm.json (every number)")
     lcm_parser.set_defaults(bench=_bench_lcm)
     step_parser = benches.add_parser("step", help="one controller tick in one process: the fused step against the "
                                                   "per-block Diagram ticked by a forced update")
-    step_parser.add_argument("--scenario", default="fig6", help="controller settings (default fig6)")
+    add_scenario(step_parser, more="the controller's settings")
     step_parser.add_argument("--ticks", type=int, default=4000, help="ticks timed (default 4000)")
-    step_parser.add_argument("--out", help="write every number as JSON here")
+    add_out(step_parser, "bench_step.json (every number)")
     step_parser.set_defaults(bench=_bench_step)
     compensate_parser = benches.add_parser(
         "compensate", help="`heft compensate` on synthetic 8 kHz recordings written to a temporary folder: rate and "
@@ -173,8 +171,15 @@ def add_arguments(parser) -> None:
     compensate_parser.add_argument("--cpu", type=int, default=0, help="the CPU the command is pinned to (default 0)")
     compensate_parser.add_argument("--folder", help="write the recordings here and keep them (default: a temporary "
                                                     "folder, removed run by run)")
-    compensate_parser.add_argument("--out", help="write every number as JSON here")
+    add_out(compensate_parser, "bench_compensate.json (every number)")
     compensate_parser.set_defaults(bench=_bench_compensate)
+
+
+def _write(args, results: dict) -> None:
+    """Every number of a bench as ``bench_NAME.json`` in the ``--out`` folder, if given."""
+    path = out_file(args, f"bench_{args.bench_name}.json")
+    if path is not None:
+        path.write_text(json.dumps(results, indent=2) + "\n")
 
 
 def run(args) -> int:

@@ -266,7 +266,7 @@ def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder:
     if estimator == "online":
         online = yaml.safe_load(overrides_text(ONLINE))
         settings["controller"] = {**settings.get("controller", {}), **online["controller"]}
-    summary_path = folder / f"teleop_{rate_hz:g}_{estimator}.json"
+    summary_folder = folder / f"teleop_{rate_hz:g}_{estimator}"
     probe_path = folder / f"probe_{rate_hz:g}_{estimator}.json"
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONUNBUFFERED="1")
     python = [*prefix, sys.executable]
@@ -274,7 +274,7 @@ def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder:
         [*python, "-m", "heft.diagrams.cli", "teleop", "--hardware", *_url_arguments(channels), "--scenario", scenario,
          "--set", yaml.safe_dump(settings, default_flow_style=True), "--rate", str(rate_hz),
          "--busy-wait", str(busy_wait), "--duration", str(duration + SETTLE),
-         "--out", str(summary_path)],
+         "--out", str(summary_folder)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
     probe = subprocess.Popen(
         [*python, "-m", "heft.diagrams.commands.bench_lcm", "--probe", channels.lcm_url, channels.command_lcm_url(),
@@ -290,7 +290,7 @@ def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder:
     on_time = np.array([step[0] - step[2] <= PROBE_LATE for step in steps], dtype=bool)
     latencies = step_latencies(steps, measured["receipts"], measured["torques"])
     latencies = latencies[on_time & np.isfinite(latencies)]
-    summary = json.loads(summary_path.read_text())
+    summary = json.loads((summary_folder / "teleop.json").read_text())
     timing = summary["timing"]
     receipts = np.asarray(measured["receipts"])
     learned = summary["estimator"].get("samples_since_new_load", 0)
@@ -319,12 +319,12 @@ def bench_stand_in(rate_hz: float, duration: float, channels, scenario: str, fol
     from heft.diagrams.commands.options import lab_settings_text
     from heft.diagrams.scenario import resolve_scenario
 
-    teleop_path, stand_in_path = folder / f"teleop_stand_in_{controller}.json", folder / f"stand_in_{controller}.json"
+    teleop_folder, stand_in_folder = folder / f"teleop_stand_in_{controller}", folder / f"stand_in_{controller}"
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONUNBUFFERED="1")
     cli = [*prefix, sys.executable, "-m", "heft.diagrams.cli"]
     stand_in = subprocess.Popen(
         [*cli, "stand-in", "--scenario", scenario, *_url_arguments(channels), "--duration", str(duration + 4 * SETTLE),
-         "--out", str(stand_in_path)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
+         "--out", str(stand_in_folder)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
     # The controller's run starts once the lab publishes, so that all of it counts.
     started = _wait_for_line(stand_in, "stand-in: publishing", 120.0)
     teleop = subprocess.Popen(
@@ -332,10 +332,11 @@ def bench_stand_in(rate_hz: float, duration: float, channels, scenario: str, fol
          "--set", lab_settings_text(resolve_scenario(scenario), FIXED_ESTIMATE if controller == "diagram" else None),
          "--rate", str(rate_hz),
          "--busy-wait", str(busy_wait), "--controller", controller, "--duration", str(duration),
-         "--out", str(teleop_path)],
+         "--out", str(teleop_folder)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
     _finish({"teleop": (teleop, duration + 120), "stand-in": (stand_in, duration + 120)}, {"stand-in": started})
-    summary, lab = json.loads(teleop_path.read_text()), json.loads(stand_in_path.read_text())
+    summary = json.loads((teleop_folder / "teleop.json").read_text())
+    lab = json.loads((stand_in_folder / "stand_in.json").read_text())
     # The controller ran inside the stand-in's run: its commands per second of its own run.
     lab["received_hz_while_controlled"] = {name: count / summary["duration"]
                                            for name, count in lab["received"].items()}

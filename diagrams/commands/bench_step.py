@@ -14,6 +14,10 @@ import time
 
 import numpy as np
 
+from heft.diagrams.commands.console import logger
+
+say = logger(__name__)
+
 FITS_DIAGRAM_P99 = 400e-6
 """The per-block Diagram is offered on hardware only if its tick's p99 stays below this (s) at 2 kHz."""
 
@@ -67,12 +71,12 @@ def time_controller(controller, sequence, period: float, torques: list | None = 
 def report(results: dict, period: float) -> None:
     """Prints the two side by side, their ratio and whether the Diagram fits."""
     fused, diagram = results["fused"], results["diagram"]
-    print(f"controller tick at {1 / period:.0f} Hz, {results['ticks']} ticks, one process:")
+    say.info(f"controller tick at {1 / period:.0f} Hz, {results['ticks']} ticks, one process:")
     for clock in ("wall", "cpu"):
-        print(f"  {clock:4s} p50 / p99: fused step {fused[clock]['p50_us']:.0f} / {fused[clock]['p99_us']:.0f} µs, "
-              f"per-block Diagram {diagram[clock]['p50_us']:.0f} / {diagram[clock]['p99_us']:.0f} µs "
-              f"(× {diagram[clock]['p50_us'] / fused[clock]['p50_us']:.1f} / "
-              f"{diagram[clock]['p99_us'] / fused[clock]['p99_us']:.1f})")
+        say.info(f"  {clock:4s} p50 / p99: fused step {fused[clock]['p50_us']:.0f} / {fused[clock]['p99_us']:.0f} µs, "
+                 f"per-block Diagram {diagram[clock]['p50_us']:.0f} / {diagram[clock]['p99_us']:.0f} µs "
+                 f"(× {diagram[clock]['p50_us'] / fused[clock]['p50_us']:.1f} / "
+                 f"{diagram[clock]['p99_us'] / fused[clock]['p99_us']:.1f})")
     fits = diagram["wall"]["p99_us"] < 1e6 * FITS_DIAGRAM_P99
-    print(f"the per-block Diagram {'fits' if fits else 'does not fit'} a {1e3 * period:g} ms tick with p99 < "
-          f"{1e6 * FITS_DIAGRAM_P99:.0f} µs (before LCM's receive and send)")
+    say.info(f"the per-block Diagram {'fits' if fits else 'does not fit'} a {1e3 * period:g} ms tick with p99 < "
+             f"{1e6 * FITS_DIAGRAM_P99:.0f} µs (before LCM's receive and send)")

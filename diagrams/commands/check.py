@@ -5,6 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from heft.diagrams.commands.console import logger
+from heft.diagrams.commands.exit_status import CHECK_FAILED, OK
+
+say = logger(__name__)
+
 
 HELP = ("compare Eq. 4 with Drake's dynamics along a random motion")
 
@@ -21,18 +26,18 @@ def run(args) -> int:
 
     rng = np.random.default_rng(args.seed)
     load = InertialParameters.random(rng)
-    print(f"load: m = {load.mass:.3f} kg, c = {np.round(load.com, 4)} m, "
-          f"principal inertia about C = {np.round(np.linalg.eigvalsh(load.inertia_com), 5)} kg·m²")
-    print(f"simulating {args.duration:g} s of random motion of sensor + load in Drake ...")
+    say.info(f"load: m = {load.mass:.3f} kg, c = {np.round(load.com, 4)} m, "
+             f"principal inertia about C = {np.round(np.linalg.eigvalsh(load.inertia_com), 5)} kg·m²")
+    say.info(f"simulating {args.duration:g} s of random motion of sensor + load in Drake ...")
     t, wrench_drake, a, alpha, omega, g = simulate_random_motion(load, rng, duration=args.duration)
     wrench_eq4 = noncontact_wrench(load.to_phi(), a, alpha, omega, g)
     error = np.abs(wrench_eq4 - wrench_drake)
     peak = np.abs(wrench_drake).max(axis=0)
-    print(f"{len(t)} samples; peak |ω| {np.abs(omega).max():.1f} rad/s, "
-          f"|α| {np.abs(alpha).max():.1f} rad/s², |a − g| {np.abs(a - g).max():.1f} m/s²")
-    print(f"peak wrench:            force {peak[:3].max():9.3f} N      torque {peak[3:].max():9.4f} N·m")
-    print(f"max |Eq. 4 − Drake|:    force {error[:, :3].max():9.2e} N      torque {error[:, 3:].max():9.2e} N·m")
+    say.info(f"{len(t)} samples; peak |ω| {np.abs(omega).max():.1f} rad/s, "
+             f"|α| {np.abs(alpha).max():.1f} rad/s², |a − g| {np.abs(a - g).max():.1f} m/s²")
+    say.info(f"peak wrench:            force {peak[:3].max():9.3f} N      torque {peak[3:].max():9.4f} N·m")
+    say.info(f"max |Eq. 4 − Drake|:    force {error[:, :3].max():9.2e} N      torque {error[:, 3:].max():9.2e} N·m")
     relative = error.max() / np.abs(wrench_drake).max()
     ok = relative < 1e-8
-    print(f"relative error {relative:.1e}: {'Eq. 4 matches' if ok else 'MISMATCH with'} Drake's dynamics")
-    return 0 if ok else 1
+    say.info(f"relative error {relative:.1e}: {'Eq. 4 matches' if ok else 'MISMATCH with'} Drake's dynamics")
+    return OK if ok else CHECK_FAILED

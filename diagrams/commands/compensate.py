@@ -1,13 +1,18 @@
 """`heft compensate`: a recorded run's non-contact wrench (Eq. 12) and contact estimate (Eq. 13) per
-wrench sample, from a recording (README "Your own data") and a load estimate."""
+wrench sample, from a recording (docs/recordings.md) and a load estimate."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
 
+from heft.diagrams.commands.console import logger
+from heft.diagrams.commands.options import add_out
+
+say = logger(__name__)
+
 HELP = ("the non-contact wrench V·φ̂ and the contact estimate per wrench sample of a recording "
-        "(README \"Your own data\"), with a figure and metrics")
+        "(docs/recordings.md), with a figure and metrics")
 
 
 def add_arguments(parser) -> None:
@@ -15,7 +20,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--estimate", required=True,
                         help="estimate.yaml (`heft identify`): φ̂, the offsets and, if the recording's accelerometer "
                              "says R_SA or bias 'estimate', its calibration")
-    parser.add_argument("--out", required=True, help="output folder: compensated.csv, figure.png, metrics.json")
+    add_out(parser, "compensated.csv (or .parquet), figure.png, metrics.json", default="out/compensate")
     parser.add_argument("--format", choices=("csv", "parquet"), default="csv",
                         help="compensated.csv (default) or compensated.parquet (same columns; faster to write)")
     parser.add_argument("--contact-threshold", type=float,
@@ -40,6 +45,18 @@ def _return_freed_arrays_to_the_system() -> None:
         pass
 
 
+def _with_progress(chunks, rows: int):
+    """``chunks`` (``MergedSamples``) passed on, the wrench rows done shown as progress."""
+    from heft.diagrams.progress import ProgressBar
+
+    bar, done = ProgressBar(rows, "compensate", unit=" rows"), 0
+    for chunk in chunks:
+        yield chunk
+        done += len(chunk)
+        bar.update(done)
+    bar.close()
+
+
 def run(args) -> int:
     from heft.analysis.clock_offsets import estimate_clock_offsets
     from heft.analysis.compensation import compensate, compensation_figure
@@ -52,12 +69,12 @@ def run(args) -> int:
     source = open_recording(args.recording, args.estimate)
     recording = source.recording
     checked = source.check_rows()
-    print("every row checked before computing: " + ", ".join(f"{name} {rows}" for name, rows in checked.items()))
+    say.info("every row checked before computing: " + ", ".join(f"{name} {rows}" for name, rows in checked.items()))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     for key, value in source.choices.items():
         if not key.endswith("_span"):
-            print(f"{key}: {value}")
+            say.info(f"{key}: {value}")
     offsets = {}
     fits = {}
     if ESTIMATE in source.stated_offsets().values():
@@ -65,13 +82,14 @@ def run(args) -> int:
         fits = estimate_clock_offsets(source, estimate.phi, window=window, search=args.offset_search)
         for name, fit in fits.items():
             offsets[name] = fit.offset
-            print(f"clock offset of {name}: {1e3 * fit.offset:.3f} ms (estimated: V·φ̂ against the wrench"
-                  + ("" if fit.observable else "; NOT observable: the window holds too little motion") + ")")
+            say.info(f"clock offset of {name}: {1e3 * fit.offset:.3f} ms (estimated: V·φ̂ against the wrench"
+                     + ("" if fit.observable else "; NOT observable: the window holds too little motion") + ")")
     offsets = source.resolved_offsets(offsets)
     sign = -1.0 if recording.wrench.exerted_on == "sensor" else 1.0
     path = out / f"compensated.{args.format}"
-    result = compensate(source.chunks(offsets), estimate.phi, estimate.offsets, sign, path,
-                        args.contact_threshold, source.spans["wrench"][2])
+    rows = source.spans["wrench"][2]
+    result = compensate(_with_progress(source.chunks(offsets), rows), estimate.phi, estimate.offsets, sign, path,
+                        args.contact_threshold, rows)
     compensation_figure(result, out / "figure.png")
     choices = {**source.choices, "clock_offsets_s": {
         name: {"offset_s": value, "how": "estimated" if name in fits else "stated",
@@ -81,9 +99,9 @@ def run(args) -> int:
                **result.metrics()}
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2, default=str) + "\n")
     rms = ", ".join(f"{a} {v:.4g}" for a, v in zip(("fx", "fy", "fz", "tx", "ty", "tz"), result.rms))
-    print(f"compensated {result.samples} samples ({result.duration_s:.6g} s) in {result.elapsed_s:.3g} s "
-          f"({result.duration_s / result.elapsed_s:.3g}× real time; CPU {result.cpu_s:.3g} s, "
-          f"{result.duration_s / result.cpu_s:.3g}×) → {path}")
-    print(f"contact: {len(result.intervals)} interval(s) above {result.threshold_N:.3g} N "
-          f"({100 * result.contact_share:.2g} % of samples); residual RMS without contact (N, N·m): {rms}")
+    say.info(f"compensated {result.samples} samples ({result.duration_s:.6g} s) in {result.elapsed_s:.3g} s "
+             f"({result.duration_s / result.elapsed_s:.3g}× real time; CPU {result.cpu_s:.3g} s, "
+             f"{result.duration_s / result.cpu_s:.3g}×) → {path}")
+    say.info(f"contact: {len(result.intervals)} interval(s) above {result.threshold_N:.3g} N "
+             f"({100 * result.contact_share:.2g} % of samples); residual RMS without contact (N, N·m): {rms}")
     return 0

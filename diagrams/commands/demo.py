@@ -5,13 +5,16 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+from heft.diagrams.commands.console import logger
+from heft.diagrams.commands.options import add_out
 
+say = logger(__name__)
 
 HELP = ("identify the paper's tool, then replay its Fig. 6 (about a minute)")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--out", default="out/demo", help="output folder (default out/demo)")
+    add_out(parser, "identify/ (the estimate) and fig6/ (logs, metrics, figure)", default="out/demo")
 
 
 def run(args) -> int:
@@ -23,16 +26,16 @@ def run(args) -> int:
 
     out = Path(args.out)
     scenario = resolve_scenario("fig6")
-    print("1/2 identifying the 3.13 kg tool and the sensor offsets from a 4 s excitation (Sec. IV)")
+    say.info("1/2 identifying the 3.13 kg tool and the sensor offsets from a 4 s excitation (Sec. IV)")
     settings = dataclasses.replace(ExcitationSettings.quick(), base_frequency=0.25, duration=4.0)
     load = identify_in_simulation(scenario, out / "identify", settings)
-    print("2/2 fast vertical motion (Fig. 6): feeding back σ = 1, 0.5, 0 of the non-contact force")
+    say.info("2/2 fast vertical motion (Fig. 6): feeding back σ = 1, 0.5, 0 of the non-contact force")
     metrics = simulate(scenario, load, out / "fig6", PAPER_SIGMAS, name="fig6")
     k_f = scenario.controller.feedback.force_scale
-    print(f"non-contact force at the slave up to {metrics['noncontact_peak_N']:.1f} N "
-          f"({metrics['master_noncontact_peak_N']:.2f} N at the operator's hand); after elimination "
-          f"{metrics['residual_peak_N']:.2f} N remain ({100 * metrics['residual_ratio']:.1f} %, "
-          f"{metrics['residual_peak_N'] * k_f:.3f} N at the hand). Simulated at "
-          f"{metrics['realtime_factor']:.2f}× real time.")
-    print(f"figure: {out / 'fig6' / 'figure.png'}; logs, metrics and the estimate under {out}/")
+    say.info(f"non-contact force at the slave up to {metrics['noncontact_peak_N']:.1f} N "
+             f"({metrics['master_noncontact_peak_N']:.2f} N at the operator's hand); after elimination "
+             f"{metrics['residual_peak_N']:.2f} N remain ({100 * metrics['residual_ratio']:.1f} %, "
+             f"{metrics['residual_peak_N'] * k_f:.3f} N at the hand). Simulated at "
+             f"{metrics['realtime_factor']:.2f}× real time.")
+    say.info(f"figure: {out / 'fig6' / 'figure.png'}; logs, metrics and the estimate under {out}/")
     return 0

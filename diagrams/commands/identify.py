@@ -3,21 +3,26 @@ in simulation or on the hardware, or from a lab's recording."""
 
 from __future__ import annotations
 
-from heft.diagrams.commands.options import add_lcm_urls, add_set, add_station, require_lab_settings, scenario_from
+from heft.diagrams.commands.options import (add_lcm_urls, add_out, add_scenario, add_set, add_station,
+                                           require_lab_settings, scenario_from)
 from heft.diagrams.running.realtime import LOOP_PRIORITY
+from heft.diagrams.commands.console import logger
+
+say = logger(__name__)
 
 HELP = ("identify the load's inertial parameters and the sensor "
        "offsets from an excitation motion (Sec. IV)")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--scenario", help="fig6 | fig7 | fig8 | path to a scenario YAML (required unless --recording; "
-                                            "with it, the lab's sensors' noise and range, default heft's JR3 model)")
-    parser.add_argument("--recording", help="identify from a recording (YAML, README \"Your own data\"): its static "
+    add_scenario(parser, default=None, more="required unless --recording; with it, the lab's sensors' noise and "
+                                             "range (default heft's JR3 model)")
+    parser.add_argument("--recording", help="identify from a recording (YAML, docs/recordings.md): its static "
                                             "poses and/or its streams, instead of an excitation heft drives")
     add_set(parser)
     add_station(parser)
-    parser.add_argument("--out", required=True, help="output folder")
+    add_out(parser, "estimate.yaml (unless the fit is refused), metrics.json, convergence.png "
+                    "(static_poses.png from a recording)", default="out/identify")
     parser.add_argument("--method", default="tls", choices=("ols", "wls", "tls", "eiv_ml", "rls", "riv", "rtls"),
                           help="the estimate written to estimate.yaml (all are reported; default tls)")
     parser.add_argument("--signals", default="accelerometer", choices=("accelerometer", "encoders"),
@@ -58,7 +63,7 @@ def run(args) -> int:
     settings = ExcitationSettings.quick() if args.quick else ExcitationSettings()
     if args.hardware:
         from heft.diagrams.running.hardware_identify import hardware_recorder
-        print(f"identify: {scenario.accelerometer.convention()}", flush=True)
+        say.info(f"identify: {scenario.accelerometer.convention()}")
         recorder = hardware_recorder(scenario, scenario.lab.lcm, args.record, scenario.lab.station, args.rt_priority)
         wrote = f"estimate.yaml, metrics.json{f', {args.record}' if args.record else ''}"
     else:
@@ -68,7 +73,7 @@ def run(args) -> int:
         recorder, wrote = simulated_recorder(scenario), "estimate.yaml, metrics.json, convergence.png"
     identify(scenario, args.out, recorder, method=args.method, signals=args.signals, settings=settings,
              periods=args.periods, accept_fit=args.accept_fit)
-    print(f"wrote {args.out}/{wrote}")
+    say.info(f"wrote {args.out}/{wrote}")
     return 0
 
 
@@ -83,5 +88,5 @@ def _from_recording(args) -> int:
         raise ValueError("--periods belongs to an excitation heft drives; a --recording is already recorded")
     scenario = scenario_from(args) if args.scenario else (layered(Scenario(), args.set) if args.set else Scenario())
     identify_recording(args.recording, args.out, scenario, method=args.method, accept_fit=args.accept_fit)
-    print(f"wrote {args.out}/estimate.yaml, metrics.json and the figures")
+    say.info(f"wrote {args.out}/estimate.yaml, metrics.json and the figures")
     return 0

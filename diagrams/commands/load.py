@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
-import sys
 
 
-from heft.diagrams.commands.options import add_lcm_urls, add_set, scenario_from
+from heft.diagrams.commands.exit_status import LOAD_REFUSED, OK
+from heft.diagrams.commands.options import add_lcm_urls, add_scenario, add_set, scenario_from
+from heft.diagrams.commands.console import logger
+
+say = logger(__name__)
 
 HELP = ("re-zero the sensor, switch offset tracking, change the tool or tell a grasp or release "
         "to a running `heft teleop --hardware`")
@@ -21,8 +24,7 @@ def add_arguments(parser) -> None:
                         help="the gripper closed on an object: keep the gripper's φ, learn the object's "
                              "(needs controller.estimator.mode: online); answered again once it is learned")
     parser.add_argument("--release", action="store_true", help="the gripper let go: back to the gripper's φ")
-    parser.add_argument("--scenario", default="fig6",
-                        help="the lab's scenario, for its LCM URLs (lab.lcm; default fig6)")
+    add_scenario(parser, more="the lab's, for its LCM URLs (lab.lcm)")
     add_set(parser)
     add_lcm_urls(parser)
     parser.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for the answers (default 5)")
@@ -37,22 +39,18 @@ def run(args) -> int:
     if len(chosen) != 1:
         raise ValueError("give exactly one of --rezero, --tracking on|off, --estimate FILE, --grasp, --release")
     channels = scenario_from(args).lab.lcm
-    try:
-        if args.estimate:
-            # Only here: the estimate's checks (load_dynamics) bring numba, which the other actions need not load.
-            from heft.diagrams.load_estimate import read_load_estimate
+    if args.estimate:  # a TimeoutError is the `heft` command's timeout status
+        # Only here: the estimate's checks (load_dynamics) bring numba, which the other actions need not load.
+        from heft.diagrams.load_estimate import read_load_estimate
 
-            load = read_load_estimate(args.estimate)
-            answers = send_load_command(channels, "new_estimate", load.phi, load.offsets, args.timeout)
-        else:
-            action = chosen[0] if chosen[0] != "tracking" else f"tracking_{args.tracking}"
-            answers = send_load_command(channels, action, timeout=args.timeout)
-    except TimeoutError as error:
-        print(f"heft load: {error}", file=sys.stderr)
-        return 5
+        load = read_load_estimate(args.estimate)
+        answers = send_load_command(channels, "new_estimate", load.phi, load.offsets, args.timeout)
+    else:
+        action = chosen[0] if chosen[0] != "tracking" else f"tracking_{args.tracking}"
+        answers = send_load_command(channels, action, timeout=args.timeout)
     for answer in answers:
-        print(f"heft load: {answer.message}")
+        say.info(f"heft load: {answer.message}")
     final = answers[-1]
-    print("heft load: offsets in use [" + ", ".join(f"{x:.4g}" for x in final.offsets)
-          + f"] (N, N·m); m = {final.phi[0]:.4g} kg in all; tracking {'on' if final.tracking else 'off'}")
-    return 0 if final.accepted else 4
+    say.info("heft load: offsets in use [" + ", ".join(f"{x:.4g}" for x in final.offsets)
+             + f"] (N, N·m); m = {final.phi[0]:.4g} kg in all; tracking {'on' if final.tracking else 'off'}")
+    return OK if final.accepted else LOAD_REFUSED

@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import argparse
 import functools
+import importlib.util
 import math
+from pathlib import Path
 
 import yaml
 
@@ -49,6 +51,60 @@ def parse_numbers(text: str, option: str) -> list[float]:
             raise ValueError(f"{option} values must be >= 0; got {item}")
         values.append(value)
     return values
+
+
+SCENARIO_HELP = ("the scenario: fig6 | fig7 | fig8 | grasp | stability_wall (bundled) or a scenario YAML, such as "
+                 "the lab.yaml `heft init lab` writes")
+"""What ``--scenario`` means, in every command that has it."""
+OUT_HELP = "output folder"
+"""What ``--out`` is, in every command that has it: a folder, the files in it named by the command."""
+
+
+def add_scenario(parser: argparse.ArgumentParser, default: str | None = "fig6", more: str = "") -> None:
+    """``--scenario NAME|FILE`` (``SCENARIO_HELP``), ``default`` None: no default; ``more``: what else it gives."""
+    shown = f" (default {default})" if default else ""
+    parser.add_argument("--scenario", default=default, metavar="NAME|FILE",
+                        help=f"{SCENARIO_HELP}{shown}{'; ' + more if more else ''}")
+
+
+def add_out(parser: argparse.ArgumentParser, writes: str, default: str | None = None, shown: str | None = None) -> None:
+    """``--out DIR`` (``OUT_HELP``), the folder the command writes ``writes`` into (created if need be);
+    ``shown``: the default as the help names it (default ``default``)."""
+    shown = shown or default
+    parser.add_argument("--out", default=default, metavar="DIR",
+                        help=f"{OUT_HELP}{f' (default {shown})' if shown else ''}: {writes}")
+
+
+def out_file(args, name: str) -> Path | None:
+    """The file ``name`` in the ``--out`` folder (created), or None without ``--out``."""
+    if args.out is None:
+        return None
+    folder = Path(args.out)
+    if folder.exists() and not folder.is_dir():
+        raise ValueError(f"--out {folder}: is a file; --out names a folder, the files in it are named by the command")
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder / name
+
+
+def add_noise(parser: argparse.ArgumentParser, default: str | None = None, what: str = "") -> None:
+    """``--noise on|off``: the sensor models' noise, offsets, drift and quantisation."""
+    shown = f" (default {default})" if default else " (default: the scenario's)"
+    parser.add_argument("--noise", choices=("on", "off"), default=default,
+                        help=f"the sensor models' noise, offsets, drift and quantisation{what}{shown}")
+
+
+def dask_address(address: str) -> str:
+    """``--dask``'s value, once Dask's distributed scheduler client is installed (the ``cluster`` extra)."""
+    if importlib.util.find_spec("distributed") is None:
+        raise argparse.ArgumentTypeError("needs Dask: pip install 'heft-teleop[cluster]' (or, in a clone, "
+                                         "pip install '.[cluster]')")
+    return address
+
+
+def add_dask(parser: argparse.ArgumentParser) -> None:
+    """``--dask ADDRESS``: the work on a Dask cluster (the ``cluster`` extra)."""
+    parser.add_argument("--dask", metavar="ADDRESS", type=dask_address,
+                        help="run on this Dask scheduler (tcp://host:port; needs the cluster extra)")
 
 
 def add_set(parser: argparse.ArgumentParser) -> None:

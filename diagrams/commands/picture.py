@@ -1,8 +1,8 @@
 """A picture of heft's Diagram as Drake draws it: ``GetGraphvizString`` rendered by Graphviz.
 
-The README's architecture picture is ``docs/teleop_controller.svg``, made by
-``heft picture --out docs/teleop_controller.svg``: the controller Diagram of Fig. 4, every
-block a LeafSystem. ``--what simulation`` draws it closed around the simulated station.
+The architecture picture ``docs/teleop_controller.svg`` is made by ``heft picture --out docs``: the
+controller Diagram of Fig. 4, every block a LeafSystem. ``--what simulation`` draws it closed around
+the simulated station (``teleop_simulation.svg``).
 """
 
 from __future__ import annotations
@@ -11,7 +11,14 @@ import shutil
 import subprocess
 from pathlib import Path
 
+from heft.diagrams.commands.options import add_out, add_scenario, out_file
+
+from heft.diagrams.commands.console import logger
+
+say = logger(__name__)
+
 WHAT = ("controller", "simulation")
+FORMATS = ("svg", "png", "dot")
 HELP = "draw the controller Diagram (or the whole simulation) as Drake sees it (Graphviz)"
 
 
@@ -36,11 +43,16 @@ def teleop_graphviz(what: str = "controller", scenario_name: str = "fig6", depth
     return diagram.GetGraphvizString(max_depth=depth)
 
 
+def picture_name(what: str, form: str) -> str:
+    """The file a picture of ``what`` in format ``form`` is written to, in the ``--out`` folder."""
+    return f"teleop_{what}.{form}"
+
+
 def write_picture(out, what: str = "controller", scenario_name: str = "fig6", depth: int = 1) -> Path:
-    """Writes the picture to ``out``: SVG or PNG by its suffix (needs Graphviz's ``dot``), or the
+    """Writes the picture to the file ``out``: SVG or PNG by its suffix (needs Graphviz's ``dot``), or the
     DOT text for a ``.dot`` path. Returns the path written."""
     out = Path(out)
-    if out.suffix not in (".svg", ".png", ".dot"):
+    if out.suffix[1:] not in FORMATS:
         raise ValueError(f"{out}: the picture is written as .svg, .png or .dot")
     text = teleop_graphviz(what, scenario_name, depth)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -58,11 +70,14 @@ def write_picture(out, what: str = "controller", scenario_name: str = "fig6", de
 def add_arguments(parser) -> None:
     parser.add_argument("--what", default="controller", choices=WHAT,
                         help="the controller alone (default) or closed around the simulated station")
-    parser.add_argument("--out", default="teleop_controller.svg", help="an .svg, .png or .dot file")
-    parser.add_argument("--scenario", default="fig6", help="fig6 | fig7 | fig8 | path to a scenario YAML")
+    parser.add_argument("--format", default="svg", choices=FORMATS,
+                        help="svg (default) or png, rendered by Graphviz's `dot`; dot: the DOT text")
+    add_out(parser, "teleop_controller.FORMAT or teleop_simulation.FORMAT", default="out/picture")
+    add_scenario(parser)
     parser.add_argument("--depth", type=int, default=1, help="levels of subsystems drawn (default 1)")
 
 
 def run(args) -> int:
-    print(f"wrote {write_picture(args.out, args.what, args.scenario, args.depth)}")
+    path = out_file(args, picture_name(args.what, args.format))
+    say.info(f"wrote {write_picture(path, args.what, args.scenario, args.depth)}")
     return 0

@@ -40,6 +40,11 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.framework import DiagramBuilder
 
+from heft.diagrams.commands.console import logger
+from heft.diagrams.commands.options import add_out, add_scenario, out_file
+
+say = logger(__name__)
+
 # Where the replay draws the master's base B in the slave's world W: beside the arm, its pedestal
 # standing on the ground (z = 0).
 MASTER_BASE_IN_W = RigidTransform([0.3, -0.8, 0.2])
@@ -188,19 +193,18 @@ def add_arguments(parser):
                                     "`heft teleop --hardware --record`")
     parser.add_argument("--kind", choices=KINDS, default=None,
                         help="the log's kind (default: told by the file's first bytes)")
-    parser.add_argument("--scenario", default="fig6",
-                        help="the scenario the log was run with: fig6 | fig7 | fig8 | YAML (default fig6)")
-    parser.add_argument("--out", help="HTML file to write (default: replay.html beside the log)")
+    add_scenario(parser, more="the one the log was run with")
+    add_out(parser, "replay.html", shown="the log's folder")
     parser.add_argument("--fps", type=float, default=30.0, help="frames per simulated second (default 30)")
 
 
 def run(args) -> int:
     """``heft analyze replay``: writes the HTML and prints a one-line summary."""
-    log = load_log(args.log, args.kind)
-    out = Path(args.out) if args.out else Path(args.log).with_name("replay.html")
-    summary = write_replay(log, resolve_scenario(args.scenario), out, fps=args.fps)
+    run_log = load_log(args.log, args.kind)
+    out = out_file(args, "replay.html") if args.out else Path(args.log).with_name("replay.html")
+    summary = write_replay(run_log, resolve_scenario(args.scenario), out, fps=args.fps)
     peaks = summary["peak_force_N"]
-    print(f"wrote {out}: {summary['frames']} frames over {summary['duration_s']:.2f} s at {args.fps:g} fps, "
-          f"{summary['bytes'] / 1e6:.1f} MB; peak forces measured {peaks['measured']:.1f} N, contact "
-          f"{peaks['contact']:.1f} N, at the master {peaks['master']:.2f} N (open it in a browser)")
+    say.info(f"wrote {out}: {summary['frames']} frames over {summary['duration_s']:.2f} s at {args.fps:g} fps, "
+             f"{summary['bytes'] / 1e6:.1f} MB; peak forces measured {peaks['measured']:.1f} N, contact "
+             f"{peaks['contact']:.1f} N, at the master {peaks['master']:.2f} N (open it in a browser)")
     return 0

@@ -7,14 +7,19 @@ import math
 from pathlib import Path
 
 
-from heft.diagrams.commands.options import add_set, add_station, parse_numbers, scenario_from, stated_fields
+from heft.diagrams.commands.options import (SCENARIO_HELP, add_noise, add_out, add_scenario, add_set, add_station,
+                                           parse_numbers, scenario_from, stated_fields)
+from heft.diagrams.commands.console import logger
+
+say = logger(__name__)
 
 HELP = ("replay one of the paper's experiments (fig6, fig7, fig8) "
        "or a scenario file in the simulated station")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("scenario", help="fig6 | fig7 | fig8 | path to a scenario YAML")
+    parser.add_argument("positional_scenario", nargs="?", metavar="SCENARIO", help=f"as --scenario: {SCENARIO_HELP}")
+    add_scenario(parser, default=None, more="given here or as the first argument")
     add_set(parser)
     add_station(parser)
     parser.add_argument("--sigma", type=float, help="σ: non-contact scale, controller.force.sigma (one run)")
@@ -22,11 +27,21 @@ def add_arguments(parser) -> None:
                                          "scenario's σ if it states one, else the paper's 1,0.5,0)")
     parser.add_argument("--gamma", type=float, help="γ: contact scale")
     parser.add_argument("--eta", type=float, help="η: share of the gripped object's non-contact wrench kept")
-    parser.add_argument("--noise", choices=("on", "off"), help="sensor noise, offsets, drift, quantisation")
+    add_noise(parser)
     parser.add_argument("--duration", type=float, help="simulated seconds")
     parser.add_argument("--estimate", help="estimate.yaml from `heft identify` (default: identify first)")
-    parser.add_argument("--out", help="output folder (default out/SCENARIO)")
+    add_out(parser, "log.npz, metrics.json, figure.png (and identify/ when it identifies first)",
+            shown="out/SCENARIO")
     parser.add_argument("--meshcat", action="store_true", help="show the simulation live in a browser (URL printed)")
+
+
+def chosen_scenario(args) -> str:
+    """The scenario given as the first argument or as ``--scenario`` (one of them, or both the same)."""
+    given = {name for name in (args.positional_scenario, args.scenario) if name is not None}
+    if len(given) != 1:
+        raise ValueError("give the scenario once, e.g. `heft simulate fig6` or `heft simulate --scenario fig6`"
+                         + (f"; got {' and '.join(sorted(given))}" if given else ""))
+    return given.pop()
 
 
 def run(args) -> int:
@@ -34,6 +49,7 @@ def run(args) -> int:
     from heft.diagrams.scenario import NOISE_OFF, layered, overrides_text
     from heft.diagrams.running.simulation import simulate
 
+    args.scenario = chosen_scenario(args)
     noise = {} if args.noise is None else {name: args.noise == "on" for name in NOISE_OFF}
     options = overrides_text({"controller.force.sigma": args.sigma, "controller.force.gamma": args.gamma,
                               "controller.force.eta": args.eta, **noise, "duration": args.duration})
@@ -43,23 +59,23 @@ def run(args) -> int:
     estimate = args.estimate or scenario.controller.load_estimate
     if estimate:
         load = read_load_estimate(estimate)
-        print(f"load estimate from {estimate}")
+        say.info(f"load estimate from {estimate}")
     else:
         from heft.diagrams.running.sim_identification import identify_in_simulation
-        print("no load estimate given: identifying the load in simulation first (Sec. IV)")
+        say.info("no load estimate given: identifying the load in simulation first (Sec. IV)")
         load = identify_in_simulation(scenario, out / "identify")
     if math.isfinite(scenario.load.grasp_at) and scenario.controller.force.phi_gripper is None:
         # Before the grasp the gripper holds nothing: the estimate is the gripper's, Eq. 14's φ_gr.
         scenario = layered(scenario, overrides_text({"controller.force.phi_gripper": load.phi.tolist()}))
-        print(f"gripper alone: m = {load.phi[0]:.4g} kg (φ_gr of Eq. 14); the object is learned after the grasp")
+        say.info(f"gripper alone: m = {load.phi[0]:.4g} kg (φ_gr of Eq. 14); the object is learned after the grasp")
     meshcat = None
     if args.meshcat:
         from pydrake.geometry import Meshcat
         meshcat = Meshcat()
-        print(f"live view: {meshcat.web_url()}", flush=True)
+        say.info(f"live view: {meshcat.web_url()}")
     metrics = simulate(scenario, load, out, sigmas, name=Path(args.scenario).stem, meshcat=meshcat)
-    print(json.dumps(metrics, indent=2))
-    print(f"wrote {out}/log.npz, metrics.json, figure.png")
+    say.info(json.dumps(metrics, indent=2))
+    say.info(f"wrote {out}/log.npz, metrics.json, figure.png")
     return 0
 
 
@@ -82,7 +98,7 @@ def compared_sigmas(args, scenario) -> list[float]:
                              f"{SIGMA}); give one or the other")
         sigmas = parse_numbers(args.sigmas, "--sigmas")
         if in_file:
-            print(f"--sigmas {args.sigmas}: run by run in place of the scenario file's σ = "
-                  f"{scenario.controller.force.sigma:g} ({SIGMA})")
+            say.info(f"--sigmas {args.sigmas}: run by run in place of the scenario file's σ = "
+                     f"{scenario.controller.force.sigma:g} ({SIGMA})")
         return sigmas
     return [scenario.controller.force.sigma] if on_command_line or in_file else list(PAPER_SIGMAS)

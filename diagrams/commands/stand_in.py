@@ -4,18 +4,19 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 
-from heft.diagrams.commands.options import add_lcm_urls, add_set, scenario_from
+from heft.diagrams.commands.options import add_lcm_urls, add_out, add_scenario, add_set, out_file, scenario_from
 from heft.diagrams.running.realtime import LAB_PRIORITY
+from heft.diagrams.commands.console import logger
+
+say = logger(__name__)
 
 HELP = ("a lightweight lab behind the drivers' LCM channels, at real time")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--scenario", default="fig6", help="fig6 | fig7 | fig8 | path to a scenario YAML (the lab's "
-                                                           "LCM URLs too: lab.lcm)")
+    add_scenario(parser, more="the lab's LCM URLs too (lab.lcm)")
     add_set(parser)
     add_lcm_urls(parser)
     parser.add_argument("--duration", type=float, default=10.0, help="seconds (default 10)")
@@ -38,13 +39,21 @@ def add_arguments(parser) -> None:
     parser.add_argument("--rt-priority", type=int, default=LAB_PRIORITY,
                         help=f"SCHED_FIFO priority of the lab, off the CPU a controller here claims (default "
                              f"{LAB_PRIORITY}, below the controller's: a lab's drivers run real-time; 0: normal)")
-    parser.add_argument("--out", help="also write the summary as JSON here, and the truth of every FT sample beside "
-                                      "it (its name with .truth.npz)")
+    parser.add_argument("--netft", metavar="HOST", help="the wrist sensor answers as an ATI Net F/T on HOST (RDT over "
+                                                        "UDP, port lab.netft.port) instead of on the FT channel, for "
+                                                        "`heft driver netft`; its calibration is lab.netft's")
+    parser.add_argument("--netft-drop-every", type=int, default=0,
+                        help="with --netft: withhold every n-th packet (its rdt_sequence spent; default 0: none)")
+    parser.add_argument("--netft-status", type=lambda text: int(text, 0), default=0,
+                        help="with --netft: status bits (e.g. 0x80000000, the error bit) the records sampled in "
+                             "[--netft-status-at, --netft-status-until) carry")
+    parser.add_argument("--netft-status-at", type=float, default=math.inf, help="from this time (s)")
+    parser.add_argument("--netft-status-until", type=float, default=math.inf, help="until this time (s)")
+    add_out(parser, f"{SUMMARY} (what was published and received) and {TRUTH} (the truth of every FT sample)")
 
 
-def truth_path(out: str) -> Path:
-    """Where the truth of a run whose summary goes to ``out`` is written: beside it, ``NAME.truth.npz``."""
-    return Path(out).with_suffix(".truth.npz")
+SUMMARY, TRUTH = "stand_in.json", "stand_in.truth.npz"
+"""The files ``--out`` names: the run's summary and its truth."""
 
 
 def run(args) -> int:
@@ -53,6 +62,7 @@ def run(args) -> int:
     from heft.diagrams.stations.stand_in_wrist import GraspTimes
 
     scenario = scenario_from(args)
+    summary_path, truth_path = out_file(args, SUMMARY), out_file(args, TRUTH)
     grasp = None
     if args.grasp_at is not None or math.isfinite(args.release_at):
         grasp = GraspTimes(scenario.load.grasp_at if args.grasp_at is None else args.grasp_at, args.release_at)
@@ -60,21 +70,35 @@ def run(args) -> int:
                             nan_rate=args.nan_rate, saturate_at_s=args.saturate_at, die_at_s=args.die_at,
                             seed=args.seed, reorder_rate=args.reorder_rate)
     channels = scenario.lab.lcm
-    print(f"stand-in: {args.scenario} on {channels.lcm_url} (commands on {channels.command_lcm_url()}) for "
-          f"{args.duration:g} s at real time; {claim_lab_realtime(args.rt_priority)}", flush=True)
+    netft = None
+    if args.netft is not None:
+        from heft.diagrams.stations.stand_in_netft import NetFtInjection, NetFtResponder
+        netft = NetFtResponder(scenario.lab.netft, args.netft, NetFtInjection(
+            args.netft_drop_every, args.netft_status, args.netft_status_at, args.netft_status_until))
+        print(f"stand-in: the wrist sensor answers as a Net F/T on {args.netft}:{scenario.lab.netft.port} (RDT), "
+              f"not on {channels.ft_sample.name}", flush=True)
+    say.info(f"stand-in: {args.scenario} on {channels.lcm_url} (commands on {channels.command_lcm_url()}) for "
+             f"{args.duration:g} s at real time; {claim_lab_realtime(args.rt_priority)}")
     with StopOnSignal() as stop:
         summary = run_stand_in(scenario, channels, args.duration, faults, args.clutch_at, args.clutch_release_at,
-                               ready=lambda epoch: print(f"stand-in: publishing; its stamps count from {epoch:.6f} s "
-                                                         "(wall clock, since the Unix epoch)", flush=True),
-                               stop=lambda: stop.requested, grasp=grasp,
-                               truth_path=truth_path(args.out) if args.out else None)
+                               ready=lambda epoch: say.info(f"stand-in: publishing; its stamps count from "
+                                                            f"{epoch:.6f} s (wall clock, since the Unix epoch)"),
+                               stop=lambda: stop.requested, grasp=grasp, ft_outlet=netft,
+                               truth_path=truth_path)
+    if netft is not None:
+        netft.close()
+        summary["netft"] = served = netft.summary()
+        print(f"stand-in: Net F/T on {served['address']}: {served['requests']} requests ({served['refused']} refused); "
+              f"{served['packets']} packets streamed, {served['withheld']} withheld, {served['sent']} sent with "
+              f"{served['records']} records; {served['flagged']} records sampled with status bits", flush=True)
     rates = "; ".join(f"{kind} Hz " + ", ".join(f"{name} {hz:.0f}" for name, hz in summary[f"{kind}_hz"].items())
                       for kind in ("published", "received"))
-    print(f"stand-in: stopped at t = {summary['duration_s']:.3f} s{' (died, as injected)' if summary['died'] else ''}"
-          f"; {rates}; CPU {summary['cpu_s']:.2f} s; max lateness {summary['max_lateness_ms']:.2f} ms; largest force "
-          f"rendered on the stylus {summary['stylus_force_peak']:.4g} N; arm steps that took two commands after one "
-          f"that took none {summary['arm_steps_after_a_held_one']}", flush=True)
-    if args.out:
-        summary["truth"] = truth_path(args.out).name
-        Path(args.out).write_text(json.dumps(summary, indent=2) + "\n")
+    died = " (died, as injected)" if summary["died"] else ""
+    say.info(f"stand-in: stopped at t = {summary['duration_s']:.3f} s{died}; {rates}; CPU {summary['cpu_s']:.2f} s; "
+             f"max lateness {summary['max_lateness_ms']:.2f} ms; largest force rendered on the stylus "
+             f"{summary['stylus_force_peak']:.4g} N; arm steps that took two commands after one that took none "
+             f"{summary['arm_steps_after_a_held_one']}")
+    if summary_path is not None:
+        summary["truth"] = TRUTH
+        summary_path.write_text(json.dumps(summary, indent=2) + "\n")
     return 0

@@ -7,26 +7,29 @@ The lab is the scenario's: its ``lab`` (LCM URLs and channels, the watchdog) and
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 
-from heft.diagrams.commands.options import add_lcm_urls, add_set, require_lab_settings, scenario_from
+from heft.diagrams.commands.options import (add_lcm_urls, add_out, add_scenario, add_set, out_file,
+                                           require_lab_settings, scenario_from)
 from heft.diagrams.running.realtime import LOOP_PRIORITY
+from heft.diagrams.commands.console import logger
+
+say = logger(__name__)
 
 HELP = ("the teleoperation controller on the lab's LCM channels")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--hardware", action="store_true", help="run against the lab's LCM channels (required)")
-    parser.add_argument("--scenario", default="fig6",
-                        help="the lab's scenario: the controller's settings, rate and the lab's LCM URLs and "
-                             "watchdog (default fig6)")
+    parser.add_argument("--hardware", action="store_true",
+                        help="against the lab's LCM channels: the only mode, so optional (`heft simulate` runs the "
+                             "simulated station)")
+    add_scenario(parser, more="the lab's: the controller's settings, rate, LCM URLs and watchdog")
     add_set(parser)
     add_lcm_urls(parser)
     parser.add_argument("--estimate", help="estimate.yaml from `heft identify` (default: φ̂ = 0)")
     parser.add_argument("--duration", type=float, default=10.0, help="seconds (default 10)")
-    parser.add_argument("--out", help="also write the summary as JSON here")
+    add_out(parser, f"{SUMMARY} (the run's summary)")
     parser.add_argument("--watchdog-timeout", type=float,
                         help="stale-channel timeout (s; default: the scenario's lab.station.watchdog.timeout, 0.02)")
     parser.add_argument("--rate", type=float, help="controller rate (Hz; default: the scenario's, 1/controller_period, "
@@ -45,6 +48,10 @@ def add_arguments(parser) -> None:
                              "at the cost of that CPU time, which drivers on the same machine then lack")
 
 
+SUMMARY = "teleop.json"
+"""The file ``--out`` names."""
+
+
 def run(args) -> int:
     from heft.diagrams.running.hardware_teleop import format_summary, run_hardware_teleop
     from heft.diagrams.running.realtime import check_busy_wait
@@ -52,10 +59,9 @@ def run(args) -> int:
     from heft.diagrams.scenario import overrides_text
     from heft.systems.accelerometer_reading import PLAUSIBLE_BIAS
 
-    if not args.hardware:
-        raise ValueError("only --hardware is supported here; use `heft simulate` for the simulated station")
     check_busy_wait(args.busy_wait)
     scenario = scenario_from(args)  # first: it names a malformed file, flag or --set
+    summary_path = out_file(args, SUMMARY)
     require_lab_settings(args, "accelerometer.position", "controller.force.mount_notch")
     estimate = args.estimate or scenario.controller.load_estimate
     if estimate:
@@ -69,18 +75,17 @@ def run(args) -> int:
             calibration = load.accelerometer.as_dict()
             scenario = scenario_from(args, overrides_text({f"accelerometer.{key}": value
                                                            for key, value in calibration.items()}))
-            print(f"teleop: the accelerometer as {estimate} calibrated it (flags and --set still lay over it)",
-                  flush=True)
+            say.info(f"teleop: the accelerometer as {estimate} calibrated it (flags and --set still lay over it)")
     else:
-        print("teleop: no load estimate given: φ̂ = 0, offsets 0 (nothing is eliminated)", flush=True)
+        say.info("teleop: no load estimate given: φ̂ = 0, offsets 0 (nothing is eliminated)")
         load = LoadEstimate(phi=np.zeros(10), offsets=np.zeros(6))
     channels = scenario.lab.lcm
-    print(f"teleop: controller on {channels.lcm_url} (commands on {channels.command_lcm_url()}) at "
-          f"{1.0 / scenario.controller_period:g} Hz for {args.duration:g} s of wall time; watchdog timeout "
-          f"{scenario.lab.station.watchdog.timeout:g} s", flush=True)
+    say.info(f"teleop: controller on {channels.lcm_url} (commands on {channels.command_lcm_url()}) at "
+             f"{1.0 / scenario.controller_period:g} Hz for {args.duration:g} s of wall time; watchdog timeout "
+             f"{scenario.lab.station.watchdog.timeout:g} s")
     summary = run_hardware_teleop(scenario, load, args.duration, record=args.record, priority=args.rt_priority,
                                   busy_wait=args.busy_wait, controller=args.controller)
-    print(format_summary(summary, channels.lcm_url), flush=True)
-    if args.out:
-        Path(args.out).write_text(json.dumps(summary, indent=2) + "\n")
+    say.info(format_summary(summary, channels.lcm_url))
+    if summary_path is not None:
+        summary_path.write_text(json.dumps(summary, indent=2) + "\n")
     return 0
