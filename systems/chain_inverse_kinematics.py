@@ -12,9 +12,9 @@ E's geometric Jacobian (rows [v; ω] in B, ``serial_chain.chain_kinematics``). T
 chain of 7 and in a tick's first step only, draws the redundant joint motion toward the start posture
 q_start by the share k = null rate × dt without moving E to first order (the damped projector moves it
 by λ²(JJᵀ + λ²I)⁻¹·J·z, which the tick's later steps take back, so that the pull leaves no lasting pose
-error); a chain of 6 has no null space and takes none. A step that would
-carry a joint past its limit holds it there, and the tick's later steps leave it out (its column of J
-zeroed). The command then moves from q_last toward the result by at most velocity × dt per joint.
+error); a chain of 6 has no null space and takes none. A step that would carry a joint past its limit
+holds it there, and the tick's later steps leave it out (its column of J zeroed). The command then
+moves from q_last toward the result by at most velocity × dt per joint.
 
 Steps stop when both errors are within the tolerance. The kernel answers with a status of bit flags:
 ``NON_FINITE`` (the pose is not one: the command stays at q_last), ``NOT_CONVERGED`` (the tick's
@@ -45,7 +45,7 @@ CHAIN_JOINTS = (6, 7)
 
 # ``dls_ik_step``'s settings (a float64 array: λ (m), the null rate (1/s), the tolerance (m and rad)), and
 # the rows of its scratch for a chain of n joints (n + _ROWS rows, max(n, MOTION_SIZE) columns).
-DAMPING, NULL_RATE, TOLERANCE, SETTINGS_SIZE = 0, 1, 2, 3
+DAMPING, NULL_RATE, TOLERANCE = 0, 1, 2
 _R, _P, _J, _ZEROS, _GRAVITY, _MOTION, _A, _E, _Y, _Q, _Z, _LOCKED, _R_TARGET, _P_TARGET, _ROWS = (
     0, 3, 4, 10, 11, 12, 13, 19, 20, 21, 22, 23, 24, 27, 28)
 
@@ -130,9 +130,9 @@ def dls_ik_step(axes, points, M_R, M_p, lower, upper, velocity, settings, iterat
     joint positions damped least squares finds for the desired pose ``pose`` of E ([p (m); w, x, y, z] in
     B), each joint by at most ``velocity`` × dt (rad/s × s; a dt that is NaN or negative moves none), all
     within [``lower``, ``upper``] (rad). The chain: ``axes``, ``points``, ``M_R``, ``M_p`` as in
-    ``chain_kinematics``; ``settings`` [λ (m), null rate (1/s), tolerance (m and rad)]; ``q_start`` (n, rad) the posture
-    the null space is drawn to; ``work`` (``work_shape``): scratch. Returns the status bits. ``command``
-    may be ``q_last`` itself."""
+    ``chain_kinematics``; ``settings`` [λ (m), null rate (1/s), tolerance (m and rad)]; ``q_start`` (n, rad)
+    the posture the null space is drawn to; ``work`` (``work_shape``): scratch. Returns the status bits.
+    ``command`` may be ``q_last`` itself."""
     n = q_last.shape[0]
     R, p, J = work[_R:_R + 3, 0:3], work[_P, 0:3], work[_J:_J + 6, 0:n]
     chain_work, zeros = work[_ROWS:_ROWS + n, 0:6], work[_ZEROS, 0:n]
@@ -204,9 +204,9 @@ def dls_ik_step(axes, points, M_R, M_p, lower, upper, velocity, settings, iterat
     if not converged:
         status |= NOT_CONVERGED
     for j in range(n):
-        step, limit = q[j] - q_last[j], velocity[j] * dt
-        limited = min(max(step, -limit), limit)
-        if limited != step:
+        move, limit = q[j] - q_last[j], velocity[j] * dt
+        limited = min(max(move, -limit), limit)
+        if limited != move:
             status |= SLEWING
         command[j] = q_last[j] + limited
     return status
