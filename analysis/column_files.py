@@ -1,15 +1,15 @@
-"""One stream's file, read in chunks: a CSV (header row, comma-separated) or a Parquet file
-(``.parquet``), through pyarrow, so an hour at 8 kHz never sits in memory whole.
+"""One stream's file, read in chunks: a CSV (a header row of column names; its layout read by
+``csv_layout``: the separator stated or detected, comments, a byte-order mark, CRLF) or a Parquet
+file (``.parquet``), through pyarrow, so an hour at 8 kHz never sits in memory whole.
 
 Every row is checked as it streams in: a missing column, a value that is not a number, NaN, a time
 that repeats or goes back. Each problem is a ``RecordingError`` of one line naming the file, the
-column and the row (1-based data row; in a CSV the line is one more, after the header).
+column and the row (1-based data row; in a CSV also the file's line).
 """
 
 from __future__ import annotations
 
-import csv
-import io
+import re
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +17,7 @@ import pyarrow as pa
 import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 
+from heft.analysis.csv_layout import CsvLayout, LayoutError, read_layout
 from heft.analysis.recording import TIME_UNITS, Clock
 
 CSV_BLOCK_BYTES = 1 << 20
@@ -29,44 +30,56 @@ class RecordingError(ValueError):
     """Bad data in a recording's file: one line naming the file, the column and the row."""
 
 
-def _where(path: Path, column: str | None, row: int | None) -> str:
-    text = f"{path.name}"
-    if column is not None:
-        text += f", column {column!r}"
-    if row is not None:
-        text += f", row {row}" + (f" (line {row + 1})" if path.suffix.lower() != ".parquet" else "")
-    return text
-
-
 class ColumnFile:
     """The ``columns`` of one stream's file and its time (s, on its own clock) in chunks.
 
     ``clock``: the stream's ``Clock`` (a time column and its unit, or a rate). ``stream``: the
-    stream's name in the recording, for messages. Opening checks that the file and every column exist.
+    stream's name in the recording, for messages. ``delimiter``: the CSV's separator as the stream
+    states it (``csv_layout.DELIMITERS``), None to detect it. Opening checks that the file and every
+    column exist.
     """
 
-    def __init__(self, path, clock: Clock, columns: list[str], stream: str):
+    def __init__(self, path, clock: Clock, columns: list[str], stream: str, delimiter: str | None = None):
         self.path, self.clock, self.columns, self.stream = Path(path), clock, list(columns), stream
         if not self.path.is_file():
             raise RecordingError(f"{self.path}: the {stream} stream's file does not exist (paths are relative "
                                  "to the recording's YAML file)")
         self.parquet = self.path.suffix.lower() == ".parquet"
-        header = self._header()
+        self.layout: CsvLayout | None = None
+        try:
+            header = (list(pq.ParquetFile(self.path).schema_arrow.names) if self.parquet
+                      else self._read_layout(delimiter))
+        except (pa.ArrowException, OSError) as error:
+            raise RecordingError(f"{self.path}: not a Parquet file pyarrow can read ({_first_line(error)})") from None
         wanted = self.columns + ([clock.column] if clock.column else [])
         missing = [c for c in wanted if c not in header]
         if missing:
-            raise RecordingError(f"{_where(self.path, missing[0], None)}: no such column in the {stream} file "
-                                 f"(it has {', '.join(header[:12])}{', …' if len(header) > 12 else ''})")
+            named = [name for name in header if name]
+            raise RecordingError(f"{self.where(missing[0])}: no such column in the {stream} file "
+                                 f"(it has {', '.join(named[:12])}{', …' if len(named) > 12 else ''})")
+        twice = [c for c in wanted if header.count(c) > 1]
+        if twice:
+            raise RecordingError(f"{self.where(twice[0])}: the header names this column {header.count(twice[0])} "
+                                 "times; rename one")
+        self._index = {name: header.index(name) for name in wanted}
         self._scale = TIME_UNITS[clock.unit]
 
-    def _header(self) -> list[str]:
-        if self.parquet:
-            return list(pq.ParquetFile(self.path).schema_arrow.names)
-        with open(self.path, newline="") as f:
-            line = f.readline()
-        if not line.strip():
-            raise RecordingError(f"{self.path}: the {self.stream} file is empty; it needs a header row of column names")
-        return [name.strip() for name in next(csv.reader([line]))]
+    def _read_layout(self, delimiter) -> list[str]:
+        try:
+            self.layout = read_layout(self.path, delimiter, self.stream)
+        except LayoutError as error:
+            raise RecordingError(str(error)) from None
+        return self.layout.names
+
+    def where(self, column: str | None = None, row: int | None = None) -> str:
+        """The place of a problem for its message: the file, the column (or columns), the row (and a
+        CSV's line)."""
+        text = self.path.name
+        if column is not None:
+            text += f", column {column!r}" if "…" not in column else f", columns {column}"
+        if row is not None:
+            text += f", row {row}" + (f" (line {self.layout.line_of_row(row)})" if self.layout else "")
+        return text
 
     # --- chunks --------------------------------------------------------------
     def _batches(self):
@@ -77,18 +90,22 @@ class ColumnFile:
                 batch_size=PARQUET_BATCH_ROWS, columns=names, use_threads=False)
             yield from batches
             return
-        types = {name: pa.float64() for name in names}
+        fields = [f"c{i}" for i in range(len(self.layout.names))]  # the file's names may repeat or be empty
+        rename = {fields[self._index[name]]: name for name in names}
         # A Python file object: given a path, pyarrow reads the whole file ahead of the batches asked for.
-        with open(self.path, "rb") as f:
+        with self.layout.data_lines() as f:
             reader = pa_csv.open_csv(
-                f, read_options=pa_csv.ReadOptions(block_size=CSV_BLOCK_BYTES, use_threads=False),
-                convert_options=pa_csv.ConvertOptions(include_columns=names, column_types=types,
+                f, read_options=pa_csv.ReadOptions(block_size=CSV_BLOCK_BYTES, use_threads=False, column_names=fields),
+                parse_options=pa_csv.ParseOptions(delimiter=self.layout.delimiter or ","),
+                convert_options=pa_csv.ConvertOptions(include_columns=list(rename),
+                                                      column_types={field: pa.float64() for field in rename},
                                                       strings_can_be_null=False))
             while True:
                 try:
-                    yield reader.read_next_batch()
+                    batch = reader.read_next_batch()
                 except StopIteration:
                     return
+                yield pa.RecordBatch.from_arrays(batch.columns, names=[rename[n] for n in batch.schema.names])
 
     def chunks(self):
         """(t (n,) s, values (n, k), first row) per chunk, every row checked; rows are 1-based."""
@@ -117,12 +134,12 @@ class ColumnFile:
     def _numbers(self, batch, column: str, first_row: int) -> np.ndarray:
         array = batch.column(batch.schema.get_field_index(column))
         if not pa.types.is_floating(array.type) and not pa.types.is_integer(array.type):
-            raise RecordingError(f"{_where(self.path, column, None)}: not numbers (type {array.type})")
+            raise RecordingError(f"{self.where(column)}: not numbers (type {array.type})")
         x = array.to_numpy(zero_copy_only=False).astype(float, copy=False)
         bad = ~np.isfinite(x)
         if bad.any():
             k = int(np.argmax(bad))
-            raise RecordingError(f"{_where(self.path, column, first_row + k)}: {x[k]} is not a finite number; "
+            raise RecordingError(f"{self.where(column, first_row + k)}: {x[k]} is not a finite number; "
                                  "drop or repair that row")
         return x
 
@@ -132,35 +149,30 @@ class ColumnFile:
         if bad.any():
             k = int(np.argmax(bad))
             what = "repeats the previous row's" if t[k] == previous[k] else "is before the previous row's"
-            raise RecordingError(f"{_where(self.path, self.clock.column or 'rate', first_row + k)}: time {t[k]:.9g} s "
+            raise RecordingError(f"{self.where(self.clock.column or 'rate', first_row + k)}: time {t[k]:.9g} s "
                                  f"{what} {previous[k]:.9g} s; rows must be in increasing time, each once")
 
     def _conversion_message(self, text: str) -> str:
-        """pyarrow's conversion error ("In CSV column #3: Row #12: CSV conversion error to double:
-        invalid value 'x'") as one line in the recording's terms."""
-        column, row = None, None
-        for part in text.replace("\n", " ").split(":"):
-            part = part.strip()
-            if part.startswith("In CSV column #"):
-                index = int(part.split("#")[1])
-                column = self._file_column(index)
-            elif part.startswith("Row #"):
-                row = int(part.split("#")[1]) - 1  # pyarrow counts the header as row 1
-        detail = text.strip().splitlines()[0].split(": ")[-1]
-        return f"{_where(self.path, column, row)}: {detail}; every value of a stream's columns must be a number"
+        """pyarrow's conversion or parse error ("In CSV column #3: Row #12: CSV conversion error to
+        double: invalid value 'x'", "CSV parse error: Row #5: Expected 7 columns, got 6: …") as one line in
+        the recording's terms. pyarrow counts the data rows from 1, as the messages do."""
+        first = _first_line(text)
+        column = re.search(r"In CSV column #(\d+)", first)
+        row = re.search(r"Row #(\d+)", first)
+        detail = re.sub(r"In CSV column #\d+: |CSV (parse|conversion) error( to \w+)?: |Row #\d+: ", "", first)
+        comma = re.search(r"invalid value '[-+]?\d*,\d+'", first)
+        return (f"{self.where(self._column_named(int(column[1])) if column else None, int(row[1]) if row else None)}: "
+                f"{detail[:100]}; every row needs the header's fields, each a number"
+                + (" with a decimal point" if comma else ""))
 
-    def _file_column(self, index: int) -> str | None:
-        header = self._header()
-        return header[index] if 0 <= index < len(header) else None
+    def _column_named(self, index: int) -> str | None:
+        names = self.layout.names if self.layout else []
+        return names[index] if 0 <= index < len(names) else None
 
     # --- ends ------------------------------------------------------------------
     def span(self) -> tuple[float, float, int]:
         """(first time, last time, rows) in s on the stream's clock, read without the whole file."""
-        if self.parquet:
-            meta = pq.ParquetFile(self.path).metadata
-            rows = meta.num_rows
-        else:
-            rows = _count_rows(self.path)
+        rows = pq.ParquetFile(self.path).metadata.num_rows if self.parquet else self.layout.rows()
         if rows == 0:
             raise RecordingError(f"{self.path}: the {self.stream} file has no rows")
         if not self.clock.column:
@@ -168,49 +180,26 @@ class ColumnFile:
         return self._time_at_end(False, rows), self._time_at_end(True, rows), rows
 
     def _time_at_end(self, last: bool, rows: int) -> float:
-        column, row = self.clock.column, None
+        column = self.clock.column
+        row = rows if last else 1
         if self.parquet:
             f = pq.ParquetFile(self.path)
             group = f.num_row_groups - 1 if last else 0
             values = f.read_row_group(group, columns=[column]).column(0).to_numpy(zero_copy_only=False)
-            value, row = (values[-1], rows) if last else (values[0], 1)
+            value = values[-1] if last else values[0]
         else:
-            line = _last_line(self.path) if last else _first_data_line(self.path)
-            header = self._header()
-            fields = next(csv.reader([line]))
-            row = rows if last else 1
+            line = self.layout.last_row() if last else self.layout.first_row()
+            fields = self.layout.fields(line or "")
             try:
-                value = float(fields[header.index(column)])
+                value = float(fields[self._index[column]])
             except (ValueError, IndexError):
-                raise RecordingError(f"{_where(self.path, column, row)}: {line.strip()[:60]!r} has no number "
+                raise RecordingError(f"{self.where(column, row)}: {(line or '').strip()[:60]!r} has no number "
                                      "in the time column") from None
         if not np.isfinite(value):
-            raise RecordingError(f"{_where(self.path, column, row)}: {value} is not a finite time")
+            raise RecordingError(f"{self.where(column, row)}: {value} is not a finite time")
         return float(value) * self._scale
 
 
-def _first_data_line(path: Path) -> str:
-    with open(path, newline="") as f:
-        f.readline()
-        return f.readline()
-
-
-def _last_line(path: Path) -> str:
-    with open(path, "rb") as f:
-        f.seek(0, io.SEEK_END)
-        size = f.tell()
-        f.seek(max(0, size - 65536))
-        lines = [x for x in f.read().splitlines() if x.strip()]
-    return lines[-1].decode()
-
-
-def _count_rows(path: Path) -> int:
-    """Data rows of a CSV file (non-empty lines after the header)."""
-    count, last = 0, b"\n"
-    with open(path, "rb") as f:
-        while block := f.read(16 << 20):
-            count += block.count(b"\n")
-            last = block[-1:]
-    if last != b"\n":
-        count += 1
-    return count - 1
+def _first_line(error) -> str:
+    text = str(error).strip()
+    return text.splitlines()[0] if text else type(error).__name__

@@ -15,6 +15,7 @@ import numpy as np
 import yaml
 from pydrake.common.yaml import yaml_load_typed
 
+from heft.analysis.csv_layout import DELIMITERS
 from heft.systems.accelerometer_calibration import UNITS as ACCELEROMETER_UNITS
 from heft.systems.accelerometer_calibration import AccelerometerCalibration
 from heft.systems.rotation_sampling import ROTATION_TOLERANCE, rotation_defects
@@ -46,23 +47,30 @@ class Clock:
 
 
 @dataclasses.dataclass
-class WrenchStream:
+class StreamFile:
+    """A stream's ``file`` (CSV or ``.parquet``, relative to the recording's YAML file) and, for a CSV, its
+    ``delimiter``: , ; tab | or whitespace (runs of spaces or tabs); unset, it is detected from the
+    header and the first rows (``csv_layout``)."""
+    file: str = ""
+    delimiter: str | None = None
+
+
+@dataclasses.dataclass
+class WrenchStream(StreamFile):
     """The force-torque sensor: [f; τ] (N, N·m) at S in S. ``exerted_on``: ``sensor`` (what the load
     exerts on the sensor, what drivers report) or ``load`` (heft's own sign, docs/design.md §4)."""
-    file: str = ""
     time: Clock = dataclasses.field(default_factory=Clock)
     columns: list[str] = dataclasses.field(default_factory=lambda: ["fx", "fy", "fz", "tx", "ty", "tz"])
     exerted_on: str = "sensor"
 
 
 @dataclasses.dataclass
-class AccelerometerStream:
+class AccelerometerStream(StreamFile):
     """The accelerometer: 3 linear columns (+ 3 angular, rad/s², if it measures α) in its own axes A.
     ``unit`` g | m/s^2; ``includes_gravity``: it reports specific force a − g; ``R_SA`` its axes in S
     (v_S = R_SA·v_A) or ``estimate``; ``p_SA`` where it sits (m, in S); ``bias`` in its own axes and
     unit, or ``estimate``; ``scale`` the reading's gain (``accelerometer_calibration``: s_S =
     R_SA·(raw − bias)·unit/scale)."""
-    file: str = ""
     time: Clock = dataclasses.field(default_factory=Clock)
     columns: list[str] = dataclasses.field(default_factory=lambda: ["ax", "ay", "az"])
     unit: str = "m/s^2"
@@ -85,10 +93,9 @@ class AccelerometerStream:
 
 
 @dataclasses.dataclass
-class OrientationStream:
+class OrientationStream(StreamFile):
     """R_WS over time: ``kind`` (``ORIENTATION_KINDS``) and its columns; ``robot`` (rx90 | rx60) for
     joint_positions."""
-    file: str = ""
     time: Clock = dataclasses.field(default_factory=Clock)
     kind: str = "rotation_matrix"
     columns: list[str] = dataclasses.field(
@@ -97,9 +104,8 @@ class OrientationStream:
 
 
 @dataclasses.dataclass
-class AngularVelocityStream:
+class AngularVelocityStream(StreamFile):
     """ω of S in the world, in S (rad/s), if recorded."""
-    file: str = ""
     time: Clock = dataclasses.field(default_factory=Clock)
     columns: list[str] = dataclasses.field(default_factory=lambda: ["wx", "wy", "wz"])
 
@@ -114,12 +120,11 @@ class Differentiation:
 
 
 @dataclasses.dataclass
-class StaticPoses:
+class StaticPoses(StreamFile):
     """A table of calibration poses, one row each (at rest, averaged): ``wrench`` (6 columns, the
     wrench stream's sign), optionally ``accelerometer`` (3 columns, raw as the accelerometer stream
     states), and the gravity direction either as ``gravity_S`` (3 columns, m/s² in S) or as
     ``orientation`` columns of ``orientation_kind`` (``ORIENTATION_KINDS``; ``robot`` for joints)."""
-    file: str = ""
     wrench: list[str] = dataclasses.field(default_factory=lambda: ["fx", "fy", "fz", "tx", "ty", "tz"])
     accelerometer: list[str] | None = None
     gravity_S: list[str] | None = None
@@ -226,6 +231,10 @@ def _first_problem(recording: Recording) -> str | None:
     """The first problem of a recording that needs no data, or None."""
     if recording.wrench is None and recording.static_poses is None and recording.lcm_log is None:
         return "a recording needs a wrench stream, static_poses or an lcm_log"
+    for name, entry in {**recording.entries(), "static_poses": recording.static_poses}.items():
+        if entry is not None and entry.delimiter is not None and entry.delimiter not in DELIMITERS:
+            return (f"{name}.delimiter {entry.delimiter!r} is not a separator: use one of , ; tab | whitespace "
+                    "(or leave it out to have it detected)")
     for name, stream in recording.entries().items():
         if recording.lcm_log is not None:
             if stream.file:

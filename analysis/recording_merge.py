@@ -151,7 +151,8 @@ class RecordingSource:
             raise ValueError("joint positions need the arm's kinematics (pass joint_orientation)")
         self.recording = recording
         self._joint_orientation = joint_orientation
-        self.files = {name: ColumnFile(recording.path(stream.file), stream.time, stream.columns, name)
+        self.files = {name: ColumnFile(recording.path(stream.file), stream.time, stream.columns, name,
+                                        stream.delimiter)
                       for name, stream in recording.streams().items()}
         self.spans = {name: f.span() for name, f in self.files.items()}
         self.choices = self._describe()
@@ -174,6 +175,8 @@ class RecordingSource:
                                "(linear; R_WS by slerp)",
                    "wrench_sign": "negated: the file has what the load exerts on the sensor"
                    if rec.wrench.exerted_on == "sensor" else "as recorded: what the sensor exerts on the load"}
+        choices["layout"] = {name: file.layout.describe() if file.layout else f"{file.path.name}: Parquet"
+                             for name, file in self.files.items()}
         for name in self.files:
             first, last, rows = self.spans[name]
             choices[f"{name}_span"] = {"first_s": first, "last_s": last, "rows": rows,
@@ -275,16 +278,16 @@ class RecordingSource:
             bad = np.abs(norm - 1.0) > ROTATION_TOLERANCE
             if bad.any():
                 k = int(np.argmax(bad))
-                raise RecordingError(f"{file.path.name}, columns {spec.columns[0]}…{spec.columns[-1]}, row "
-                                     f"{first_row + k} (line {first_row + k + 1}): quaternion of norm {norm[k]:.6g} "
+                raise RecordingError(f"{file.where(f'{spec.columns[0]}…{spec.columns[-1]}', first_row + k)}: "
+                                     f"quaternion of norm {norm[k]:.6g} "
                                      f"is not a unit quaternion (tolerance {ROTATION_TOLERANCE:g})")
             return q / norm[:, None]
         defects = rotation_defects(R)
         bad = defects > ROTATION_TOLERANCE
         if bad.any():
             k = int(np.argmax(bad))
-            raise RecordingError(f"{file.path.name}, columns {spec.columns[0]}…{spec.columns[-1]}, row {first_row + k} "
-                                 f"(line {first_row + k + 1}): not a rotation matrix (RᵀR or det off the identity "
+            raise RecordingError(f"{file.where(f'{spec.columns[0]}…{spec.columns[-1]}', first_row + k)}: "
+                                 "not a rotation matrix (RᵀR or det off the identity "
                                  f"by {defects[k]:.3g}, tolerance {ROTATION_TOLERANCE:g})")
         return quaternions_from_matrices(R)
 

@@ -30,7 +30,7 @@ def read_static_poses(recording: Recording, joint_orientation=None) -> StaticPos
     if spec is None:
         raise ValueError(f"{recording.source}: the recording has no static_poses")
     columns = list(spec.wrench) + list(spec.accelerometer or []) + list(spec.gravity_S or spec.orientation)
-    file = ColumnFile(recording.path(spec.file), Clock(rate=1.0), columns, "static_poses")
+    file = ColumnFile(recording.path(spec.file), Clock(rate=1.0), columns, "static_poses", spec.delimiter)
     values = np.concatenate([v for _, v, _ in file.chunks()])
     sign = -1.0 if (recording.wrench is None or recording.wrench.exerted_on == "sensor") else 1.0
     wrench = sign * values[:, :6]
@@ -53,13 +53,13 @@ def read_static_poses(recording: Recording, joint_orientation=None) -> StaticPos
         bad = np.abs(norms - 1.0) > ROTATION_TOLERANCE
         if bad.any():
             row = int(np.argmax(bad)) + 1
-            raise RecordingError(f"{file.path.name}, columns {spec.orientation[0]}…{spec.orientation[-1]}, row {row} "
-                                 f"(line {row + 1}): quaternion of norm {norms[row - 1]:.6g} is not a unit quaternion")
+            raise RecordingError(f"{file.where(f'{spec.orientation[0]}…{spec.orientation[-1]}', row)}: quaternion "
+                                 f"of norm {norms[row - 1]:.6g} is not a unit quaternion")
         R = Rotation.from_quat(xyzw).as_matrix()
     defects = rotation_defects(R)
     bad = defects > ROTATION_TOLERANCE
     if bad.any():
         row = int(np.argmax(bad)) + 1
-        raise RecordingError(f"{file.path.name}, columns {spec.orientation[0]}…{spec.orientation[-1]}, row {row} "
-                             f"(line {row + 1}): not a rotation matrix (off by {defects[row - 1]:.3g})")
+        raise RecordingError(f"{file.where(f'{spec.orientation[0]}…{spec.orientation[-1]}', row)}: not a rotation "
+                             f"matrix (off by {defects[row - 1]:.3g})")
     return StaticPoseTable(wrench, accelerometer, np.einsum("nji,j->ni", R, np.asarray(recording.gravity_W, float)))

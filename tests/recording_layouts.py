@@ -4,6 +4,7 @@ of its own, biased and late, the orientation on a clock of its own in ms. Every 
 (``drake_motion``). Used by the recording and compensation tests and for docs/example_recording."""
 
 import csv
+import io
 
 import numpy as np
 from drake_motion import SmoothMotion
@@ -100,21 +101,96 @@ orientation:
     return t_w, truth
 
 
+QUIRKS = ("padded", "quoted", "bom", "semicolon", "tab", "whitespace", "stated_semicolon", "comments", "crlf",
+          "trailing", "exponents", "all")
+"""The ways a lab's logger may write a CSV (``rewrite``)."""
+
+
+def rewrite(path, quirk: str) -> str | None:
+    """Rewrites the comma-separated file at ``path`` (the csv module's) as a logger with ``quirk`` would, the
+    same numbers in it; returns the ``delimiter:`` the recording must state, if any. With the csv module and
+    plain string operations only."""
+    with open(path, newline="") as f:
+        header, *rows = list(csv.reader(f))
+    separator, newline, prefix, comment_every = ",", "\n", "", 0
+    if quirk in ("padded", "all"):
+        header = [f"  {name} " for name in header]
+        rows = [[f" {value}" for value in row] for row in rows]
+    if quirk in ("exponents", "all"):
+        rows = [[format(float(value), ".16e") for value in row] for row in rows]
+    if quirk in ("trailing", "all"):
+        header, rows = header + [""], [row + [""] for row in rows]
+    if quirk in ("semicolon", "stated_semicolon", "all"):
+        separator = ";"
+    if quirk == "tab":
+        separator = "\t"
+    if quirk in ("crlf", "all"):
+        newline = "\r\n"
+    if quirk in ("bom", "all"):
+        prefix = "\ufeff"
+    if quirk in ("comments", "all"):
+        comment_every = 97
+    if quirk == "whitespace":  # columns aligned with runs of spaces, as fixed-width loggers print them
+        width = max(len(x) for line in [header, *rows] for x in line) + 2
+        lines = ["".join(x.rjust(width) for x in line) for line in [header, *rows]]
+    else:
+        buffer = io.StringIO()
+        quoting = csv.QUOTE_ALL if quirk in ("quoted", "all") else csv.QUOTE_MINIMAL
+        csv.writer(buffer, delimiter=separator, lineterminator="\n", quoting=quoting).writerows([header, *rows])
+        lines = buffer.getvalue().splitlines()
+    if comment_every:
+        lines = ["# logger v2.1, serial 0042", "# units: s, N, N·m", ""] + [
+            line for k, row in enumerate(lines) for line in ([row, "# resynchronised"] if k % comment_every == 5
+                                                              else [row])]
+    with open(path, "w", newline="", encoding="utf-8") as f:
+        f.write(prefix + newline.join(lines) + newline)
+    return ";" if quirk == "stated_semicolon" else None
+
+
+STATIC_POSES = 24
+"""How many wrist orientations the example holds still (gravity in every direction of S)."""
+STATIC_NOISE = (0.01, 0.0005, 0.0002)
+"""The averaged poses' noise: N, N·m, g (the 0.1 N of a stream's samples, averaged over about 100)."""
+
+
+def write_static_poses(folder, phi, sensor_offsets) -> dict:
+    """``poses.csv``: the tool ``phi`` held still in ``STATIC_POSES`` orientations R_WS (random, seeded), one
+    averaged row each in the files' layout: the wrench on the sensor's sign with ``sensor_offsets`` (on the
+    load's sign), the accelerometer in g in its own axes with its bias, R_WS row by row; the noise of
+    ``STATIC_NOISE``. Returns the recording's ``static_poses`` section."""
+    from heft.systems.load_dynamics import noncontact_wrench
+
+    R_WS = Rotation.random(STATIC_POSES, random_state=11).as_matrix()
+    g_S = np.einsum("pji,j->pi", R_WS, [0.0, 0.0, -9.81])  # gravity in S: R_WSᵀ·g_W
+    zeros = np.zeros((STATIC_POSES, 3))
+    on_load = noncontact_wrench(np.asarray(phi), zeros, zeros, zeros, g_S) + np.asarray(sensor_offsets)
+    specific = reading_from_motion(np.hstack((zeros, zeros)), g_S, zeros,
+                                   AccelerometerConvention(True, tuple(P_SA)))[:, :3]
+    rng = np.random.default_rng(13)
+    force, torque, accel = STATIC_NOISE
+    on_load = on_load + rng.normal(size=on_load.shape) * np.repeat([force, torque], 3)
+    raw = specific @ R_SA / 9.80665 + BIAS_G + rng.normal(size=specific.shape) * accel
+    names = [f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
+    _write(folder / "poses.csv", ["pose", "Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "ax", "ay", "az", *names],
+           [[k + 1] + [f"{-x:.6f}" for x in w] + [f"{x:.7f}" for x in a] + [f"{x:.8f}" for x in R.ravel()]
+            for k, (w, a, R) in enumerate(zip(on_load, raw, R_WS))])
+    return {"file": "poses.csv", "wrench": ["Fx", "Fy", "Fz", "Tx", "Ty", "Tz"], "accelerometer": ["ax", "ay", "az"],
+            "orientation": names, "orientation_kind": "rotation_matrix"}
 
 
 def write_example(folder) -> None:
     """docs/example_recording: the recording of ``write_recording`` with sensor offsets, a contact and the
-    JR3's noise, its clock offset left to estimate, and an estimate.yaml holding the paper's tool as the
-    bundled scenarios model it (what `heft identify` would find) and those offsets."""
+    JR3's noise, its clock offset left to estimate (recording.yaml), and the static poses of
+    ``write_static_poses`` of the same tool, offsets and accelerometer (poses.yaml), from which
+    `heft identify --recording` finds the estimate that `heft compensate` takes."""
     import yaml
     from drake_motion import PAPER_TOOL
 
     offsets = [1.5, -2.0, 3.0, 0.1, -0.05, 0.02]
     write_recording(folder, sensor_offsets=offsets, contact=True, noise=0.1, name="recording.yaml")
-    (folder / "estimate.yaml").write_text(
-        "# The paper's tool (diagrams/models/tool.urdf) and the sensor's offsets on the load's sign:\n"
-        "# what `heft identify` writes (phi: Eq. 6, kg, kg·m, kg·m² about S; offsets: N, N·m).\n"
-        + yaml.safe_dump({"phi": [round(x, 9) for x in PAPER_TOOL.to_phi().tolist()], "offsets": offsets}))
+    poses = write_static_poses(folder, PAPER_TOOL.to_phi(), offsets)
+    (folder / "poses.yaml").write_text(yaml.safe_dump({"wrench": {"exerted_on": "sensor"},
+                                                       "accelerometer": {"unit": "g"}, "static_poses": poses}))
 
 
 if __name__ == "__main__":  # python tests/recording_layouts.py docs/example_recording
