@@ -195,11 +195,14 @@ class NetFtClient:
         return self._socket.fileno()
 
     def request(self, command: int, sample_count: int = 0) -> None:
-        """Sends an RDT request; a refused send (nothing listening yet) is left to the caller's retries."""
-        try:
-            self._socket.send(pack_request(command, sample_count))
-        except OSError:
-            pass
+        """Sends an RDT request, again if the first send only reported an earlier one refused (nothing
+        listened then); a send that fails is left to the caller's retries."""
+        for _ in range(2):
+            try:
+                self._socket.send(pack_request(command, sample_count))
+                return
+            except OSError:
+                pass
 
     def receive(self, clock) -> list[tuple[bytes, float]]:
         """Every datagram waiting (at most 64 kB each), with ``clock()`` at its taking."""

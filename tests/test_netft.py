@@ -94,3 +94,57 @@ def test_the_calibration_must_be_stated():
     with pytest.raises(ValueError, match="port"):
         NetFtParams(counts_per_force=1e6, counts_per_torque=1e6, port=0).validate()
     NetFtParams(counts_per_force=1e6, counts_per_torque=1e6).validate()
+
+
+def test_the_driver_publishes_what_a_device_streams_and_counts_what_it_refuses():
+    """A device played by a thread on loopback answers the driver's start request with hand-packed
+    packets: two good ones, one of a wrong length, one after a gap, one repeated, one flagged error;
+    the driver publishes the new records, counts the rest, asks to stop at the end, and runs on."""
+    import socket
+    import threading
+
+    import lcm
+
+    from heft.diagrams.running.netft_driver import run_netft_driver
+    from heft.hardware_interface.channels import LcmChannels
+
+    device = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    device.bind(("127.0.0.1", 0))
+    device.settimeout(10.0)
+    params = NetFtParams(counts_per_force=1000.0, counts_per_torque=100.0, port=device.getsockname()[1])
+    heard, done = [], threading.Event()
+
+    def play():
+        request, client = device.recvfrom(64)
+        heard.append(request)
+        packets = [_record(1, 10, 0, 1000, 0, 0, 0, 0, 0) + _record(2, 11, 0, 2000, 0, 0, 0, 0, 0),
+                   _record(3, 12, 0, 0, 0, 0, 0, 0, 0)[:35],  # a wrong length: refused
+                   _record(5, 14, 0, 0, 0, 0, 100, 0, 0),  # record 3 (in the bad datagram) and 4 lost
+                   _record(5, 14, 0, 0, 0, 0, 100, 0, 0),  # repeated: stale
+                   _record(6, 15, STATUS_ERROR, 0, 0, 0, 0, 0, 0)]
+        for packet in packets:
+            device.sendto(packet, client)
+        heard.append(device.recvfrom(64)[0])  # the stop request
+        done.set()
+
+    bus, samples = lcm.LCM("memq://"), []
+    channels = LcmChannels(lcm_url="memq://")
+    bus.subscribe(channels.ft_sample.name, lambda _, data: samples.extend(decode_samples(data)))
+    thread = threading.Thread(target=play)
+    thread.start()
+
+    def all_four_heard() -> bool:
+        while bus.handle_timeout(0) > 0:
+            pass
+        return len(samples) >= 4
+
+    summary = run_netft_driver("127.0.0.1", params, channels, 10.0, stop=all_four_heard, bus=bus)
+    thread.join(timeout=10.0)
+    device.close()
+    assert done.is_set() and heard == [pack_request(START_BUFFERED), pack_request(STOP_STREAMING)]
+    assert [s.sample_counter for s in samples] == [10, 11, 14, 15]
+    assert [s.wrench[0] for s in samples[:2]] == [1.0, 2.0] and samples[2].wrench[3] == 1.0
+    assert [s.error for s in samples] == [False, False, False, True]
+    assert np.all(np.diff([s.utime for s in samples]) > 0)
+    assert (summary["rejected"], summary["lost"], summary["stale"], summary["errors"], summary["published"]) == (
+        {"length": 1}, 2, 1, 1, 3)

@@ -8,7 +8,7 @@ sample counter (mod 2³²), the status code, and the wrench in counts through th
 streams to the requester (buffered: one packet per message, the samples of an arm step; real-time:
 one a record) until a stop or ``sample_count`` records; anything else is refused and counted.
 
-A sample the JR3 model flags (saturated, NaN, error) carries ``STATUS_ERROR`` with counts 0 for what
+A sample the JR3 model flags (a wrench axis saturated, NaN, error) carries ``STATUS_ERROR`` with counts 0 for what
 is not finite. For the tests, ``NetFtInjection`` withholds every n-th packet (its ``rdt_sequence``
 spent, as a packet lost on the way) and sets status bits on the records of a time window.
 """
@@ -26,6 +26,8 @@ from heft.hardware_interface.netft import (START_BUFFERED, START_REALTIME, STATU
                                            NetFtParams, pack_records, unpack_request)
 
 _INT32 = (-(1 << 31), (1 << 31) - 1)
+_WRENCH_AXES = 0x3F
+"""The saturation flags of the wrench's six axes (``heft_ft_sample.saturated``; a Net F/T has no accelerometer)."""
 
 
 @dataclasses.dataclass
@@ -101,7 +103,7 @@ class NetFtResponder:
         injection = self.injection
         status = np.zeros(count, dtype=np.uint64)
         for k in range(count):
-            if not finite[k] or record[saturated + k] or record[error + k]:
+            if not finite[k] or record[saturated + k] & _WRENCH_AXES or record[error + k]:
                 status[k] |= STATUS_ERROR
             if injection.status_at_s <= record[utime + k] * 1e-6 < injection.status_until_s:
                 status[k] |= injection.status
