@@ -47,6 +47,8 @@ class Arm:
     header: str
     links: list       # base, link 1 … link n−1, flange
     joints: list      # joint 1 … n
+    radius: float     # m, the links drawn as cylinders of this radius (visual only)
+    colour: str       # "r g b a" of the drawn links
 
 
 def _rx(angle: float) -> np.ndarray:
@@ -109,7 +111,7 @@ def ur5e() -> Arm:
         _, a, _, alpha = UR5E_DH[i - 1] if i else (0.0, 0.0, 0.0, 0.0)
         xyz = (a, -d * math.sin(alpha), d * math.cos(alpha))  # Tx(a)·Rx(α)·Tz(d)
         joints.append(Joint(xyz, (alpha, 0.0, 0.0), -UR5E_RANGE, UR5E_RANGE, UR5E_SPEED, UR5E_EFFORTS[i]))
-    return Arm("ur5e", "Universal Robots UR5e (5 kg payload)", links, joints)
+    return Arm("ur5e", "Universal Robots UR5e (5 kg payload)", links, joints, 0.045, "0.62 0.75 0.85 1")
 
 
 # ---------------------------------------------------------------- KUKA LBR iiwa 14 R820
@@ -157,7 +159,7 @@ def iiwa14() -> Arm:
             xyz = (xyz[0], xyz[1] + IIWA14_FLANGE, xyz[2])
         limit = math.radians(IIWA14_RANGES[i])
         joints.append(Joint(xyz, rpy, -limit, limit, math.radians(IIWA14_SPEEDS[i]), IIWA14_EFFORTS[i]))
-    return Arm("iiwa14", "KUKA LBR iiwa 14 R820 (14 kg payload)", links, joints)
+    return Arm("iiwa14", "KUKA LBR iiwa 14 R820 (14 kg payload)", links, joints, 0.065, "1 0.42 0.04 1")
 
 
 # ---------------------------------------------------------------- URDF text
@@ -171,20 +173,55 @@ def _vec(v) -> str:
     return " ".join(_num(x) for x in v)
 
 
+def _rpy_of_z_to(d: np.ndarray) -> tuple:
+    """URDF roll-pitch-yaw (rad) of a rotation taking z to the unit vector ``d``."""
+    axis, cosine = np.cross([0.0, 0.0, 1.0], d), float(np.clip(d[2], -1.0, 1.0))
+    if np.linalg.norm(axis) < 1e-12:
+        return (0.0, 0.0, 0.0) if cosine > 0 else (math.pi, 0.0, 0.0)
+    k = axis / np.linalg.norm(axis)
+    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    angle = math.acos(cosine)
+    R = np.eye(3) + math.sin(angle) * K + (1 - cosine) * K @ K
+    return (math.atan2(R[2, 1], R[2, 2]), math.atan2(-R[2, 0], math.hypot(R[2, 1], R[2, 2])),
+            math.atan2(R[1, 0], R[0, 0]))
+
+
+def _cylinder(name: str, centre, rpy, radius: float, length: float, material: str) -> list[str]:
+    return [f'    <visual name="{name}">', f'      <origin xyz="{_vec(centre)}" rpy="{_vec(rpy)}"/>',
+            f'      <geometry><cylinder radius="{_num(radius)}" length="{_num(length)}"/></geometry>',
+            f'      <material name="{material}"/>', "    </visual>"]
+
+
+def _visuals(arm: Arm, i: int) -> list[str]:
+    """Link i drawn: the base a cylinder up to joint 1; a link a cylinder on its joint's axis and one
+    from its origin to the next joint's; the flange a disc under its face."""
+    r, name = arm.radius, arm.links[i].name
+    if i == len(arm.links) - 1:
+        return _cylinder(name, (0.0, 0.0, -0.005), (0.0, 0.0, 0.0), 0.7 * r, 0.01, arm.name)
+    lines = [] if i == 0 else _cylinder(f"{name}_joint", (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), r, 2 * r, arm.name)
+    to_next = np.array(arm.joints[i].xyz, dtype=float)
+    length = float(np.linalg.norm(to_next))
+    if length > 1e-9:
+        lines += _cylinder(name, to_next / 2, _rpy_of_z_to(to_next / length), 0.8 * r, length, arm.name)
+    return lines
+
+
 def urdf(arm: Arm) -> str:
     """The URDF text of ``arm``."""
     lines = ['<?xml version="1.0"?>', "<!--", f"  {arm.header}, a slave arm bundled with heft.",
              "  Written by diagrams/models/make_arm_models.py from published numbers; sources in SOURCES.md.",
              f"  {arm.links[0].name} = R (mounting face, z up); flange = F (on the flange face, z out of it).",
-             "  Each link frame sits on its joint's axis, z along it. No geometry: kinematics and inertia only.",
-             "-->", f'<robot name="{arm.name}">']
-    for link in arm.links:
+             "  Each link frame sits on its joint's axis, z along it. Visual geometry only (drawn, not the",
+             "  arm's shape): a cylinder on each joint's axis and one from it to the next joint.",
+             "-->", f'<robot name="{arm.name}">',
+             f'  <material name="{arm.name}"><color rgba="{arm.colour}"/></material>']
+    for i, link in enumerate(arm.links):
         I = link.inertia
         lines += [f'  <link name="{link.name}">', "    <inertial>",
                   f'      <origin xyz="{_vec(link.com)}" rpy="0 0 0"/>', f'      <mass value="{_num(link.mass)}"/>',
                   f'      <inertia ixx="{_num(I[0, 0])}" ixy="{_num(I[0, 1])}" ixz="{_num(I[0, 2])}" '
                   f'iyy="{_num(I[1, 1])}" iyz="{_num(I[1, 2])}" izz="{_num(I[2, 2])}"/>',
-                  "    </inertial>", "  </link>"]
+                  "    </inertial>", *_visuals(arm, i), "  </link>"]
     for i, joint in enumerate(arm.joints):
         lines += [f'  <joint name="joint{i + 1}" type="revolute">', f'    <parent link="{arm.links[i].name}"/>',
                   f'    <child link="{arm.links[i + 1].name}"/>',
