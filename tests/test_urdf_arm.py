@@ -1,7 +1,7 @@
 """A lab's own arm from its URDF (diagrams/urdf_arm.py, diagrams/arm_params.py): a 7-DoF arm written here
 by hand, in a layout heft did not choose (the base below a pedestal, axes along ±x and ±y, a tool link
-past the flange, no transmissions), is read with its limits; a URDF lacking what heft needs is refused
-in one line naming the joint or link and what is missing."""
+past the flange, no transmissions), is read with its limits and its chain serves the inverse kinematics;
+a URDF lacking what heft needs is refused in one line naming the joint or link and what is missing."""
 
 from __future__ import annotations
 
@@ -14,6 +14,8 @@ from pydrake.math import RigidTransform, RollPitchYaw
 
 from heft.diagrams.arm_params import ArmParams
 from heft.diagrams.urdf_arm import ArmRefused, read_arm
+from heft.systems.chain_inverse_kinematics import ChainIk
+from heft.systems.pose_vectors import pose_vector
 
 MODELS = Path(__file__).resolve().parents[1] / "diagrams" / "models"
 
@@ -160,3 +162,22 @@ def test_a_missing_file_and_empty_fields_are_refused(tmp_path):
         read_arm(_params(tmp_path / "none.urdf"))
     with pytest.raises(ArmRefused, match="^arm: flange must name a link"):
         read_arm(ArmParams(urdf="x.urdf", base="b"))
+
+
+def test_the_chain_read_serves_the_inverse_kinematics(tmp_path):
+    (tmp_path / "lab_arm.urdf").write_text(_urdf())
+    plant, chain = read_arm(_params("lab_arm.urdf"), relative_to=tmp_path)
+    q0 = np.array([0.2, 0.5, -0.3, 0.9, 0.4, -0.6, 0.1])
+    ik = ChainIk(plant, chain.base, chain.flange, q0, lower=chain.lower, upper=chain.upper, velocity=chain.velocity)
+    context = plant.CreateDefaultContext()
+
+    def X_RF(q):
+        plant.SetPositions(context, q)
+        return plant.CalcRelativeTransform(context, chain.base, chain.flange)
+
+    q, period = q0.copy(), 0.0005
+    for k in range(400):
+        X_target = X_RF(q0 + 0.2 * np.sin(np.pi * k * period + np.arange(7)) - 0.2 * np.sin(np.arange(7)))
+        assert ik(pose_vector(X_target), q, period, q) == 0
+        X = X_RF(q)
+        assert np.abs(X.GetAsMatrix4() - X_target.GetAsMatrix4()).max() < 1e-8
