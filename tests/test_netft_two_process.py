@@ -53,7 +53,7 @@ def test_the_netft_driver_feeds_the_controller_as_the_lcm_stand_in_does(netns, t
 
         teleop = _teleop(netns, tmp_path, settings=CONTROLLER)
         driver = _Process(netns, tmp_path, "driver", "driver", "netft", "--address", "127.0.0.1", "--lcm-url",
-                          LCM_URL, "--set", CALIBRATION, "--duration", FOREVER, "--out", str(tmp_path / "driver.json"))
+                          LCM_URL, "--set", CALIBRATION, "--duration", FOREVER, "--out", str(tmp_path / "driver"))
         processes += [teleop, driver]
         driver.wait_for("netft: asking")
         stand_in = _Process(netns, tmp_path, "stand_in", "stand-in", "--lcm-url", LCM_URL, "--set", CALIBRATION,
@@ -69,7 +69,7 @@ def test_the_netft_driver_feeds_the_controller_as_the_lcm_stand_in_does(netns, t
     print(f"FT messages a second at the controller: from the LCM stand-in {lcm_rate:.0f}, through the Net F/T "
           f"driver {netft_rate:.0f}")
     served = dict((key, int(value)) for value, key in re.findall(r"(\d+) (withheld|records sampled)", stand_in.text()))
-    driven = json.loads((tmp_path / "driver.json").read_text())
+    driven = json.loads((tmp_path / "driver" / "netft.json").read_text())
     # The rate: an arm step's samples a message either way, less the withheld packets; what the driver
     # published, the controller received.
     assert driven["published_hz"] == pytest.approx(lcm_rate * (1 - 1 / DROP_EVERY), rel=0.03)

@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
-from heft.diagrams.commands.options import add_lcm_urls, add_set, scenario_from
+from heft.diagrams.commands.console import logger
+from heft.diagrams.commands.options import add_lcm_urls, add_out, add_scenario, add_set, out_file, scenario_from
 from heft.diagrams.running.realtime import LAB_PRIORITY
+
+say = logger(__name__)
 
 HELP = "a lab's device on heft's channels: netft (an ATI Net F/T over RDT as the FT channel)"
 
@@ -21,15 +23,18 @@ def add_arguments(parser) -> None:
                                          "N*m through the calibration lab.netft.counts_per_force / counts_per_torque, "
                                          "which the scenario file or --set must state.")
     netft.add_argument("--address", required=True, help="the Net F/T's IP address or host name")
-    netft.add_argument("--scenario", default="fig6", help="fig6 | fig7 | fig8 | path to the lab's scenario YAML "
-                                                          "(lab.netft, lab.lcm)")
+    add_scenario(netft, more="the lab's Net F/T and channels (lab.netft, lab.lcm)")
     add_set(netft)
     add_lcm_urls(netft)
     netft.add_argument("--duration", type=float, default=math.inf, help="seconds (default: until Ctrl-C or SIGTERM)")
     netft.add_argument("--rt-priority", type=int, default=LAB_PRIORITY,
                        help=f"SCHED_FIFO priority, off the CPU a controller here claims (default {LAB_PRIORITY}, as "
                             "the stand-in's drivers; 0: normal)")
-    netft.add_argument("--out", help="also write the summary here (JSON)")
+    add_out(netft, f"{SUMMARY} (what was streamed, published, lost and refused)")
+
+
+SUMMARY = "netft.json"
+"""The file ``--out`` names: the driver's summary."""
 
 
 def run(args) -> int:
@@ -37,22 +42,23 @@ def run(args) -> int:
     from heft.diagrams.running.realtime import StopOnSignal, claim_lab_realtime
 
     scenario = scenario_from(args)
+    summary_path = out_file(args, SUMMARY)
     params, channels = scenario.lab.netft, scenario.lab.lcm
     params.validate()
-    print(f"netft: asking {args.address}:{params.port} to stream ({'buffered' if params.buffered else 'real-time'}) "
-          f"into {channels.ft_sample.name} on {channels.lcm_url}; {params.counts_per_force:g} counts per N, "
-          f"{params.counts_per_torque:g} per N*m; no accelerometer (acceleration 0: state accelerometer."
-          f"includes_gravity: false for the controller); {claim_lab_realtime(args.rt_priority)}", flush=True)
+    say.info(f"netft: asking {args.address}:{params.port} to stream ({'buffered' if params.buffered else 'real-time'}) "
+             f"into {channels.ft_sample.name} on {channels.lcm_url}; {params.counts_per_force:g} counts per N, "
+             f"{params.counts_per_torque:g} per N*m; no accelerometer (acceleration 0: state accelerometer."
+             f"includes_gravity: false for the controller); {claim_lab_realtime(args.rt_priority)}")
     with StopOnSignal() as stop:
         summary = run_netft_driver(args.address, params, channels, args.duration, stop=lambda: stop.requested,
-                                   ready=lambda: print("netft: publishing", flush=True))
+                                   ready=lambda: say.info("netft: publishing"))
     bits = ", ".join(f"{bit} in {n}" for bit, n in summary["status_bits"].items()) or "none"
-    print(f"netft: stopped after {summary['duration_s']:.3f} s; {summary['packets']} packets, {summary['records']} "
-          f"new records ({summary['samples_hz']:.0f} Hz) in {summary['published']} messages "
-          f"({summary['published_hz']:.0f} Hz); lost {summary['lost']} (rdt_sequence gaps), stale "
-          f"{summary['stale']}, stream restarts {summary['restarts']}; status bits: {bits}; flagged error "
-          f"{summary['errors']}; datagrams refused: {summary['rejected']['length']} (length); start requests "
-          f"{summary['start_requests']}", flush=True)
-    if args.out:
-        Path(args.out).write_text(json.dumps(summary, indent=2) + "\n")
+    say.info(f"netft: stopped after {summary['duration_s']:.3f} s; {summary['packets']} packets, {summary['records']} "
+             f"new records ({summary['samples_hz']:.0f} Hz) in {summary['published']} messages "
+             f"({summary['published_hz']:.0f} Hz); lost {summary['lost']} (rdt_sequence gaps), stale "
+             f"{summary['stale']}, stream restarts {summary['restarts']}; status bits: {bits}; flagged error "
+             f"{summary['errors']}; datagrams refused: {summary['rejected']['length']} (length); start requests "
+             f"{summary['start_requests']}")
+    if summary_path is not None:
+        summary_path.write_text(json.dumps(summary, indent=2) + "\n")
     return 0

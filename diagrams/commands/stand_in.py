@@ -75,8 +75,8 @@ def run(args) -> int:
         from heft.diagrams.stations.stand_in_netft import NetFtInjection, NetFtResponder
         netft = NetFtResponder(scenario.lab.netft, args.netft, NetFtInjection(
             args.netft_drop_every, args.netft_status, args.netft_status_at, args.netft_status_until))
-        print(f"stand-in: the wrist sensor answers as a Net F/T on {args.netft}:{scenario.lab.netft.port} (RDT), "
-              f"not on {channels.ft_sample.name}", flush=True)
+        say.info(f"stand-in: the wrist sensor answers as a Net F/T on {args.netft}:{scenario.lab.netft.port} (RDT), "
+                 f"not on {channels.ft_sample.name}")
     say.info(f"stand-in: {args.scenario} on {channels.lcm_url} (commands on {channels.command_lcm_url()}) for "
              f"{args.duration:g} s at real time; {claim_lab_realtime(args.rt_priority)}")
     with StopOnSignal() as stop:
@@ -88,9 +88,9 @@ def run(args) -> int:
     if netft is not None:
         netft.close()
         summary["netft"] = served = netft.summary()
-        print(f"stand-in: Net F/T on {served['address']}: {served['requests']} requests ({served['refused']} refused); "
-              f"{served['packets']} packets streamed, {served['withheld']} withheld, {served['sent']} sent with "
-              f"{served['records']} records; {served['flagged']} records sampled with status bits", flush=True)
+        say.info(f"stand-in: Net F/T on {served['address']}: {served['requests']} requests ({served['refused']} "
+                 f"refused); {served['packets']} packets streamed, {served['withheld']} withheld, {served['sent']} "
+                 f"sent with {served['records']} records; {served['flagged']} records sampled with status bits")
     rates = "; ".join(f"{kind} Hz " + ", ".join(f"{name} {hz:.0f}" for name, hz in summary[f"{kind}_hz"].items())
                       for kind in ("published", "received"))
     died = " (died, as injected)" if summary["died"] else ""
