@@ -1,7 +1,8 @@
-"""Regenerates the Python LCM types of this folder from its ``*.lcm`` files.
+"""Regenerates the LCM types of this folder from its ``*.lcm`` files: Python here, and C, C++ and
+Java for the lab's drivers in ``drivers/`` (its README says how to build and use them).
 
 Run ``python -m heft.hardware_interface.lcmtypes.regenerate`` after editing a
-``.lcm`` file, and commit the result. Steps:
+``.lcm`` file, and commit the result. Steps for Python:
 
 1. ``lcm-gen -p`` (from the ``lcm`` pip package, found beside the running
    interpreter or on PATH) writes package ``heft_lcmtypes`` into a temporary
@@ -13,7 +14,7 @@ Run ``python -m heft.hardware_interface.lcmtypes.regenerate`` after editing a
    resolve inside ``heft``, so such output is refused rather than committed.
 
 ``tests/test_hardware_ft_receiver.py`` checks that the committed modules are
-byte for byte what this produces.
+byte for byte what this produces, ``tests/test_lcmtypes_for_drivers.py`` the same of ``drivers/``.
 """
 
 import pathlib
@@ -24,6 +25,12 @@ import tempfile
 
 HERE = pathlib.Path(__file__).resolve().parent
 LCM_PACKAGE = "heft_lcmtypes"
+DRIVERS = HERE / "drivers"
+"""Where the C (``c/``), C++ (``cpp/``) and Java (``java/``) types are committed."""
+DRIVER_LANGUAGES = {"c": ["-c", "--c-cpath", "{out}", "--c-hpath", "{out}"],
+                    "cpp": ["-x", "--cpp-std", "c++11", "--cpp-hpath", "{out}"],
+                    "java": ["-j", "--jpath", "{out}"]}
+"""lcm-gen's options per language, ``{out}`` the language's folder."""
 
 
 def lcm_gen_executable() -> str:
@@ -51,5 +58,20 @@ def regenerate(out_dir: pathlib.Path = HERE) -> list[str]:
     return names
 
 
+def regenerate_for_drivers(out_dir: pathlib.Path = DRIVERS) -> list[str]:
+    """Writes the C, C++ and Java types into ``out_dir``/{c,cpp,java}, each folder emptied first;
+    returns their paths relative to ``out_dir``."""
+    sources = sorted(str(p) for p in HERE.glob("*.lcm"))
+    written = []
+    for language, options in DRIVER_LANGUAGES.items():
+        folder = pathlib.Path(out_dir) / language
+        shutil.rmtree(folder, ignore_errors=True)
+        folder.mkdir(parents=True)
+        subprocess.run([lcm_gen_executable(), *(option.format(out=folder) for option in options), *sources],
+                       check=True)
+        written += sorted(str(path.relative_to(out_dir)) for path in folder.rglob("*") if path.is_file())
+    return written
+
+
 if __name__ == "__main__":
-    print("\n".join(regenerate()))
+    print("\n".join(regenerate() + regenerate_for_drivers()))
