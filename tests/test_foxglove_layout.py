@@ -1,0 +1,36 @@
+"""The shipped Foxglove layout: the file is the one ``analysis.foxglove_layout`` builds, it is
+package data, and every plotted path names a field of a topic's schema."""
+
+import json
+import re
+from importlib.resources import files
+
+from heft.analysis.foxglove_layout import LAYOUT_FILE, layout_text
+from heft.analysis.topics import SCENE_SCHEMAS, TOPICS
+
+
+def test_the_shipped_layout_is_the_built_one():
+    assert LAYOUT_FILE.read_text() == layout_text()
+    assert (files("heft.analysis") / "heft_layout.json").read_text() == layout_text()
+
+
+def test_every_plotted_path_is_a_field_of_a_topic():
+    layout = json.loads(LAYOUT_FILE.read_text())
+    schemas = {topic.name: topic.schema() for topic in TOPICS}
+    paths = [series["value"] for key, panel in layout["configById"].items() if key.startswith("Plot!")
+             for series in panel["paths"]]
+    assert len(paths) > 40
+    for path in paths:
+        topic, *parts = path.split(".")
+        node = schemas[topic]
+        for part in parts:
+            name, index = re.fullmatch(r"(\w+)(?:\[(\d+)\])?", part).groups()
+            node = node["properties"][name]
+            if index is not None:
+                assert node["type"] == "array" and int(index) < node["maxItems"], path
+                node = node["items"]
+        assert "number" in node["type"], path
+    scene = layout["configById"]["3D!scene"]
+    assert set(scene["topics"]) <= set(SCENE_SCHEMAS)
+    raw = {panel["topicPath"] for key, panel in layout["configById"].items() if key.startswith("RawMessages!")}
+    assert raw == {"/faults", "/load/status"}
