@@ -27,9 +27,10 @@ STATUS = STATUS_ERROR | 0x1
 STATUS_AT, STATUS_UNTIL = 1.5, 1.55
 CALIBRATION = overrides_text({"lab.netft.counts_per_force": 1_000_000.0, "lab.netft.counts_per_torque": 1_000_000.0})
 CONTROLLER = yaml.safe_dump(layered_dict(yaml.safe_load(STAND_IN_SENSOR),
-                                         yaml.safe_load(overrides_text({"accelerometer.includes_gravity": False}))),
+                                         yaml.safe_load(overrides_text({"accelerometer.includes_gravity": False,
+                                                                         "accelerometer.position": [0.0, 0.0, 0.0]}))),
                             default_flow_style=True)
-"""The stand-in's sensor as a lab states it, with no accelerometer reading but 0 (the Net F/T has none)."""
+"""The stand-in's sensor as a lab states it, its accelerometer reading 0 at S (a Net F/T has none: docs/netft.md)."""
 
 
 def _ft_received(teleop, folder, stand_in) -> tuple[float, dict]:
