@@ -8,10 +8,14 @@ contact_tz`` (N, N·m, at S in S, in the recording's own sign: ``exerted_on``). 
 under a temporary name and renamed when the run is complete, so a run stopped by a bad row leaves none.
 
 Contact: the contact force's magnitude |c_f| above a threshold (N), samples less than ``MERGE_GAP`` apart
-joined, intervals shorter than ``MIN_DURATION`` dropped. By default the threshold is the median of |c_f|
-in the first chunk plus 6 of its robust standard deviations (1.4826 × MAD), at least ``MIN_THRESHOLD``:
-the level the model's residual and the sensor's noise leave while nothing is touched, if the run does
-not begin in contact (state it otherwise).
+joined, intervals shorter than ``MIN_DURATION`` dropped. The threshold (``contact_threshold``), unless
+stated, is the level the model's residual and the sensor's noise leave while nothing is touched, found
+in the recording itself wherever in it that is: |c_f| over the whole recording (at most
+``SCAN_SAMPLES`` samples, evenly thinned) is cut into ``QUIET_WINDOW`` stretches; the quietest tenth
+of them (lowest median |c_f|) give a first median + 6 robust standard deviations (1.4826 × MAD), which
+then takes in every sample below it until it settles (σ-clipping), at least ``MIN_THRESHOLD``. Where
+the estimate measured its fit's residual and even the quietest stretches lie above 6 times it, the
+recording is taken to be in contact throughout and that level is the threshold.
 """
 
 from __future__ import annotations
@@ -33,11 +37,79 @@ COLUMNS = ("t",) + tuple(f"noncontact_{a}" for a in AXES) + tuple(f"contact_{a}"
 MIN_THRESHOLD = 0.5
 """N: five times the JR3's force noise (0.1 N RMS, docs/design.md §6), the least default contact threshold."""
 ROBUST_SIGMAS = 6.0
+SCAN_SAMPLES = 200_000
+"""Wrench samples (at most, evenly thinned) from which the default threshold is found."""
+QUIET_WINDOW = 0.1
+"""s of wrench time per stretch when looking for the quietest."""
+QUIET_SHARE = 0.1
+"""The share of stretches (the lowest median |c_f|) that start the search; at least one."""
 MERGE_GAP = 0.02
 """s: contact samples closer than this belong to one interval."""
 MIN_DURATION = 0.005
 """s: shorter excursions are not reported as contact (they still count as contact for the RMS)."""
 FIGURE_POINTS = 20000
+
+
+@dataclasses.dataclass
+class ContactThreshold:
+    """|c_f| (N) above which a sample is in contact, and the reason for it (kept in metrics.json)."""
+    value: float
+    reason: str
+
+
+def _robust_level(force: np.ndarray) -> float:
+    median = float(np.median(force))
+    return median + ROBUST_SIGMAS * 1.4826 * float(np.median(np.abs(force - median)))
+
+
+def quiet_threshold(t: np.ndarray, force: np.ndarray, estimate_rms=None) -> ContactThreshold:
+    """The default threshold (module docstring) from |c_f| ``force`` (N) at wrench times ``t`` (s), and
+    the force residual RMS per axis the estimate's own fit left (``estimate_rms``, N), if it measured it."""
+    edges = np.arange(t[0], t[-1] + QUIET_WINDOW, QUIET_WINDOW)
+    window = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, None)
+    counts = np.bincount(window)
+    stretches = [force[window == k] for k in np.flatnonzero(counts >= 3)] or [force]
+    levels = np.array([np.median(x) for x in stretches])
+    quiet = np.argsort(levels)[:max(1, int(round(QUIET_SHARE * len(stretches))))]
+    threshold = max(MIN_THRESHOLD, _robust_level(np.concatenate([stretches[k] for k in quiet])))
+    for _ in range(50):
+        settled = max(MIN_THRESHOLD, _robust_level(force[force <= threshold]))
+        if abs(settled - threshold) <= 1e-3 * threshold:
+            break
+        threshold = settled
+    quiet_level = float(np.median(levels[quiet]))
+    reason = (f"the recording's quietest {len(quiet)} of {len(stretches)} stretches of {QUIET_WINDOW:g} s (median "
+              f"|c_f| {quiet_level:.3g} N), median + {ROBUST_SIGMAS:g} robust σ of |c_f|, widened over every sample "
+              f"below it until it settled, at least {MIN_THRESHOLD:g} N; from {len(force)} samples")
+    if estimate_rms is not None:
+        noise = max(MIN_THRESHOLD, ROBUST_SIGMAS * float(np.linalg.norm(estimate_rms)))
+        if quiet_level > noise:
+            return ContactThreshold(noise, f"{ROBUST_SIGMAS:g} × the force residual the estimate's fit left "
+                                           f"({float(np.linalg.norm(estimate_rms)):.3g} N RMS), at least "
+                                           f"{MIN_THRESHOLD:g} N: even the recording's quietest stretches (median "
+                                           f"|c_f| {quiet_level:.3g} N) lie above it, so it is in contact throughout")
+        reason += f"; the estimate's fit left {float(np.linalg.norm(estimate_rms)):.3g} N RMS"
+    return ContactThreshold(threshold, reason)
+
+
+def contact_threshold(chunks, phi, offsets, stated: float | None = None, estimate_rms=None) -> ContactThreshold:
+    """The threshold: ``stated`` (N), else ``quiet_threshold`` of the contact force over ``chunks`` (the
+    recording's ``MergedSamples``, thinned to at most ``SCAN_SAMPLES``), φ̂ and the offsets (load's sign)."""
+    if stated is not None:
+        return ContactThreshold(float(stated), "stated (--contact-threshold)")
+    t_parts, force_parts = [], []
+    for chunk in chunks:
+        contact = chunk.wrench[:, :3] - np.asarray(offsets, dtype=float)[:3] - chunk.noncontact(phi)[:, :3]
+        t_parts.append(chunk.t)
+        force_parts.append(np.linalg.norm(contact, axis=1))
+    if not t_parts:
+        raise ValueError("no wrench sample to find the contact threshold from")
+    return quiet_threshold(np.concatenate(t_parts), np.concatenate(force_parts), estimate_rms)
+
+
+def scan_stride(rows: int) -> int:
+    """Every how many wrench rows ``contact_threshold`` takes one."""
+    return max(1, rows // SCAN_SAMPLES)
 
 
 class _ContactIntervals:
@@ -103,7 +175,8 @@ class _Writer:
 
 @dataclasses.dataclass
 class Compensation:
-    """What ``compensate`` found: ``samples`` written, ``duration_s`` of wrench time, ``threshold_N``,
+    """What ``compensate`` found: ``samples`` written, ``duration_s`` of wrench time, ``threshold_N`` and its
+    ``threshold_reason``,
     ``intervals`` of contact, the residual's ``rms`` and ``mean`` per axis outside them (N, N·m; the
     contact estimate where nothing is touched), the share of samples in contact, ``elapsed_s`` (wall) and
     ``cpu_s`` (this process's CPU time: what one core of its own would take), and
@@ -111,7 +184,7 @@ class Compensation:
     samples: int
     duration_s: float
     threshold_N: float
-    threshold_source: str
+    threshold_reason: str
     intervals: list
     rms: list
     mean: list
@@ -130,15 +203,16 @@ class Compensation:
         return out
 
 
-def compensate(chunks, phi, offsets, sign: float, out_path, threshold: float | None = None,
+def compensate(chunks, phi, offsets, sign: float, out_path, threshold: ContactThreshold,
                total_rows: int | None = None) -> Compensation:
     """Compensates the ``MergedSamples`` of ``chunks`` with the load estimate (φ̂ (10,), offsets (6,) on
-    the load's sign) and writes ``out_path`` (.csv or .parquet). ``sign``: −1 for a recording of what
-    the load exerts on the sensor, else 1. ``total_rows`` (the wrench file's) thins the figure's traces."""
+    the load's sign) and writes ``out_path`` (.csv or .parquet); contact is |c_f| above ``threshold``.
+    ``sign``: −1 for a recording of what the load exerts on the sensor, else 1. ``total_rows`` (the
+    wrench file's) thins the figure's traces."""
     started, started_cpu = time.perf_counter(), time.process_time()
     offsets = np.asarray(offsets, dtype=float)
     writer = _Writer(Path(out_path))
-    detector, source = None, "stated"
+    detector = _ContactIntervals(threshold.value)
     sums, squares, count, samples = np.zeros(6), np.zeros(6), 0, 0
     stride = max(1, (total_rows or 0) // FIGURE_POINTS)
     kept = {key: [] for key in ("t", "measured", "noncontact", "contact")}
@@ -148,14 +222,6 @@ def compensate(chunks, phi, offsets, sign: float, out_path, threshold: float | N
             noncontact = chunk.noncontact(phi)
             contact = chunk.wrench - offsets - noncontact
             force = np.sqrt(np.einsum("ij,ij->i", contact[:, :3], contact[:, :3]))
-            if detector is None:
-                if threshold is None:
-                    median = float(np.median(force))
-                    threshold = max(MIN_THRESHOLD, median + ROBUST_SIGMAS * 1.4826 *
-                                    float(np.median(np.abs(force - median))))
-                    source = (f"median + {ROBUST_SIGMAS:g} robust σ of |c_f| over the first {len(force)} samples "
-                              f"(at least {MIN_THRESHOLD:g} N)")
-                detector = _ContactIntervals(threshold)
             free = ~detector.add(chunk.t, force)
             sums += contact[free].sum(axis=0)
             squares += np.einsum("ij,ij->j", contact[free], contact[free])
@@ -176,7 +242,8 @@ def compensate(chunks, phi, offsets, sign: float, out_path, threshold: float | N
         raise ValueError("no wrench sample was compensated")
     mean = sums / max(count, 1)
     rms = np.sqrt(squares / max(count, 1))
-    return Compensation(samples, float(last_t - first_t), float(threshold), source, detector.finish(), rms.tolist(),
+    return Compensation(samples, float(last_t - first_t), threshold.value, threshold.reason, detector.finish(),
+                        rms.tolist(),
                         mean.tolist(), 1.0 - count / samples, time.perf_counter() - started,
                         time.process_time() - started_cpu,
                         {key: np.concatenate(value) for key, value in kept.items()})

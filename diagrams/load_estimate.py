@@ -20,10 +20,12 @@ from heft.systems.load_dynamics import InertialParameters, checked_load, inertia
 @dataclasses.dataclass
 class LoadEstimate:
     """The load model the controller uses: φ̂ (Eq. 6) and offsets [f_o; τ_o] (N, N·m); the
-    accelerometer's calibration when the estimate carries one."""
+    accelerometer's calibration when the estimate carries one; ``residual_rms`` (6,) the wrench residual
+    per axis its fit left (N, N·m) when it was fitted to samples (not averaged static poses)."""
     phi: np.ndarray
     offsets: np.ndarray
     accelerometer: AccelerometerCalibration | None = None
+    residual_rms: np.ndarray | None = None
 
 
 def estimate_record(result, method: str, signals: str, samples: int) -> dict:
@@ -34,6 +36,8 @@ def estimate_record(result, method: str, signals: str, samples: int) -> dict:
               "phi": phi.tolist(), "offsets": offsets.tolist(),
               "std_offsets": std[:6].tolist(), "std_phi": std[6:].tolist(),
               "identifiable": [bool(x) for x in np.asarray(result.identifiable)]}
+    if signals != "static poses":  # an averaged pose's residual is not a sample's
+        record["residual_rms"] = np.asarray(result.residual_rms, dtype=float).tolist()
     if phi[0] > 0:
         body = InertialParameters.from_phi(phi)
         record.update(mass=float(body.mass), com=body.com.tolist(),
@@ -61,6 +65,7 @@ def read_load_estimate(path, wrench_full_scale=None) -> LoadEstimate:
         data = yaml.safe_load(path.read_text())
         phi, offsets = np.asarray(data["phi"], dtype=float), np.asarray(data["offsets"], dtype=float)
         calibration = data.get("accelerometer")
+        residual = None if data.get("residual_rms") is None else np.asarray(data["residual_rms"], dtype=float)
     except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError, AttributeError) as error:
         raise ValueError(f"cannot read a load estimate from {path}: {error}; "
                          "write one with `heft identify --scenario FILE --out DIR`") from None
@@ -72,7 +77,9 @@ def read_load_estimate(path, wrench_full_scale=None) -> LoadEstimate:
             calibration = AccelerometerCalibration(**calibration)
     except (ValueError, TypeError) as error:
         raise ValueError(f"{path}: {error}") from None
-    return LoadEstimate(phi=phi, offsets=offsets, accelerometer=calibration)
+    if residual is not None and (residual.shape != (6,) or not np.isfinite(residual).all() or (residual < 0).any()):
+        raise ValueError(f"{path}: residual_rms needs 6 finite numbers >= 0 (N, N·m); got {residual.tolist()}")
+    return LoadEstimate(phi=phi, offsets=offsets, accelerometer=calibration, residual_rms=residual)
 
 
 def read_accelerometer_calibration(path) -> AccelerometerCalibration | None:

@@ -25,12 +25,12 @@ CONTACT_PEAK = np.array([2.0, -1.0, 15.0, 0.3, 0.2, 0.0])
 _TRUTH = {}
 
 
-def _truth(rate: float) -> tuple:
-    """(t, Drake's truth) of the motion sampled at ``rate`` over DURATION, computed once per process."""
-    if rate not in _TRUTH:
-        t = np.arange(0, DURATION, 1 / rate)
-        _TRUTH[rate] = t, SmoothMotion().truth(t)
-    return _TRUTH[rate]
+def _truth(rate: float, duration: float) -> tuple:
+    """(t, Drake's truth) of the motion sampled at ``rate`` over ``duration`` s, computed once per process."""
+    if (rate, duration) not in _TRUTH:
+        t = np.arange(0, duration, 1 / rate)
+        _TRUTH[rate, duration] = t, SmoothMotion().truth(t)
+    return _TRUTH[rate, duration]
 
 
 def _write(path, header, rows):
@@ -49,27 +49,28 @@ def contact_pulse(t: np.ndarray) -> np.ndarray:
 
 
 def write_recording(folder, orientation="rotation_matrix", accel_offset="estimate", sensor_offsets=None,
-                    contact=False, noise=0.0, name="rec.yaml"):
-    """A 3 s recording of Drake's motion of the paper's tool: the wrench at 700 Hz on the sensor's sign with
-    µs stamps (and a status column heft does not read), plus ``sensor_offsets`` (on the load's sign) and,
-    with ``contact``, ``contact_pulse``, and Gaussian noise of ``noise`` N (a twentieth of it on the
-    torques); the accelerometer at 250 Hz in g, rotated by R_SA, biased and stamped 6 ms late; the
-    orientation at 100 Hz. Returns the wrench's stamps (s from the start) and Drake's truth at them."""
-    t_w, truth = _truth(700.0)
+                    contact=False, noise=0.0, name="rec.yaml", duration=DURATION):
+    """A ``duration`` s (3 s) recording of Drake's motion of the paper's tool: the wrench at 700 Hz on the
+    sensor's sign with µs stamps (and a status column heft does not read), plus ``sensor_offsets`` (on the
+    load's sign) and, with ``contact``, ``contact_pulse`` (or ``contact(t)``, (N, 6) on the load), and
+    Gaussian noise of ``noise`` N (a twentieth of it on the torques); the accelerometer at 250 Hz in g,
+    rotated by R_SA, biased and stamped 6 ms late; the orientation at 100 Hz. Returns the wrench's stamps
+    (s from the start) and Drake's truth at them."""
+    t_w, truth = _truth(700.0, duration)
     on_load = truth["wrench"] + (0.0 if sensor_offsets is None else np.asarray(sensor_offsets))
     if contact:
-        on_load = on_load + contact_pulse(t_w)
+        on_load = on_load + (contact(t_w) if callable(contact) else contact_pulse(t_w))
     if noise:
         on_load = on_load + np.random.default_rng(5).normal(size=on_load.shape) * noise * np.repeat([1, 0.05], 3)
     _write(folder / "ft.csv", ["stamp_us", "Fx", "Fy", "Fz", "Tx", "Ty", "Tz", "status"],
            [[EPOCH_US + int(round(1e6 * t))] + [f"{-x:.6f}" for x in w] + [0] for t, w in zip(t_w, on_load)])
-    t_a, at_a = _truth(250.0)
+    t_a, at_a = _truth(250.0, duration)
     specific = reading_from_motion(np.hstack((at_a["a"], at_a["alpha"])), at_a["g"], at_a["omega"],
                                    AccelerometerConvention(True, tuple(P_SA)))[:, :3]
     raw = specific @ R_SA / 9.80665 + BIAS_G
     _write(folder / "imu.csv", ["time", "ax", "ay", "az"],
            [[EPOCH_US + int(round(1e6 * (t + LATE)))] + [f"{x:.7f}" for x in r] for t, r in zip(t_a, raw)])
-    t_p, at_p = _truth(100.0)
+    t_p, at_p = _truth(100.0, duration)
     R = at_p["R_WS"]
     if orientation == "rotation_matrix":
         names, values = [f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)], R.reshape(-1, 9)

@@ -25,7 +25,7 @@ def add_arguments(parser) -> None:
                         help="compensated.csv (default) or compensated.parquet (same columns; faster to write)")
     parser.add_argument("--contact-threshold", type=float,
                         help="contact force magnitude (N) above which a sample is in contact (default: from the "
-                             "first chunk's residual, see metrics.json)")
+                             "recording's quietest stretches, see metrics.json)")
     parser.add_argument("--offset-window", type=float, nargs=2, metavar=("START", "DURATION"),
                         help="wrench time (s) over which clock offsets marked 'estimate' are found "
                              "(default: the first 60 s the streams share)")
@@ -59,7 +59,7 @@ def _with_progress(chunks, rows: int):
 
 def run(args) -> int:
     from heft.analysis.clock_offsets import estimate_clock_offsets
-    from heft.analysis.compensation import compensate, compensation_figure
+    from heft.analysis.compensation import compensate, compensation_figure, contact_threshold, scan_stride
     from heft.analysis.recording import ESTIMATE
     from heft.diagrams.load_estimate import read_load_estimate
     from heft.diagrams.recordings import open_recording
@@ -88,8 +88,13 @@ def run(args) -> int:
     sign = -1.0 if recording.wrench.exerted_on == "sensor" else 1.0
     path = out / f"compensated.{args.format}"
     rows = source.spans["wrench"][2]
+    threshold = contact_threshold(() if args.contact_threshold is not None else
+                                  source.chunks(offsets, stride=scan_stride(rows)), estimate.phi, estimate.offsets,
+                                  args.contact_threshold, None if estimate.residual_rms is None
+                                  else estimate.residual_rms[:3])
+    say.info(f"contact threshold {threshold.value:.3g} N: {threshold.reason}")
     result = compensate(_with_progress(source.chunks(offsets), rows), estimate.phi, estimate.offsets, sign, path,
-                        args.contact_threshold, rows)
+                        threshold, rows)
     compensation_figure(result, out / "figure.png")
     choices = {**source.choices, "clock_offsets_s": {
         name: {"offset_s": value, "how": "estimated" if name in fits else "stated",
