@@ -22,7 +22,7 @@ from pydrake.systems.analysis import SimulatorConfig
 
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station_params import HardwareStationParams
-from heft.hardware_interface.netft import NetFtParams
+from heft.hardware_interface.netft_params import NetFtParams
 from heft.systems.contact_threshold import ContactThresholdParams
 from heft.systems.load_estimation_params import LoadEstimationParams
 from heft.systems.feedback_mapping_params import FeedbackMappingParams

@@ -17,17 +17,14 @@ refused and counted (``unpack_records``), a record not newer than the stream's l
 stale, and a gap in ``rdt_sequence`` counts the records lost on the way (``RdtStream``).
 """
 
-import dataclasses
-import math
 import socket
 import struct
 
 import numpy as np
 
 from heft.hardware_interface.ft_messages import MAX_SAMPLES, pack_samples
+from heft.hardware_interface.netft_params import RDT_PORT
 
-RDT_PORT = 49152
-"""The UDP port a Net F/T answers RDT requests on."""
 COMMAND_HEADER = 0x1234
 """The first field of every RDT request."""
 STOP_STREAMING, START_REALTIME, START_BUFFERED = 0x0000, 0x0002, 0x0003
@@ -98,37 +95,6 @@ def ft_messages_of(records: np.ndarray, counters, stamps, counts_per_unit: np.nd
         messages.append(pack_samples(stamps[first:last], counters[first:last], wrenches[6 * first:6 * last],
                                      [0.0] * 6 * n, [0] * n, errors[first:last]))
     return messages
-
-
-@dataclasses.dataclass
-class NetFtParams:
-    """A lab's Net F/T; ``Scenario.lab.netft``. The calibration has no default: its values are on the
-    device's configuration page (Counts per Force, Counts per Torque), for forces in N and torques in
-    N·m, and its tool transform must put the reported wrench at S, in S (docs/netft.md)."""
-
-    counts_per_force: float = 0.0
-    """Counts per N of Fx, Fy, Fz; 0: not stated."""
-    counts_per_torque: float = 0.0
-    """Counts per N·m of Tx, Ty, Tz; 0: not stated."""
-    port: int = RDT_PORT
-    """The device's RDT port (UDP)."""
-    buffered: bool = True
-    """Ask for buffered streaming (the device's RDT buffer size of records a packet: a packet per
-    controller tick) rather than real-time streaming (one record a packet)."""
-
-    def validate(self) -> None:
-        """Raises ValueError naming a calibration not stated or not a positive number, or a bad port."""
-        for name in ("counts_per_force", "counts_per_torque"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"state lab.netft.{name} (the Net F/T's calibration: {name.replace('_', ' ')}, "
-                                 f"from its configuration page, for N and N*m); got {value}")
-        if not 0 < self.port < 65536:
-            raise ValueError(f"lab.netft.port must be a UDP port; got {self.port}")
-
-    def counts_per_unit(self) -> np.ndarray:
-        """Counts per N (×3) and per N·m (×3), in the records' order."""
-        return np.array([self.counts_per_force] * 3 + [self.counts_per_torque] * 3)
 
 
 class RdtStream:

@@ -9,8 +9,9 @@ import pytest
 
 from heft.hardware_interface.ft_messages import MAX_SAMPLES, decode_samples
 from heft.hardware_interface.netft import (RECORD, START_BUFFERED, START_REALTIME, STATUS_ERROR, STOP_STREAMING,
-                                           NetFtParams, RdtStream, ft_messages_of, pack_records, pack_request,
-                                           record_stamps, unpack_records, unpack_request)
+                                           RdtStream, ft_messages_of, pack_records, pack_request, record_stamps,
+                                           unpack_records, unpack_request)
+from heft.hardware_interface.netft_params import NetFtParams
 
 
 def _record(rdt, ft, status, *counts) -> bytes:
@@ -104,7 +105,6 @@ def test_the_driver_publishes_what_a_device_streams_and_counts_what_it_refuses()
     import threading
 
     import lcm
-
     from heft.diagrams.running.netft_driver import run_netft_driver
     from heft.hardware_interface.channels import LcmChannels
 

@@ -14,8 +14,9 @@ from heft.diagrams.stations.stand_in import FaultInjection, StandIn
 from heft.diagrams.stations.stand_in_netft import NetFtInjection, NetFtResponder
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.ft_messages import decode_samples
-from heft.hardware_interface.netft import (START_BUFFERED, START_REALTIME, STATUS_ERROR, STOP_STREAMING,
-                                           NetFtClient, NetFtParams, unpack_records)
+from heft.hardware_interface.netft import (START_BUFFERED, START_REALTIME, STATUS_ERROR, STOP_STREAMING, NetFtClient,
+                                           unpack_records)
+from heft.hardware_interface.netft_params import NetFtParams
 
 CHANNELS = LcmChannels(lcm_url="memq://")
 PARAMS = NetFtParams(counts_per_force=1_000_000.0, counts_per_torque=1_000_000.0,

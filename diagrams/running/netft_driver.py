@@ -18,8 +18,9 @@ import time
 import lcm
 
 from heft.hardware_interface.channels import LcmChannels
-from heft.hardware_interface.netft import (START_BUFFERED, START_REALTIME, STOP_STREAMING, NetFtClient, NetFtParams,
-                                           RdtStream, ft_messages_of, record_stamps, unpack_records)
+from heft.hardware_interface.netft import (START_BUFFERED, START_REALTIME, STOP_STREAMING, NetFtClient, RdtStream,
+                                           ft_messages_of, record_stamps, unpack_records)
+from heft.hardware_interface.netft_params import NetFtParams
 
 RETRY_S = 0.1
 """s without a record after which the start request is sent again."""

@@ -22,8 +22,9 @@ import socket
 import numpy as np
 
 from heft.hardware_interface.ft_messages import unpack_samples
-from heft.hardware_interface.netft import (START_BUFFERED, START_REALTIME, STATUS_ERROR, STOP_STREAMING,
-                                           NetFtParams, pack_records, unpack_request)
+from heft.hardware_interface.netft import (START_BUFFERED, START_REALTIME, STATUS_ERROR, STOP_STREAMING, pack_records,
+                                           unpack_request)
+from heft.hardware_interface.netft_params import NetFtParams
 
 _INT32 = (-(1 << 31), (1 << 31) - 1)
 _WRENCH_AXES = 0x3F
