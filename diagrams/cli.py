@@ -46,6 +46,17 @@ def verbosity(argv: list[str]) -> tuple[int, list[str]]:
     return known.verbose - known.quiet, rest
 
 
+def _shared(parser: argparse.ArgumentParser) -> None:
+    """A command's parser and those of its own subcommands (``heft bench lcm``): ``-v``/``-q`` and the
+    exit statuses in their help."""
+    parser.epilog, parser.formatter_class = exit_status.epilog(), argparse.RawDescriptionHelpFormatter
+    add_verbosity(parser)
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                _shared(sub)
+
+
 def _parser(prog: str, description: str, **kwargs) -> argparse.ArgumentParser:
     return argparse.ArgumentParser(prog=prog, description=description, epilog=exit_status.epilog(),
                                    formatter_class=argparse.RawDescriptionHelpFormatter, **kwargs)
@@ -59,10 +70,9 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, module_name in COMMANDS:
         module = import_module(f"heft.diagrams.commands.{module_name}")
-        command = commands.add_parser(name, help=module.HELP, description=module.HELP, epilog=exit_status.epilog(),
-                                      formatter_class=argparse.RawDescriptionHelpFormatter)
+        command = commands.add_parser(name, help=module.HELP, description=module.HELP)
         module.add_arguments(command)
-        add_verbosity(command)
+        _shared(command)
         command.set_defaults(run=module.run)
     commands.add_parser("analyze", help="analyses: " + ", ".join(name for name, _, _ in ANALYSES) +
                         " (`heft analyze --help`)", add_help=False)
@@ -90,10 +100,9 @@ def build_analyze_parser() -> argparse.ArgumentParser:
     kinds = parser.add_subparsers(dest="analysis", required=True, metavar="ANALYSIS")
     for name, module_name, help_text in ANALYSES:
         module = import_module(module_name)
-        kind = kinds.add_parser(name, help=help_text, description=help_text, epilog=exit_status.epilog(),
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+        kind = kinds.add_parser(name, help=help_text, description=help_text)
         module.add_arguments(kind)
-        add_verbosity(kind)
+        _shared(kind)
         kind.set_defaults(run=module.run)
     return parser
 

@@ -110,10 +110,10 @@ def add_arguments(parser) -> None:
     parser.add_argument("--to", choices=FORMATS, default=MCAP,
                         help="mcap (default): one file, Foxglove's and Lichtblick's; parquet or csv: one table "
                              "per topic")
-    parser.add_argument("--out", metavar="DIR", help="folder written into (default: the log's): LOG.mcap, or "
-                                                     "LOG/TOPIC.parquet|csv")
-    parser.add_argument("--scenario", default="fig6", metavar="NAME|FILE",
-                        help="the run's scenario, whose robot poses the 3-D scene (default fig6: the RX90)")
+    from heft.diagrams.commands.options import add_out, add_scenario
+
+    add_out(parser, "LOG.mcap, or LOG/TOPIC.parquet|csv", shown="the log's folder")
+    add_scenario(parser, more="the run's, whose robot poses the 3-D scene")
 
 
 def run(args) -> int:
