@@ -1,13 +1,14 @@
 """ATI's Net F/T over its RDT protocol (UDP): the requests, the records, a stream's checks and the client.
 
-The wire format, as ATI's manuals give it (RDT request and record structures), all big-endian:
+The wire format, as ATI gives RDT (its Ethernet Axia manual's RDT request and record structures, the
+protocol the Net F/T speaks), all big-endian:
 
 * a request, 8 bytes: ``uint16 command_header = 0x1234``, ``uint16 command``, ``uint32 sample_count``
   (0: stream until stopped); ``command`` 0x0000 stops streaming, 0x0002 starts real-time streaming
   (one record a packet), 0x0003 buffered streaming (the device's RDT buffer size of records a packet);
 * a record, 36 bytes: ``uint32 rdt_sequence`` (1 for a stream's first record, one more each record
   sent, wrapping after 2³² − 1), ``uint32 ft_sequence`` (the device's internal sample number),
-  ``uint32 status`` (the system status code; bit 31: an error), then ``int32`` Fx, Fy, Fz, Tx, Ty, Tz
+  ``uint32 status`` (the system status code; bit 31: any error), then ``int32`` Fx, Fy, Fz, Tx, Ty, Tz
   in counts. A packet holds one or more records.
 
 Counts become N and N·m through the lab's calibration (``NetFtParams``: counts per N, per N·m). The
