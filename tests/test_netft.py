@@ -148,3 +148,10 @@ def test_the_driver_publishes_what_a_device_streams_and_counts_what_it_refuses()
     assert np.all(np.diff([s.utime for s in samples]) > 0)
     assert (summary["rejected"], summary["lost"], summary["stale"], summary["errors"], summary["published"]) == (
         {"length": 1}, 2, 1, 1, 3)
+
+
+def test_the_driver_refuses_to_start_without_the_calibration(capsys):
+    from heft.diagrams.cli import main
+
+    assert main(["driver", "netft", "--address", "127.0.0.1", "--duration", "0"]) == 2
+    assert "state lab.netft.counts_per_force" in capsys.readouterr().err
