@@ -23,6 +23,7 @@ import lcm
 import numpy as np
 import pytest
 import yaml
+from heft.diagrams.cli import main
 from heft.diagrams.commands.bench_lcm import MIN_HEALTHY_SHARE
 from heft.diagrams.commands.options import lab_settings_text
 from heft.diagrams.device_limits import device_limits
@@ -395,3 +396,31 @@ def test_a_labs_scenario_file_runs_teleop_with_no_other_flag(netns, tmp_path):
         assert int(received[channel]) > 0, received
     heard = re.search(r"received Hz ([^;]*);", stand_in.text()).group(1)  # the controller's commands reached the lab
     assert int(dict(re.findall(r"(\w+) (\d+)", heard))[scenario.lab.lcm.master_command.name]) > 0, heard
+
+
+def test_the_lab_file_of_heft_init_runs_as_written(netns, tmp_path):
+    """`heft init lab --out lab.yaml`, then `heft stand-in --scenario lab.yaml` and `heft teleop --hardware
+    --scenario lab.yaml` with no other flag: the controller runs its default 10 s against the stand-in,
+    healthy, hearing every driver, heard by the lab."""
+    lab = tmp_path / "lab.yaml"
+    assert main(["init", "lab", "--out", str(lab)]) == 0
+    stand_in = teleop = None
+    try:
+        # The lab runs until the test stops it (--duration), so that it outlasts the controller's start.
+        stand_in = _Process(netns, tmp_path, "stand_in", "stand-in", "--scenario", str(lab), "--duration", FOREVER)
+        stand_in.wait_for("stand-in: publishing")
+        teleop = _Process(netns, tmp_path, "teleop", "teleop", "--hardware", "--scenario", str(lab))
+        teleop.wait_for("teleop: running")
+        assert teleop.wait() == 0, teleop.text()
+        assert stand_in.finish() == 0, stand_in.text()
+    finally:
+        _stop_all(teleop, stand_in)
+    text = teleop.text()
+    print(text, stand_in.text())
+    ran = re.search(r"ran [\d.]+ s at 2000 Hz: (\d+) ticks, healthy in (\d+)", text)
+    assert ran is not None and int(ran.group(2)) > MIN_HEALTHY_SHARE * int(ran.group(1)), text
+    received = dict(re.findall(r"(\w+) (\d+)", re.search(r"messages per second: received ([^;]*);", text).group(1)))
+    for channel in ("master_state", "slave_status", "ft_sample"):
+        assert int(received[channel]) > 0, received
+    heard = re.search(r"received Hz ([^;]*);", stand_in.text()).group(1)
+    assert int(dict(re.findall(r"(\w+) (\d+)", heard))[LcmChannels().master_command.name]) > 0, heard
