@@ -4,7 +4,9 @@ reaches the controller at the rate the LCM stand-in gives it, and the packets th
 the status bits it set are reported by the driver and, where the status says error, by the controller.
 
 Timing comes from what each process measures: the stand-in runs 3 s of its own clock and says how
-long it ran; the controller counts the FT messages it received."""
+long it ran and how late it fell; the controller counts the FT messages it received; the driver times
+its stream. A stand-in starved of CPU (later than the watchdog's timeout) catches up in bursts: the
+rates are then not judged (xfail, with its lateness), the counts still are."""
 
 import json
 import re
@@ -25,6 +27,8 @@ SECONDS = 3.0
 DROP_EVERY = 100
 STATUS = STATUS_ERROR | 0x1
 STATUS_AT, STATUS_UNTIL = 1.5, 1.55
+KEPT_TIME_MS = 20.0
+"""A stand-in later than this on its clock (the watchdog's timeout) was starved of CPU: the rates are not judged."""
 CALIBRATION = overrides_text({"lab.netft.counts_per_force": 1_000_000.0, "lab.netft.counts_per_torque": 1_000_000.0})
 CONTROLLER = yaml.safe_dump(layered_dict(yaml.safe_load(STAND_IN_SENSOR),
                                          yaml.safe_load(overrides_text({"accelerometer.includes_gravity": False,
@@ -48,9 +52,10 @@ def test_the_netft_driver_feeds_the_controller_as_the_lcm_stand_in_does(netns, t
         lcm_folder = tmp_path / "lcm"
         lcm_folder.mkdir()
         processes.append(_teleop(netns, lcm_folder, settings=CONTROLLER))
-        processes.append(_Process(netns, lcm_folder, "stand_in", "stand-in", "--lcm-url", LCM_URL,
-                                  "--duration", str(SECONDS)))
-        lcm_rate, _ = _ft_received(processes[0], lcm_folder, processes[1])
+        lcm_stand_in = _Process(netns, lcm_folder, "stand_in", "stand-in", "--lcm-url", LCM_URL,
+                                "--duration", str(SECONDS))
+        processes.append(lcm_stand_in)
+        lcm_rate, _ = _ft_received(processes[0], lcm_folder, lcm_stand_in)
 
         teleop = _teleop(netns, tmp_path, settings=CONTROLLER)
         driver = _Process(netns, tmp_path, "driver", "driver", "netft", "--address", "127.0.0.1", "--lcm-url",
@@ -71,20 +76,27 @@ def test_the_netft_driver_feeds_the_controller_as_the_lcm_stand_in_does(netns, t
           f"driver {netft_rate:.0f}")
     served = dict((key, int(value)) for value, key in re.findall(r"(\d+) (withheld|records sampled)", stand_in.text()))
     driven = json.loads((tmp_path / "driver" / "netft.json").read_text())
-    # The rate: an arm step's samples a message either way, less the withheld packets; what the driver
-    # published, the controller received.
-    assert driven["published_hz"] == pytest.approx(lcm_rate * (1 - 1 / DROP_EVERY), rel=0.03)
-    assert driven["samples_hz"] == pytest.approx(4 * driven["published_hz"], rel=0.01)
+    # Whatever the machine's load: what the driver published, the controller received; every withheld packet
+    # is a gap the driver counted (4 records each); each status bit is counted, the error bit as errors;
+    # the driver is the FT channel's one source, and the controller refused nothing but flagged samples.
     received = summary["received_hz"]["ft_sample"] * summary["duration"]
     assert 0.99 * driven["published"] <= received <= driven["published"] + 1
-    # Every withheld packet is a gap the driver counted (4 records each); the kernel may have lost more.
     assert served["withheld"] > 0 and driven["lost"] >= 4 * served["withheld"]
-    assert driven["lost"] <= 4 * served["withheld"] + 0.01 * driven["records"], driven
-    # The status bits of the window's records, counted per bit; the error bit reached the controller as
-    # the samples' error flag, and it refused them.
+    assert driven["errors"] == driven["status_bits"]["0x80000000"] >= driven["status_bits"].get("0x00000001", 0)
+    assert not summary["second_publishers"]
+    assert summary["rejected"]["ft_sample"].keys() <= {"driver_error"}, summary["rejected"]
+    late = max(float(re.search(r"max lateness ([\d.]+) ms", text).group(1)) for text in (lcm_stand_in.text(),
+                                                                                          stand_in.text()))
+    if late > KEPT_TIME_MS:
+        pytest.xfail(f"a stand-in fell {late:.0f} ms behind its clock (starved of CPU): its catching up comes in "
+                     "bursts, so rates and losses say nothing of the driver")
+    # The rate: an arm step's samples a message either way, less the withheld packets.
+    assert driven["published_hz"] == pytest.approx(lcm_rate * (1 - 1 / DROP_EVERY), rel=0.03)
+    assert driven["samples_hz"] == pytest.approx(4 * driven["published_hz"], rel=0.01)
+    assert driven["lost"] <= 4 * served["withheld"] + 0.01 * driven["records"], driven  # little lost on the way
+    # The window's records carry the injected bits; the error bit reached the controller as the samples'
+    # error flag, and it refused them.
     injected = driven["status_bits"]["0x00000001"]
     assert 0.9 * 8000 * (STATUS_UNTIL - STATUS_AT) <= injected <= served["records sampled"]
-    assert driven["errors"] == driven["status_bits"]["0x80000000"] >= injected
     assert summary["rejected"]["ft_sample"].get("driver_error", 0) > 0, summary["rejected"]
-    assert not summary["second_publishers"] and summary["first_healthy"] is not None
-    assert summary["rejected"]["ft_sample"].keys() <= {"driver_error"}, summary["rejected"]
+    assert summary["first_healthy"] is not None

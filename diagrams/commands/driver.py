@@ -58,7 +58,7 @@ def run(args) -> int:
              f"({summary['published_hz']:.0f} Hz); lost {summary['lost']} (rdt_sequence gaps), stale "
              f"{summary['stale']}, stream restarts {summary['restarts']}; status bits: {bits}; flagged error "
              f"{summary['errors']}; datagrams refused: {summary['rejected']['length']} (length); start requests "
-             f"{summary['start_requests']}")
+             f"{summary['start_requests']}; CPU {summary['cpu_s']:.2f} s")
     if summary_path is not None:
         summary_path.write_text(json.dumps(summary, indent=2) + "\n")
     return 0

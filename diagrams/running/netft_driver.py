@@ -34,17 +34,17 @@ def run_netft_driver(address: str, params: NetFtParams, channels: LcmChannels, d
     returns True; ``ready()`` is called at the first record. ``clock``: wall time (s since the epoch);
     ``bus``: where to publish (default: one on ``channels.lcm_url``).
 
-    Returns {"duration_s", "streamed_s" (from the first new record's packet to the last's), "packets",
-    "records", "published", "published_hz" (messages a second streamed), "samples_hz", "rejected"
-    ({"length": datagrams of another size}), "lost", "stale", "restarts", "errors", "status_bits"
-    (``RdtStream``'s), "start_requests"}."""
+    Returns {"duration_s", "cpu_s" (this process's CPU time over the run), "streamed_s" (from the first
+    new record's packet to the last's), "packets", "records", "published", "published_hz" (messages a
+    second streamed), "samples_hz", "rejected" ({"length": datagrams of another size}), "lost",
+    "stale", "restarts", "errors", "status_bits" (``RdtStream``'s), "start_requests"}."""
     params.validate()
     bus = lcm.LCM(channels.lcm_url) if bus is None else bus
     client = NetFtClient(address, params.port)
     stream, per_unit = RdtStream(), params.counts_per_unit()
     period_us = round(1e6 / channels.ft_sample.rate)
     start_command = START_BUFFERED if params.buffered else START_REALTIME
-    begin = clock()
+    begin, cpu = clock(), time.process_time()
     first = last_record = None
     newest_us, packets, rejected, published, requests, asked = 0, 0, 0, 0, 0, -float("inf")
     try:
@@ -80,8 +80,9 @@ def run_netft_driver(address: str, params: NetFtParams, channels: LcmChannels, d
         client.close()
     end = clock()
     streamed = max(last_record - first, 1e-9) if first is not None else None
-    return {"duration_s": end - begin, "streamed_s": streamed or 0.0, "packets": packets, "records": stream.records,
-            "published": published,            "published_hz": published / streamed if streamed else 0.0,
+    return {"duration_s": end - begin, "cpu_s": time.process_time() - cpu, "streamed_s": streamed or 0.0,
+            "packets": packets, "records": stream.records, "published": published,
+            "published_hz": published / streamed if streamed else 0.0,
             "samples_hz": stream.records / streamed if streamed else 0.0, "rejected": {"length": rejected},
             "lost": stream.lost, "stale": stream.stale, "restarts": stream.restarts, "errors": stream.errors,
             "status_bits": stream.status_summary(), "start_requests": requests}
