@@ -2,14 +2,14 @@
 (``MakeTeleopController`` with ``controller.estimator.mode: online``; docs/design.md §3)."""
 
 from pydrake.systems.framework import DiagramBuilder, OutputPort
-from pydrake.systems.primitives import Adder
 
 from heft.systems.accelerometer_reading import AccelerometerConvention, AccelerometerToMotion
 from heft.systems.contact_threshold import ContactThresholdParams
 from heft.systems.estimator_gate import EstimatorGate
 from heft.systems.estimator_prefilter import EstimatorPrefilter
 from heft.systems.load_estimation_params import LoadEstimationParams
-from heft.systems.load_estimator_system import LoadEstimatorSystem
+from heft.systems.rls_load_estimator import RlsLoadEstimator
+from heft.systems.tick_system import TickSum
 
 
 def AddOnlineLoadEstimator(builder: DiagramBuilder, params: LoadEstimationParams, contact: ContactThresholdParams,
@@ -25,10 +25,8 @@ def AddOnlineLoadEstimator(builder: DiagramBuilder, params: LoadEstimationParams
     gives ω and g in S. Reads the Diagram input ``ft.acceleration_measured`` (exported already)
     and exports ``estimator_reset`` (1, a request counter: a new load)."""
     to_motion = builder.AddNamedSystem("accelerometer_to_motion", AccelerometerToMotion(accelerometer))
-    estimator = builder.AddNamedSystem("phi_hat", LoadEstimatorSystem(
-        method=params.method, offsets=False, period=period, forgetting=params.forgetting, initial_theta=phi,
-        initial_covariance=params.prior_covariance))
-    unbiased = builder.AddNamedSystem("wrench_without_offsets", Adder(2, 6))
+    estimator = builder.AddNamedSystem("phi_hat", RlsLoadEstimator(params, phi, period))
+    unbiased = builder.AddNamedSystem("wrench_without_offsets", TickSum(6))
     gate = builder.AddNamedSystem("estimator_gate", EstimatorGate(params, contact, period))
     omega, gravity = slave_kinematics.GetOutputPort("omega_S"), slave_kinematics.GetOutputPort("gravity_S")
 
@@ -36,8 +34,8 @@ def AddOnlineLoadEstimator(builder: DiagramBuilder, params: LoadEstimationParams
     builder.ConnectInput("ft.acceleration_measured", to_motion.GetInputPort("reading"))
     builder.ExportInput(estimator.GetInputPort("reset"), "estimator_reset")
     builder.ConnectInput("estimator_reset", gate.GetInputPort("reset"))
-    connect(force_scaling.GetOutputPort("wrench_contact"), unbiased.get_input_port(0))
-    connect(force_scaling.GetOutputPort("wrench_noncontact"), unbiased.get_input_port(1))
+    connect(force_scaling.GetOutputPort("wrench_contact"), unbiased.GetInputPort("u0"))
+    connect(force_scaling.GetOutputPort("wrench_noncontact"), unbiased.GetInputPort("u1"))
     connect(gravity, to_motion.GetInputPort("gravity"))
     connect(omega, to_motion.GetInputPort("omega"))
     connect(force_scaling.GetOutputPort("wrench_contact"), gate.GetInputPort("wrench_contact"))

@@ -8,11 +8,9 @@ controller as one computation per tick, for the hardware's real-time loop.
 """
 
 
-import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource
 
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.online_estimation import AddOnlineLoadEstimator
@@ -29,6 +27,7 @@ from heft.systems.realtime_controller import RealtimeTeleopController
 from heft.systems.rx_inverse_kinematics import RxKinematics
 from heft.systems.slave_inverse_kinematics import SlaveInverseKinematics
 from heft.systems.slave_kinematics import SlaveKinematics
+from heft.systems.tick_system import TickConstant
 
 STATION_OUTPUTS_READ = ("master.position_measured", "master.velocity_estimated", "slave.position_measured",
                         "slave.velocity_estimated", "ft.wrench_measured", "ft.acceleration_measured")
@@ -106,8 +105,7 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
         phi_hat = AddOnlineLoadEstimator(builder, spec.estimator, spec.contact, load.phi, period, accelerometer,
                                          force, slave_kinematics)
     else:
-        phi_hat = builder.AddNamedSystem(
-            "phi_hat", ConstantVectorSource(np.asarray(load.phi, dtype=float))).get_output_port()
+        phi_hat = builder.AddNamedSystem("phi_hat", TickConstant(load.phi)).get_output_port()
     export_input("clutch", motion.GetInputPort("clutch"))
     for name in ("sigma", "gamma", "eta"):
         export_input(name, force.GetInputPort(name))

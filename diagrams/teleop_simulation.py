@@ -13,6 +13,7 @@ from heft.diagrams.scenario import Scenario
 from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop import CONTROLLER_LOG, STATION_INPUTS_DRIVEN, STATION_OUTPUTS_READ, MakeTeleopController
+from heft.systems.tick_program_system import TickProgramSystem
 
 
 # Station outputs logged by the simulation (name → log key).
@@ -86,9 +87,9 @@ def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, meshcat=None):
     spec = scenario.controller
     builder = DiagramBuilder()
     station = builder.AddNamedSystem("station", MakeSimStation(scenario, meshcat))
-    controller = builder.AddNamedSystem("controller", MakeTeleopController(
+    controller = builder.AddNamedSystem("controller", TickProgramSystem(MakeTeleopController(
         spec, load, scenario.robot, scenario.controller_period, scenario.slave_initial_q,
-        accelerometer=scenario.accelerometer.convention()))
+        accelerometer=scenario.accelerometer.convention())))
     period = scenario.controller_period
     ConnectControllerToStation(builder, controller, station, round(spec.delay / period), period,
                                {"master.position_measured": scenario.master_initial_q,

@@ -27,11 +27,11 @@ import dataclasses
 import functools
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
 
 from heft.systems.accelerometer_calibration import unit_factor
 from heft.systems.accelerometer_convention import AT_S, AccelerometerConvention
-from heft.systems.compiled import compiled, float_array
+from heft.systems.compiled import compiled, float_array, record_views
+from heft.systems.tick_system import TickSystem
 
 
 @functools.cache
@@ -140,19 +140,39 @@ def motion_from_reading_into(out, reading, gravity, omega, includes_gravity, p_S
         transport_one(out[:3], out[3:], omega, p_SA, -1.0)
 
 
-class AccelerometerToMotion(LeafSystem):
+CONVENTION = np.dtype([("includes_gravity", float), ("p_SA", float, 3), ("R_SA", float, (3, 3)), ("u", float),
+                       ("bias", float, 6)])
+"""An accelerometer's convention as one record (``kernel_convention``'s fields)."""
+
+
+def convention_record(convention: AccelerometerConvention) -> np.ndarray:
+    """``convention`` as a ``CONVENTION`` record (``kernel_convention``)."""
+    record, arrays = record_views(CONVENTION)
+    includes_gravity, arrays["p_SA"][:], arrays["R_SA"][:], record["u"], arrays["bias"][:] = kernel_convention(
+        convention)
+    record["includes_gravity"] = float(includes_gravity)
+    return record
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64[:], CONVENTION[:])", CONVENTION=CONVENTION)
+def motion_into(out, reading, gravity, omega, convention) -> None:
+    """``motion_from_reading_into`` with the ``convention`` record."""
+    c = convention[0]
+    motion_from_reading_into(out, reading, gravity, omega, c["includes_gravity"] > 0.5, c["p_SA"], c["R_SA"], c["u"],
+                             c["bias"])
+
+
+class AccelerometerToMotion(TickSystem):
     """``motion_from_reading`` as a block: inputs ``reading`` (6), ``gravity`` (3, g in S) and
     ``omega`` (3, ω in S), output ``acceleration`` (6, kinematic [a; α] in S), for the blocks that
     take the kinematic motion (the load estimator and its gate)."""
 
     def __init__(self, convention: AccelerometerConvention):
-        super().__init__()
-        self._convention = convention
-        self._reading = self.DeclareVectorInputPort("reading", 6)
-        self._gravity = self.DeclareVectorInputPort("gravity", 3)
-        self._omega = self.DeclareVectorInputPort("omega", 3)
-        self.DeclareVectorOutputPort("acceleration", 6, self._calc)
-
-    def _calc(self, context, output):
-        motion_from_reading(output.get_mutable_value(), self._reading.Eval(context), self._gravity.Eval(context),
-                            self._omega.Eval(context), self._convention)
+        super().__init__(None)
+        self.convention = convention_record(convention)
+        self.DeclareTickInput("reading", 6)
+        self.DeclareTickInput("gravity", 3)
+        self.DeclareTickInput("omega", 3)
+        self.DeclareTickCalc("acceleration", 6, motion_into, "calc:acceleration", "in:reading", "in:gravity",
+                             "in:omega", self.convention)
+        self.DeclareTickOutput("acceleration", "calc:acceleration")

@@ -28,12 +28,12 @@ Units: m/s², rad/s², rad/s for the motion, N and N·m for the wrench; all in S
 import math
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, LeafSystem
 
 from heft.systems.contact_threshold import ContactThresholdParams
 from heft.systems.compiled import compiled, float_array
 from heft.systems.load_dynamics import beyond, regressor_into
 from heft.systems.load_estimation_params import LoadEstimationParams
+from heft.systems.tick_system import TickSystem
 
 _ZERO = np.zeros(3)
 _V = np.empty((6, 10))
@@ -117,42 +117,61 @@ def advance_clocks(out, settings, since_reset, seen, since_spoiled, contact, fau
     out[0], out[1], out[2] = since_reset + dt, seen, since_spoiled + dt
 
 
-class EstimatorGate(LeafSystem):
+@compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], "
+          "float64[:], float64[:], float64[:, :])")
+def gate_enable(out, acceleration, omega, contact, fault, reset, input_age, clocks, settings, timing,
+                scratch) -> None:
+    """``gate_open`` on the block's arrays into ``out`` (1: 1.0 open): ``fault`` (1) > 0.5 or ``input_age``
+    (1, s) beyond ``timing`` [period (s), max input age (s)] spoils the sample; ``reset`` (1) the request
+    counter; ``clocks`` (3) the block's; ``scratch`` (7, 10): V, then zeros."""
+    since_reset, _, since_spoiled = clocks_now(clocks, reset[0])
+    stale = fault[0] > 0.5 or input_age[0] > timing[1]
+    open_ = gate_open(settings, acceleration, omega, contact, stale, since_reset, since_spoiled, scratch[6, :3],
+                      scratch[:6])
+    out[0] = 1.0 if open_ else 0.0
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:])")
+def gate_update(clocks, stale_ticks, contact, fault, reset, input_age, settings, timing) -> None:
+    """``advance_clocks`` on the block's arrays (``gate_enable``'s); ``stale_ticks`` (1) counts the ticks
+    since the last new load whose readings were older than the max input age."""
+    since_reset, seen, since_spoiled = clocks_now(clocks, reset[0])
+    if seen > clocks[1]:
+        stale_ticks[0] = 0.0
+    stale = input_age[0] > timing[1]
+    if stale:
+        stale_ticks[0] += 1.0
+    advance_clocks(clocks, settings, since_reset, seen, since_spoiled, contact, fault[0] > 0.5 or stale, timing[0])
+
+
+class EstimatorGate(TickSystem):
     """``enable`` (1: 1.0 to take the sample) for ``LoadEstimatorSystem`` (module docstring).
 
     Inputs: ``acceleration`` (6, kinematic [a; α]) and ``omega`` (3) of the sample the estimator learns
     from (``EstimatorPrefilter``'s outputs, or ``AccelerometerToMotion``'s and the kinematics' without one),
     ``wrench_contact`` (6) and ``fault`` (1) from force scaling, ``reset`` (1, a request
-    counter, as the estimator's). State: the time since the last reset (s), the counter seen and
-    the time since the last spoiled sample (s), advanced every ``period`` s.
+    counter, as the estimator's; unconnected 0), ``input_age`` (1, s: how old the oldest reading of the tick
+    is; unconnected 0). State: the time since the last reset (s), the counter seen and
+    the time since the last spoiled sample (s), advanced every ``period`` s; the ticks since the last reset
+    whose readings were older than ``params.max_input_age`` (output ``stale_ticks``).
     """
 
     def __init__(self, params: LoadEstimationParams, thresholds: ContactThresholdParams, period: float):
-        super().__init__()
-        self._settings, self._period = gate_settings(params, thresholds), period
-        self._acceleration = self.DeclareVectorInputPort("acceleration", 6)
-        self._omega = self.DeclareVectorInputPort("omega", 3)
-        self._contact = self.DeclareVectorInputPort("wrench_contact", 6)
-        self._fault = self.DeclareVectorInputPort("fault", 1)
-        self._reset = self.DeclareVectorInputPort("reset", 1)
-        self._clock = self.DeclareDiscreteState(BasicVector(list(CLOCKS_START)))
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
-        self.DeclareVectorOutputPort("enable", 1, self._calc_enable)
-
-    def _requests(self, context) -> float:
-        return self._reset.Eval(context)[0] if self._reset.HasValue(context) else 0.0
-
-    def _clocks(self, context):
-        return clocks_now(float_array(context.get_discrete_state(self._clock).get_value()), self._requests(context))
-
-    def _calc_enable(self, context, output):
-        since_reset, _, since_spoiled = self._clocks(context)
-        open_ = gate_open(self._settings, float_array(self._acceleration.Eval(context)),
-                          float_array(self._omega.Eval(context)), float_array(self._contact.Eval(context)),
-                          self._fault.Eval(context)[0] > 0.5, since_reset, since_spoiled, _ZERO, _V)
-        output.SetAtIndex(0, 1.0 if open_ else 0.0)
-
-    def _update(self, context, discrete_state):
-        advance_clocks(discrete_state.get_mutable_vector(self._clock).get_mutable_value(), self._settings,
-                       *self._clocks(context), float_array(self._contact.Eval(context)),
-                       self._fault.Eval(context)[0] > 0.5, self._period)
+        super().__init__(period)
+        self.settings = gate_settings(params, thresholds)
+        self.timing = np.array([period, params.max_input_age])
+        self.DeclareTickInput("acceleration", 6)
+        self.DeclareTickInput("omega", 3)
+        self.DeclareTickInput("wrench_contact", 6)
+        self.DeclareTickInput("fault", 1)
+        self.DeclareTickInput("reset", 1, [0.0])
+        self.DeclareTickInput("input_age", 1, [0.0])
+        self.DeclareTickState("clocks", CLOCKS_START)
+        self.DeclareTickState("stale_ticks", [0.0])
+        self.DeclareTickCalc("enable", 1, gate_enable, "calc:enable", "in:acceleration", "in:omega",
+                             "in:wrench_contact", "in:fault", "in:reset", "in:input_age", "x:clocks", self.settings,
+                             self.timing, np.zeros((7, 10)))
+        self.DeclareTickOutput("enable", "calc:enable")
+        self.DeclareTickOutput("stale_ticks", "x:stale_ticks")
+        self.DeclareTickUpdate(gate_update, "next:clocks", "next:stale_ticks", "in:wrench_contact", "in:fault",
+                               "in:reset", "in:input_age", self.settings, self.timing)

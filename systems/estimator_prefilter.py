@@ -12,11 +12,11 @@ compliant mount, which the accelerometer in the sensor does not see.
 import math
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
 
 from heft.systems.compiled import compiled
 from heft.systems.sample_period import require_period
 from heft.systems.sensor_models import lowpass_coefficients
+from heft.systems.tick_system import TickSystem
 
 # The signals filtered, in the order of the state's columns: name, size.
 SIGNALS = (("wrench", 6), ("acceleration", 6), ("omega", 3), ("gravity", 3))
@@ -59,7 +59,19 @@ def prefilter_step(coefficients, state, sample) -> None:
         state[2 * width + i] = b2 * x - a2 * y
 
 
-class EstimatorPrefilter(LeafSystem):
+@compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:])")
+def prefilter_update(state, wrench, acceleration, omega, gravity, coefficients, sample) -> None:
+    """``prefilter_step`` on the block's inputs, laid out into ``sample`` (``WIDTH``) as ``SIGNALS``."""
+    for i in range(6):
+        sample[i] = wrench[i]
+        sample[6 + i] = acceleration[i]
+    for i in range(3):
+        sample[12 + i] = omega[i]
+        sample[15 + i] = gravity[i]
+    prefilter_step(coefficients, state, sample)
+
+
+class EstimatorPrefilter(TickSystem):
     """The second-order Butterworth low-pass of ``cutoff`` (Hz; ``sensor_models.lowpass``) on
     each of the load estimator's inputs, sampled every ``period`` s.
 
@@ -70,21 +82,14 @@ class EstimatorPrefilter(LeafSystem):
     next tick (the estimator skips it) and the filter restarts on the next finite sample."""
 
     def __init__(self, cutoff: float, period: float):
-        super().__init__()
-        self._coefficients = prefilter_coefficients(cutoff, require_period(period))
-        self._inputs = [self.DeclareVectorInputPort(name, size) for name, size in SIGNALS]
-        self._state = self.DeclareDiscreteState(np.full(STATE_SIZE, np.nan))  # ``STATE_SIZE``
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
+        super().__init__(require_period(period))
+        self.coefficients = prefilter_coefficients(cutoff, period)
+        for name, size in SIGNALS:
+            self.DeclareTickInput(name, size)
+        self.DeclareTickState("state", np.full(STATE_SIZE, np.nan))  # ``STATE_SIZE``
+        self.DeclareTickUpdate(prefilter_update, "next:state", *(f"in:{name}" for name, _ in SIGNALS),
+                               self.coefficients, np.empty(WIDTH))
         start = 0
         for name, size in SIGNALS:
-            self.DeclareVectorOutputPort(
-                name, size, lambda context, output, part=slice(start, start + size): output.SetFromVector(
-                    context.get_discrete_state(self._state).get_value()[part]),
-                prerequisites_of_calc={self.xd_ticket()})
+            self.DeclareTickOutput(name, "x:state", start, start + size)
             start += size
-
-    def _update(self, context, discrete_state):
-        sample = np.concatenate([port.Eval(context) for port in self._inputs])
-        state = context.get_discrete_state(self._state).get_value().copy()
-        prefilter_step(self._coefficients, state, sample)
-        discrete_state.set_value(self._state, state)

@@ -17,11 +17,11 @@ import math
 
 import numpy as np
 from pydrake.math import RollPitchYaw, RotationMatrix
-from pydrake.systems.framework import LeafSystem
 
 from heft.systems.compiled import compiled, float_array
 from heft.systems.feedback_mapping_params import FeedbackMappingParams
 from heft.systems.pose_vectors import POSE_SIZE, rotation_into
+from heft.systems.tick_system import TickSystem
 
 WRENCH_SIZE = 6
 JACOBIAN_SIZE = 36
@@ -87,7 +87,37 @@ def wrench_on_hand_into(wrench_S, pose_RS, R_BR, force_scale, torque_scale, max_
     return True
 
 
-class FeedbackMapping(LeafSystem):
+@compiled("void(float64[:], float64[:], float64[:], float64[:, :], float64[:], float64[:, :])")
+def hand_wrench_into(out, wrench_S, pose_RS, R_BR, settings, scratch) -> None:
+    """[wrench on the hand (6, zero while an input is bad); 1 if the inputs were good] into ``out`` (7):
+    ``wrench_on_hand_into`` with ``settings`` [k_f, k_τ, max force (N), max torque (N·m)], ``scratch`` (6, 3)."""
+    if wrench_on_hand_into(wrench_S, pose_RS, R_BR, settings[0], settings[1], settings[2], settings[3],
+                           scratch[:3], scratch[3:], out[:WRENCH_SIZE]):
+        out[WRENCH_SIZE] = 1.0
+        return
+    for i in range(WRENCH_SIZE):
+        out[i] = 0.0
+    out[WRENCH_SIZE] = 0.0
+
+
+@compiled("void(float64[:], float64[:], float64[:])")
+def hand_torque_into(out, hand, jacobian) -> None:
+    """[τ_M = J_Mᵀ·wrench (6, zero while an input is bad); 1 if one was] into ``out`` (7), from ``hand``
+    (``hand_wrench_into``'s) and J_M (36, row-major)."""
+    total = 0.0
+    for i in range(JACOBIAN_SIZE):
+        total += jacobian[i]
+    good = hand[WRENCH_SIZE] > 0.5 and math.isfinite(total)
+    for j in range(WRENCH_SIZE):
+        torque = 0.0
+        if good:
+            for i in range(WRENCH_SIZE):
+                torque += jacobian[i * WRENCH_SIZE + j] * hand[i]
+        out[j] = torque
+    out[WRENCH_SIZE] = 0.0 if good else 1.0
+
+
+class FeedbackMapping(TickSystem):
     """Sensor wrench → wrench on the operator's hand and master joint torques.
 
     Inputs: ``wrench_S`` (6: f′, [f; τ] the sensor exerts on the load, at S, in S; N, N·m),
@@ -106,42 +136,17 @@ class FeedbackMapping(LeafSystem):
     def __init__(self, params: FeedbackMappingParams | None = None, R_RB=(0.0, 0.0, 0.0)):
         """``R_RB``: the rotation from the master base B to the slave base R as roll-pitch-yaw (rad),
         the motion scaling's (``MotionScalingParams.R_RB``, its one home)."""
-        super().__init__()
+        super().__init__(None)
         params = params or FeedbackMappingParams()
         params.validate()
-        self._params = params
-        self._R_BR = RotationMatrix(RollPitchYaw(list(R_RB))).inverse().matrix()
-        self._R_RS, self._R_BS, self._scratch = np.empty((3, 3)), np.empty((3, 3)), np.empty(WRENCH_SIZE)
-        self._wrench_S = self.DeclareVectorInputPort("wrench_S", WRENCH_SIZE)
-        self._pose_RS = self.DeclareVectorInputPort("pose_RS", POSE_SIZE)
-        self._jacobian = self.DeclareVectorInputPort("jacobian", JACOBIAN_SIZE)
-        wrench_inputs = {self._wrench_S.ticket(), self._pose_RS.ticket()}
-        all_inputs = wrench_inputs | {self._jacobian.ticket()}
-        self.DeclareVectorOutputPort("wrench_E", WRENCH_SIZE, self._calc_wrench, prerequisites_of_calc=wrench_inputs)
-        self.DeclareVectorOutputPort("torque", WRENCH_SIZE, self._calc_torque, prerequisites_of_calc=all_inputs)
-        self.DeclareVectorOutputPort("fault", 1, self._calc_fault, prerequisites_of_calc=all_inputs)
-
-    def _wrench_E_into(self, context, out) -> bool:
-        """The hand's wrench into ``out`` (6); False, ``out`` untouched, while ``wrench_S`` or ``pose_RS`` is bad."""
-        p = self._params
-        return wrench_on_hand_into(self._wrench_S.Eval(context), self._pose_RS.Eval(context), self._R_BR, p.force_scale,
-                                   p.torque_scale, p.max_force, p.max_torque, self._R_RS, self._R_BS, out)
-
-    def _inputs_ok(self, context) -> bool:
-        """All three inputs good; the hand's wrench is then in ``self._scratch``."""
-        return (self._wrench_E_into(context, self._scratch)
-                and bool(np.isfinite(self._jacobian.Eval(context)).all()))
-
-    def _calc_wrench(self, context, output):
-        wrench_E = output.get_mutable_value()
-        if not self._wrench_E_into(context, wrench_E):
-            wrench_E[:] = 0.0
-
-    def _calc_torque(self, context, output):
-        if not self._inputs_ok(context):
-            output.SetFromVector(np.zeros(WRENCH_SIZE))
-            return
-        output.SetFromVector(joint_torque(self._jacobian.Eval(context), self._scratch))
-
-    def _calc_fault(self, context, output):
-        output.SetAtIndex(0, 0.0 if self._inputs_ok(context) else 1.0)
+        self.R_BR = RotationMatrix(RollPitchYaw(list(R_RB))).inverse().matrix()
+        self.settings = np.array((params.force_scale, params.torque_scale, params.max_force, params.max_torque))
+        self.DeclareTickInput("wrench_S", WRENCH_SIZE)
+        self.DeclareTickInput("pose_RS", POSE_SIZE)
+        self.DeclareTickInput("jacobian", JACOBIAN_SIZE)
+        self.DeclareTickCalc("hand", WRENCH_SIZE + 1, hand_wrench_into, "calc:hand", "in:wrench_S", "in:pose_RS",
+                             self.R_BR, self.settings, np.empty((6, 3)))
+        self.DeclareTickCalc("torque", WRENCH_SIZE + 1, hand_torque_into, "calc:torque", "calc:hand", "in:jacobian")
+        self.DeclareTickOutput("wrench_E", "calc:hand", 0, WRENCH_SIZE)
+        self.DeclareTickOutput("torque", "calc:torque", 0, WRENCH_SIZE)
+        self.DeclareTickOutput("fault", "calc:torque", WRENCH_SIZE, WRENCH_SIZE + 1)

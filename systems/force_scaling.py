@@ -29,16 +29,15 @@ the ``wrench_contact`` output stays the c of Eq. 13.
 import math
 
 import numpy as np
-from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import LeafSystem, ValueProducer
 from scipy.signal import iirnotch, lfilter_zi
 
 from heft.systems.accelerometer_reading import (
     AT_S, AccelerometerConvention, kernel_convention, motion_from_reading_into)
-from heft.systems.compiled import compiled, float_array
+from heft.systems.compiled import compiled, float_array, record_views
 from heft.systems.force_scaling_params import ForceScalingParams
 from heft.systems.load_dynamics import regressor_into
 from heft.systems.sample_period import DEFAULT_PERIOD, require_period
+from heft.systems.tick_system import TickSystem
 
 
 # --- pure numpy core ------------------------------------------------------------
@@ -226,30 +225,56 @@ def next_memory_and_scales_into(memory, scales, evaluation, sigma, gamma, eta, m
 
 # --- Drake system -----------------------------------------------------------------
 
-class ForceScalingElimination(LeafSystem):
+SETTINGS = np.dtype([("decay", float), ("max_step", float), ("includes_gravity", float), ("p_SA", float, 3),
+                     ("R_SA", float, (3, 3)), ("u", float), ("bias", float, 6), ("notch", float, 7),
+                     ("notched", float), ("scratch", float, (7, 10))])
+"""``ForceScalingElimination``'s settings as its kernels take them: the fault's decay per tick, the scales'
+largest step per tick, the accelerometer's convention (``kernel_convention``), the mount notch
+(``notch_coefficients``, if ``notched``) and the evaluation's scratch."""
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], "
+          "float64[:], float64[:], float64[:], SETTINGS[:])", SETTINGS=SETTINGS)
+def force_evaluation(out, wrench, reading, omega, gravity, phi, offsets, phi_gripper, scales, memory, split, settings):
+    """``evaluate_into`` on the block's arrays: ``split`` (1) > 0.5 splits off ``phi_gripper``."""
+    s = settings[0]
+    evaluate_into(out, wrench, reading, omega, gravity, phi, offsets, scales, memory, s["decay"], phi_gripper,
+                  split[0] > 0.5, s["includes_gravity"] > 0.5, s["p_SA"], s["R_SA"], s["u"], s["bias"], s["notch"],
+                  s["notched"] > 0.5, s["scratch"])
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], SETTINGS[:])",
+          SETTINGS=SETTINGS)
+def force_update(memory, scales, evaluation, sigma, gamma, eta, settings):
+    """``next_memory_and_scales_into`` on the block's arrays (σ, γ, η requested, 1 each)."""
+    s = settings[0]
+    next_memory_and_scales_into(memory, scales, evaluation, sigma[0], gamma[0], eta[0], s["max_step"], s["notch"],
+                                s["notched"] > 0.5)
+
+
+class ForceScalingElimination(TickSystem):
     """Fig. 2 with the Eq. 14 split, as the module docstring describes.
 
     Inputs: ``wrench`` (6, the measured [f; τ] on the load), ``acceleration`` (6, the
     accelerometer's reading: [a − g; α] at the accelerometer, as its ``accelerometer``
     convention says), ``omega`` (3), ``gravity`` (3), ``phi`` (10, φ̂ of the whole load),
     ``offsets`` (6), ``sigma``, ``gamma``, ``eta`` (1 each, requested; when
-    unconnected the parameter value is requested).
+    unconnected the parameter value is requested), ``phi_gripper`` (10, φ_gr) and ``split``
+    (1, > 0.5: feed back the gripper's and the object's non-contact wrench apart; unconnected,
+    ``params.phi_gripper`` says).
     Outputs: ``wrench_feedback`` f′ (6), ``wrench_contact`` (6, Eq. 13),
     ``wrench_noncontact`` (6, Eq. 12), ``scales`` (3, σ, γ, η in effect), ``fault``
     (1: 1.0 while f′ is not computed from the inputs).
 
     Updated every ``period`` s (the controller's rate; 2 kHz by default).
 
-    Timing. f′, c, n and fault are a feedthrough calculation from the six signal
-    inputs and the discrete state (narrow prerequisites: no time, no requests,
-    no all-sources ticket). The controller reads ``ft.wrench_measured``, already
+    Timing. f′, c, n and fault are a feedthrough calculation from the signal
+    inputs and the discrete state. The controller reads ``ft.wrench_measured``, already
     a sampled state output, so no algebraic loop forms, and f′ reflects the
     newest sample without the extra tick of delay a state output would add.
     The scales in effect are discrete state: every ``period`` they move toward
     the clamped request (`clamp_scales`) by at most ``slew_rate·period`` each, so
     the requests reach f′ only through the state and do not feed through.
-    Nothing depends on time, so in a simulation f′ is computed once per tick:
-    the update reuses the value the controller read.
 
     Faults. While a signal input holds a NaN or inf (or the result overflows),
     or from the update that consumed a non-finite request (the scales are then
@@ -263,59 +288,39 @@ class ForceScalingElimination(LeafSystem):
 
     def __init__(self, params: ForceScalingParams | None = None, period: float = DEFAULT_PERIOD,
                  accelerometer: AccelerometerConvention = AT_S):
-        super().__init__()
         params = params or ForceScalingParams()
         params.validate()
-        period = require_period(period)
-        self._max_step = params.slew_rate * period
-        self._defaults = (params.sigma, params.gamma, params.eta)
-        self._decay_per_tick = decay_factor(period, params.fault_decay_time)
-        # The options as the kernels take them (``evaluate``, ``next_memory_and_scales``), set once.
-        self._gripper_args = ((_NO_GRIPPER, False) if params.phi_gripper is None
-                              else (np.array(params.phi_gripper, dtype=float), True))
-        self._convention_args = kernel_convention(accelerometer)
+        super().__init__(require_period(period))
+        period = self.tick_period
+        self.settings, settings = record_views(SETTINGS)
+        self.settings["decay"] = decay_factor(period, params.fault_decay_time)
+        self.settings["max_step"] = params.slew_rate * period
+        includes_gravity, settings["p_SA"][:], settings["R_SA"][:], u, settings["bias"][:] = kernel_convention(
+            accelerometer)
+        self.settings["includes_gravity"], self.settings["u"] = float(includes_gravity), u
         notch = notch_coefficients(params.mount_notch, params.mount_notch_quality, period)
-        self._notch_args = (_NO_NOTCH, False) if notch is None else (notch, True)
+        if notch is not None:
+            settings["notch"][:], self.settings["notched"] = notch, 1.0
 
-        self._signals = tuple(self.DeclareVectorInputPort(name, size) for name, size in (
-            ("wrench", 6), ("acceleration", 6), ("omega", 3), ("gravity", 3), ("phi", 10),
-            ("offsets", 6)))
-        self._requests = tuple(self.DeclareVectorInputPort(name, 1)
-                               for name in ("sigma", "gamma", "eta"))
-
-        self._scales = self.DeclareDiscreteState(np.array(self._defaults))
+        for name, size in (("wrench", 6), ("acceleration", 6), ("omega", 3), ("gravity", 3), ("phi", 10),
+                           ("offsets", 6)):
+            self.DeclareTickInput(name, size)
+        for name in ("sigma", "gamma", "eta"):
+            self.DeclareTickInput(name, 1, [getattr(params, name)])
+        gripper = params.phi_gripper
+        self.DeclareTickInput("phi_gripper", 10, _NO_GRIPPER if gripper is None else gripper)
+        self.DeclareTickInput("split", 1, [0.0 if gripper is None else 1.0])
+        self.DeclareTickState("scales", (params.sigma, params.gamma, params.eta))
         # The f′ in effect during the last tick (6; N, N·m), a flag (1) raised by a
         # non-finite request, the mount notch's state (12).
-        self._memory = self.DeclareDiscreteState(initial_memory())
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
-
-        self._evaluation = self.DeclareCacheEntry(
-            "evaluation",
-            ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(EVALUATION_SIZE)), calc=self._evaluate),
-            prerequisites_of_calc={port.ticket() for port in self._signals} | {self.xd_ticket()})
+        self.DeclareTickState("memory", initial_memory())
+        self.DeclareTickCalc("evaluation", EVALUATION_SIZE, force_evaluation, "calc:evaluation", "in:wrench",
+                             "in:acceleration", "in:omega", "in:gravity", "in:phi", "in:offsets", "in:phi_gripper",
+                             "x:scales", "x:memory", "in:split", self.settings)
         for name, part in (("wrench_feedback", FEEDBACK), ("wrench_contact", CONTACT),
                            ("wrench_noncontact", NONCONTACT)):
-            self.DeclareVectorOutputPort(
-                name, 6, lambda context, output, part=part: output.SetFromVector(
-                    self._evaluation.Eval(context)[part]),
-                prerequisites_of_calc={self._evaluation.ticket()})
-        self.DeclareStateOutputPort("scales", self._scales)
-        self.DeclareVectorOutputPort(
-            "fault", 1, lambda context, output: output.SetAtIndex(
-                0, self._evaluation.Eval(context)[FAULT]),
-            prerequisites_of_calc={self._evaluation.ticket()})
-
-    def _evaluate(self, context, value):
-        wrench, acceleration, omega, gravity, phi, offsets = (port.Eval(context) for port in self._signals)
-        evaluate_into(value.get_mutable_value(), wrench, acceleration, omega, gravity, phi, offsets,
-                      float_array(context.get_discrete_state(self._scales).get_value()),
-                      float_array(context.get_discrete_state(self._memory).get_value()), self._decay_per_tick,
-                      *self._gripper_args, *self._convention_args, *self._notch_args, _SCRATCH)
-
-    def _update(self, context, discrete_state):
-        # discrete_state holds the current memory and scales: updated in place.
-        sigma, gamma, eta = (port.Eval(context)[0] if port.HasValue(context) else default
-                             for port, default in zip(self._requests, self._defaults))
-        next_memory_and_scales_into(discrete_state.get_mutable_value(self._memory),
-                                    discrete_state.get_mutable_value(self._scales), self._evaluation.Eval(context),
-                                    float(sigma), float(gamma), float(eta), self._max_step, *self._notch_args)
+            self.DeclareTickOutput(name, "calc:evaluation", part.start, part.stop)
+        self.DeclareTickOutput("scales", "x:scales")
+        self.DeclareTickOutput("fault", "calc:evaluation", FAULT, FAULT + 1)
+        self.DeclareTickUpdate(force_update, "next:memory", "next:scales", "calc:evaluation", "in:sigma", "in:gamma",
+                               "in:eta", self.settings)

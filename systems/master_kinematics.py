@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.systems.framework import LeafSystem
 
+from heft.systems.compiled import compiled
 from heft.systems.pose_vectors import POSE_SIZE, pose_into
-from heft.systems.serial_chain import SerialChain
+from heft.systems.serial_chain import SerialChain, chain_dtype, chain_kinematics
+from heft.systems.tick_system import TickSystem
 
 NUM_JOINTS = 6
 JACOBIAN_SIZE = 6 * NUM_JOINTS
@@ -28,7 +29,36 @@ def master_pose(chain: SerialChain) -> np.ndarray:
     return pose
 
 
-class MasterKinematics(LeafSystem):
+KINEMATICS_SIZE = POSE_SIZE + JACOBIAN_SIZE
+
+
+@compiled("void(float64[:], float64[:], CHAIN[:])", CHAIN=chain_dtype(NUM_JOINTS))
+def master_kinematics_into(out, position, chain):
+    """[pose of E in B (7); J_M row-major (36)] at q_M = ``position`` (6, rad) into ``out`` (43)."""
+    c = chain[0]
+    chain_kinematics(c["axes"], c["points"], c["M_R"], c["M_p"], position, c["zeros"], c["zeros"], c["gravity_B"],
+                     c["R"], c["p"], c["J"], c["motion"], c["work"])
+    pose_into(c["R"], c["p"], out[:POSE_SIZE])
+    J = c["J"]
+    for r in range(6):
+        for k in range(NUM_JOINTS):
+            out[POSE_SIZE + r * NUM_JOINTS + k] = J[r, k]
+
+
+@compiled("void(float64[:], float64[:], float64[:], CHAIN[:])", CHAIN=chain_dtype(NUM_JOINTS))
+def master_sample(pose, jacobian, position, chain):
+    """``master_kinematics_into`` held in the states ``pose`` (7) and ``jacobian`` (36)."""
+    c = chain[0]
+    chain_kinematics(c["axes"], c["points"], c["M_R"], c["M_p"], position, c["zeros"], c["zeros"], c["gravity_B"],
+                     c["R"], c["p"], c["J"], c["motion"], c["work"])
+    pose_into(c["R"], c["p"], pose)
+    J = c["J"]
+    for r in range(6):
+        for k in range(NUM_JOINTS):
+            jacobian[r * NUM_JOINTS + k] = J[r, k]
+
+
+class MasterKinematics(TickSystem):
     """Input ``position`` q_M (6, rad) → outputs ``pose_BE`` (7: [p_BE (m); quaternion
     w, x, y, z]) and ``jacobian`` (36: J_M row-major, rows [v_E; ω_E] in B, columns q̇_M).
 
@@ -43,7 +73,6 @@ class MasterKinematics(LeafSystem):
     """
 
     def __init__(self, plant: MultibodyPlant, period: float | None = None):
-        super().__init__()
         if not plant.is_finalized():
             raise ValueError("MasterKinematics needs a finalized plant")
         if plant.num_positions() != NUM_JOINTS or plant.num_velocities() != NUM_JOINTS:
@@ -51,33 +80,20 @@ class MasterKinematics(LeafSystem):
                              f"{plant.num_positions()} and {plant.num_velocities()}")
         if period is not None and not (np.isfinite(period) and period > 0):
             raise ValueError(f"period must be None or finite and > 0; got {period}")
+        super().__init__(period)
         self._chain = chain = SerialChain(plant, plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME))
-        self._position = self.DeclareVectorInputPort("position", NUM_JOINTS)
+        self.DeclareTickInput("position", NUM_JOINTS)
         if period is None:
-            inputs = {self._position.ticket()}
-            self.DeclareVectorOutputPort("pose_BE", POSE_SIZE, self._calc_pose, prerequisites_of_calc=inputs)
-            self.DeclareVectorOutputPort("jacobian", JACOBIAN_SIZE, self._calc_jacobian,
-                                         prerequisites_of_calc=inputs)
+            self.DeclareTickCalc("kinematics", KINEMATICS_SIZE, master_kinematics_into, "calc:kinematics",
+                                 "in:position", chain.record)
+            self.DeclareTickOutput("pose_BE", "calc:kinematics", 0, POSE_SIZE)
+            self.DeclareTickOutput("jacobian", "calc:kinematics", POSE_SIZE, KINEMATICS_SIZE)
         else:
             chain.update(plant.GetDefaultPositions())
-            self._pose_state = self.DeclareDiscreteState(master_pose(chain))
-            self._jacobian_state = self.DeclareDiscreteState(chain.J.ravel())
-            self.DeclareInitializationDiscreteUpdateEvent(self._sample)
-            self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._sample)
-            self.DeclareStateOutputPort("pose_BE", self._pose_state)
-            self.DeclareStateOutputPort("jacobian", self._jacobian_state)
-
-    def _chain_at_input(self, context) -> SerialChain:
-        self._chain.update(self._position.Eval(context))
-        return self._chain
-
-    def _calc_pose(self, context, output):
-        output.SetFromVector(master_pose(self._chain_at_input(context)))
-
-    def _calc_jacobian(self, context, output):
-        output.SetFromVector(self._chain_at_input(context).J.ravel())
-
-    def _sample(self, context, discrete_state):
-        chain = self._chain_at_input(context)
-        discrete_state.set_value(self._pose_state, master_pose(chain))
-        discrete_state.set_value(self._jacobian_state, chain.J.ravel())
+            self.DeclareTickState("pose", master_pose(chain))
+            self.DeclareTickState("jacobian", chain.J.ravel())
+            args = ("next:pose", "next:jacobian", "in:position", chain.record)
+            self.DeclareTickInitialization(master_sample, *args)
+            self.DeclareTickUpdate(master_sample, *args)
+            self.DeclareTickOutput("pose_BE", "x:pose")
+            self.DeclareTickOutput("jacobian", "x:jacobian")

@@ -24,12 +24,12 @@ import math
 
 import numpy as np
 from pydrake.math import RollPitchYaw, RotationMatrix
-from pydrake.systems.framework import LeafSystem
 
 from heft.systems.compiled import compiled, float_array
 from heft.systems.motion_scaling_params import MotionScalingParams
 from heft.systems.pose_vectors import POSE_SIZE
 from heft.systems.sample_period import DEFAULT_PERIOD, require_period
+from heft.systems.tick_system import TickSystem
 
 IDENTITY_POSE = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
 # Layout of the memory state: [engaged, k_t, k_r, pose_BE0 (7), pose_RT0 (7)].
@@ -145,7 +145,25 @@ def motion_scaling_step(memory, desired, pose_BE, engaged, pose_RT_measured, tra
     RT0[:] = desired
 
 
-class MotionScaling(LeafSystem):
+@compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:, :], "
+          "float64[:])")
+def motion_tick(memory, desired, pose_BE, clutch, measured, translation_scale, rotation_scale, R_RB, scratch):
+    """``motion_scaling_step`` on the block's arrays: ``clutch`` (1) > 0.5 engaged, the scales (1 each)."""
+    motion_scaling_step(memory, desired, pose_BE, clutch[0] > 0.5, measured, translation_scale[0], rotation_scale[0],
+                        R_RB, scratch)
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:, :], "
+          "float64[:])")
+def motion_initialize(memory, desired, pose_BE, clutch, measured, translation_scale, rotation_scale, R_RB, scratch):
+    """The initialization: disengaged, the desired pose the ``measured`` one (if a pose), then a tick."""
+    memory[_ENGAGED] = 0.0
+    if valid_pose(measured):
+        unit_pose_into(measured, desired)
+    motion_tick(memory, desired, pose_BE, clutch, measured, translation_scale, rotation_scale, R_RB, scratch)
+
+
+class MotionScaling(TickSystem):
     """Stylus pose → desired slave tool pose, scaled, with a clutch (module docstring).
 
     Inputs: ``pose_BE`` (7, stylus E in master base B), ``clutch`` (1, > 0.5 = engaged),
@@ -162,44 +180,20 @@ class MotionScaling(LeafSystem):
     """
 
     def __init__(self, params: MotionScalingParams | None = None, period: float = DEFAULT_PERIOD):
-        super().__init__()
         params = params or MotionScalingParams()
         params.validate()
-        period = require_period(period)
-        self._params = params
-        self._R_RB = RotationMatrix(RollPitchYaw(params.R_RB)).matrix()
-        self._scratch = np.empty(POSE_SIZE)  # of ``motion_scaling_step``
-        self._pose_BE = self.DeclareVectorInputPort("pose_BE", POSE_SIZE)
-        self._clutch = self.DeclareVectorInputPort("clutch", 1)
-        self._measured = self.DeclareVectorInputPort("pose_RT_measured", POSE_SIZE)
-        self._translation_scale = self.DeclareVectorInputPort("translation_scale", 1)
-        self._rotation_scale = self.DeclareVectorInputPort("rotation_scale", 1)
-        memory = np.concatenate(([0.0, params.translation_scale, params.rotation_scale], IDENTITY_POSE,
-                                 IDENTITY_POSE))
-        self._memory = self.DeclareDiscreteState(memory)
-        self._desired = self.DeclareDiscreteState(IDENTITY_POSE)
-        self.DeclareInitializationDiscreteUpdateEvent(self._initialize)
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
-        self.DeclareStateOutputPort("pose_RT_desired", self._desired)
-
-    def _scale(self, context, port, default: float) -> float:
-        return float(port.Eval(context)[0]) if port.HasValue(context) else default
-
-    def _tick(self, context, discrete_state):
-        # discrete_state holds the memory and the desired pose to start from: updated in place.
-        motion_scaling_step(discrete_state.get_mutable_value(self._memory),
-                            discrete_state.get_mutable_value(self._desired), self._pose_BE.Eval(context),
-                            self._clutch.Eval(context)[0] > 0.5, self._measured.Eval(context),
-                            self._scale(context, self._translation_scale, self._params.translation_scale),
-                            self._scale(context, self._rotation_scale, self._params.rotation_scale), self._R_RB,
-                            self._scratch)
-
-    def _initialize(self, context, discrete_state):
-        discrete_state.get_mutable_value(self._memory)[_ENGAGED] = 0.0
-        measured = float_array(self._measured.Eval(context))
-        if valid_pose(measured):
-            unit_pose_into(measured, discrete_state.get_mutable_value(self._desired))
-        self._tick(context, discrete_state)
-
-    def _update(self, context, discrete_state):
-        self._tick(context, discrete_state)
+        super().__init__(require_period(period))
+        self.R_RB = RotationMatrix(RollPitchYaw(params.R_RB)).matrix()
+        self.DeclareTickInput("pose_BE", POSE_SIZE)
+        self.DeclareTickInput("clutch", 1)
+        self.DeclareTickInput("pose_RT_measured", POSE_SIZE)
+        self.DeclareTickInput("translation_scale", 1, [params.translation_scale])
+        self.DeclareTickInput("rotation_scale", 1, [params.rotation_scale])
+        self.DeclareTickState("memory", np.concatenate(([0.0, params.translation_scale, params.rotation_scale],
+                                                        IDENTITY_POSE, IDENTITY_POSE)))
+        self.DeclareTickState("desired", IDENTITY_POSE)
+        args = ("next:memory", "next:desired", "in:pose_BE", "in:clutch", "in:pose_RT_measured",
+                "in:translation_scale", "in:rotation_scale", self.R_RB, np.empty(POSE_SIZE))
+        self.DeclareTickInitialization(motion_initialize, *args)
+        self.DeclareTickUpdate(motion_tick, *args)
+        self.DeclareTickOutput("pose_RT_desired", "x:desired")

@@ -22,12 +22,12 @@ keep it as discrete state; ``offsets_update`` is the one update, used by
 """
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, LeafSystem
 
 from heft.systems.contact_threshold import ContactThresholdParams
 from heft.systems.compiled import compiled, float_array
 from heft.systems.load_dynamics import beyond
 from heft.systems.offset_tracking_params import OffsetTrackingParams
+from heft.systems.tick_system import TickSystem
 
 # Layout of the state: offsets, the re-zero window's sum of (c + o)·dt and its length (s),
 # the re-zero status, tracking on (1) or off (0), the last re-zero request counter seen.
@@ -119,7 +119,16 @@ def offsets_update_into(state, contact, fault, slave_velocity, dt, rest_joint_sp
             state[i] += min(max(gain * contact[i], -step), step)
 
 
-class OffsetTracker(LeafSystem):
+@compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:], float64[:])")
+def offset_tracker_update(state, contact, fault, slave_velocity, rezero, settings):
+    """``offsets_update_into`` on the block's arrays: ``fault`` (1, > 0.5 faulted), ``rezero`` (1, the request
+    counter), ``settings`` [dt (s), ``kernel_settings``…, contact force (N), contact torque (N·m)]."""
+    offsets_update_into(state, contact, fault[0] > 0.5, slave_velocity, settings[0], settings[1], settings[2],
+                        settings[3], settings[4], settings[5], settings[6], settings[7], settings[8], settings[9],
+                        rezero[0])
+
+
+class OffsetTracker(TickSystem):
     """The offsets Ô for force scaling, re-zeroed on request and tracked at rest
     (module docstring), updated every ``period`` s.
 
@@ -131,25 +140,16 @@ class OffsetTracker(LeafSystem):
     """
 
     def __init__(self, offsets, params: OffsetTrackingParams, thresholds: ContactThresholdParams, period: float):
-        super().__init__()
         params.validate()
         thresholds.validate()
-        self._settings = (*kernel_settings(params), float(thresholds.force), float(thresholds.torque))
-        self._period = period
-        self._contact = self.DeclareVectorInputPort("wrench_contact", 6)
-        self._fault = self.DeclareVectorInputPort("fault", 1)
-        self._velocity = self.DeclareVectorInputPort("slave_velocity", 6)
-        self._rezero = self.DeclareVectorInputPort("rezero", 1)
-        self._state = self.DeclareDiscreteState(BasicVector(initial_state(offsets, params)))
-        self.DeclareVectorOutputPort("offsets", 6, lambda context, output: output.SetFromVector(
-            context.get_discrete_state(self._state).get_value()[OFFSETS]), {self.xd_ticket()})
-        self.DeclareVectorOutputPort("rezero_status", 1, lambda context, output: output.SetAtIndex(
-            0, context.get_discrete_state(self._state).get_value()[STATUS]), {self.xd_ticket()})
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
-
-    def _update(self, context, discrete_state):
-        # discrete_state holds the current state: updated in place.
-        requests = self._rezero.Eval(context)[0] if self._rezero.HasValue(context) else 0.0
-        offsets_update_into(discrete_state.get_mutable_value(self._state), self._contact.Eval(context),
-                            self._fault.Eval(context)[0] > 0.5, self._velocity.Eval(context), self._period,
-                            *self._settings, float(requests))
+        super().__init__(period)
+        self.settings = np.array((period, *kernel_settings(params), thresholds.force, thresholds.torque), dtype=float)
+        self.DeclareTickInput("wrench_contact", 6)
+        self.DeclareTickInput("fault", 1)
+        self.DeclareTickInput("slave_velocity", 6)
+        self.DeclareTickInput("rezero", 1, [0.0])
+        self.DeclareTickState("state", initial_state(offsets, params))
+        self.DeclareTickOutput("offsets", "x:state", OFFSETS.start, OFFSETS.stop)
+        self.DeclareTickOutput("rezero_status", "x:state", STATUS, STATUS + 1)
+        self.DeclareTickUpdate(offset_tracker_update, "next:state", "in:wrench_contact", "in:fault",
+                               "in:slave_velocity", "in:rezero", self.settings)

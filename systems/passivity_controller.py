@@ -36,12 +36,12 @@ observer counts the wrench actually applied.
 import math
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
 
 from heft.systems.compiled import compiled, float_array
 from heft.systems.feedback_mapping import clamp_factor
 from heft.systems.passivity_params import PassivityParams
 from heft.systems.sample_period import DEFAULT_PERIOD, require_period
+from heft.systems.tick_system import Reshaped, TickSystem
 
 
 # --- pure numpy core ----------------------------------------------------------
@@ -152,7 +152,18 @@ def master_torque_into(wrench, velocity, jacobian, energy, period, max_damping, 
 
 # --- Drake system -------------------------------------------------------------
 
-class PassivityController(LeafSystem):
+@compiled("void(float64[:], float64[:], float64[:, :], float64[:], float64[:], float64[:], float64[:], float64[:], "
+          "float64[:], float64[:])")
+def passivity_update(wrench, velocity, jacobian, limits, energy, torque, applied, damping, dissipated, scratch):
+    """``master_torque_into`` on the block's arrays: ``limits`` [period (s), α_t max, α_r max, max force (N),
+    max torque (N·m)]; ``dissipated`` (2) adds up; ``scratch`` (8)."""
+    master_torque_into(wrench, velocity, jacobian, energy, limits[0], limits[1:3], limits[3], limits[4], torque,
+                       applied, damping, scratch[:2], scratch[2:])
+    dissipated[0] += scratch[0]
+    dissipated[1] += scratch[1]
+
+
+class PassivityController(TickSystem):
     """The PO/PC of the module docstring in front of the master's actuators.
 
     Inputs: ``wrench`` (6, desired [f; τ] on the hand at E, in B; N, N·m),
@@ -179,38 +190,22 @@ class PassivityController(LeafSystem):
 
     def __init__(self, params: PassivityParams | None = None, max_force: float = math.inf,
                  max_torque: float = math.inf, period: float = DEFAULT_PERIOD):
-        super().__init__()
         params = params or PassivityParams()
         params.validate()
-        period = require_period(period)
+        super().__init__(require_period(period))
         if not (max_force > 0 and max_torque > 0):
             raise ValueError(f"max_force and max_torque must be > 0; got {max_force}, {max_torque}")
-        self._period = period
-        self._limits = (max_force, max_torque)
-        self._max_damping = np.array((params.max_translational_damping, params.max_rotational_damping)
-                                     if params.enabled else (0.0, 0.0))
-        # Scratch of ``_update``: the energy dissipated this tick, the twist.
-        self._dissipated_now, self._twist = np.empty(2), np.empty(6)
-        self._wrench = self.DeclareVectorInputPort("wrench", 6)
-        self._velocity = self.DeclareVectorInputPort("velocity", 6)
-        self._jacobian = self.DeclareVectorInputPort("jacobian", 36)
-        self._torque = self.DeclareDiscreteState(6)
-        self._energy = self.DeclareDiscreteState(2)
-        self._damping = self.DeclareDiscreteState(2)
-        self._dissipated = self.DeclareDiscreteState(2)
-        self._applied = self.DeclareDiscreteState(6)
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
-        self.DeclareStateOutputPort("torque", self._torque)
-        self.DeclareStateOutputPort("energy_observed", self._energy)
-        self.DeclareStateOutputPort("damping", self._damping)
-        self.DeclareStateOutputPort("energy_dissipated", self._dissipated)
-        self.DeclareStateOutputPort("applied_wrench", self._applied)
-
-    def _update(self, context, discrete_state):
-        # discrete_state holds the current values: the energy advances in place, the dissipation adds up.
-        dissipated, state = self._dissipated_now, discrete_state.get_mutable_value
-        master_torque_into(self._wrench.Eval(context), self._velocity.Eval(context),
-                           self._jacobian.Eval(context).reshape(6, 6), state(self._energy), self._period,
-                           self._max_damping, *self._limits, state(self._torque), state(self._applied),
-                           state(self._damping), dissipated, self._twist)
-        discrete_state.get_mutable_value(self._dissipated)[:] += dissipated
+        max_damping = ((params.max_translational_damping, params.max_rotational_damping) if params.enabled
+                       else (0.0, 0.0))
+        self.limits = np.array((self.tick_period, *max_damping, max_force, max_torque))
+        self.DeclareTickInput("wrench", 6)
+        self.DeclareTickInput("velocity", 6)
+        self.DeclareTickInput("jacobian", 36)
+        for name, size in (("torque", 6), ("energy", 2), ("damping", 2), ("dissipated", 2), ("applied", 6)):
+            self.DeclareTickState(name, np.zeros(size))
+        self.DeclareTickUpdate(passivity_update, "in:wrench", "in:velocity", Reshaped("in:jacobian", (6, 6)),
+                               self.limits, "next:energy", "next:torque", "next:applied", "next:damping",
+                               "next:dissipated", np.empty(8))
+        for port, state in (("torque", "torque"), ("energy_observed", "energy"), ("damping", "damping"),
+                            ("energy_dissipated", "dissipated"), ("applied_wrench", "applied")):
+            self.DeclareTickOutput(port, f"x:{state}")

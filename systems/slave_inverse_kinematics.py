@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from pydrake.math import RigidTransform
-from pydrake.systems.framework import EventStatus, LeafSystem
 
-from heft.systems.compiled import compiled, float_array, record_views
+from heft.systems.compiled import compiled, record_views
 from heft.systems.pose_vectors import POSE_SIZE, rotation_into
 from heft.systems.rx_inverse_kinematics import NON_FINITE, UNREACHABLE, WORK_ROWS, RxKinematics, nearest_solution
 from heft.systems.slave_kinematics import NUM_JOINTS
+from heft.systems.tick_system import TickSystem
 
 SLEWING = 1 << 12
 """``ik_step``'s status bit: the speed limits held the command back from the solution."""
@@ -94,7 +96,35 @@ IK_STEP = np.dtype([("dh", float, 5), ("lower", float, NUM_JOINTS), ("upper", fl
 ``velocity`` and ``wrist_band`` as ``band``) and tool frame (``R_TF``, ``p_TF``), and its scratch ``work``."""
 
 
-class SlaveInverseKinematics(LeafSystem):
+@compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:], IK[:])", IK=IK_STEP)
+def ik_update(command, status, slewing, pose, period, ik):
+    """``ik_step`` from the last ``command`` (6, rad) toward ``pose`` over ``period`` (1, s), in place;
+    ``status`` (2) [reachable, ticks rejected so far], ``slewing`` (1)."""
+    k = ik[0]
+    result = ik_step(k["dh"], k["lower"], k["upper"], k["velocity"], k["band"], pose, k["R_TF"], k["p_TF"], command,
+                     period[0], command, k["work"])
+    if result & UNREACHABLE:
+        status[0] = 0.0
+        status[1] += 1.0
+    else:
+        status[0] = 1.0
+    slewing[0] = 1.0 if result & SLEWING else 0.0
+
+
+@compiled("void(float64[:], float64[:], IK[:])", IK=IK_STEP)
+def ik_initialize(command, measured, ik):
+    """The command at the ``measured`` position (6, rad) within the joint limits, if it is finite."""
+    total = 0.0
+    for j in range(measured.shape[0]):
+        total += measured[j]
+    if not math.isfinite(total):
+        return
+    k = ik[0]
+    for j in range(command.shape[0]):
+        command[j] = min(max(measured[j], k["lower"][j]), k["upper"][j])
+
+
+class SlaveInverseKinematics(TickSystem):
     """Desired tool pose → joint command, every ``period`` s, never jumping.
 
     Input ``pose_desired`` (7): X_RT*, the desired pose of tool frame T in the slave base R,
@@ -113,40 +143,21 @@ class SlaveInverseKinematics(LeafSystem):
     """
 
     def __init__(self, kinematics: RxKinematics, X_FT: RigidTransform, q_initial, period: float):
-        super().__init__()
         q_initial = np.asarray(q_initial, dtype=float)
         if q_initial.shape != (NUM_JOINTS,) or not kinematics.within_limits(q_initial):
             raise ValueError(f"q_initial must be 6 joint angles within the limits; got {q_initial}")
         if not (np.isfinite(period) and period > 0):
             raise ValueError(f"period must be finite and > 0 (s); got {period}")
-        self._kinematics, self._period = kinematics, period
+        super().__init__(period)
         self._ik_step = IkStep(kinematics, X_FT.inverse())
-        self._pose = self.DeclareVectorInputPort("pose_desired", POSE_SIZE)
-        self._measured = self.DeclareVectorInputPort("position_measured", NUM_JOINTS)
-        self._command = self.DeclareDiscreteState(q_initial)
-        self._status = self.DeclareDiscreteState(np.array([1.0, 0.0]))
-        self._slewing = self.DeclareDiscreteState(np.zeros(1))
-        self.DeclareInitializationDiscreteUpdateEvent(self._initialize)
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
-        self.DeclareStateOutputPort("position_commanded", self._command)
-        self.DeclareStateOutputPort("status", self._status)
-        self.DeclareStateOutputPort("slewing", self._slewing)
-
-    def _initialize(self, context, discrete_state) -> EventStatus:
-        if not self._measured.HasValue(context):
-            return EventStatus.DidNothing()
-        q_measured = self._measured.Eval(context)
-        if not np.isfinite(q_measured).all():
-            return EventStatus.DidNothing()
-        discrete_state.set_value(self._command, np.clip(q_measured, self._kinematics.lower, self._kinematics.upper))
-        return EventStatus.Succeeded()
-
-    def _update(self, context, discrete_state) -> EventStatus:
-        # Drake hands the update the current state: the command holds q_last until ik_step moves it.
-        command = discrete_state.get_mutable_vector(self._command).get_mutable_value()
-        rejected = context.get_discrete_state(self._status).get_value()[1]
-        status = self._ik_step(float_array(self._pose.Eval(context)), command, self._period, command)
-        reachable = not status & UNREACHABLE
-        discrete_state.set_value(self._status, [1.0, rejected] if reachable else [0.0, rejected + 1])
-        discrete_state.set_value(self._slewing, [1.0 if status & SLEWING else 0.0])
-        return EventStatus.Succeeded()
+        self.DeclareTickInput("pose_desired", POSE_SIZE)
+        self.DeclareTickInput("position_measured", NUM_JOINTS, np.full(NUM_JOINTS, np.nan))
+        self.DeclareTickState("command", q_initial)
+        self.DeclareTickState("status", [1.0, 0.0])
+        self.DeclareTickState("slewing", [0.0])
+        self.DeclareTickInitialization(ik_initialize, "next:command", "in:position_measured", self._ik_step.record)
+        self.DeclareTickUpdate(ik_update, "next:command", "next:status", "next:slewing", "in:pose_desired",
+                               np.array([period]), self._ik_step.record)
+        self.DeclareTickOutput("position_commanded", "x:command")
+        self.DeclareTickOutput("status", "x:status")
+        self.DeclareTickOutput("slewing", "x:slewing")

@@ -6,16 +6,51 @@ from collections.abc import Callable
 
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.systems.framework import LeafSystem
 
 from heft.systems.load_dynamics import GRAVITY_W
 from heft.systems.pose_vectors import POSE_SIZE, pose_into
-from heft.systems.serial_chain import GRAVITY, OMEGA, SerialChain
+from heft.systems.compiled import compiled
+from heft.systems.serial_chain import GRAVITY, SerialChain, chain_dtype, chain_kinematics
+from heft.systems.tick_system import TickSystem
 
 NUM_JOINTS = 6
 
 
-class SlaveKinematics(LeafSystem):
+POSITION_SIZE = POSE_SIZE + 3 + 9 + 3 * NUM_JOINTS
+"""The chain at q_S: [X_RS (7); g_S (3); R_RS (9, row-major); the rows of J for ω in R (3 × 6, row-major)]."""
+
+
+@compiled("void(float64[:], float64[:], CHAIN[:])", CHAIN=chain_dtype(NUM_JOINTS))
+def slave_position_into(out, position, chain):
+    """The chain at q_S = ``position`` (6, rad) into ``out`` (``POSITION_SIZE``)."""
+    c = chain[0]
+    motion, R, J = c["motion"], c["R"], c["J"]
+    chain_kinematics(c["axes"], c["points"], c["M_R"], c["M_p"], position, c["zeros"], c["zeros"], c["gravity_B"],
+                     R, c["p"], J, motion, c["work"])
+    pose_into(R, c["p"], out[:POSE_SIZE])
+    for i in range(3):
+        out[POSE_SIZE + i] = motion[GRAVITY.start + i]
+        for k in range(3):
+            out[POSE_SIZE + 3 + 3 * i + k] = R[i, k]
+        for k in range(NUM_JOINTS):
+            out[POSE_SIZE + 12 + NUM_JOINTS * i + k] = J[3 + i, k]
+
+
+@compiled("void(float64[:], float64[:], float64[:])")
+def slave_omega_into(out, at_position, velocity):
+    """ω_S = R_RSᵀ·J_ω·q̇_S (3, rad/s) into ``out``, from ``slave_position_into``'s ``at_position``."""
+    jacobian = POSE_SIZE + 12
+    wx = wy = wz = 0.0
+    for k in range(NUM_JOINTS):
+        wx += at_position[jacobian + k] * velocity[k]
+        wy += at_position[jacobian + NUM_JOINTS + k] * velocity[k]
+        wz += at_position[jacobian + 2 * NUM_JOINTS + k] * velocity[k]
+    for k in range(3):
+        out[k] = at_position[POSE_SIZE + 3 + k] * wx + at_position[POSE_SIZE + 6 + k] * wy + \
+            at_position[POSE_SIZE + 9 + k] * wz
+
+
+class SlaveKinematics(TickSystem):
     """Inputs ``position`` q_S (6, rad) and ``velocity`` q̇_S (6, rad/s) → outputs
 
     ``pose_RS`` (7): X_RS, the sensor frame S in the slave base R, [p (m); w, x, y, z];
@@ -25,13 +60,13 @@ class SlaveKinematics(LeafSystem):
     ``model`` is a finalized MultibodyPlant of arm + sensor + load (e.g. built with
     diagrams.plants.AddSlave), or a function returning one. ``base_frame`` and
     ``sensor_frame`` name R and S in it; the joints are those of R's model instance.
-    ``gravity_R`` is gravity expressed in R (m/s²). Direct feedthrough: pose_RS and
-    gravity_S from ``position``, omega_S from both inputs.
+    ``gravity_R`` is gravity expressed in R (m/s²). Direct feedthrough:
+    pose_RS and gravity_S from ``position``, omega_S from both inputs (zero velocity when unconnected).
     """
 
     def __init__(self, model: MultibodyPlant | Callable[[], MultibodyPlant], base_frame: str = "rx90_base",
                  sensor_frame: str = "S", gravity_R=GRAVITY_W):
-        super().__init__()
+        super().__init__(None)
         plant = model if isinstance(model, MultibodyPlant) else model()
         if not plant.is_finalized():
             raise ValueError("SlaveKinematics needs a finalized plant")
@@ -40,26 +75,11 @@ class SlaveKinematics(LeafSystem):
         if plant.num_positions(arm) != NUM_JOINTS or plant.num_velocities(arm) != NUM_JOINTS:
             raise ValueError(f"the model instance of '{base_frame}' must have {NUM_JOINTS} positions and velocities")
         self._chain = SerialChain(plant, R, S, np.asarray(gravity_R, dtype=float).reshape(3))
-        self._position = self.DeclareVectorInputPort("position", NUM_JOINTS)
-        self._velocity = self.DeclareVectorInputPort("velocity", NUM_JOINTS)
-        position = {self._position.ticket()}
-        self.DeclareVectorOutputPort("pose_RS", POSE_SIZE, self._calc_pose, prerequisites_of_calc=position)
-        self.DeclareVectorOutputPort("omega_S", 3, self._calc_omega,
-                                     prerequisites_of_calc=position | {self._velocity.ticket()})
-        self.DeclareVectorOutputPort("gravity_S", 3, self._calc_gravity, prerequisites_of_calc=position)
-
-    def _calc_pose(self, context, output):
-        chain = self._chain
-        chain.update(self._position.Eval(context))
-        pose = output.get_mutable_value()
-        pose_into(chain.R, chain.p, pose)
-
-    def _calc_omega(self, context, output):
-        chain = self._chain
-        chain.update(self._position.Eval(context), self._velocity.Eval(context))
-        output.SetFromVector(chain.motion[OMEGA])
-
-    def _calc_gravity(self, context, output):
-        chain = self._chain
-        chain.update(self._position.Eval(context))
-        output.SetFromVector(chain.motion[GRAVITY])
+        self.DeclareTickInput("position", NUM_JOINTS)
+        self.DeclareTickInput("velocity", NUM_JOINTS, np.zeros(NUM_JOINTS))
+        self.DeclareTickCalc("at_position", POSITION_SIZE, slave_position_into, "calc:at_position", "in:position",
+                             self._chain.record)
+        self.DeclareTickCalc("omega", 3, slave_omega_into, "calc:omega", "calc:at_position", "in:velocity")
+        self.DeclareTickOutput("pose_RS", "calc:at_position", 0, POSE_SIZE)
+        self.DeclareTickOutput("omega_S", "calc:omega")
+        self.DeclareTickOutput("gravity_S", "calc:at_position", POSE_SIZE, POSE_SIZE + 3)

@@ -243,7 +243,7 @@ def test_feedthrough_is_limited_to_the_signal_inputs(run):
     feedthrough = {(i, o) for i in range(system.num_input_ports())
                    for o in range(system.num_output_ports()) if system.HasDirectFeedthrough(i, o)}
     signals = {int(system.GetInputPort(n).get_index()) for n in
-               ("wrench", "acceleration", "omega", "gravity", "phi", "offsets")}
+               ("wrench", "acceleration", "omega", "gravity", "phi", "offsets", "phi_gripper", "split")}
     outputs = {int(system.GetOutputPort(n).get_index()) for n in
                ("wrench_feedback", "wrench_contact", "wrench_noncontact", "fault")}
     assert feedthrough == {(i, o) for i in signals for o in outputs}

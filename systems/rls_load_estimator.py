@@ -1,0 +1,94 @@
+"""φ̂ learned in the loop: recursive least squares on φ alone, as a block of the controller Diagram.
+
+``RlsLoadEstimator`` takes one sample per tick while its ``enable`` input says so (``EstimatorGate``), from
+f − ô = c + V·φ (the offsets are the OffsetTracker's, so the weight cannot trade against them), through
+``recursive_estimation``'s kernels (``least_squares_update``: stabilized forgetting towards the prior
+P₀ = ``prior_covariance``·E). Two request counters restart it: ``reset`` (a new load, the grasp: the data
+forgotten, the estimate kept as the prior) and ``restart`` (a new estimate: [counter, φ (10)], from which it
+starts as from a new load).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from heft.systems.compiled import compiled, record_views
+from heft.systems.load_estimation_params import LoadEstimationParams
+from heft.systems.recursive_estimation import (RecursiveLeastSquares, least_squares_start_from,
+                                               least_squares_update)
+from heft.systems.tick_system import TickSystem
+
+P = 10
+"""The unknowns: φ alone."""
+RLS = np.dtype([("weighted", float, (6, P + 1)), ("row", float, P + 1), ("V", float, (6, 10)), ("row_scale", float, 6),
+                ("forgetting", float), ("sqrt_forgetting", float), ("pull", float), ("sqrt_prior", float),
+                ("theta", float, P)])
+"""``least_squares_update``'s and ``least_squares_start_from``'s arguments besides the state, and a scratch φ."""
+SKIPPED, RESETS, RESTARTS = range(3)
+"""The block's counters: enabled ticks whose sample held a NaN or inf, the reset and restart requests seen."""
+
+
+@compiled("void(float64[::1], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], "
+          "float64[:], RLS[:])", RLS=RLS)
+def rls_update(state, counters, wrench, acceleration, omega, gravity, enable, reset, restart, rls) -> None:
+    """One tick on the estimator's ``state`` and ``counters`` (3): a restart ([counter, φ]) or a reset
+    (counter) request first, then the sample if ``enable`` (1) > 0.5 and it is finite."""
+    r = rls[0]
+    theta = r["theta"]
+    if restart[0] > counters[RESTARTS]:
+        counters[RESTARTS] = restart[0]
+        for i in range(P):
+            theta[i] = restart[1 + i]
+        least_squares_start_from(state, P, r["sqrt_prior"], theta)
+    if reset[0] > counters[RESETS]:
+        counters[RESETS] = reset[0]
+        for i in range(P):
+            theta[i] = state[i]
+        least_squares_start_from(state, P, r["sqrt_prior"], theta)
+    if not enable[0] > 0.5:
+        return
+    total = 0.0
+    for i in range(6):
+        total += wrench[i] + acceleration[i]
+    for i in range(3):
+        total += omega[i] + gravity[i]
+    if not math.isfinite(total):
+        counters[SKIPPED] += 1.0
+        return
+    least_squares_update(state, P, r["weighted"], r["row"], r["V"], r["row_scale"], wrench, acceleration[:3],
+                         acceleration[3:], omega, gravity, r["forgetting"], r["sqrt_forgetting"], r["pull"])
+
+
+class RlsLoadEstimator(TickSystem):
+    """φ̂ (10; Eq. 6) learned online from ``phi`` (module docstring), one sample every ``period`` s.
+
+    Inputs (in S): ``wrench`` (6, f − ô; N, N·m), ``acceleration`` (6, kinematic [a; α]), ``omega`` (3),
+    ``gravity`` (3), ``enable`` (1), ``reset`` (1, a counter; unconnected 0), ``restart`` (11: a counter and
+    φ to start from; unconnected none). Outputs (state): ``phi`` (10), ``num_samples`` (1, since the last
+    reset or restart), ``num_skipped`` (1, enabled ticks whose sample held a NaN or inf)."""
+
+    def __init__(self, params: LoadEstimationParams, phi, period: float):
+        super().__init__(period)
+        prototype = RecursiveLeastSquares(offsets=False, forgetting=params.forgetting,
+                                          initial_covariance=params.prior_covariance)
+        prototype.start_from(phi)
+        (state, _, weighted, row, V, row_scale), (forgetting, sqrt_forgetting, pull, sqrt_prior) = \
+            prototype.kernel_arguments
+        self.rls, arrays = record_views(RLS)
+        arrays["weighted"][:], arrays["row"][:], arrays["V"][:], arrays["row_scale"][:] = weighted, row, V, row_scale
+        for name, value in (("forgetting", forgetting), ("sqrt_forgetting", sqrt_forgetting), ("pull", pull),
+                            ("sqrt_prior", sqrt_prior)):
+            self.rls[name] = value
+        for name, size in (("wrench", 6), ("acceleration", 6), ("omega", 3), ("gravity", 3), ("enable", 1)):
+            self.DeclareTickInput(name, size)
+        self.DeclareTickInput("reset", 1, [0.0])
+        self.DeclareTickInput("restart", 1 + P, np.zeros(1 + P))
+        self.DeclareTickState("state", state)
+        self.DeclareTickState("counters", np.zeros(3))
+        self.DeclareTickUpdate(rls_update, "next:state", "next:counters", "in:wrench", "in:acceleration", "in:omega",
+                               "in:gravity", "in:enable", "in:reset", "in:restart", self.rls)
+        self.DeclareTickOutput("phi", "x:state", 0, P)
+        self.DeclareTickOutput("num_samples", "x:state", P, P + 1)
+        self.DeclareTickOutput("num_skipped", "x:counters", SKIPPED, SKIPPED + 1)

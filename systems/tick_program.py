@@ -1,0 +1,266 @@
+"""A Diagram of ``TickSystem`` blocks stepped as one program, derived from its own graph.
+
+``TickProgram(diagram)`` reads the blocks' declarations (``systems.tick_system``) and the Diagram's
+connections, and lays every signal in one flat array (``signals``): each of the Diagram's inputs,
+each calculation, and so each output port, is a slice of it; an input port is the slice of the
+output it is connected to, so a connection costs nothing. Every block's state is a slice of one
+flat array (``state``). A tick does what Drake's stepping of the Diagram does for its one periodic
+discrete update: every calculation, in an order that respects what each reads (computed from the
+graph; those nothing reads are left out); then every block's updates on a copy of the state; then the
+copy becomes the state. Each
+kernel is called with arrays bound once, so a tick allocates nothing and builds no objects.
+
+A block added to the Diagram is in the program with nothing else to write, and
+``tests/test_tick_program.py`` holds the two tick for tick equal.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+from pydrake.systems.framework import Diagram, InputPortIndex, OutputPortIndex
+
+from heft.systems.tick_system import Reshaped, TickSystem
+
+
+class TickProgram:
+    """``diagram`` (of ``TickSystem`` blocks sharing one period) as one program (module docstring).
+
+    ``input(name)`` is the array to write a Diagram input into before a tick (it keeps its value
+    between ticks; an input no block needs a value for starts at the blocks' default);
+    ``output(name)`` the array a Diagram output is read from: after ``tick``, a state output holds the
+    state the tick left and a calculation what the tick computed from its inputs (before the update),
+    as Drake's ``EvalUniquePeriodicDiscreteUpdate`` sees them. ``reset`` then ``initialize`` is Drake's
+    ``ExecuteInitializationEvents`` on a default context with the inputs as they are."""
+
+    def __init__(self, diagram: Diagram):
+        self.diagram = diagram
+        blocks = [system for system in diagram.GetSystems()]
+        for block in blocks:
+            if not isinstance(block, TickSystem):
+                raise TypeError(f"the Diagram's system {block.get_name()!r} ({type(block).__name__}) is not a "
+                                "TickSystem: declare its computations as kernels (systems/tick_system.py)")
+        periods = {block.tick_period for block in blocks if block.tick_period is not None}
+        if len(periods) > 1:
+            raise ValueError(f"the blocks of a program tick at one period; these have {sorted(periods)} s")
+        self.period = periods.pop() if periods else None
+        self.blocks = blocks
+
+        # The state: each block's groups in one flat array, in the blocks' and their declarations' order.
+        state_slices, size = {}, 0
+        for block in blocks:
+            for name, (_, initial) in block.tick_states.items():
+                state_slices[block, name] = slice(size, size + initial.size)
+                size += initial.size
+        self.state, self._next, self.initial_state = np.zeros(size), np.zeros(size), np.zeros(size)
+        for (block, name), where in state_slices.items():
+            self.initial_state[where] = block.tick_states[name][1]
+
+        # The signals: the Diagram's inputs, then every calculation.
+        signal_slices, size = {}, 0
+        self._input_slices = {}
+        for i in range(diagram.num_input_ports()):
+            port = diagram.get_input_port(i)
+            self._input_slices[port.get_name()] = slice(size, size + port.size())
+            size += port.size()
+        for block in blocks:
+            for name, calc in block.tick_calcs.items():
+                signal_slices[block, name] = slice(size, size + calc.size)
+                size += calc.size
+        unconnected = {}
+        for block in blocks:
+            for name, tick_input in block.tick_inputs.items():
+                if self._source(block, tick_input.port.get_index()) is None:
+                    unconnected[block, name] = slice(size, size + tick_input.size)
+                    size += tick_input.size
+        self.signals = np.zeros(size)
+        for (block, name), where in unconnected.items():
+            default = block.tick_inputs[name].default
+            if default is None:
+                raise ValueError(f"the input {name!r} of {block.get_name()!r} is connected to nothing and has no "
+                                 "default: connect it or export it")
+            self.signals[where] = default
+        self._state_slices, self._signal_slices, self._unconnected = state_slices, signal_slices, unconnected
+        self._default_inputs()
+
+        # The calculations something reads, in an order that computes what each reads first.
+        order, done, visiting = [], set(), set()
+
+        def visit(block, name):
+            if (block, name) in done:
+                return
+            if (block, name) in visiting:
+                raise ValueError(f"the calculation {name!r} of {block.get_name()!r} reads itself through the "
+                                 "Diagram: an algebraic loop")
+            visiting.add((block, name))
+            for read in block.tick_calcs[name].depends:
+                kind, _, what = read.partition(":")
+                if kind == "calc":
+                    visit(block, what)
+                elif kind == "in":
+                    source = self._source(block, block.tick_inputs[what].port.get_index())
+                    if source is not None and source[0] is not None:
+                        source_block, output = source
+                        kind, _, calc = output.source.partition(":")
+                        if kind == "calc":
+                            visit(source_block, calc)
+            visiting.discard((block, name))
+            done.add((block, name))
+            order.append((block, name))
+
+        for block, name in self._needed_calculations():
+            visit(block, name)
+        self.calculation_order = [(block.get_name(), name) for block, name in order]
+        self._calcs = [self._bind(block, block.tick_calcs[name].kernel, block.tick_calcs[name].args, self.signals)
+                       for block, name in order]
+        self._updates = [self._bind(block, kernel, args, self._next) for block in blocks
+                         for kernel, args in block.tick_updates]
+        self._initializations = [self._bind(block, kernel, args, self._next) for block in blocks
+                                 for kernel, args in block.tick_initializations]
+        self.state[:] = self.initial_state
+
+    def _needed_calculations(self) -> list:
+        """(block, calculation) that an update, an initialization or a Diagram output reads directly."""
+        needed = []
+
+        def read(block, name):
+            kind, _, what = name.partition(":")
+            if kind == "calc":
+                needed.append((block, what))
+            elif kind == "in":
+                source = self._source(block, block.tick_inputs[what].port.get_index())
+                if source is not None and source[0] is not None and source[1].source.startswith("calc:"):
+                    needed.append((source[0], source[1].source[len("calc:"):]))
+
+        for block in self.blocks:
+            for _, args in block.tick_updates + block.tick_initializations:
+                for name in args:
+                    if isinstance(name, str | Reshaped):
+                        read(block, name.name if isinstance(name, Reshaped) else name)
+        for i in range(self.diagram.num_output_ports()):
+            block, index = self.diagram.get_output_port_locator(OutputPortIndex(i))
+            output = block.tick_outputs[block.get_output_port(index).get_name()]
+            if output.source.startswith("calc:"):
+                needed.append((block, output.source[len("calc:"):]))
+        return needed
+
+    def _default_inputs(self) -> None:
+        """Each Diagram input at the default of the block inputs it feeds (zeros if they have none)."""
+        for i in range(self.diagram.num_input_ports()):
+            name = self.diagram.get_input_port(i).get_name()
+            for block, index in self.diagram.GetInputPortLocators(InputPortIndex(i)):
+                default = block.tick_inputs[block.get_input_port(index).get_name()].default
+                if default is not None:
+                    self.signals[self._input_slices[name]] = default
+                    break
+
+    def _source(self, block, index):
+        """What feeds ``block``'s input ``index``: (block, ``TickOutput``), (None, Diagram input name), or None."""
+        connections = self._connections
+        key = (block, InputPortIndex(int(index)))
+        if key in connections:
+            source, output_index = connections[key]
+            return source, source.tick_outputs[source.get_output_port(output_index).get_name()]
+        for i in range(self.diagram.num_input_ports()):
+            for system, port in self.diagram.GetInputPortLocators(InputPortIndex(i)):
+                if system is block and int(port) == int(index):
+                    return None, self.diagram.get_input_port(i).get_name()
+        return None
+
+    @functools.cached_property
+    def _connections(self) -> dict:
+        return dict(self.diagram.connection_map())
+
+    def _output_view(self, block, output) -> np.ndarray:
+        kind, _, what = output.source.partition(":")
+        if kind == "x":
+            return self.state[self._state_slices[block, what]][output.start:output.stop]
+        return self.signals[self._signal_slices[block, what]][output.start:output.stop]
+
+    def _view(self, block, name: str, next_state: np.ndarray) -> np.ndarray:
+        kind, _, what = name.partition(":")
+        if kind == "in":
+            source = self._source(block, block.tick_inputs[what].port.get_index())
+            if source is None:
+                return self.signals[self._unconnected[block, what]]
+            if source[0] is None:
+                return self.signals[self._input_slices[source[1]]]
+            return self._output_view(*source)
+        if kind == "x":
+            return self.state[self._state_slices[block, what]]
+        if kind == "next":
+            return next_state[self._state_slices[block, what]]
+        if kind == "calc":
+            return self.signals[self._signal_slices[block, what]]
+        raise ValueError(f"{block.get_name()!r}: unknown array {name!r}")
+
+    def _bind(self, block, kernel, args, next_state):
+        values = []
+        for arg in args:
+            if isinstance(arg, Reshaped):
+                values.append(self._view(block, arg.name, next_state).reshape(arg.shape))
+            elif isinstance(arg, str):
+                values.append(self._view(block, arg, next_state))
+            else:
+                values.append(arg)
+        return functools.partial(kernel, *values)
+
+    # --- running ------------------------------------------------------------------------
+
+    def input(self, name: str) -> np.ndarray:
+        """The Diagram input ``name``'s array (a view: write into it)."""
+        return self.signals[self._input_slices[name]]
+
+    def output(self, name: str) -> np.ndarray:
+        """The Diagram output ``name``'s array (a view: read it after a tick)."""
+        block, index = self.diagram.get_output_port_locator(
+            OutputPortIndex(self.diagram.GetOutputPort(name).get_index()))
+        return self._output_view(block, block.tick_outputs[block.get_output_port(index).get_name()])
+
+    def locate(self, name: str) -> tuple[bool, slice]:
+        """Where the Diagram output ``name`` lies: (True, its slice of ``state``) or (False, of ``signals``)."""
+        view = self.output(name)
+        in_state = np.shares_memory(view, self.state)
+        start = (view.__array_interface__["data"][0]
+                 - (self.state if in_state else self.signals).__array_interface__["data"][0]) // view.itemsize
+        return in_state, slice(start, start + view.size)
+
+    def block_state(self, block_name: str, state: str) -> np.ndarray:
+        """The state ``state`` of the block ``block_name`` (a view)."""
+        block = self.diagram.GetSubsystemByName(block_name)
+        return self.state[self._state_slices[block, state]]
+
+    def calculate(self) -> None:
+        """Every calculation, from the inputs and the state as they are."""
+        for calc in self._calcs:
+            calc()
+
+    def update(self) -> None:
+        """Every block's update from the calculations and the state; the result becomes the state."""
+        np.copyto(self._next, self.state)
+        for update in self._updates:
+            update()
+        np.copyto(self.state, self._next)
+
+    def tick(self) -> None:
+        """One tick: ``calculate`` then ``update``."""
+        for calc in self._calcs:
+            calc()
+        np.copyto(self._next, self.state)
+        for update in self._updates:
+            update()
+        np.copyto(self.state, self._next)
+
+    def reset(self) -> None:
+        """The state of a fresh context."""
+        self.state[:] = self.initial_state
+
+    def initialize(self) -> None:
+        """The blocks' initialization events on the inputs and the state as they are (Drake's
+        ``ExecuteInitializationEvents``)."""
+        self.calculate()
+        np.copyto(self._next, self.state)
+        for initialization in self._initializations:
+            initialization()
+        np.copyto(self.state, self._next)

@@ -1,0 +1,150 @@
+"""The controller Diagram stepped as a ``TickProgram`` (and as one ``TickProgramSystem``) against Drake's own
+stepping of the same Diagram, tick for tick, on recorded readings (``controller_inputs``)."""
+
+import numpy as np
+import pytest
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource
+
+from heft.diagrams.running.simulation import true_load
+from heft.diagrams.teleop import MakeTeleopController
+from heft.systems.passivity_controller import PassivityController
+from heft.systems.tick_program import TickProgram
+from heft.systems.tick_program_system import TickProgramSystem
+from heft.systems.tick_system import TickConstant
+
+from controller_inputs import FEEDTHROUGH, PERIOD, both_runs_scenario, input_sequence
+
+
+def make_controller():
+    scenario = both_runs_scenario()
+    load, _ = true_load(scenario)
+    return MakeTeleopController(scenario.controller, load, scenario.robot, PERIOD, scenario.slave_initial_q,
+                                accelerometer=scenario.accelerometer.convention()), scenario
+
+
+def drake_steps(sequence):
+    """Drake's Simulator on the per-block Diagram: per tick, the feedthrough outputs the tick computed from its
+    readings and every output after its update."""
+    diagram, _ = make_controller()
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    outputs = [diagram.get_output_port(i).get_name() for i in range(diagram.num_output_ports())]
+    ticks = []
+    for k, inputs in enumerate(sequence):
+        for name, value in inputs.items():
+            diagram.GetInputPort(name).FixValue(context, value)
+        if k == 0:
+            simulator.Initialize()
+        computed = {name: diagram.GetOutputPort(name).Eval(context).copy() for name in FEEDTHROUGH}
+        simulator.AdvanceTo((k + 1) * PERIOD)
+        ticks.append({name: diagram.GetOutputPort(name).Eval(context).copy() for name in outputs}
+                     | {f"computed {name}": value for name, value in computed.items()})
+    return ticks
+
+
+@pytest.fixture(scope="module")
+def recorded():
+    scenario = both_runs_scenario()
+    sequence = input_sequence(scenario, PERIOD)
+    return sequence, drake_steps(sequence)
+
+
+def test_the_program_steps_the_diagram_exactly(recorded):
+    sequence, expected = recorded
+    diagram, _ = make_controller()
+    program = TickProgram(diagram)
+    outputs = {diagram.get_output_port(i).get_name() for i in range(diagram.num_output_ports())}
+    for k, inputs in enumerate(sequence):
+        for name, value in inputs.items():
+            program.input(name)[:] = value
+        if k == 0:
+            program.reset()
+            program.initialize()
+        program.tick()
+        for name in FEEDTHROUGH:  # what the tick computed, before its update
+            np.testing.assert_array_equal(program.output(name), expected[k][f"computed {name}"],
+                                          err_msg=f"{name} at tick {k}")
+        for name in outputs - set(FEEDTHROUGH):
+            np.testing.assert_array_equal(program.output(name), expected[k][name], err_msg=f"{name} at tick {k}")
+
+
+def test_the_program_as_one_system_steps_the_diagram_exactly(recorded):
+    sequence, expected = recorded
+    diagram, _ = make_controller()
+    system = TickProgramSystem(diagram)
+    simulator = Simulator(system)
+    context = simulator.get_mutable_context()
+    for k, inputs in enumerate(sequence):
+        for name, value in inputs.items():
+            system.GetInputPort(name).FixValue(context, value)
+        if k == 0:
+            simulator.Initialize()
+        for name in FEEDTHROUGH:
+            np.testing.assert_array_equal(system.GetOutputPort(name).Eval(context), expected[k][f"computed {name}"],
+                                          err_msg=f"{name} at tick {k}")
+        simulator.AdvanceTo((k + 1) * PERIOD)
+        for name in ("master.torque_commanded", "slave.position_commanded", "log.offsets", "log.passivity_energy"):
+            np.testing.assert_array_equal(system.GetOutputPort(name).Eval(context), expected[k][name],
+                                          err_msg=f"{name} at tick {k}")
+
+
+def test_the_one_system_keeps_the_diagrams_ports_and_closes_loops_as_it_does():
+    """Same ports; an output without feedthrough in the Diagram (its state) has none in the one system, so a
+    loop the Diagram closes through the station closes through it too."""
+    diagram, _ = make_controller()
+    system = TickProgramSystem(diagram)
+    assert [system.get_input_port(i).get_name() for i in range(system.num_input_ports())] == \
+        [diagram.get_input_port(i).get_name() for i in range(diagram.num_input_ports())]
+    assert [system.get_output_port(i).get_name() for i in range(system.num_output_ports())] == \
+        [diagram.get_output_port(i).get_name() for i in range(diagram.num_output_ports())]
+    for o in range(diagram.num_output_ports()):
+        through = [diagram.HasDirectFeedthrough(i, o) for i in range(diagram.num_input_ports())]
+        if not any(through):
+            assert not any(system.HasDirectFeedthrough(i, o) for i in range(system.num_input_ports()))
+        else:
+            assert all(system.HasDirectFeedthrough(i, o) for i in range(system.num_input_ports()) if through[i])
+    assert not system.HasDirectFeedthrough(system.GetOutputPort("master.torque_commanded").get_index())
+
+
+def test_the_recording_exercises_what_it_claims(recorded):
+    """Guards the equality against a sequence that leaves the controller's branches untouched."""
+    _, expected = recorded
+    contact = np.array([tick["computed log.wrench_contact"] for tick in expected])
+    assert np.abs(contact[150] - contact[149] - [0, 0, 5.0, 0.2, 0, 0]).max() < 0.05
+    assert not contact[300].any()  # the NaN sample
+    command = np.array([tick["slave.position_commanded"] for tick in expected])
+    assert np.ptp(command, axis=0).max() > 0.01
+    offsets = np.array([tick["log.offsets"] for tick in expected])
+    assert np.abs(offsets[-1] - offsets[330]).max() > 0.1  # the re-zero
+
+
+def test_a_block_added_to_the_diagram_is_in_the_program():
+    """A block wired into a Diagram runs in its program with nothing else written."""
+    builder = DiagramBuilder()
+    passivity = builder.AddNamedSystem("passivity", PassivityController(period=PERIOD))
+    wrench = builder.AddNamedSystem("wrench", TickConstant([1.0, 2.0, 0.0, 0.0, 0.0, 0.0]))
+    builder.Connect(wrench.get_output_port(), passivity.GetInputPort("wrench"))
+    builder.ExportInput(passivity.GetInputPort("velocity"), "velocity")
+    builder.ExportInput(passivity.GetInputPort("jacobian"), "jacobian")
+    builder.ExportOutput(passivity.GetOutputPort("torque"), "torque")
+    program = TickProgram(builder.Build())
+    jacobian = np.arange(36.0) / 10
+    program.input("jacobian")[:] = jacobian
+    program.tick()
+    np.testing.assert_allclose(program.output("torque"), jacobian.reshape(6, 6).T @ [1.0, 2.0, 0, 0, 0, 0])
+
+
+def test_a_diagram_of_other_systems_is_refused():
+    builder = DiagramBuilder()
+    builder.AddSystem(ConstantVectorSource([1.0]))
+    with pytest.raises(TypeError, match="not a TickSystem"):
+        TickProgram(builder.Build())
+
+
+def test_an_input_connected_to_nothing_without_a_default_is_refused():
+    builder = DiagramBuilder()
+    builder.AddNamedSystem("passivity", PassivityController(period=PERIOD))
+    with pytest.raises(ValueError, match="'wrench' of 'passivity' is connected to nothing"):
+        TickProgram(builder.Build())
