@@ -148,14 +148,18 @@ class RdtStream:
 
 
 class NetFtClient:
-    """A UDP socket connected to a Net F/T at (``address``, ``port``): the kernel passes on only its
-    datagrams. ``request`` sends an RDT request; ``receive`` the datagrams waiting, with the wall
-    time (s since the epoch) each was taken."""
+    """A UDP socket connected to a Net F/T at (``address``, ``port``; ValueError if it cannot be): the
+    kernel passes on only its datagrams. ``request`` sends an RDT request; ``receive`` the datagrams
+    waiting, with the wall time (s since the epoch) each was taken."""
 
     def __init__(self, address: str, port: int = RDT_PORT, receive_buffer: int = 1 << 20):
         self._socket = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self._socket.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, receive_buffer)
-        self._socket.connect((address, port))
+        try:
+            self._socket.connect((address, port))
+        except OSError as error:  # an unknown host name, no route
+            self._socket.close()
+            raise ValueError(f"the Net F/T at {address}:{port} cannot be reached: {error}") from None
         self._socket.setblocking(False)
 
     def fileno(self) -> int:

@@ -155,3 +155,12 @@ def test_the_driver_refuses_to_start_without_the_calibration(capsys):
 
     assert main(["driver", "netft", "--address", "127.0.0.1", "--duration", "0"]) == 2
     assert "state lab.netft.counts_per_force" in capsys.readouterr().err
+
+
+def test_an_unreachable_device_is_refused_in_one_line(capsys):
+    from heft.diagrams.cli import main
+
+    calibration = "{lab: {netft: {counts_per_force: 1000000, counts_per_torque: 1000000}}}"
+    assert main(["driver", "netft", "--address", "no-such-host.invalid", "--set", calibration, "--rt-priority", "0",
+                 "--duration", "0"]) == 2
+    assert "the Net F/T at no-such-host.invalid:49152 cannot be reached" in capsys.readouterr().err

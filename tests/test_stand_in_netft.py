@@ -112,3 +112,8 @@ def test_flagged_samples_carry_the_error_bit():
         responder.close()
     errors = records["status"] == STATUS_ERROR
     assert 0 < errors.sum() < len(records) and not records["counts"][errors].any()  # NaN: 0 counts and the error bit
+
+
+def test_a_taken_port_is_refused_in_one_line(netft):
+    with pytest.raises(ValueError, match="--netft 127.0.0.1: cannot answer on UDP port"):
+        NetFtResponder(PARAMS, "127.0.0.1")

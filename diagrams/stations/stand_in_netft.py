@@ -50,8 +50,9 @@ class NetFtInjection:
 
 
 class NetFtResponder:
-    """The Net F/T's RDT server on (``host``, ``params.port``) and the stand-in's FT outlet
-    (``name``, ``count``: packets sent, ``lost``, ``send``); ``summary()`` counts what it did."""
+    """The Net F/T's RDT server on (``host``, ``params.port``; ValueError if it cannot listen there) and
+    the stand-in's FT outlet (``name``, ``count``: packets sent, ``lost``, ``send``); ``summary()``
+    counts what it did."""
 
     def __init__(self, params: NetFtParams, host: str, injection: NetFtInjection | None = None,
                  name: str = "NETFT_RDT"):
@@ -62,7 +63,11 @@ class NetFtResponder:
         self.address = (host, params.port)
         self._per_unit = params.counts_per_unit()
         self._socket = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self._socket.bind(self.address)
+        try:
+            self._socket.bind(self.address)
+        except OSError as error:  # the port taken, an address not this machine's
+            self._socket.close()
+            raise ValueError(f"--netft {host}: cannot answer on UDP port {params.port}: {error}") from None
         self._socket.setblocking(False)
         self._client, self._buffered, self._remaining, self._rdt = None, True, math.inf, 0
         self.requests, self.refused, self.records, self.packets, self.withheld, self.flagged = 0, 0, 0, 0, 0, 0
