@@ -11,6 +11,7 @@ derived from the encoders by harmonic differentiation (``--signals``).
 
 import dataclasses
 import json
+import logging
 import time
 from pathlib import Path
 
@@ -31,6 +32,10 @@ from heft.systems.regression_noise import NoiseLevels
 from heft.systems.load_dynamics import regressor_with_offsets
 from heft.systems.excitation import ExcitationSettings, JointLimits, SensorFrameMotion, optimize_excitation
 from heft.systems.periodic_differentiation import differentiate_periodic
+
+say = logging.getLogger(__name__)
+"""What this module reports, which `heft` shows (-v, -q)."""
+
 
 RECURSIVE_METHODS = ("rls", "riv", "rtls")
 ALL_METHODS = METHODS + RECURSIVE_METHODS
@@ -185,43 +190,43 @@ def identify(scenario: Scenario, out_dir, record, method: str = "tls", signals: 
     out.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
     excitation = design_excitation(scenario, settings)
-    print(f"excitation: {settings.harmonics} harmonics of {settings.base_frequency:g} Hz, criterion "
-          f"{excitation.criterion}, condition number {excitation.metrics.condition_number:.2f} "
-          f"(random start {excitation.initial_metrics.condition_number:.1f})", flush=True)
+    say.info(f"excitation: {settings.harmonics} harmonics of {settings.base_frequency:g} Hz, criterion "
+             f"{excitation.criterion}, condition number {excitation.metrics.condition_number:.2f} "
+             f"(random start {excitation.initial_metrics.condition_number:.1f})")
     duration = periods / settings.base_frequency
     recording, extra = record(excitation.trajectory, duration)
     signal_set, instruments = kinematic_signals(scenario, recording, settings.base_frequency,
                                                 settings.harmonics, signals)
     results, histories, failed = estimate_all(recording.wrench, signal_set, instruments, noise_levels(scenario))
     for m, why in failed.items():
-        print(f"{m}: no estimate: {why}", flush=True)
+        say.info(f"{m}: no estimate: {why}")
     records = {m: estimate_record(r, m, signals, len(recording.t)) for m, r in results.items()}
     masses = [r["phi"][0] for r in records.values()]
     metrics = {"signals": signals, "samples": len(recording.t), "duration_s": duration,
                "excitation_condition_number": excitation.metrics.condition_number, "estimates": records,
                "residual_rms": {m: residual_rms(r, signal_set, recording.wrench) for m, r in results.items()},
                "mass_spread_kg": float(np.ptp(masses)), "failed": failed, **extra}
-    print(f"{'method':8s}{'mass (kg)':>11s}{'σ (g)':>8s}{'COM (mm)':>26s}{'residual f (N)':>16s}{'τ (N·m)':>9s}")
+    say.info(f"{'method':8s}{'mass (kg)':>11s}{'σ (g)':>8s}{'COM (mm)':>26s}{'residual f (N)':>16s}{'τ (N·m)':>9s}")
     for m, r in records.items():
         com = 1e3 * np.asarray(r.get("com", [np.nan] * 3))
         rms = metrics["residual_rms"][m]
-        print(f"{m:8s}{r['phi'][0]:11.4f}{1e3 * r['std_phi'][0]:8.2f}   "
-              f"[{com[0]:7.2f} {com[1]:7.2f} {com[2]:7.2f}]{max(rms[:3]):16.3f}{max(rms[3:]):9.4f}")
+        say.info(f"{m:8s}{r['phi'][0]:11.4f}{1e3 * r['std_phi'][0]:8.2f}   "
+                 f"[{com[0]:7.2f} {com[1]:7.2f} {com[2]:7.2f}]{max(rms[:3]):16.3f}{max(rms[3:]):9.4f}")
     if recording.phi_true is not None:  # simulation: the truth is known
         offsets_true = recording.offsets_true.mean(axis=0)
         errors = {m: estimate_errors(r.phi, r.offsets, recording.phi_true, offsets_true) for m, r in results.items()}
         metrics.update(phi_true=recording.phi_true.tolist(), offsets_true_mean=offsets_true.tolist(), errors=errors)
         convergence_figure(histories, recording.t[1] - recording.t[0], recording.phi_true, offsets_true,
                            out / "convergence.png")
-        print(f"errors against the truth:\n{'method':8s}{'mass (g)':>10s}{'COM (mm)':>10s}{'I_S (%)':>9s}"
-              f"{'offsets f (N)':>15s}{'τ (N·m)':>10s}")
+        say.info(f"errors against the truth:\n{'method':8s}{'mass (g)':>10s}{'COM (mm)':>10s}{'I_S (%)':>9s}"
+                 f"{'offsets f (N)':>15s}{'τ (N·m)':>10s}")
         for m, e in errors.items():
-            print(f"{m:8s}{1e3 * e['mass_kg']:10.2f}{1e3 * e['com_m']:10.3f}{100 * e['inertia_relative']:9.2f}"
-                  f"{e['force_offsets_N']:15.3f}{e['torque_offsets_Nm']:10.4f}")
+            say.info(f"{m:8s}{1e3 * e['mass_kg']:10.2f}{1e3 * e['com_m']:10.3f}{100 * e['inertia_relative']:9.2f}"
+                     f"{e['force_offsets_N']:15.3f}{e['torque_offsets_Nm']:10.4f}")
     if method not in failed:
         verdict = judge_fit(scenario, recording, results, method, signal_set, signals, excitation.trajectory)
         metrics["fit_verdict"] = verdict
-        print(verdict_report(verdict, method), flush=True)
+        say.info(verdict_report(verdict, method))
     metrics["wall_time_s"] = time.perf_counter() - started
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     if method in failed:

@@ -13,6 +13,7 @@ instruments as it does on hardware.
 
 import dataclasses
 import json
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +32,10 @@ from heft.systems.batch_estimation import batch_estimate
 from heft.systems.load_dynamics import PARAMETER_NAMES
 from heft.systems.regression_noise import NoiseLevels
 from heft.systems.static_calibration import STATIC_NAMES, StaticCalibration, calibrate_static, point_mass_phi
+
+say = logging.getLogger(__name__)
+"""What this module reports, which `heft` shows (-v, -q)."""
+
 
 SIGNALS = "recording"
 """The ``signals`` an estimate from a recording names in estimate.yaml."""
@@ -110,30 +115,30 @@ def _stream_fit(recording, source, scenario: Scenario, method: str, out: Path) -
         offsets = {name: fit.offset for name, fit in fits.items()}
         metrics["clock_offsets"] = {name: fit.summary() for name, fit in fits.items()}
         for name, fit in fits.items():
-            print(f"clock offset of the {name}: {1e3 * fit.offset:.3f} ms late against the wrench"
-                  + ("" if fit.observable else " (NOT observable: the fit hardly changes with it)"), flush=True)
+            say.info(f"clock offset of the {name}: {1e3 * fit.offset:.3f} ms late against the wrench"
+                     + ("" if fit.observable else " (NOT observable: the fit hardly changes with it)"))
     merged = source.merged(offsets)
     signals = (merged.a, merged.alpha, merged.omega, merged.g)
     # No encoders in a recording: RIV's instruments are the measured signals themselves (it then is RLS).
     results, histories, failed = estimate_all(merged.wrench, signals, signals, noise)
     for m, why in failed.items():
-        print(f"{m}: no estimate: {why}", flush=True)
+        say.info(f"{m}: no estimate: {why}")
     records = {m: estimate_record(r, m, SIGNALS, len(merged)) for m, r in results.items()}
     period = float(np.median(np.diff(merged.t)))
     metrics.update(samples=len(merged), duration_s=float(merged.t[-1] - merged.t[0]), sample_period_s=period,
                    noise=dataclasses.asdict(noise), estimates=records,
                    residual_rms={m: residual_rms(r, signals, merged.wrench) for m, r in results.items()},
                    mass_spread_kg=float(np.ptp([r["phi"][0] for r in records.values()])), failed=failed)
-    print(f"{'method':8s}{'mass (kg)':>11s}{'COM (mm)':>26s}{'I_S diagonal (kg·m²)':>30s}")
+    say.info(f"{'method':8s}{'mass (kg)':>11s}{'COM (mm)':>26s}{'I_S diagonal (kg·m²)':>30s}")
     for m, r in records.items():
         com = 1e3 * np.asarray(r.get("com", [np.nan] * 3))
-        print(f"{m:8s}{r['phi'][0]:11.4f}   [{com[0]:7.2f} {com[1]:7.2f} {com[2]:7.2f}]   "
-              f"[{r['phi'][4]:.5f} {r['phi'][7]:.5f} {r['phi'][9]:.5f}]")
+        say.info(f"{m:8s}{r['phi'][0]:11.4f}   [{com[0]:7.2f} {com[1]:7.2f} {com[2]:7.2f}]   "
+                 f"[{r['phi'][4]:.5f} {r['phi'][7]:.5f} {r['phi'][9]:.5f}]")
     unidentified = [n for n, ok in zip(PARAMETER_NAMES, records.get(method, {}).get("identifiable", [])) if not ok]
     metrics["unidentifiable"] = unidentified
     if unidentified:
-        print(f"not identifiable from this motion ({method}): {', '.join(unidentified)}: the recording does not "
-              "excite them (rotation about several axes is needed for the inertia)", flush=True)
+        say.info(f"not identifiable from this motion ({method}): {', '.join(unidentified)}: the recording does not "
+                 "excite them (rotation about several axes is needed for the inertia)")
     estimate_history_figure(histories, period, out / "convergence.png")
     if method in failed:
         raise ValueError(f"the {method} estimate failed ({failed[method]}); the other methods' estimates are in "
@@ -153,7 +158,7 @@ def _stream_fit(recording, source, scenario: Scenario, method: str, out: Path) -
         robot=scenario.robot, other_methods={m: float(np.max(residual_rms(r, signals, merged.wrench) / floor(r)))
                                              for m, r in results.items() if m != method}))
     metrics["fit_verdict"] = verdict
-    print(verdict_report(verdict, method), flush=True)
+    say.info(verdict_report(verdict, method))
     return metrics, {**records[method], "verdict": verdict}
 
 
@@ -174,10 +179,10 @@ def identify_recording(path, out_dir, scenario: Scenario, method: str = "tls", a
         unit = recording.accelerometer.unit if recording.accelerometer is not None else "m/s^2"
         static = calibrate_static(table.wrench, table.gravity_S, table.accelerometer, unit)
         metrics["static_poses"], lines = static_report(static)
-        print(lines, flush=True)
+        say.info(lines)
         verdict = static_verdict(static, scenario)
         metrics["static_poses"]["verdict"] = verdict
-        print(f"static poses: {'fit ok' if verdict['ok'] else 'FIT NOT OK'}: {verdict['message']}", flush=True)
+        say.info(f"static poses: {'fit ok' if verdict['ok'] else 'FIT NOT OK'}: {verdict['message']}")
         zeros = np.zeros_like(table.gravity_S)
         static_pose_figure(table.wrench, fit_residual(static.estimate, (zeros, zeros, zeros, table.gravity_S),
                                                       table.wrench), out / "static_poses.png")

@@ -15,6 +15,7 @@ wrench model per axis, and the spread between methods.
 from __future__ import annotations
 
 import contextlib
+import logging
 
 import lcm
 import numpy as np
@@ -35,6 +36,10 @@ from heft.hardware_interface.hardware_station import (
 from heft.hardware_interface.lcm_mailbox import open_buses
 from heft.hardware_interface.message_checks import DeviceLimits
 from heft.systems.excitation_commander import ExcitationCommander, Phase
+
+
+say = logging.getLogger(__name__)
+"""What this module reports, which `heft` shows (-v, -q)."""
 
 
 class IdentificationAborted(HardwareRunFailed):
@@ -112,14 +117,14 @@ def record_on_hardware(scenario: Scenario, trajectory, duration: float, channels
     period = scenario.controller_period
     budget = WAIT_LIMIT + 60.0 + duration  # waiting, the slow approach and settling, the excitation
     with contextlib.nullcontext() if record is None else LcmTrafficRecorder(channels, record):
-        print(f"identify: {claim_realtime(priority)}", flush=True)
+        say.info(f"identify: {claim_realtime(priority)}")
         bus, command_bus = open_buses(channels)
         run = HardwareIdentification(trajectory, duration, period, bus, channels, device_limits(scenario), params,
                                      command_bus)
         if priority:
-            print(f"identify: {keep_cpu_for_loop()}", flush=True)
+            say.info(f"identify: {keep_cpu_for_loop()}")
         anchor, ticking = run.station.loop_anchor(1.0 / period, 0.0)
-        print(f"identify: {ticking}", flush=True)
+        say.info(f"identify: {ticking}")
         with StopOnSignal() as stop:
             try:
                 times = run_realtime(lambda now, dt: run.tick(now, dt) or stop.requested, period, budget,
@@ -137,10 +142,10 @@ def hardware_recorder(scenario: Scenario, channels: LcmChannels, record=None,
     """The ``record`` of ``identify`` on the hardware on ``channels`` (``record_on_hardware``); the
     extra metrics are the LCM URLs, the loop's timing and the traffic log's path."""
     def run(trajectory, duration: float):
-        print(f"identify: excitation of {duration:g} s on {channels.lcm_url} (commands on "
-              f"{channels.command_lcm_url()}); the arm first moves slowly to its start", flush=True)
+        say.info(f"identify: excitation of {duration:g} s on {channels.lcm_url} (commands on "
+                 f"{channels.command_lcm_url()}); the arm first moves slowly to its start")
         recording, timing = record_on_hardware(scenario, trajectory, duration, channels, record, params, priority)
-        print(format_timing(timing), flush=True)
+        say.info(format_timing(timing))
         return recording, {"lcm_url": channels.lcm_url, "command_url": channels.command_lcm_url(), "timing": timing,
                            "lcm_log": None if record is None else str(record)}
     return run
