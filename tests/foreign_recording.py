@@ -238,28 +238,39 @@ def _export_poses(poses: StaticPoses, folder: Path, orientation: str, robot: str
     return section
 
 
-def export_teleop_run(folder, scenario: Scenario, log: dict, angular: bool = False) -> Path:
+def export_teleop_run(folder, scenario: Scenario, log: dict, angular: bool = False, wrench_rate: float | None = None,
+                      accelerometer_rate: float | None = None) -> Path:
     """Writes a closed-loop run's log (``heft.diagrams.running.simulation.run_teleop``) in the lab's layout
-    to ``folder``: every 2 kHz sensor sample of the run, each stream with its own stamps (µs) — the wrench
-    on the sensor's sign, the accelerometer's linear axes in g in its own axes (``to_lab_accelerometer``),
-    stamped ``ACCELEROMETER_CLOCK_LATE`` late, the arm's joint angles — and the recording YAML, which
-    states the accelerometer's orientation, bias and position and leaves its clock offset to estimate.
-    Returns the YAML's path."""
+    to ``folder``: the 2 kHz sensor samples of the run (or the wrench at ``wrench_rate`` and the
+    accelerometer at ``accelerometer_rate`` Hz, linearly interpolated from them), each stream with its own
+    stamps (µs) — the wrench on the sensor's sign, the accelerometer's linear axes in g in its own axes
+    (``to_lab_accelerometer``), stamped ``ACCELEROMETER_CLOCK_LATE`` late, the arm's joint angles at every
+    sample — and the recording YAML, which states the accelerometer's orientation, bias and position and
+    leaves its clock offset to estimate. Returns the YAML's path."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     t = np.asarray(log["t"])
-    fx, fy, fz, tx, ty, tz = (-np.asarray(log["wrench_measured"])).T
+
+    def at_rate(values, rate):
+        if rate is None:
+            return t, np.asarray(values)
+        times = np.arange(0.0, t[-1], 1.0 / rate)
+        return times, np.column_stack([np.interp(times, t, column) for column in np.asarray(values).T])
+
+    t_w, wrench = at_rate(log["wrench_measured"], wrench_rate)
+    fx, fy, fz, tx, ty, tz = (-wrench).T
     _write_csv(folder / "ft.csv", ["stamp_us", "status", "Fz", "Fx", "Fy", "Tx", "Tz", "Ty"],
-               [_stamps_us(t), np.zeros(len(t), dtype=int), fz, fx, fy, tx, tz, ty],
+               [_stamps_us(t_w), np.zeros(len(t_w), dtype=int), fz, fx, fy, tx, tz, ty],
                ["{:d}", "{:d}"] + ["{:.6f}"] * 6)
-    reading = to_lab_accelerometer(np.asarray(log["accel_measured"])[:, :3])
+    t_a, accel = at_rate(log["accel_measured"], accelerometer_rate)
+    reading = to_lab_accelerometer(accel[:, :3])
     accelerometer_columns = ["acc_x_g", "acc_y_g", "acc_z_g"]
     values = [reading[:, 2], reading[:, 0], reading[:, 1]]
     if angular:  # the JR3's angular channels (rad/s²), in the accelerometer's axes
         accelerometer_columns += ["alpha_x", "alpha_y", "alpha_z"]
-        values += list((np.asarray(log["accel_measured"])[:, 3:] @ ACCELEROMETER_R_SA).T)
+        values += list((accel[:, 3:] @ ACCELEROMETER_R_SA).T)
     _write_csv(folder / "imu.csv", ["seq", "imu_time_us", "acc_z_g", "acc_x_g", "acc_y_g"] + accelerometer_columns[3:],
-               [np.arange(len(t)), _stamps_us(t + ACCELEROMETER_CLOCK_LATE)] + values,
+               [np.arange(len(t_a)), _stamps_us(t_a + ACCELEROMETER_CLOCK_LATE)] + values,
                ["{:d}", "{:d}"] + ["{:.7f}"] * len(values))
     names, columns, formats = _orientation_columns("joint_positions", log["slave_q"], None)
     _write_csv(folder / "robot.csv", ["time_us"] + names, [_stamps_us(t)] + columns, ["{:d}"] + formats)

@@ -50,10 +50,21 @@ def test_the_accelerometers_clock_offset_is_found(foreign):
     folder, _, _ = foreign
     source = RecordingSource(load_recording(folder / "rec.yaml"))
     fit = estimate_clock_offsets(source, PAPER_TOOL.to_phi())["accelerometer"]
-    assert fit.observable
-    assert abs(fit.offset - LATE) < 2e-4
+    assert fit.observable and fit.std < 1e-4
+    assert abs(fit.offset - LATE) < 1e-4
     with pytest.raises(ValueError, match="'estimate'"):
         source.merged()
+
+
+def test_an_offset_the_recording_cannot_tell_is_not_observable(tmp_path):
+    """The accelerometer held at one reading: no offset of its clock changes V·φ̂, whatever the wrench does."""
+    write_recording(tmp_path)
+    lines = (tmp_path / "imu.csv").read_text().splitlines()
+    still = [lines[0]] + [",".join(line.split(",")[:1] + lines[1].split(",")[1:]) for line in lines[1:]]
+    (tmp_path / "imu.csv").write_text("\n".join(still) + "\n")
+    fit = estimate_clock_offsets(RecordingSource(load_recording(tmp_path / "rec.yaml")), PAPER_TOOL.to_phi())
+    assert not fit["accelerometer"].observable
+    assert fit["accelerometer"].summary()["observable"] is False
 
 
 def test_chunked_reading_gives_what_whole_reading_gives(foreign, monkeypatch):
