@@ -42,13 +42,14 @@ def add_arguments(parser) -> None:
     parser.add_argument("--netft", metavar="HOST", help="the wrist sensor answers as an ATI Net F/T on HOST (RDT over "
                                                         "UDP, port lab.netft.port) instead of on the FT channel, for "
                                                         "`heft driver netft`; its calibration is lab.netft's")
-    parser.add_argument("--netft-drop-every", type=int, default=0,
+    parser.add_argument("--netft-drop-every", type=int, default=0, metavar="N",
                         help="with --netft: withhold every n-th packet (its rdt_sequence spent; default 0: none)")
-    parser.add_argument("--netft-status", type=lambda text: int(text, 0), default=0,
+    parser.add_argument("--netft-status", type=lambda text: int(text, 0), default=0, metavar="BITS",
                         help="with --netft: status bits (e.g. 0x80000000, the error bit) the records sampled in "
                              "[--netft-status-at, --netft-status-until) carry")
-    parser.add_argument("--netft-status-at", type=float, default=math.inf, help="from this time (s)")
-    parser.add_argument("--netft-status-until", type=float, default=math.inf, help="until this time (s)")
+    parser.add_argument("--netft-status-at", type=float, default=math.inf, metavar="T", help="from this time (s)")
+    parser.add_argument("--netft-status-until", type=float, default=math.inf, metavar="T",
+                        help="until this time (s)")
     add_out(parser, f"{SUMMARY} (what was published and received) and {TRUTH} (the truth of every FT sample)")
 
 
