@@ -160,7 +160,6 @@ def test_the_driver_refuses_to_start_without_the_calibration(capsys):
 def test_an_unreachable_device_is_refused_in_one_line(capsys):
     from heft.diagrams.cli import main
 
-    calibration = "{lab: {netft: {counts_per_force: 1000000, counts_per_torque: 1000000}}}"
-    assert main(["driver", "netft", "--address", "no-such-host.invalid", "--set", calibration, "--rt-priority", "0",
-                 "--duration", "0"]) == 2
+    assert main(["driver", "netft", "--address", "no-such-host.invalid", "--counts-per-force", "1e6",
+                 "--counts-per-torque", "1e6", "--rt-priority", "0", "--duration", "0"]) == 2
     assert "the Net F/T at no-such-host.invalid:49152 cannot be reached" in capsys.readouterr().err

@@ -30,6 +30,7 @@ STATUS_AT, STATUS_UNTIL = 1.5, 1.55
 KEPT_TIME_MS = 20.0
 """A stand-in later than this on its clock (the watchdog's timeout) was starved of CPU: the rates are not judged."""
 CALIBRATION = overrides_text({"lab.netft.counts_per_force": 1_000_000.0, "lab.netft.counts_per_torque": 1_000_000.0})
+"""The stand-in's Net F/T's calibration, as a lab's file states it (the driver takes it by its flags)."""
 CONTROLLER = yaml.safe_dump(layered_dict(yaml.safe_load(STAND_IN_SENSOR),
                                          yaml.safe_load(overrides_text({"accelerometer.includes_gravity": False,
                                                                          "accelerometer.position": [0.0, 0.0, 0.0]}))),
@@ -59,7 +60,8 @@ def test_the_netft_driver_feeds_the_controller_as_the_lcm_stand_in_does(netns, t
 
         teleop = _teleop(netns, tmp_path, settings=CONTROLLER)
         driver = _Process(netns, tmp_path, "driver", "driver", "netft", "--address", "127.0.0.1", "--lcm-url",
-                          LCM_URL, "--set", CALIBRATION, "--duration", FOREVER, "--out", str(tmp_path / "driver"))
+                          LCM_URL, "--counts-per-force", "1e6", "--counts-per-torque", "1e6", "--duration", FOREVER,
+                          "--out", str(tmp_path / "driver"))
         processes += [teleop, driver]
         driver.wait_for("netft: asking")
         stand_in = _Process(netns, tmp_path, "stand_in", "stand-in", "--lcm-url", LCM_URL, "--set", CALIBRATION,

@@ -21,8 +21,12 @@ def add_arguments(parser) -> None:
                              description="Asks the Net F/T at --address to stream (RDT, UDP port lab.netft.port) "
                                          "and publishes its records on the FT channel (lab.lcm.ft_sample) in N and "
                                          "N*m through the calibration lab.netft.counts_per_force / counts_per_torque, "
-                                         "which the scenario file or --set must state.")
+                                         "which the scenario file, --set or the flags must state (docs/netft.md).")
     netft.add_argument("--address", required=True, help="the Net F/T's IP address or host name")
+    netft.add_argument("--counts-per-force", type=float, metavar="CPF",
+                       help="the calibration's counts per N (default: the scenario's lab.netft.counts_per_force)")
+    netft.add_argument("--counts-per-torque", type=float, metavar="CPT",
+                       help="the calibration's counts per N*m (default: the scenario's lab.netft.counts_per_torque)")
     add_scenario(netft, more="the lab's Net F/T and channels (lab.netft, lab.lcm)")
     add_set(netft)
     add_lcm_urls(netft)
@@ -41,7 +45,10 @@ def run(args) -> int:
     from heft.diagrams.running.netft_driver import run_netft_driver
     from heft.diagrams.running.realtime import StopOnSignal, claim_lab_realtime
 
-    scenario = scenario_from(args)
+    from heft.diagrams.scenario import overrides_text
+
+    scenario = scenario_from(args, overrides_text({"lab.netft.counts_per_force": args.counts_per_force,
+                                                   "lab.netft.counts_per_torque": args.counts_per_torque}))
     summary_path = out_file(args, SUMMARY)
     params, channels = scenario.lab.netft, scenario.lab.lcm
     params.validate()
