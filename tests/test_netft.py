@@ -36,7 +36,8 @@ def test_records_read_and_written_in_the_manuals_layout():
     assert records["ft_sequence"].tolist() == [4_000_000_000, 5]
     assert records["status"].tolist() == [0x80000001, 0]
     assert records["counts"].tolist() == [[-1, 2, -300, 4, 2**31 - 1, -2**31], list(range(6))]
-    assert pack_records([1, 2], [4_000_000_000, 5], [0x80000001, 0], records["counts"]) == packet
+    assert pack_records([(1, 4_000_000_000, 0x80000001, -1, 2, -300, 4, 2**31 - 1, -2**31),
+                         (2, 5, 0, *range(6))]) == packet
     for length in (0, 1, 35, 37, 71):
         assert unpack_records(bytes(length)) is None
 

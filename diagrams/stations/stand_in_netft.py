@@ -19,14 +19,13 @@ import dataclasses
 import math
 import socket
 
-import numpy as np
-
 from heft.hardware_interface.ft_messages import unpack_samples
 from heft.hardware_interface.netft import (START_BUFFERED, START_REALTIME, STATUS_ERROR, STOP_STREAMING, pack_records,
                                            unpack_request)
 from heft.hardware_interface.netft_params import NetFtParams
 
 _INT32 = (-(1 << 31), (1 << 31) - 1)
+_WRAP = 1 << 32
 _WRENCH_AXES = 0x3F
 """The saturation flags of the wrench's six axes (``heft_ft_sample.saturated``; a Net F/T has no accelerometer)."""
 
@@ -61,7 +60,7 @@ class NetFtResponder:
         injection.validate()
         self.name, self.count = name, 0
         self.address = (host, params.port)
-        self._per_unit = params.counts_per_unit()
+        self._per_unit = params.counts_per_unit().tolist()
         self._socket = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
             self._socket.bind(self.address)
@@ -103,34 +102,34 @@ class NetFtResponder:
             return
         count, record, (utime, counter, wrench, _, saturated, error) = unpack_samples(payload)
         count = int(min(count, self._remaining))
-        wrenches = np.array(record[wrench:wrench + 6 * count]).reshape(count, 6)
-        finite = np.isfinite(wrenches).all(axis=1)
-        counts = np.clip(np.rint(np.where(finite[:, None], wrenches, 0.0) * self._per_unit), *_INT32)
-        injection = self.injection
-        status = np.zeros(count, dtype=np.uint64)
+        injection, rows = self.injection, []
         for k in range(count):
-            if not finite[k] or record[saturated + k] & _WRENCH_AXES or record[error + k]:
-                status[k] |= STATUS_ERROR
+            values = record[wrench + 6 * k:wrench + 6 * k + 6]
+            status = 0
+            if all(map(math.isfinite, values)):
+                counts = [min(max(round(value * per_unit), _INT32[0]), _INT32[1])
+                          for value, per_unit in zip(values, self._per_unit)]
+            else:
+                counts, status = [0] * 6, STATUS_ERROR
+            if record[saturated + k] & _WRENCH_AXES or record[error + k]:
+                status |= STATUS_ERROR
             if injection.status_at_s <= record[utime + k] * 1e-6 < injection.status_until_s:
-                status[k] |= injection.status
-        self.flagged += int(np.count_nonzero(status))
-        rdt = self._rdt + 1 + np.arange(count)
-        self._rdt += count
-        ft = np.array(record[counter:counter + count]) % (1 << 32)
+                status |= injection.status
+            self.flagged += status != 0
+            self._rdt += 1
+            rows.append((self._rdt % _WRAP, record[counter + k] % _WRAP, status, *counts))
         step = count if self._buffered else 1
         for first in range(0, count, step):
             self.packets += 1
             if injection.drop_every and self.packets % injection.drop_every == 0:
                 self.withheld += 1
                 continue
-            last = first + step
             try:  # a device streams on whether or not its client still listens
-                self._socket.sendto(pack_records(rdt[first:last] % (1 << 32), ft[first:last], status[first:last],
-                                                 counts[first:last]), self._client)
+                self._socket.sendto(pack_records(rows[first:first + step]), self._client)
             except OSError:
                 pass
             self.count += 1
-            self.records += last - first
+            self.records += min(step, count - first)
         self._remaining -= count
         if self._remaining <= 0:
             self._client = None
