@@ -56,6 +56,13 @@ class OffsetFit:
     std: float
     observable: bool
 
+    def why_not(self) -> str:
+        """Why the offset is not observable, for the report."""
+        if not np.isfinite(self.std):
+            return "the cost has no minimum inside the search; the window holds too little motion"
+        return (f"its standard error is {1e3 * self.std:.2g} ms (at most {1e3 * OBSERVABLE_STD:g} ms): too little "
+                "motion, or a model that leaves too much of the wrench unexplained")
+
     def summary(self) -> dict:
         return {"offset_s": self.offset, "observable": self.observable,
                 "std_s": self.std if np.isfinite(self.std) else None,

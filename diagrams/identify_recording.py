@@ -116,7 +116,7 @@ def _stream_fit(recording, source, scenario: Scenario, method: str, out: Path) -
         metrics["clock_offsets"] = {name: fit.summary() for name, fit in fits.items()}
         for name, fit in fits.items():
             say.info(f"clock offset of the {name}: {1e3 * fit.offset:.3f} ms late against the wrench"
-                     + ("" if fit.observable else " (NOT observable: the fit hardly changes with it)"))
+                     + ("" if fit.observable else f" (NOT observable: {fit.why_not()})"))
     merged = source.merged(offsets)
     signals = (merged.a, merged.alpha, merged.omega, merged.g)
     # No encoders in a recording: RIV's instruments are the measured signals themselves (it then is RLS).

@@ -83,7 +83,7 @@ def run(args) -> int:
         for name, fit in fits.items():
             offsets[name] = fit.offset
             say.info(f"clock offset of {name}: {1e3 * fit.offset:.3f} ms (estimated: V·φ̂ against the wrench"
-                     + ("" if fit.observable else "; NOT observable: the window holds too little motion") + ")")
+                     + ("" if fit.observable else f"; NOT observable: {fit.why_not()}") + ")")
     offsets = source.resolved_offsets(offsets)
     sign = -1.0 if recording.wrench.exerted_on == "sensor" else 1.0
     path = out / f"compensated.{args.format}"
