@@ -1,5 +1,5 @@
 """A recording from any lab: a YAML file (``Recording``, loaded with ``yaml_load_typed``) naming one
-file per stream, each with its own clock. README "Your own data" shows the format.
+file per stream, each with its own clock. docs/recordings.md shows the format.
 
 This module holds the schema and its checks that need no data (units, kinds, a stated R_SA being a
 rotation, column counts); ``column_files`` reads the streams, ``recording_merge`` puts them onto
@@ -135,7 +135,7 @@ class StaticPoses(StreamFile):
 
 @dataclasses.dataclass
 class Recording:
-    """A recording (README "Your own data"). ``gravity_W`` (m/s²) is gravity in the orientation's
+    """A recording (docs/recordings.md). ``gravity_W`` (m/s²) is gravity in the orientation's
     world frame. ``folder`` (set by ``load_recording``) is where relative paths start."""
     wrench: WrenchStream | None = None
     accelerometer: AccelerometerStream | None = None
@@ -172,6 +172,10 @@ def load_recording(path) -> Recording:
         raise ValueError(f"recording file {path} does not exist")
     try:
         recording = _typed(yaml.safe_load(path.read_text()) or {})
+    except yaml.MarkedYAMLError as error:
+        mark = error.problem_mark or error.context_mark
+        raise ValueError(f"{path}, line {mark.line + 1}, column {mark.column + 1}: {error.problem or error.context}"
+                         " (not YAML as docs/recordings.md shows it)") from None
     except (yaml.YAMLError, RuntimeError, ValueError, TypeError, AssertionError) as error:
         first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
         raise ValueError(f"{path}: {first}") from None

@@ -163,7 +163,7 @@ def _stream_fit(recording, source, scenario: Scenario, method: str, out: Path) -
 
 
 def identify_recording(path, out_dir, scenario: Scenario, method: str = "tls", accept_fit: bool = False) -> dict:
-    """Identifies from the recording at ``path`` (README "Your own data") and writes metrics.json,
+    """Identifies from the recording at ``path`` (docs/recordings.md) and writes metrics.json,
     the figures and estimate.yaml into ``out_dir``: the streams' ``method`` estimate if the recording
     has streams, else the static poses' (φ's inertia a point mass's), with the accelerometer's
     calibration where the poses gave one. Raises ``FitRefused`` for a fit that is not ok unless

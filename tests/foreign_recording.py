@@ -1,5 +1,5 @@
 """A lab's recording in a layout heft did not choose, made from heft's simulated station (the
-round trip of README "Your own data"): what a user brings to `heft identify --recording` and `heft compensate`.
+round trip of docs/recordings.md): what a user brings to `heft identify --recording` and `heft compensate`.
 
 Nothing here uses heft's writers or its accelerometer conventions: the CSV files are written with
 the csv module in this helper's own column names and order, the accelerometer's reading is turned
@@ -172,7 +172,7 @@ def export_recording(folder, scenario: Scenario, run: Recording | None = None, p
                      orientation: str = "rotation_matrix") -> Path:
     """Writes the lab's files for ``run`` (its three streams, module docstring) and ``poses`` (one row
     each: the averaged wrench on the sensor's sign, the accelerometer in g in its own axes, the
-    orientation) to ``folder``, and the recording YAML (README "Your own data") that names them: what the
+    orientation) to ``folder``, and the recording YAML (docs/recordings.md) that names them: what the
     lab states about its instruments (the accelerometer's unit and position; its orientation, bias and
     clock offset left to estimate). Returns the YAML's path."""
     folder = Path(folder)

@@ -2,7 +2,7 @@
 
 The fast tests write static poses here from Newton's statics (the weight m·g acting at c) in a
 layout of their own; the slow ones take a run and 24 poses of heft's simulated station exported
-by ``foreign_recording`` (not heft's writers) and hold the round trip's targets (README "Your own data")."""
+by ``foreign_recording`` (not heft's writers) and hold the round trip's targets (docs/recordings.md)."""
 
 import csv
 import json

@@ -107,6 +107,10 @@ def _break(folder, how):
         document["accelerometer"]["delimiter"] = "space"
         (folder / "rec.yaml").write_text(yaml.safe_dump(document))
         return ["rec.yaml", "accelerometer.delimiter 'space'"]
+    if how == "a tab indenting the recording":
+        text = (folder / "rec.yaml").read_text()
+        (folder / "rec.yaml").write_text(text.replace("\n  file: ft.csv", "\n\tfile: ft.csv"))
+        return ["rec.yaml, line 3, column 1", "found character '\\t'"]
     if how == "a corrupt Parquet file":
         ft.rename(folder / "ft.parquet")
         document = yaml.safe_load((folder / "rec.yaml").read_text())
@@ -118,7 +122,7 @@ def _break(folder, how):
 
 BROKEN = ("stated separator wrong", "decimal commas", "a row short of a field", "text in a row, after comments",
           "header and rows separated differently", "empty", "comments only", "binary", "a name twice", "header only",
-          "a bad separator stated", "a corrupt Parquet file")
+          "a bad separator stated", "a tab indenting the recording", "a corrupt Parquet file")
 
 
 @pytest.mark.parametrize("how", BROKEN)
