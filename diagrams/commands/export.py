@@ -17,6 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
+from heft.diagrams.commands.console import logger
+
+say = logger(__name__)
+
 HELP = ("a run's log (a simulation's log.npz, or an LCM log of `heft teleop --hardware --record`) as MCAP, "
         "Parquet or CSV, on the live view's topics")
 
@@ -122,5 +126,5 @@ def run(args) -> int:
     out = Path(args.out) if args.out else Path(args.log).parent
     files, counts = export_log(args.log, args.to, out, resolve_scenario(args.scenario).robot)
     where = files[0] if args.to == "mcap" else files[0].parent
-    print(f"wrote {where}: {sum(counts.values())} messages on {len(counts)} topics")
+    say.info(f"wrote {where}: {sum(counts.values())} messages on {len(counts)} topics")
     return 0
