@@ -1,9 +1,11 @@
-"""CSV files as labs' loggers write them (``recording_layouts.rewrite``: padded or quoted names, a
+"""CSV files (streams and static poses) as labs' loggers write them (``recording_layouts.rewrite``: padded or quoted names, a
 byte-order mark, ; tab or whitespace separators, comment lines, CRLF, a trailing separator, exponents):
 each read to the very numbers of the plain file, giving the same estimate; files that cannot be read are
 refused by `heft compensate` in one line naming the file (and the column and row where there is one)."""
 
 import json
+import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,6 +15,7 @@ from recording_layouts import LATE, QUIRKS, rewrite, write_recording
 
 from heft.analysis.recording import load_recording
 from heft.analysis.recording_merge import RecordingSource
+from heft.analysis.static_pose_table import read_static_poses
 from heft.diagrams.cli import main
 from heft.systems.batch_estimation import batch_estimate
 
@@ -48,6 +51,22 @@ def test_each_quirk_reads_the_same_numbers_and_gives_the_same_estimate(tmp_path,
     again = batch_estimate(merged.wrench, merged.a, merged.alpha, merged.omega, merged.g, method="ols").phi
     np.testing.assert_array_equal(again, phi)
     assert source.check_rows() == {"wrench": 2100, "accelerometer": 750, "orientation": 300}
+
+
+@pytest.mark.parametrize("quirk", QUIRKS)
+def test_static_poses_in_each_quirk_read_the_same(tmp_path, quirk):
+    example = Path(__file__).parent.parent / "docs" / "example_recording"
+    for name in ("poses.yaml", "poses.csv"):
+        shutil.copy(example / name, tmp_path / name)
+    plain = read_static_poses(load_recording(tmp_path / "poses.yaml"))
+    stated = rewrite(tmp_path / "poses.csv", quirk)
+    if stated:
+        document = yaml.safe_load((tmp_path / "poses.yaml").read_text())
+        document["static_poses"]["delimiter"] = stated
+        (tmp_path / "poses.yaml").write_text(yaml.safe_dump(document))
+    again = read_static_poses(load_recording(tmp_path / "poses.yaml"))
+    for field in ("wrench", "accelerometer", "gravity_S"):
+        np.testing.assert_array_equal(getattr(again, field), getattr(plain, field))
 
 
 def test_the_layout_read_is_kept_among_the_choices(tmp_path):
