@@ -1,7 +1,8 @@
-"""CSV files (streams and static poses) as labs' loggers write them (``recording_layouts.rewrite``: padded or quoted names, a
-byte-order mark, ; tab or whitespace separators, comment lines, CRLF, a trailing separator, exponents):
-each read to the very numbers of the plain file, giving the same estimate; files that cannot be read are
-refused by `heft compensate` in one line naming the file (and the column and row where there is one)."""
+"""CSV files, streams and static poses, as labs' loggers write them (``recording_layouts.rewrite``: padded
+or quoted names, a byte-order mark, ; tab or whitespace separators, comment lines, CRLF, a trailing
+separator, exponents): each read to the very numbers of the plain file, giving the same estimate; files
+that cannot be read are refused by `heft compensate` in one line naming the file (and the column and
+row where there is one)."""
 
 import json
 import shutil
