@@ -16,14 +16,14 @@ import pyarrow.parquet
 import pytest
 import yaml
 from heft.diagrams.cli import main
+from heft.diagrams.plants import AddArmWithSensor
 from heft.diagrams.scenario import overrides_text, resolve_scenario
 from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.lcm_mailbox import pump
 from heft.hardware_interface.lcmtypes import heft_teleop_state
 from mcap.reader import make_reader
-from test_hardware_teleop import Lab, sensor_pose
-from test_run_log import Recorder
+from pydrake.multibody.plant import MultibodyPlant
 
 WRENCHES = {"/wrench/measured": "wrench_measured", "/wrench/contact": "wrench_contact",
             "/wrench/noncontact": "wrench_noncontact", "/hand/mapped": "master_force",
@@ -33,6 +33,17 @@ SIMULATION_TOPICS = {*WRENCHES, "/wrench/feedback", "/truth/contact", "/truth/no
                      "/slave/pose_desired", "/controller/status", "/scene/frames", "/scene/wrenches"}
 HARDWARE_TOPICS = {*WRENCHES, "/passivity", "/master/joint_state", "/master/command", "/slave/joint_state",
                    "/slave/command", "/loop", "/scene/frames", "/scene/wrenches"}
+
+
+def sensor_position(q) -> np.ndarray:
+    """p_RS (m) of the RX90's sensor frame at joint angles ``q``, from Drake's own plant."""
+    plant = MultibodyPlant(0.0)
+    AddArmWithSensor(plant, "rx90")
+    plant.Finalize()
+    context = plant.CreateDefaultContext()
+    plant.SetPositions(context, q)
+    return plant.CalcRelativeTransform(context, plant.GetFrameByName("rx90_base"),
+                                       plant.GetFrameByName("S")).translation()
 
 
 def read_mcap(path) -> dict:
@@ -86,7 +97,7 @@ def test_a_simulation_log_as_mcap_holds_every_row_on_every_topic(simulation_log,
     for k in (0, n // 2, n - 1):  # the scene's sensor frame where Drake puts S at the logged angles
         (transform,) = [x for x in topics["/scene/frames"][k][1]["transforms"] if x["child_frame_id"] == "sensor"]
         np.testing.assert_allclose([transform["translation"][a] for a in "xyz"],
-                                   sensor_pose(log["slave_q"][k]).translation(), atol=1e-9)
+                                   sensor_position(log["slave_q"][k]), atol=1e-9)
     with open(tmp_path / "log.mcap", "rb") as file:
         (metadata,) = make_reader(file).iter_metadata()
     assert metadata.name == "heft" and float(metadata.metadata["sigma"]) == 1.0
@@ -109,6 +120,9 @@ def test_a_simulation_log_as_tables(simulation_log, tmp_path, form):
 @pytest.fixture(scope="module")
 def hardware_log(tmp_path_factory):
     """The LCM log of 0.15 s of the controller against the stand-in, teleop state on, clutch held from 0.05 s."""
+    from test_hardware_teleop import Lab
+    from test_run_log import Recorder
+
     lab = Lab(resolve_scenario("fig6", overrides_text({"operator.start_time": 0.0})), clutch_at=0.05,
               publish_state=True)
     recorder = Recorder(lab.bus)

@@ -10,6 +10,7 @@ from pathlib import Path
 from heft.diagrams.commands.options import (SCENARIO_HELP, add_noise, add_out, add_scenario, add_set, add_station,
                                            parse_numbers, scenario_from, stated_fields)
 from heft.diagrams.commands.console import logger
+from heft.diagrams.commands.view_options import VIEW_HOWTO, add_view, view_from
 
 say = logger(__name__)
 
@@ -33,6 +34,7 @@ def add_arguments(parser) -> None:
     add_out(parser, "log.npz, metrics.json, figure.png (and identify/ when it identifies first)",
             shown="out/SCENARIO")
     parser.add_argument("--meshcat", action="store_true", help="show the simulation live in a browser (URL printed)")
+    add_view(parser)
 
 
 def chosen_scenario(args) -> str:
@@ -73,7 +75,14 @@ def run(args) -> int:
         from pydrake.geometry import Meshcat
         meshcat = Meshcat()
         say.info(f"live view: {meshcat.web_url()}")
-    metrics = simulate(scenario, load, out, sigmas, name=Path(args.scenario).stem, meshcat=meshcat)
+    view = view_from(args, scenario.robot)
+    if view is not None:
+        say.info(f"live view: ws://localhost:{args.view_port}; {VIEW_HOWTO}")
+    try:
+        metrics = simulate(scenario, load, out, sigmas, name=Path(args.scenario).stem, meshcat=meshcat, view=view)
+    finally:
+        if view is not None:
+            view.close()
     say.info(json.dumps(metrics, indent=2))
     say.info(f"wrote {out}/log.npz, metrics.json, figure.png")
     return 0

@@ -19,6 +19,7 @@ from heft.analysis.figures import paper_figure
 from heft.diagrams.progress import ProgressBar
 from heft.diagrams.scenario import Scenario, layered, overrides_text
 from heft.diagrams.stations.sim_station import MakeSimStation, set_holding
+from heft.diagrams.live_view import simulation_monitor
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation
 from heft.systems.operator_hand import stroke_windows
@@ -50,10 +51,17 @@ def with_sigma(scenario: Scenario, sigma: float) -> Scenario:
     return layered(scenario, overrides_text({"controller.force.sigma": float(sigma)}))
 
 
-def run_teleop(scenario: Scenario, load: LoadEstimate, label: str = "", meshcat=None, quiet: bool = False) -> dict:
+LOG_NAMES = {"master_wrench": "master_force", "applied_wrench": "master_force_applied", "offsets": "offsets_hat"}
+"""Signals logged under another name in log.npz: the names of a hardware run's log (analysis.run_log);
+``offsets_hat`` (N, 6) is the estimate at start, then tracked."""
+
+
+def run_teleop(scenario: Scenario, load: LoadEstimate, label: str = "", meshcat=None, quiet: bool = False,
+               view=None) -> dict:
     """Simulates ``scenario.duration`` s of the closed loop (σ: ``controller.force.sigma``); returns
     the log arrays (names as the README's log.npz) and the achieved real-time factor; a
-    ``meshcat`` shows the run live; ``quiet`` hides the progress bar."""
+    ``meshcat`` shows the run live, and so does a ``view`` (``diagrams.live_view.LiveView``, opened
+    here); ``quiet`` hides the progress bar."""
     sigma = scenario.controller.force.sigma
     diagram, log = MakeTeleopSimulation(scenario, load, meshcat=meshcat)
     simulator = Simulator(diagram)
@@ -63,6 +71,8 @@ def run_teleop(scenario: Scenario, load: LoadEstimate, label: str = "", meshcat=
     grasp_at = scenario.load.grasp_at
     if math.isfinite(grasp_at):
         set_holding(station, context, False, at_start=True)
+    if view is not None:
+        simulator.set_monitor(simulation_monitor(view, log, LOG_NAMES))
     simulator.Initialize()
     progress = ProgressBar(scenario.duration, label or f"σ = {sigma:g}", stream=io.StringIO() if quiet else sys.stderr)
     start = time.perf_counter()
@@ -84,25 +94,25 @@ def run_teleop(scenario: Scenario, load: LoadEstimate, label: str = "", meshcat=
     # truth at t_k. Delay the truth by one sample: each row pairs a sample with its truth.
     for key in SAMPLE_ALIGNED_TRUTH:
         data[key] = np.concatenate((data[key][:1], data[key][:-1]))
-    data["master_force"] = data.pop("master_wrench")
-    data["master_force_applied"] = data.pop("applied_wrench")  # the names of a hardware run's log (analysis.run_log)
+    for name, log_name in LOG_NAMES.items():
+        data[log_name] = data.pop(name)
     data["phi_gripper_true"] = np.asarray(phi_gripper).copy()
     data["phi_gripper_hat"] = np.asarray(scenario.controller.force.phi_gripper or np.zeros(10), dtype=float)
-    data["offsets_hat"] = data.pop("offsets")  # (N, 6): the estimate at start, then tracked
     data["sigma"] = np.array(sigma)
     data["realtime_factor"] = np.array(scenario.duration / wall)
     return data
 
 
-def simulate(scenario: Scenario, load: LoadEstimate, out_dir, sigmas, name: str, meshcat=None) -> dict:
+def simulate(scenario: Scenario, load: LoadEstimate, out_dir, sigmas, name: str, meshcat=None, view=None) -> dict:
     """Runs ``scenario`` once per σ of ``sigmas`` (the study's axis, laid over ``controller.force.sigma``
     by ``with_sigma``: the one override path), writes log.npz (the first σ) and log_sigma<σ>.npz
-    (each), metrics.json and figure.png into ``out_dir``; returns the metrics. A ``meshcat`` shows each run live."""
+    (each), metrics.json and figure.png into ``out_dir``; returns the metrics. A ``meshcat`` or a ``view``
+    (``diagrams.live_view.LiveView``) shows each run live."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     runs = {}
     for sigma in sigmas:
-        runs[sigma] = run_teleop(with_sigma(scenario, sigma), load, meshcat=meshcat)
+        runs[sigma] = run_teleop(with_sigma(scenario, sigma), load, meshcat=meshcat, view=view)
         np.savez_compressed(out / f"log_sigma{sigma:g}.npz", **runs[sigma])
     np.savez_compressed(out / "log.npz", **runs[sigmas[0]])
     operator = scenario.operator

@@ -1,0 +1,19 @@
+"""``--view`` and ``--view-port``: the live view (``diagrams.live_view``) on the commands that run a loop."""
+
+from __future__ import annotations
+
+from heft.diagrams.live_view import DEFAULT_PORT, LiveView
+
+VIEW_HOWTO = "open it in Foxglove or Lichtblick: Open connection → Foxglove WebSocket (docs/live_view.md)"
+
+
+def add_view(parser) -> None:
+    parser.add_argument("--view", action="store_true",
+                        help=f"serve the run live on ws://localhost:PORT; {VIEW_HOWTO}")
+    parser.add_argument("--view-port", type=int, default=DEFAULT_PORT, metavar="PORT",
+                        help=f"the live view's port (default {DEFAULT_PORT})")
+
+
+def view_from(args, robot: str) -> LiveView | None:
+    """The ``LiveView`` the options ask for (not yet open), or None; ``robot`` poses its scene."""
+    return LiveView(args.view_port, robot=robot) if args.view else None

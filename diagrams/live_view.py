@@ -1,0 +1,264 @@
+"""A run's rows, as they come, on ``analysis.topics``' topics: served live over the Foxglove
+WebSocket protocol (``LiveView``, foxglove-sdk, ``ws://localhost:8765``) or written to an MCAP
+file (``McapRecorder``), by a process of their own.
+
+The loop's side of either is a hand-off into shared memory: ``publish(t, arrays)`` copies the
+declared arrays into a ring of preallocated rows and moves a counter; no encoding, no lock, no
+system call, so it never waits for the viewer. ``LiveView`` takes at most ``rate`` rows a second
+(on the loop's clock ``t``), ``McapRecorder`` every row. The worker process (niced) reads the
+ring, adds the scene's poses (``diagrams.scene_poses``), encodes the messages and serves or
+writes them; a ring it falls behind on by more than ``RING_ROWS`` rows loses the oldest, counted.
+
+    view = LiveView(port=8765)                      # or McapRecorder("run.mcap")
+    view.open({"wrench_measured": 6, "slave_q": 6, ...})  # once: starts the worker, waits for it
+    view.publish(t, arrays)                         # each tick: key → array of the declared width
+    view.event("/faults", message)                  # rare messages (analysis.topics.EVENT_TOPICS)
+    view.close()                                    # {"rows": …, "dropped": …}
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import os
+import queue
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+DEFAULT_PORT = 8765
+"""The live view's TCP port (Foxglove's default), on localhost."""
+DEFAULT_RATE = 100.0
+"""Rows a second the live view serves (Hz, on the loop's clock)."""
+RING_ROWS = 4096
+"""Rows of the shared ring: 2 s at 2 kHz for the recorder's worker to catch up in."""
+WORKER_NICENESS = 10
+"""The worker's nice value: below the loop's priority."""
+POLL = 0.005
+"""s between the worker's looks at the ring."""
+LINGER = 0.5
+"""s the server stays up after the last row, for its messages to reach the clients."""
+START_TIMEOUT = 120.0
+"""s the worker may take to start (imports, the scene's plants, the server's socket)."""
+_HEADER = 2  # [rows written, stop]
+
+
+class TickTap:
+    """The shared ring and its worker process (``LiveView``, ``McapRecorder``). ``sink``: ("ws",
+    host, port) or ("mcap", path); ``rate`` rows/s at most (0: every row); ``robot`` poses the scene."""
+
+    def __init__(self, sink: tuple, rate: float, robot: str):
+        self._sink, self._rate, self._robot = sink, rate, robot
+        self._process = self._widths = None
+        self.address = ""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def open(self, widths: dict, t0_ns: int | None = None) -> None:
+        """Starts the worker for rows of the arrays ``widths`` (key → entries) and waits until it
+        serves; messages are timed ``t0_ns`` + t (ns; default: the wall clock now). Opening again
+        with the same keys keeps the worker (a live view's clients stay connected)."""
+        from heft.analysis.run_export import foxglove_sdk
+
+        foxglove_sdk()  # the one-line install hint, here in the loop's process
+        self._t0 = time.time_ns() if t0_ns is None else int(t0_ns)
+        self._next = -math.inf
+        if self._process is not None and self._process.is_alive() and dict(widths) == self._widths:
+            self._tell_origin()
+            return
+        self.close()
+        self._widths = dict(widths)
+        columns = 1 + sum(self._widths.values())
+        file = tempfile.NamedTemporaryFile(prefix="heft-view-", dir="/dev/shm" if os.path.isdir("/dev/shm") else None,
+                                           delete=False)
+        file.truncate(8 * (_HEADER + RING_ROWS * columns))
+        file.close()
+        self._path = file.name
+        memory = np.memmap(self._path, dtype=np.float64, mode="r+")
+        self._head, ring = memory[:_HEADER], memory[_HEADER:].reshape(RING_ROWS, columns)
+        self._slots, start = [], 1
+        spans = []
+        for key, width in self._widths.items():
+            spans.append((key, start, start + width))
+            start += width
+        self._slots = [(ring[i, :1], [(key, ring[i, a:b]) for key, a, b in spans]) for i in range(RING_ROWS)]
+        self._written = 0
+        spawn = multiprocessing.get_context("spawn")
+        self._events, replies = spawn.Queue(), spawn.Queue()
+        self._replies = replies
+        self._process = spawn.Process(target=_work, args=(self._path, self._widths, self._sink, self._robot,
+                                                          self._rate, self._events, replies), daemon=True)
+        self._process.start()
+        self._tell_origin()
+        try:
+            error = replies.get(timeout=START_TIMEOUT)
+        except queue.Empty:
+            error = f"the view's worker did not start in {START_TIMEOUT:g} s"
+        if error:
+            self.close()
+            raise ValueError(error)
+        self.address = self._address()
+
+    def _address(self) -> str:
+        kind, *where = self._sink
+        return f"ws://{where[0]}:{where[1]}" if kind == "ws" else str(where[0])
+
+    def _tell_origin(self) -> None:
+        self._events.put(("origin", self._t0, None))
+
+    def due(self, t: float) -> bool:
+        """Whether a row at ``t`` (s) would be taken (the rate's next slot has come)."""
+        return t >= self._next - 1e-9
+
+    def publish(self, t: float, arrays) -> bool:
+        """Hands the row at ``t`` (s, the loop's clock) of ``arrays`` (key → array or number, every key
+        declared at ``open``) to the worker, unless the rate says wait; whether it was taken."""
+        if t < self._next - 1e-9:
+            return False
+        if self._rate:
+            self._next = self._next + 1.0 / self._rate if t < self._next + 1.0 / self._rate else t + 1.0 / self._rate
+        stamp, views = self._slots[self._written % RING_ROWS]
+        stamp[0] = t
+        for key, view in views:
+            view[:] = arrays[key]
+        self._written += 1
+        self._head[0] = self._written  # after the row: the worker reads rows below the count
+        return True
+
+    def event(self, topic: str, message: dict, t: float) -> None:
+        """A rare message (``analysis.topics.EVENT_TOPICS``) at ``t`` (s, the loop's clock)."""
+        self._events.put((topic, t, message))
+
+    def close(self) -> dict:
+        """Stops the worker after it has handled every row; {"rows": handled, "dropped": lost} ({} if not open)."""
+        if self._process is None:
+            return {}
+        self._head[1] = 1.0
+        self._process.join(timeout=30.0)
+        if self._process.is_alive():
+            self._process.terminate()
+            self._process.join()
+        try:
+            stats = self._replies.get(timeout=1.0)
+        except queue.Empty:
+            stats = {}
+        self._process = self._widths = None
+        self._slots, self._head = [], None
+        Path(self._path).unlink(missing_ok=True)
+        return stats if isinstance(stats, dict) else {}
+
+
+class LiveView(TickTap):
+    """The live view on ``ws://host:port``, at most ``rate`` rows a second; ``robot`` poses the scene."""
+
+    def __init__(self, port: int = DEFAULT_PORT, rate: float = DEFAULT_RATE, robot: str = "rx90",
+                 host: str = "127.0.0.1"):
+        super().__init__(("ws", host, port), rate, robot)
+
+
+class McapRecorder(TickTap):
+    """Every row written to the MCAP file at ``path`` (overwritten), as ``heft export`` writes a log."""
+
+    def __init__(self, path, robot: str = "rx90"):
+        super().__init__(("mcap", str(path)), 0.0, robot)
+
+
+def simulation_monitor(view: TickTap, log, names: dict):
+    """A ``Simulator`` monitor that opens ``view`` for the signals of ``log`` (``SimulationLog``; renamed by
+    ``names``) and publishes them when due. It runs after each step, where the logger has just
+    published: the row is the log's (but the plant's truth and ``slave_q``, which the log.npz
+    pairs with the sensor sample before, ``diagrams.running.simulation``)."""
+    from pydrake.systems.framework import EventStatus
+
+    port = log.logger.get_input_port()
+    parts = [(names.get(key, key), part) for key, part in log.columns.items()]
+    view.open({key: part.stop - part.start for key, part in parts})
+
+    def monitor(root_context):
+        t = root_context.get_time()
+        if view.due(t):
+            row = port.Eval(log.logger.GetMyContextFromRoot(root_context))
+            view.publish(t, {key: row[part] for key, part in parts})
+        return EventStatus.Succeeded()
+
+    return monitor
+
+
+def _work(path, widths: dict, sink: tuple, robot: str, rate: float, events, replies) -> None:
+    """The worker process: serves or writes the ring's rows until told to stop."""
+    os.nice(WORKER_NICENESS)
+    try:
+        from heft.analysis.run_export import foxglove_channel, foxglove_sdk
+        from heft.analysis.topics import EVENT_TOPICS, SCENE_KEYS, encode, row_messages, row_topics, schema_of
+
+        foxglove = foxglove_sdk()
+        context = foxglove.Context()
+        scene = None
+        if "slave_q" in widths and "master_q" in widths:
+            from heft.diagrams.scene_poses import ScenePoses
+            scene = ScenePoses(robot)
+        names = row_topics([*widths, *(SCENE_KEYS if scene else ())])
+        channels = {name: foxglove_channel(foxglove, context, name, schema_of(name))
+                    for name in [*names, *(topic.name for topic in EVENT_TOPICS)]}
+        if sink[0] == "ws":  # after the channels: a client's first advertisement lists them all
+            server = foxglove.start_server(name="heft", host=sink[1], port=sink[2], context=context)
+
+            def stop():
+                time.sleep(LINGER)
+                server.stop()
+        else:
+            from foxglove.mcap import MCAPWriteOptions
+            writer = foxglove.open_mcap(sink[1], allow_overwrite=True, context=context,
+                                        writer_options=MCAPWriteOptions(compression_threads=0))
+            stop = writer.close
+    except Exception as error:  # a port in use, a missing package: told to the loop's process
+        replies.put(f"the live view could not start: {error}")
+        return
+    replies.put(None)
+    memory = np.memmap(path, dtype=np.float64, mode="r+")
+    head, ring = memory[:_HEADER], memory[_HEADER:].reshape(RING_ROWS, -1)
+    spans, start = {}, 1
+    for key, width in widths.items():
+        spans[key], start = slice(start, start + width), start + width
+    read, dropped, t0 = 0, 0, 0
+    try:
+        while True:
+            stopping = head[1] != 0.0
+            written = int(head[0])
+            while True:  # events first: the origin comes before the rows timed by it
+                try:
+                    topic, t, message = events.get_nowait()
+                except queue.Empty:
+                    break
+                if topic == "origin":
+                    t0 = t
+                else:
+                    channels[topic].log(encode(message), log_time=t0 + round(t * 1e9))
+            if written - read > RING_ROWS:
+                dropped += written - read - RING_ROWS
+                read = written - RING_ROWS
+            for i in range(read, written):
+                row = ring[i % RING_ROWS].copy()
+                if int(head[0]) - i >= RING_ROWS:  # overwritten while copied
+                    dropped += 1
+                    continue
+                t = float(row[0])
+                arrays = {key: row[part] for key, part in spans.items()}
+                if scene is not None:
+                    scene.update(arrays["slave_q"], arrays["master_q"])
+                    arrays.update(pose_RS=scene.pose_RS, pose_BE=scene.pose_BE)
+                for name, message in row_messages(t, arrays, names):
+                    channels[name].log(encode(message), log_time=t0 + round(t * 1e9))
+            read = written
+            if stopping and int(head[0]) == read:
+                break
+            time.sleep(POLL if rate == 0 else min(POLL, 0.5 / rate))
+    finally:
+        stop()
+        replies.put({"rows": read - dropped, "dropped": dropped})

@@ -1,0 +1,205 @@
+"""The live view: a client speaking ``foxglove.websocket.v1`` (written here on websocket-client)
+connects to `heft simulate fig6 --view`. foxglove-sdk serves that protocol under its new name
+``foxglove.sdk.v1`` only (the same messages), so the client offers both names, as Foxglove and
+Lichtblick do. It subscribes to every advertised topic and checks that
+each arrives at the view's rate and that the wrenches equal the run's log.npz row for row; the
+loop's hand-off (`LiveView.publish`) is timed against its budget; `McapRecorder` writes every row.
+"""
+
+import json
+import socket
+import struct
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+import websocket
+import yaml
+from heft.diagrams.live_view import DEFAULT_RATE, LiveView, McapRecorder
+from heft.diagrams.scenario import resolve_scenario
+from heft.diagrams.stations.sim_station import MakeSimStation
+from mcap.reader import make_reader
+
+SUBPROTOCOLS = ["foxglove.websocket.v1", "foxglove.sdk.v1"]
+"""The protocol's two names: the specification's, and the one foxglove-sdk answers to."""
+MESSAGE_DATA = 0x01
+
+
+class FoxgloveClient:
+    """The client side of foxglove.websocket.v1: the advertised channels, and every message of each
+    channel it subscribed to as (channel topic, log time (ns), decoded JSON)."""
+
+    def __init__(self, url: str, timeout: float, server_alive=lambda: True):
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                self.socket = websocket.create_connection(url, subprotocols=SUBPROTOCOLS, timeout=5)
+                break
+            except (ConnectionRefusedError, websocket.WebSocketException, OSError):
+                if time.monotonic() > deadline or not server_alive():
+                    raise
+                time.sleep(0.2)
+        assert self.socket.getsubprotocol() in SUBPROTOCOLS
+        self.socket.settimeout(0.2)
+        self.channels, self.subscribed, self.messages = {}, {}, []
+
+    def receive(self, until: float) -> bool:
+        """Handles what the server sends until ``until`` (monotonic s) or it closes; whether it is still open."""
+        while time.monotonic() < until:
+            try:
+                opcode, data = self.socket.recv_data()
+            except websocket.WebSocketTimeoutException:
+                continue
+            except (websocket.WebSocketConnectionClosedException, ConnectionError):
+                return False
+            if opcode == websocket.ABNF.OPCODE_CLOSE:
+                return False
+            if opcode == websocket.ABNF.OPCODE_TEXT:
+                self._control(json.loads(data))
+            elif opcode == websocket.ABNF.OPCODE_BINARY and data[0] == MESSAGE_DATA:
+                subscription, log_time = struct.unpack_from("<IQ", data, 1)
+                self.messages.append((self.subscribed[subscription], log_time, json.loads(data[13:])))
+        return True
+
+    def _control(self, message: dict) -> None:
+        if message["op"] == "advertise":
+            new = []
+            for channel in message["channels"]:
+                if channel["id"] in self.channels:  # advertised again: already subscribed
+                    continue
+                self.channels[channel["id"]] = channel
+                subscription = len(self.subscribed) + 1
+                self.subscribed[subscription] = channel["topic"]
+                new.append({"id": subscription, "channelId": channel["id"]})
+            if new:
+                self.socket.send(json.dumps({"op": "subscribe", "subscriptions": new}))
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def write_estimate(folder):
+    station = MakeSimStation(resolve_scenario("fig6"))
+    phi = station.GetOutputPort("truth.phi").Eval(station.CreateDefaultContext())
+    path = folder / "estimate.yaml"
+    path.write_text(yaml.safe_dump({"phi": np.asarray(phi).tolist(), "offsets": [0.0] * 6}))
+    return path
+
+
+@pytest.mark.slow
+def test_a_client_sees_every_topic_at_its_rate_with_the_logs_wrenches(tmp_path):
+    port = free_port()
+    heft = subprocess.Popen([sys.executable, "-m", "heft.diagrams.cli", "simulate", "fig6", "--sigma", "1",
+                             "--duration", "1.0", "--estimate", str(write_estimate(tmp_path)), "--out",
+                             str(tmp_path / "run"), "--view", "--view-port", str(port)],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        client = FoxgloveClient(f"ws://127.0.0.1:{port}", timeout=300, server_alive=lambda: heft.poll() is None)
+        while client.receive(time.monotonic() + 1.0):
+            pass
+        output, _ = heft.communicate(timeout=120)
+    except Exception:
+        heft.kill()
+        raise AssertionError(heft.communicate()[0]) from None
+    assert heft.returncode == 0, output
+    topics = {channel["topic"] for channel in client.channels.values()}
+    assert {"/wrench/measured", "/wrench/contact", "/wrench/noncontact", "/wrench/feedback", "/hand/applied",
+            "/estimate/phi", "/passivity", "/master/joint_state", "/scene/frames", "/scene/wrenches",
+            "/faults"} <= topics
+    assert all(channel["encoding"] == "json" for channel in client.channels.values())
+    log = np.load(tmp_path / "run" / "log.npz")
+    by_topic = {}
+    for topic, _, message in client.messages:
+        by_topic.setdefault(topic, []).append(message)
+    counts = {topic: len(messages) for topic, messages in by_topic.items()}
+    assert set(by_topic) == topics - {"/faults", "/load/command", "/load/status"}, (counts, output)
+    for topic in topics - {"/faults", "/load/command", "/load/status", "/scene/frames", "/scene/wrenches"}:
+        steps = np.diff([message["t"] for message in by_topic[topic]])
+        assert len(steps) > 20 and np.allclose(steps, 1 / DEFAULT_RATE, atol=1e-9), topic
+    assert len(by_topic["/scene/frames"]) == len(by_topic["/wrench/contact"])
+    for topic, key in (("/wrench/measured", "wrench_measured"), ("/wrench/contact", "wrench_contact"),
+                       ("/wrench/noncontact", "wrench_noncontact"), ("/hand/applied", "master_force_applied")):
+        messages = by_topic[topic]
+        rows = np.searchsorted(log["t"], [m["t"] - 1e-9 for m in messages])  # the row of the same instant
+        np.testing.assert_allclose(log["t"][rows], [m["t"] for m in messages], rtol=0, atol=1e-12)
+        np.testing.assert_array_equal([[m["force"][a] for a in "xyz"] + [m["torque"][a] for a in "xyz"]
+                                       for m in messages], log[key][rows], err_msg=topic)
+
+
+WIDTHS = {"wrench_measured": 6, "wrench_contact": 6, "wrench_noncontact": 6, "master_force_applied": 6,
+          "passivity_energy": 2, "passivity_damping": 2, "master_q": 6, "master_v": 6, "slave_q": 6, "hold": 1}
+
+
+def rows(n: int, seed: int = 1) -> list[dict]:
+    rng = np.random.default_rng(seed)
+    return [{key: rng.normal(size=width) for key, width in WIDTHS.items()} for _ in range(n)]
+
+
+def test_the_recorder_writes_every_row_handed_to_it(tmp_path):
+    data = rows(600)
+    with McapRecorder(tmp_path / "run.mcap") as recorder:
+        recorder.open(WIDTHS, t0_ns=10**18)
+        for k, row in enumerate(data):
+            assert recorder.publish(k * 0.0005, row)
+        stats = recorder.close()
+    assert stats == {"rows": len(data), "dropped": 0}
+    with open(tmp_path / "run.mcap", "rb") as file:
+        messages = [(channel.topic, message.log_time, json.loads(message.data))
+                    for _, channel, message in make_reader(file).iter_messages(topics=["/wrench/contact", "/loop"])]
+    contact = [(t, m) for topic, t, m in messages if topic == "/wrench/contact"]
+    assert [t for t, _ in contact] == [10**18 + round(k * 0.0005 * 1e9) for k in range(len(data))]
+    np.testing.assert_array_equal([[m["force"][a] for a in "xyz"] for _, m in contact],
+                                  [row["wrench_contact"][:3] for row in data])
+    np.testing.assert_array_equal([m["hold"] for topic, _, m in messages if topic == "/loop"],
+                                  [row["hold"][0] for row in data])
+
+
+def test_the_loops_hand_off_takes_microseconds(tmp_path):
+    """`publish` at 2 kHz with the view's worker running: taken at the view's rate, each call well
+    inside a 0.5 ms tick (median and 99th percentile)."""
+    data = rows(2000)
+    with LiveView(free_port()) as view:
+        view.open(WIDTHS)
+        taken, costs = 0, []
+        for k, row in enumerate(data):
+            start = time.perf_counter()
+            taken += view.publish(k * 0.0005, row)
+            costs.append(time.perf_counter() - start)
+    assert taken == pytest.approx(len(data) * 0.0005 * DEFAULT_RATE, abs=1)
+    assert np.median(costs) < 50e-6 and np.percentile(costs, 99) < 250e-6, (np.median(costs), np.percentile(costs, 99))
+
+
+def test_a_client_sees_the_rows_a_loop_hands_over_at_the_views_rate():
+    """Rows published at 2 kHz reach a client at 100 Hz, values and scene as handed over."""
+    data = rows(400, seed=2)
+    port = free_port()
+    with LiveView(port) as view:
+        view.open(WIDTHS)
+        client = FoxgloveClient(f"ws://127.0.0.1:{port}", timeout=30)
+        while not client.channels:  # advertised, and the client subscribed
+            client.receive(time.monotonic() + 0.2)
+        time.sleep(0.5)
+        for k, row in enumerate(data):
+            view.publish(k * 0.0005, row)
+        view.event("/faults", {"healthy": True}, 0.1)
+        view.close()
+    while client.receive(time.monotonic() + 5.0):
+        pass
+    by_topic = {}
+    for topic, _, message in client.messages:
+        by_topic.setdefault(topic, []).append(message)
+    received = by_topic["/wrench/measured"]
+    steps = [round(m["t"] / 0.0005) for m in received]  # taken every 10 ms of the loop's clock: every 20th row
+    assert steps == list(range(steps[0], len(data), 20)) and steps[0] <= 100, steps
+    taken = [data[k] for k in steps]
+    np.testing.assert_array_equal([[m["force"][a] for a in "xyz"] + [m["torque"][a] for a in "xyz"]
+                                   for m in by_topic["/wrench/measured"]], [row["wrench_measured"] for row in taken])
+    np.testing.assert_array_equal([m["velocity"] for m in by_topic["/master/joint_state"]],
+                                  [row["master_v"] for row in taken])
+    assert len(by_topic["/scene/frames"]) == len(taken) and by_topic["/faults"] == [{"healthy": True}]
+    assert [m["t"] for m in received] == [k * 0.0005 for k in steps]
