@@ -122,6 +122,13 @@ def read_layout(path: Path, stated: str | None, stream: str) -> CsvLayout:
     detected from the header and the first rows; a ``LayoutError`` of one line if it cannot be read."""
     with open(path, "rb") as f:
         head = f.read(HEAD_BYTES)
+    if head.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
+        raise LayoutError(f"{path.name}: the {stream} file is UTF-16 text; heft reads UTF-8 (or ASCII): save it as "
+                          "UTF-8 (e.g. `iconv -f UTF-16 -t UTF-8`)")
+    nul = head.find(b"\0")
+    if nul >= 0:
+        raise LayoutError(f"{path.name}, byte {nul + 1}: the {stream} file holds binary data (a NUL byte), not CSV "
+                          "text; a Parquet file needs the .parquet suffix")
     offset = len(codecs.BOM_UTF8) if head.startswith(codecs.BOM_UTF8) else 0
     header, header_line, data_offset, samples = None, 0, 0, []
     number = 0

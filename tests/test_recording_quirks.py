@@ -114,7 +114,10 @@ def _break(folder, how):
         return ["ft.csv", "no header row"]
     if how == "binary":
         ft.write_bytes(np.random.default_rng(1).integers(0, 256, 5000, dtype=np.uint8).tobytes())
-        return ["ft.csv"]
+        return ["ft.csv", "binary data"]
+    if how == "UTF-16 text":
+        ft.write_bytes("\n".join(lines).encode("utf-16"))
+        return ["ft.csv", "UTF-16", "save it as UTF-8"]
     if how == "a name twice":
         lines[0] = lines[0].replace("status", "Fz")
         ft.write_text("\n".join(lines) + "\n")
@@ -141,8 +144,9 @@ def _break(folder, how):
 
 
 BROKEN = ("stated separator wrong", "decimal commas", "a row short of a field", "text in a row, after comments",
-          "header and rows separated differently", "empty", "comments only", "binary", "a name twice", "header only",
-          "a bad separator stated", "a tab indenting the recording", "a corrupt Parquet file")
+          "header and rows separated differently", "empty", "comments only", "binary", "UTF-16 text",
+          "a name twice", "header only", "a bad separator stated", "a tab indenting the recording",
+          "a corrupt Parquet file")
 
 
 @pytest.mark.parametrize("how", BROKEN)
