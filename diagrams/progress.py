@@ -3,7 +3,9 @@
 
 from __future__ import annotations
 
+import io
 import logging
+import os
 import sys
 import time
 
@@ -63,7 +65,13 @@ class ProgressBar:
 
 
 def _is_terminal(stream) -> bool:
-    return hasattr(stream, "isatty") and stream.isatty()
+    """A terminal a bar can be drawn on: one of no width (a bare pseudo-terminal) gets plain lines."""
+    if not (hasattr(stream, "isatty") and stream.isatty()):
+        return False
+    try:
+        return os.get_terminal_size(stream.fileno()).columns > 0
+    except (OSError, ValueError, AttributeError, io.UnsupportedOperation):
+        return True
 
 
 def _interval(seconds: float) -> str:
