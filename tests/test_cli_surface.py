@@ -200,3 +200,16 @@ def test_progress_bar_counts_to_its_total(tmp_path):
     bar.close()
     lines = stream.getvalue().splitlines()
     assert 10 <= len(lines) <= 11 and lines[-1].startswith("work: 100%") and all("ETA" in line for line in lines)
+
+
+def test_verbose_shows_debug_lines_and_quiet_only_errors(capsys):
+    """-v shows how the scenario was made, -q leaves only the error; either stands anywhere."""
+    command = ["load", "--rezero", "--lcm-url", "memq://", "--timeout", "0"]
+    assert main(["-v", *command]) == exit_status.TIMEOUT
+    verbose = capsys.readouterr()
+    assert "scenario fig6" in verbose.out and "laid over it: {lab: {lcm: {lcm_url: 'memq://'}}}" in verbose.out
+    assert main(command) == exit_status.TIMEOUT
+    assert "scenario fig6" not in capsys.readouterr().out
+    assert main([*command, "-q"]) == exit_status.TIMEOUT
+    quiet = capsys.readouterr()
+    assert quiet.out == "" and "heft load: timeout: " in quiet.err

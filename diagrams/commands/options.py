@@ -12,7 +12,10 @@ from pathlib import Path
 
 import yaml
 
+from heft.diagrams.commands.console import logger
 from heft.hardware_interface.channels import DEFAULT_LCM_URL
+
+say = logger(__name__)
 
 
 def add_lcm_urls(parser: argparse.ArgumentParser, when: str = "") -> None:
@@ -127,9 +130,11 @@ def scenario_from(args, options: str = ""):
 
     ideal = getattr(args, "station", None) == "ideal"
     scenario = resolve_scenario(args.scenario, overrides_text(IDEAL_STATION) if ideal else "")
+    say.debug(f"scenario {args.scenario}{' in the ideal station' if ideal else ''}")
     for text in (options, overrides_text(lab_options(args)), getattr(args, "set", None)):
         if text:
             scenario = layered(scenario, text)
+            say.debug(f"laid over it: {text.strip()}")
     return scenario
 
 
