@@ -102,7 +102,7 @@ def _run(netns, folder):
     try:
         teleop = _Process(netns, folder, "teleop", "teleop", "--hardware", "--scenario", "grasp", "--lcm-url",
                           LCM_URL, "--set", _settings(), "--estimate", str(estimate), "--duration", FOREVER,
-                          "--record", str(log), "--out", str(folder))
+                          "--record", str(log), "--out", str(folder / "teleop"))
         teleop.wait_for("teleop: running")
         # Started with the lab, it re-zeroes once the controller is healthy, with the slave still at rest.
         rezero = _Process(netns, folder, "rezero", "load", "--lcm-url", LCM_URL, "--rezero", "--timeout", "30")
