@@ -130,7 +130,7 @@ def test_replay_of_the_hardware_log_opens_in_chromium(recording, tmp_path):
     """The page plays the recorded motion: at the last frame, the stylus where Drake's kinematics
     of the Phantom driver's recorded joint positions put it, and the slave's links animated."""
     page = tmp_path / "replay.html"
-    result = _heft("analyze", "replay", str(recording), "--out", str(page), "--fps", str(FPS))
+    result = _heft("analyze", "replay", str(recording), "--out", str(tmp_path), "--fps", str(FPS))
     assert result.returncode == 0, result.stderr
     print(result.stdout.strip())
     log = load_log(recording)  # the rows the replay shows
