@@ -22,7 +22,7 @@ every mode within 0.8 of the bound; the paper's tool's fastest, 363 Hz (15 % dam
 Why not integrate the mount implicitly (joints with the plant's implicit PD actuators)? That
 damps too: implicit Euler takes 1 − 1/√(1 + (ωh)²) of a 49 Hz mode's amplitude per 0.5 ms
 step, 7.6 % of critical damping on top of the mount's own 4 %, which would change what the
-paper's tool does on its mount (the dominant error of the realistic station, README). Sizing
+paper's tool does on its mount (the dominant error of the realistic station, docs/scenarios.md). Sizing
 the mount to the load keeps the paper's tool exactly as it was and the rest within the step.
 """
 

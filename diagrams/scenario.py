@@ -69,7 +69,7 @@ as tools on wrist flanges show; the JR3 itself is stiffer), twist at 90 Hz, the 
 126–144 Hz, with 4–9 % of critical damping (bolted joints); ``tests/test_sim_station.py``
 checks the rocking mode in the station against the modal analysis. Assumed values, not
 measured on a lab's tool; a softer mount (rocking at 37 Hz) makes the loop unstable in fig7
-without the controller's notch (README)."""
+without the controller's notch (docs/scenarios.md)."""
 
 
 MOUNT_ROCKING_HZ = 48.0

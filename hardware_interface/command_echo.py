@@ -3,7 +3,7 @@
 The controller answers the arm's status of one step with a command its next step should take.
 When the loop pauses, or its command reaches the driver after the step, the arm steps on an
 older one and holds its setpoint: in fast strokes that rings a compliant tool mount
-(README, "The grasp on hardware"). ``lcmt_iiwa_status.joint_position_commanded`` says which
+(docs/hardware.md, "The grasp on hardware"). ``lcmt_iiwa_status.joint_position_commanded`` says which
 command the arm stepped on; ``CommandEcho`` remembers the last ``SENT_KEEP`` commands sent with
 the status each answered, finds the echoed one (the newest equal to it: an echo is a copy) and
 measures its lag: the steps between the status it answered and the status that echoes it, less

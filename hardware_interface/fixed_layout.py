@@ -5,7 +5,7 @@ call per field. Once its length fields are fixed (``lengths``), a message's wire
 is one big-endian record: the type's 8-byte fingerprint, then every field in declaration order,
 arrays flattened row-major. ``FixedLayout`` reads that record off the generated class itself
 (``__slots__``, ``__typenames__``, ``__dimensions__``), so the two cannot disagree, and packs a
-message from its values in one call, or unpacks one into them (README "Compiled kernels": the
+message from its values in one call, or unpacks one into them (docs/benchmarks.md, "Simulation and kernels": the
 arm's status in 1.8 and 0.9 µs against 6.0 and 4.8 µs), for the drivers and loops
 that send and read at kHz rates. A payload of another size or fingerprint is not of the layout:
 ``unpack`` says so with None, and the generated decoder can tell what else it is. Kernels read a

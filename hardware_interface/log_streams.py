@@ -1,4 +1,4 @@
-"""A log written by `heft … --hardware --record` as the files of a recording (README "Your own data"):
+"""A log written by `heft … --hardware --record` as the files of a recording (docs/recordings.md):
 the FT samples and the arm's joint angles, each on its driver's clock, as Parquet files.
 
 ``ft.parquet``: one row per FT sample (of ``heft_ft_sample`` or ``heft_ft_samples`` messages: ``ft_messages``):

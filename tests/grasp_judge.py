@@ -1,4 +1,4 @@
-"""The judge of the grasp on hardware (its targets: README, "The grasp on hardware"), shared by
+"""The judge of the grasp on hardware (its targets: docs/hardware.md, "The grasp on hardware"), shared by
 the in-process and the two-process test: from what the controller sent and learned, against the
 stand-in's recorded truth.
 

@@ -6,7 +6,7 @@ starts from the gripper's φ alone, re-zeroes the sensor at rest (``heft load --
 the offsets then take in what the accelerometer's bias makes of the gripper's weight, as an
 identification's would) and hears the grasp from the gripper's driver; the slave follows the
 operator's strokes from ``MOVE_FROM`` s until the clutch is let go at ``STILL_FROM`` s, then holds still. Judged by
-``grasp_judge`` against the stand-in's truth (the README's targets, which
+``grasp_judge`` against the stand-in's truth (docs/hardware.md's targets, which
 ``test_two_process_grasp`` judges across two processes)."""
 
 import json

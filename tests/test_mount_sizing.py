@@ -64,7 +64,7 @@ def test_every_tool_of_the_family_has_its_mount_within_the_step(sized):
 def test_a_tool_lighter_than_the_papers_rocks_where_it_does(sized):
     """Sized down in proportion to its inertia, a light tool's mount keeps it rocking within 15 % of
     the default notch (``MOUNT_ROCKING_HZ``; the notch at 42 or 56 Hz still served the 48 Hz
-    gripper, README) wherever the step allowed the full stiffness."""
+    gripper, docs/scenarios.md) wherever the step allowed the full stiffness."""
     from heft.diagrams.scenario import MOUNT_ROCKING_HZ
 
     paper = load_phi(Scenario().load)

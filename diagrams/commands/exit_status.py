@@ -1,4 +1,4 @@
-"""The exit statuses of every `heft` command, each for one kind of outcome (README "Exit statuses")."""
+"""The exit statuses of every `heft` command, each for one kind of outcome (README, "Exit statuses")."""
 
 from __future__ import annotations
 
