@@ -41,6 +41,11 @@ REORDER_WINDOW = 1024
 """Records an ``rdt_sequence`` may fall behind the stream's newest and still be a late packet of the
 same stream; further back it is a new stream (a restarted device or a new start request)."""
 _WRAP = 1 << 32
+_SO_TIMESTAMPNS = getattr(socket, "SO_TIMESTAMPNS", 35)
+"""Linux's socket option for the kernel's receive time of each datagram (Python 3.11 does not name it)."""
+_TIMESPEC = struct.Struct("@qq")
+"""That time: s and ns since the epoch."""
+_TIMESTAMP_BYTES = socket.CMSG_SPACE(_TIMESPEC.size)
 
 
 def pack_request(command: int, sample_count: int = 0) -> bytes:
@@ -160,6 +165,7 @@ class NetFtClient:
             self._socket.close()
             raise ValueError(f"the Net F/T at {address}:{port} cannot be reached: {error}") from None
         self._socket.setblocking(False)
+        self._socket.setsockopt(socket.SOL_SOCKET, _SO_TIMESTAMPNS, 1)
 
     def fileno(self) -> int:
         return self._socket.fileno()
@@ -175,13 +181,19 @@ class NetFtClient:
                 pass
 
     def receive(self, clock) -> list[tuple[bytes, float]]:
-        """Every datagram waiting (at most 64 kB each), with ``clock()`` at its taking."""
+        """Every datagram waiting (at most 64 kB each), with the wall time (s since the epoch) the kernel
+        received it at (``clock()`` at its taking if the kernel gave none): a driver late to read its
+        socket still dates the packets by their arrival."""
         taken = []
         while True:
             try:
-                taken.append((self._socket.recv(65536), clock()))
+                datagram, ancillary, _, _ = self._socket.recvmsg(65536, _TIMESTAMP_BYTES)
             except (BlockingIOError, ConnectionRefusedError):
                 return taken
+            arrival = next((seconds + 1e-9 * nanoseconds for level, kind, data in ancillary
+                            if (level, kind) == (socket.SOL_SOCKET, _SO_TIMESTAMPNS)
+                            for seconds, nanoseconds in [_TIMESPEC.unpack(data)]), None)
+            taken.append((datagram, clock() if arrival is None else arrival))
 
     def close(self) -> None:
         self._socket.close()

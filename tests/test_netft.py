@@ -164,3 +164,25 @@ def test_an_unreachable_device_is_refused_in_one_line(capsys):
     assert main(["driver", "netft", "--address", "no-such-host.invalid", "--counts-per-force", "1e6",
                  "--counts-per-torque", "1e6", "--rt-priority", "0", "--duration", "0"]) == 2
     assert "the Net F/T at no-such-host.invalid:49152 cannot be reached" in capsys.readouterr().err
+
+
+def test_a_datagram_read_late_is_dated_by_its_arrival():
+    import socket
+    import time
+
+    from heft.hardware_interface.netft import NetFtClient
+
+    device = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    device.bind(("127.0.0.1", 0))
+    client = NetFtClient("127.0.0.1", device.getsockname()[1])
+    try:
+        client.request(START_REALTIME)
+        _, address = device.recvfrom(64)
+        sent = time.time()
+        device.sendto(_record(1, 1, 0, 0, 0, 0, 0, 0, 0), address)
+        time.sleep(0.1)  # the driver late to read
+        ((_, arrival),) = client.receive(time.time)
+    finally:
+        client.close()
+        device.close()
+    assert sent <= arrival < sent + 0.05

@@ -5,7 +5,7 @@ It asks the device to stream (``lab.netft.buffered``: buffered or real-time), as
 and publishes each packet's new records as one ``heft_ft_samples`` on ``lab.lcm.ft_sample`` (its
 name, on ``lab.lcm.lcm_url``): the wrench in N and N·m through the calibration, in the sensor's
 sign; the records' stamps on this process's wall clock (``record_stamps``, the newest at the
-packet's arrival, the older ``1 / ft_sample.rate`` apart); no acceleration (the Net F/T has none);
+packet's arrival at the kernel, the older ``1 / ft_sample.rate`` apart); no acceleration (the Net F/T has none);
 ``error`` where the status code has its error bit. What it refused, lost and saw in the status is
 counted (``RdtStream``) and summarised; it never stops on a datagram.
 """
@@ -49,13 +49,6 @@ def run_netft_driver(address: str, params: NetFtParams, channels: LcmChannels, d
     newest_us, packets, rejected, published, requests, asked = 0, 0, 0, 0, 0, -float("inf")
     try:
         while True:
-            now = clock()
-            if now - begin >= duration or (stop is not None and stop()):
-                break
-            if now - max(asked, last_record or -float("inf")) >= RETRY_S:
-                client.request(start_command)
-                requests, asked = requests + 1, now
-            select.select([client], [], [], min(_WAIT_S, max(0.0, begin + duration - now)))
             for datagram, arrival in client.receive(clock):
                 records = unpack_records(datagram)
                 if records is None:
@@ -75,6 +68,13 @@ def run_netft_driver(address: str, params: NetFtParams, channels: LcmChannels, d
                 for message in ft_messages_of(records[indices], counters, stamps, per_unit):
                     bus.publish(channels.ft_sample.name, message)
                     published += 1
+            now = clock()
+            if now - begin >= duration or (stop is not None and stop()):
+                break
+            if now - max(asked, last_record or -float("inf")) >= RETRY_S:  # after what was waiting: not late itself
+                client.request(start_command)
+                requests, asked = requests + 1, now
+            select.select([client], [], [], min(_WAIT_S, max(0.0, begin + duration - now)))
     finally:
         client.request(STOP_STREAMING)
         client.close()
