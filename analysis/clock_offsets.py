@@ -10,7 +10,8 @@ noise over its noise, about 1 and fluctuating from offset to offset by far more 
 axes' costs change: in a horizontal swing of the paper's tool it put the minimum 1.75 ms off.)
 Each stream's offset is found on a grid over ±``search`` s, refined on a grid 20 times finer
 around the best and by a parabola through the finest grid's three best points.
-Then the samples near contact (``contact_free``) are left out and the search runs again (with
+Then the samples near contact (``contact_free``: as `heft compensate` finds it, wherever the recording
+is quiet) are left out and the search runs again (with
 several streams, two more rounds of one stream at a time). A φ̂ is needed: ``heft compensate`` takes
 the estimate's, identification may alternate (identify with an offset, estimate the offset, …).
 
@@ -33,6 +34,7 @@ import dataclasses
 
 import numpy as np
 
+from heft.analysis.compensation import quiet_threshold
 from heft.analysis.recording_merge import RecordingSource, StreamData, merge, rotation_terms
 from heft.systems.rotation_sampling import savitzky_golay
 
@@ -41,6 +43,8 @@ COARSE_STEPS = 25
 FINE_FACTOR = 20
 """The fine grid's step is the coarse one's over this."""
 ROUNDS = 2
+MIN_FREE = 0.05
+"""The least share of the window's samples out of contact for the search to keep to them."""
 OBSERVABLE_STD = 1e-4
 """s: the largest standard error of an offset the motion is said to tell (half the 0.2 ms aimed at)."""
 
@@ -99,27 +103,28 @@ def residual_cost(recording, t, wrench, data: StreamData, offsets: dict, phi, ke
     return float(np.sum(residual_var / np.maximum(wrench_var, 1e-12)))
 
 
-def contact_free(t: np.ndarray, residual: np.ndarray, guard: float) -> np.ndarray:
-    """The samples at least ``guard`` s from any whose force residual |f − V·φ̂ − mean| lies beyond its
-    median + 6 robust standard deviations (1.4826 × MAD): contact, which no clock offset explains."""
-    force = np.linalg.norm(residual[:, :3] - residual[:, :3].mean(axis=0), axis=1)
-    median = np.median(force)
-    outside = force > median + 6.0 * 1.4826 * np.median(np.abs(force - median))
+def contact_free(t: np.ndarray, residual: np.ndarray, guard: float, sensor_offsets=None) -> np.ndarray:
+    """The samples at least ``guard`` s from any in contact, which no clock offset explains: the
+    contact force |f − V·φ̂ − o_f| (o the ``sensor_offsets`` on the load's sign, else the force
+    residual's median) above the threshold `heft compensate` would find in it (``quiet_threshold``)."""
+    baseline = np.median(residual[:, :3], axis=0) if sensor_offsets is None else np.asarray(sensor_offsets)[:3]
+    force = np.linalg.norm(residual[:, :3] - baseline, axis=1)
+    outside = force > quiet_threshold(t, force).value
     if not outside.any():
         return np.ones(len(t), dtype=bool)
-    near = np.zeros(len(t), dtype=bool)
     edges = t[outside]
     left = np.searchsorted(edges, t - guard)
     right = np.searchsorted(edges, t + guard, side="right")
-    near |= right > left
-    return ~near
+    return right <= left
 
 
 def estimate_clock_offsets(source: RecordingSource, phi, streams=None, window: tuple[float, float] | None = None,
-                           search: float = 0.05, max_samples: int = 20000, initial: dict | None = None) -> dict:
+                           search: float = 0.05, max_samples: int = 20000, initial: dict | None = None,
+                           sensor_offsets=None) -> dict:
     """{stream: OffsetFit} for ``streams`` (default: those whose offset is 'estimate'), the others held
     at their stated (or ``initial``) offsets. ``window``: (start, duration) s of wrench time (default:
-    the first 60 s the streams share); at most ``max_samples`` wrench rows of it are used."""
+    the first 60 s the streams share); at most ``max_samples`` wrench rows of it are used.
+    ``sensor_offsets`` (6,), on the load's sign, if known: contact is then judged against them."""
     stated = source.stated_offsets()
     streams = list(streams) if streams is not None else [n for n, v in stated.items() if v == "estimate"]
     offsets = {name: 0.0 if value == "estimate" else float(value) for name, value in stated.items()}
@@ -147,9 +152,12 @@ def estimate_clock_offsets(source: RecordingSource, phi, streams=None, window: t
                                  independent)
             offsets[name] = fits[name].offset
         if round_ == 0:  # leave out contact (and what the filters smear of it) from then on
-            keep = contact_free(t, residuals(source.recording, t, wrench, data, offsets, phi), 2 * search)
-            if keep.sum() < 0.2 * len(t):
+            keep = contact_free(t, residuals(source.recording, t, wrench, data, offsets, phi), 2 * search,
+                                sensor_offsets)
+            if keep.sum() < MIN_FREE * len(t):
                 keep = None
+            else:
+                independent = keep.sum() / len(t) * (t[-1] - t[0]) / diff.window
     return fits
 
 

@@ -109,9 +109,9 @@ def _stream_fit(recording, source, scenario: Scenario, method: str, out: Path) -
     noise = recording_noise(scenario, alpha_recorded)
     if ESTIMATE in source.stated_offsets().values():
         first = source.merged({n: 0.0 for n, v in source.stated_offsets().items() if v == ESTIMATE})
-        phi = batch_estimate(first.wrench, first.a, first.alpha, first.omega, first.g, method="wls",
-                             weights=noise.wrench_weights()).phi
-        fits = estimate_clock_offsets(source, phi)
+        fit = batch_estimate(first.wrench, first.a, first.alpha, first.omega, first.g, method="wls",
+                             weights=noise.wrench_weights())
+        fits = estimate_clock_offsets(source, fit.phi, sensor_offsets=fit.offsets)
         offsets = {name: fit.offset for name, fit in fits.items()}
         metrics["clock_offsets"] = {name: fit.summary() for name, fit in fits.items()}
         for name, fit in fits.items():

@@ -79,7 +79,8 @@ def run(args) -> int:
     fits = {}
     if ESTIMATE in source.stated_offsets().values():
         window = tuple(args.offset_window) if args.offset_window else None
-        fits = estimate_clock_offsets(source, estimate.phi, window=window, search=args.offset_search)
+        fits = estimate_clock_offsets(source, estimate.phi, window=window, search=args.offset_search,
+                                      sensor_offsets=estimate.offsets)
         for name, fit in fits.items():
             offsets[name] = fit.offset
             say.info(f"clock offset of {name}: {1e3 * fit.offset:.3f} ms (estimated: V·φ̂ against the wrench"
