@@ -153,10 +153,11 @@ class RdtStream:
 
 class NetFtClient:
     """A UDP socket connected to a Net F/T at (``address``, ``port``; ValueError if it cannot be): the
-    kernel passes on only its datagrams. ``request`` sends an RDT request; ``receive`` the datagrams
-    waiting, with the wall time (s since the epoch) each was taken."""
+    kernel passes on only its datagrams, and keeps up to ``receive_buffer`` bytes of them (as much as
+    ``net.core.rmem_max`` grants; 4 MiB: seconds of packets) while the driver is kept off the CPU.
+    ``request`` sends an RDT request; ``receive`` the datagrams waiting, each with its arrival."""
 
-    def __init__(self, address: str, port: int = RDT_PORT, receive_buffer: int = 1 << 20):
+    def __init__(self, address: str, port: int = RDT_PORT, receive_buffer: int = 4 << 20):
         self._socket = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self._socket.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, receive_buffer)
         try:

@@ -1,11 +1,12 @@
 """`heft driver netft`'s loop: an ATI Net F/T's RDT stream published as heft's FT channel.
 
 It asks the device to stream (``lab.netft.buffered``: buffered or real-time), asking again every
-``RETRY_S`` while none of its records arrive (a lost request, a device not yet up or restarted),
+``RETRY_S`` while none of its records arrive (a lost request, a device not yet up or restarted; not
+while it reads what waited in its socket, which a driver late to read finds older than that),
 and publishes each packet's new records as one ``heft_ft_samples`` on ``lab.lcm.ft_sample`` (its
 name, on ``lab.lcm.lcm_url``): the wrench in N and N·m through the calibration, in the sensor's
-sign; the records' stamps on this process's wall clock (``record_stamps``, the newest at the
-packet's arrival at the kernel, the older ``1 / ft_sample.rate`` apart); no acceleration (the Net F/T has none);
+sign; the records' stamps on the wall clock (``record_stamps``: the newest at the packet's arrival
+at the kernel, the older ``1 / ft_sample.rate`` apart); no acceleration (the Net F/T has none);
 ``error`` where the status code has its error bit. What it refused, lost and saw in the status is
 counted (``RdtStream``) and summarised; it never stops on a datagram.
 """
@@ -49,7 +50,8 @@ def run_netft_driver(address: str, params: NetFtParams, channels: LcmChannels, d
     newest_us, packets, rejected, published, requests, asked = 0, 0, 0, 0, 0, -float("inf")
     try:
         while True:
-            for datagram, arrival in client.receive(clock):
+            taken = client.receive(clock)
+            for datagram, arrival in taken:
                 records = unpack_records(datagram)
                 if records is None:
                     rejected += 1
@@ -71,7 +73,7 @@ def run_netft_driver(address: str, params: NetFtParams, channels: LcmChannels, d
             now = clock()
             if now - begin >= duration or (stop is not None and stop()):
                 break
-            if now - max(asked, last_record or -float("inf")) >= RETRY_S:  # after what was waiting: not late itself
+            if not taken and now - max(asked, last_record or -float("inf")) >= RETRY_S:  # silent, not just read late
                 client.request(start_command)
                 requests, asked = requests + 1, now
             select.select([client], [], [], min(_WAIT_S, max(0.0, begin + duration - now)))
