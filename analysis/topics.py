@@ -44,8 +44,8 @@ class Field:
     start: int = 0
     doc: str = ""
 
-    def value(self, row):
-        v = np.ravel(row)
+    def value(self, v: list):
+        """The field's JSON value from its array's row ``v`` (a flat list)."""
         if self.parts is None:
             return _number(v[self.start])
         if isinstance(self.parts, int):
@@ -62,9 +62,8 @@ class Field:
         return {"type": "object", "properties": {name: number for name in self.parts}, "description": self.doc}
 
 
-def _number(x) -> float | None:
+def _number(x: float) -> float | None:
     """``x`` as a JSON number; None (null) where it is not finite (a tick the log lacks)."""
-    x = float(x)
     return x if math.isfinite(x) else None
 
 
@@ -86,7 +85,7 @@ class Topic:
         return any(key in keys for key in self.keys)
 
     def message(self, t: float, row: dict) -> dict:
-        """The message of one row (``row``: key → that row's entries) at ``t`` (s)."""
+        """The message of one row (``row``: key → that row's entries as a flat list) at ``t`` (s)."""
         return {"t": t, **{field.name: field.value(row[field.key]) for field in self.fields if field.key in row}}
 
     def schema(self) -> dict:
@@ -151,6 +150,7 @@ TOPICS = (
         Field("scales", "scales", ("sigma", "gamma", "eta"), 0, "σ, γ, η in effect"))),
 )
 """The topics of a run's rows, one message per row each."""
+TOPIC_BY_NAME = {topic.name: topic for topic in TOPICS}
 
 SCENE_FRAMES = "/scene/frames"
 SCENE_WRENCHES = "/scene/wrenches"
@@ -183,25 +183,27 @@ def _transform(t, parent, child, p, q_wxyz) -> dict:
             "rotation": {"x": float(q_wxyz[1]), "y": float(q_wxyz[2]), "z": float(q_wxyz[3]), "w": float(q_wxyz[0])}}
 
 
+def _finite(values) -> bool:
+    return all(map(math.isfinite, values))
+
+
 def scene_frames(t: float, row: dict) -> dict:
-    """``foxglove.FrameTransforms`` of one row: B in R (fixed), S in R, E in B (where known)."""
-    S, E = np.ravel(row["pose_RS"]), np.ravel(row["pose_BE"])
+    """``foxglove.FrameTransforms`` of one row (flat lists): B in R (fixed), S in R, E in B (where known)."""
     transforms = [_transform(t, "R", "B", MASTER_BASE_IN_R, (1.0, 0.0, 0.0, 0.0))]
-    for parent, child, pose in (("R", "S", S), ("B", "E", E)):
-        if np.isfinite(pose).all():  # a tick without the joints' message has no pose
+    for parent, child, pose in (("R", "S", row["pose_RS"]), ("B", "E", row["pose_BE"])):
+        if _finite(pose):  # a tick without the joints' message has no pose
             transforms.append(_transform(t, parent, child, pose[:3], pose[3:]))
     return {"transforms": transforms}
 
 
-def _x_to(direction) -> dict:
-    """The unit quaternion (x, y, z, w) turning +x onto ``direction`` (3, nonzero)."""
-    d = direction / np.linalg.norm(direction)
-    w = 1.0 + d[0]
+def _x_to(d, size: float) -> dict:
+    """The unit quaternion (x, y, z, w) turning +x onto ``d`` (3) of length ``size`` > 0."""
+    w = 1.0 + d[0] / size
     if w < 1e-9:  # opposite to +x: half a turn about z
         return {"x": 0.0, "y": 0.0, "z": 1.0, "w": 0.0}
-    q = np.array([0.0, -d[2], d[1], w])  # axis x̂ × d, angle from the half-way vector
-    q /= np.linalg.norm(q)
-    return dict(zip(("x", "y", "z", "w"), map(float, q), strict=True))
+    y, z = -d[2] / size, d[1] / size  # axis x̂ × d, angle from the half-way vector
+    n = math.sqrt(y * y + z * z + w * w)
+    return {"x": 0.0, "y": y / n, "z": z / n, "w": w / n}
 
 
 def scene_wrenches(t: float, row: dict) -> dict:
@@ -211,15 +213,14 @@ def scene_wrenches(t: float, row: dict) -> dict:
     for name, (frame, key, rgb) in SCENE_ARROWS.items():
         if key not in row:
             continue
-        force = np.ravel(row[key])[:3].astype(float)
+        force = row[key][:3]
         if frame == "E":  # the hand's force is in B: drawn from E's origin, in B's axes
-            frame, origin = "B", np.ravel(row["pose_BE"])[:3]
+            frame, origin = "B", row["pose_BE"][:3]
         else:
-            origin = np.zeros(3)
-        known = np.isfinite(force).all() and np.isfinite(origin).all()
-        size = float(np.linalg.norm(force)) if known else 0.0
+            origin = (0.0, 0.0, 0.0)
+        size = math.sqrt(sum(f * f for f in force)) if _finite(force) and _finite(origin) else 0.0
         arrows = [] if size == 0.0 else [{
-            "pose": {"position": dict(zip(XYZ, map(float, origin), strict=True)), "orientation": _x_to(force)},
+            "pose": {"position": dict(zip(XYZ, origin, strict=True)), "orientation": _x_to(force, size)},
             "shaft_length": ARROW_SCALE * size, "shaft_diameter": 0.008, "head_length": 0.03, "head_diameter": 0.02,
             "color": {"r": rgb[0], "g": rgb[1], "b": rgb[2], "a": 1.0}}]
         entities.append({"timestamp": _timestamp(t), "frame_id": FRAME_IDS[frame], "id": name,
@@ -297,7 +298,7 @@ def schema_of(name: str) -> tuple[str, dict, str]:
 
 def row_messages(t: float, row: dict, names) -> list[tuple[str, dict]]:
     """(topic, message) of one row (``row``: key → that row's entries, at ``t`` s) on each topic of ``names``."""
-    by_name = {topic.name: topic for topic in TOPICS}
+    row = {key: np.ravel(value).tolist() for key, value in row.items()}
     out = []
     for name in names:
         if name == SCENE_FRAMES:
@@ -305,7 +306,7 @@ def row_messages(t: float, row: dict, names) -> list[tuple[str, dict]]:
         elif name == SCENE_WRENCHES:
             out.append((name, scene_wrenches(t, row)))
         else:
-            out.append((name, by_name[name].message(t, row)))
+            out.append((name, TOPIC_BY_NAME[name].message(t, row)))
     return out
 
 

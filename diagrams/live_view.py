@@ -5,14 +5,14 @@ file (``McapRecorder``), by a process of their own.
 The loop's side of either is a hand-off into shared memory: ``publish(t, arrays)`` copies the
 declared arrays into a ring of preallocated rows and moves a counter; no encoding, no lock, no
 system call, so it never waits for the viewer. ``LiveView`` takes at most ``rate`` rows a second
-(on the loop's clock ``t``), ``McapRecorder`` every row. The worker process (niced) reads the
-ring, adds the scene's poses (``diagrams.scene_poses``), encodes the messages and serves or
-writes them; a ring it falls behind on by more than ``RING_ROWS`` rows loses the oldest, counted.
+(on the loop's clock ``t``), ``McapRecorder`` every row (the scene at ``SCENE_RATE``). The worker
+process (niced) reads the ring, adds the scene's poses (``diagrams.scene_poses``), encodes the
+messages and serves or writes them; rows it falls more than ``RING_ROWS`` behind on are lost, counted.
 
     view = LiveView(port=8765)                      # or McapRecorder("run.mcap")
     view.open({"wrench_measured": 6, "slave_q": 6, ...})  # once: starts the worker, waits for it
     view.publish(t, arrays)                         # each tick: key → array of the declared width
-    view.event("/faults", message)                  # rare messages (analysis.topics.EVENT_TOPICS)
+    view.event("/faults", message, t)               # rare messages (analysis.topics.EVENT_TOPICS)
     view.close()                                    # {"rows": …, "dropped": …}
 """
 
@@ -38,6 +38,9 @@ WORKER_NICENESS = 10
 """The worker's nice value: below the loop's priority."""
 POLL = 0.005
 """s between the worker's looks at the ring."""
+SCENE_RATE = DEFAULT_RATE
+"""Scene messages a second at most (Hz, the loop's clock; the recorder's other topics take every row):
+a drawing, and the dearest message to make."""
 LINGER = 0.5
 """s the server stays up after the last row, for its messages to reach the clients."""
 START_TIMEOUT = 120.0
@@ -80,7 +83,7 @@ class TickTap:
         file.truncate(8 * (_HEADER + RING_ROWS * columns))
         file.close()
         self._path = file.name
-        memory = np.memmap(self._path, dtype=np.float64, mode="r+")
+        memory = np.memmap(self._path, dtype=np.float64, mode="r+").view(np.ndarray)  # plain views: cheaper to set
         self._head, ring = memory[:_HEADER], memory[_HEADER:].reshape(RING_ROWS, columns)
         self._slots, start = [], 1
         spans = []
@@ -96,14 +99,22 @@ class TickTap:
                                                           self._rate, self._events, replies), daemon=True)
         self._process.start()
         self._tell_origin()
-        try:
-            error = replies.get(timeout=START_TIMEOUT)
-        except queue.Empty:
-            error = f"the view's worker did not start in {START_TIMEOUT:g} s"
+        error = self._started(replies)
         if error:
             self.close()
             raise ValueError(error)
         self.address = self._address()
+
+    def _started(self, replies) -> str | None:
+        """None once the worker serves; else what went wrong."""
+        deadline = time.monotonic() + START_TIMEOUT
+        while time.monotonic() < deadline:
+            try:
+                return replies.get(timeout=0.2)
+            except queue.Empty:
+                if not self._process.is_alive():
+                    return f"the view's worker exited (status {self._process.exitcode}) before it served"
+        return f"the view's worker did not start in {START_TIMEOUT:g} s"
 
     def _address(self) -> str:
         kind, *where = self._sink
@@ -195,7 +206,8 @@ def _work(path, widths: dict, sink: tuple, robot: str, rate: float, events, repl
     os.nice(WORKER_NICENESS)
     try:
         from heft.analysis.run_export import foxglove_channel, foxglove_sdk
-        from heft.analysis.topics import EVENT_TOPICS, SCENE_KEYS, encode, row_messages, row_topics, schema_of
+        from heft.analysis.topics import (EVENT_TOPICS, SCENE_FRAMES, SCENE_KEYS, SCENE_WRENCHES, encode, row_messages,
+                                          row_topics, schema_of)
 
         foxglove = foxglove_sdk()
         context = foxglove.Context()
@@ -221,12 +233,13 @@ def _work(path, widths: dict, sink: tuple, robot: str, rate: float, events, repl
         replies.put(f"the live view could not start: {error}")
         return
     replies.put(None)
-    memory = np.memmap(path, dtype=np.float64, mode="r+")
+    memory = np.memmap(path, dtype=np.float64, mode="r+").view(np.ndarray)
     head, ring = memory[:_HEADER], memory[_HEADER:].reshape(RING_ROWS, -1)
     spans, start = {}, 1
     for key, width in widths.items():
         spans[key], start = slice(start, start + width), start + width
-    read, dropped, t0 = 0, 0, 0
+    read, dropped, t0, next_scene = 0, 0, 0, -math.inf
+    plain = [name for name in names if name not in (SCENE_FRAMES, SCENE_WRENCHES)]
     try:
         while True:
             stopping = head[1] != 0.0
@@ -250,10 +263,12 @@ def _work(path, widths: dict, sink: tuple, robot: str, rate: float, events, repl
                     continue
                 t = float(row[0])
                 arrays = {key: row[part] for key, part in spans.items()}
-                if scene is not None:
+                drawn = scene is not None and t >= next_scene - 1e-9
+                if drawn:  # the scene at most SCENE_RATE
+                    next_scene = t + 1.0 / SCENE_RATE
                     scene.update(arrays["slave_q"], arrays["master_q"])
                     arrays.update(pose_RS=scene.pose_RS, pose_BE=scene.pose_BE)
-                for name, message in row_messages(t, arrays, names):
+                for name, message in row_messages(t, arrays, names if drawn else plain):
                     channels[name].log(encode(message), log_time=t0 + round(t * 1e9))
             read = written
             if stopping and int(head[0]) == read:

@@ -150,13 +150,16 @@ def test_the_recorder_writes_every_row_handed_to_it(tmp_path):
     assert stats == {"rows": len(data), "dropped": 0}
     with open(tmp_path / "run.mcap", "rb") as file:
         messages = [(channel.topic, message.log_time, json.loads(message.data))
-                    for _, channel, message in make_reader(file).iter_messages(topics=["/wrench/contact", "/loop"])]
+                    for _, channel, message in make_reader(file).iter_messages(
+                        topics=["/wrench/contact", "/loop", "/scene/frames"])]
     contact = [(t, m) for topic, t, m in messages if topic == "/wrench/contact"]
     assert [t for t, _ in contact] == [10**18 + round(k * 0.0005 * 1e9) for k in range(len(data))]
     np.testing.assert_array_equal([[m["force"][a] for a in "xyz"] for _, m in contact],
                                   [row["wrench_contact"][:3] for row in data])
     np.testing.assert_array_equal([m["hold"] for topic, _, m in messages if topic == "/loop"],
                                   [row["hold"][0] for row in data])
+    assert [m["transforms"][0]["timestamp"] for topic, _, m in messages if topic == "/scene/frames"] == [
+        {"sec": 0, "nsec": round(k * 0.0005 * 1e9)} for k in range(0, len(data), 20)]  # the scene at 100 Hz
 
 
 def test_the_loops_hand_off_takes_microseconds(tmp_path):

@@ -15,5 +15,11 @@ def add_view(parser) -> None:
 
 
 def view_from(args, robot: str) -> LiveView | None:
-    """The ``LiveView`` the options ask for (not yet open), or None; ``robot`` poses its scene."""
-    return LiveView(args.view_port, robot=robot) if args.view else None
+    """The ``LiveView`` the options ask for (not yet open), or None; ``robot`` poses its scene. A
+    ValueError (one line: how to install it) without foxglove-sdk."""
+    if not args.view:
+        return None
+    from heft.analysis.run_export import foxglove_sdk
+
+    foxglove_sdk()
+    return LiveView(args.view_port, robot=robot)
