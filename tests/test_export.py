@@ -8,6 +8,7 @@ arrays, or the LCM messages decoded here; the scene's sensor pose against Drake'
 
 import collections
 import json
+import sys
 
 import lcm
 import numpy as np
@@ -160,3 +161,12 @@ def test_a_hardware_log_as_mcap_holds_every_tick_and_every_message(hardware_log,
     statuses = [m for _, m in topics["/faults"]]
     assert len(statuses) == len(events[channels.station_status.name])
     assert set(statuses[-1]["channels"]) >= {"master_state", "slave_status", "ft_sample"}
+
+
+def test_without_the_view_extra_mcap_and_the_view_say_how_to_install(simulation_log, tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "foxglove", None)  # as if foxglove-sdk were not installed
+    assert main(["export", str(simulation_log), "--out", str(tmp_path)]) == 2
+    assert main(["simulate", "fig6", "--view", "--duration", "0.01"]) == 2
+    lines = [line for line in capsys.readouterr().err.splitlines() if "pip install 'heft-teleop[view]'" in line]
+    assert len(lines) == 2 and not (tmp_path / "log.mcap").exists()
+    assert main(["export", str(simulation_log), "--to", "csv", "--out", str(tmp_path)]) == 0  # pyarrow's

@@ -57,6 +57,7 @@ def run(args) -> int:
                               "controller.force.eta": args.eta, **noise, "duration": args.duration})
     scenario = scenario_from(args, options)
     sigmas = compared_sigmas(args, scenario)
+    view = view_from(args, scenario.robot)  # before identifying: a missing extra is said at once
     out = Path(args.out or f"out/{Path(args.scenario).stem}")
     estimate = args.estimate or scenario.controller.load_estimate
     if estimate:
@@ -75,7 +76,6 @@ def run(args) -> int:
         from pydrake.geometry import Meshcat
         meshcat = Meshcat()
         say.info(f"live view: {meshcat.web_url()}")
-    view = view_from(args, scenario.robot)
     if view is not None:
         say.info(f"live view: ws://localhost:{args.view_port}; {VIEW_HOWTO}")
     try:
