@@ -40,7 +40,9 @@ ROBUST_SIGMAS = 6.0
 SCAN_SAMPLES = 200_000
 """Wrench samples (at most, evenly thinned) from which the default threshold is found."""
 QUIET_WINDOW = 0.1
-"""s of wrench time per stretch when looking for the quietest."""
+"""s of wrench time per stretch when looking for the quietest (longer if it would hold fewer than
+``QUIET_SAMPLES`` of the thinned samples)."""
+QUIET_SAMPLES = 10
 QUIET_SHARE = 0.1
 """The share of stretches (the lowest median |c_f|) that start the search; at least one."""
 MERGE_GAP = 0.02
@@ -65,7 +67,8 @@ def _robust_level(force: np.ndarray) -> float:
 def quiet_threshold(t: np.ndarray, force: np.ndarray, estimate_rms=None) -> ContactThreshold:
     """The default threshold (module docstring) from |c_f| ``force`` (N) at wrench times ``t`` (s), and
     the force residual RMS per axis the estimate's own fit left (``estimate_rms``, N), if it measured it."""
-    edges = np.arange(t[0], t[-1] + QUIET_WINDOW, QUIET_WINDOW)
+    length = max(QUIET_WINDOW, QUIET_SAMPLES * float(np.median(np.diff(t))) if len(t) > 1 else 0.0)
+    edges = np.arange(t[0], t[-1] + length, length)
     window = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, None)
     counts = np.bincount(window)
     stretches = [force[window == k] for k in np.flatnonzero(counts >= 3)] or [force]
@@ -78,7 +81,7 @@ def quiet_threshold(t: np.ndarray, force: np.ndarray, estimate_rms=None) -> Cont
             break
         threshold = settled
     quiet_level = float(np.median(levels[quiet]))
-    reason = (f"the recording's quietest {len(quiet)} of {len(stretches)} stretches of {QUIET_WINDOW:g} s (median "
+    reason = (f"the recording's quietest {len(quiet)} of {len(stretches)} stretches of {length:.3g} s (median "
               f"|c_f| {quiet_level:.3g} N), median + {ROBUST_SIGMAS:g} robust σ of |c_f|, widened over every sample "
               f"below it until it settled, at least {MIN_THRESHOLD:g} N; from {len(force)} samples")
     if estimate_rms is not None:
@@ -94,14 +97,17 @@ def quiet_threshold(t: np.ndarray, force: np.ndarray, estimate_rms=None) -> Cont
 
 def contact_threshold(chunks, phi, offsets, stated: float | None = None, estimate_rms=None) -> ContactThreshold:
     """The threshold: ``stated`` (N), else ``quiet_threshold`` of the contact force over ``chunks`` (the
-    recording's ``MergedSamples``, thinned to at most ``SCAN_SAMPLES``), φ̂ and the offsets (load's sign)."""
-    if stated is not None:
-        return ContactThreshold(float(stated), "stated (--contact-threshold)")
+    recording's ``MergedSamples``, thinned to at most ``SCAN_SAMPLES``), φ̂ and the offsets (load's sign).
+    ``chunks`` are read to their end either way (``RecordingSource.chunks`` with ``every_row`` checks
+    every row of every file as they go)."""
     t_parts, force_parts = [], []
     for chunk in chunks:
-        contact = chunk.wrench[:, :3] - np.asarray(offsets, dtype=float)[:3] - chunk.noncontact(phi)[:, :3]
-        t_parts.append(chunk.t)
-        force_parts.append(np.linalg.norm(contact, axis=1))
+        if stated is None:
+            contact = chunk.wrench[:, :3] - np.asarray(offsets, dtype=float)[:3] - chunk.noncontact(phi)[:, :3]
+            t_parts.append(chunk.t)
+            force_parts.append(np.linalg.norm(contact, axis=1))
+    if stated is not None:
+        return ContactThreshold(float(stated), "stated (--contact-threshold)")
     if not t_parts:
         raise ValueError("no wrench sample to find the contact threshold from")
     return quiet_threshold(np.concatenate(t_parts), np.concatenate(force_parts), estimate_rms)

@@ -109,7 +109,7 @@ class _Window:
 
     def __init__(self, file: ColumnFile, convert, margin: float):
         self._chunks, self._convert, self.margin = file.chunks(), convert, margin
-        self.t, self.values, self._done = np.empty(0), None, False
+        self.t, self.values, self._done, self.rows = np.empty(0), None, False, 0
 
     def covering(self, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
         """The rows from ``margin`` before lo to ``margin`` after hi (as far as the stream goes)."""
@@ -120,12 +120,21 @@ class _Window:
                 self._done = True
                 break
             values = self._convert(values, row)
+            self.rows += len(t)
             self.t = np.concatenate((self.t, t))
             self.values = values if self.values is None else np.concatenate((self.values, values))
         keep = max(int(np.searchsorted(self.t, lo - self.margin)) - 1, 0)
         self.t, self.values = self.t[keep:], self.values[keep:]
         end = int(np.searchsorted(self.t, hi + self.margin)) + 1  # only these: a chunk of the file holds far more
         return self.t[:end], self.values[:end]
+
+    def drain(self) -> int:
+        """Reads the stream's remaining rows through their checks and conversion; returns the rows read in all."""
+        for t, values, row in self._chunks:
+            self._convert(values, row)
+            self.rows += len(t)
+        self._done = True
+        return self.rows
 
 
 class RecordingSource:
@@ -294,23 +303,14 @@ class RecordingSource:
     def _wrench_on_load(self, values: np.ndarray) -> np.ndarray:
         return -values if self.recording.wrench.exerted_on == "sensor" else values
 
-    def check_rows(self) -> dict:
-        """Reads every row of every stream through the checks (numbers, NaN, time order, rotations)
-        without computing anything: a bad row raises its one-line error here. Returns {stream: rows}."""
-        rows = {}
-        for name, file in self.files.items():
-            rows[name] = 0
-            for _, values, first_row in file.chunks():
-                if name == "orientation" and self.recording.orientation.kind != "joint_positions":
-                    self._orientation_quaternions(values, first_row)  # joint angles are any finite numbers
-                rows[name] += len(values)
-        return rows
-
     # --- merged samples ---------------------------------------------------------------------
-    def chunks(self, offsets: dict | None = None, t_range: tuple[float, float] | None = None, stride: int = 1):
+    def chunks(self, offsets: dict | None = None, t_range: tuple[float, float] | None = None, stride: int = 1,
+               every_row: bool = False):
         """MergedSamples per chunk of the wrench file, inside the streams' common interval (and
         ``t_range``, s on the wrench's clock, if given); every ``stride``-th wrench row. ``offsets``
-        lays clock offsets over the stated ones. Dropped rows: ``self.dropped`` after the loop."""
+        lays clock offsets over the stated ones. Dropped rows: ``self.dropped`` after the loop. With
+        ``every_row``, the rows no sample needs are read through their checks too (numbers, NaN, time
+        order, rotations), so that a bad row anywhere stops the loop; ``self.checked``: {stream: rows}."""
         offsets = self.resolved_offsets(offsets)
         lo, hi = self.common_interval(offsets)
         if t_range is not None:
@@ -321,21 +321,24 @@ class RecordingSource:
         others = [name for name in self.files if name != "wrench"]
         windows = {name: _Window(self.files[name], self._convert(name), 3 * self.period(name) + self._margin(name))
                    for name in others}
-        self.dropped = 0
+        self.dropped, wrench_rows = 0, 0
         for t, values, row in self.files["wrench"].chunks():
+            wrench_rows += len(t)
             if stride > 1:
                 phase = (-(row - 1)) % stride
                 t, values = t[phase::stride], values[phase::stride]
             inside = (t >= lo) & (t <= hi)
             self.dropped += int(len(t) - inside.sum()) if t_range is None else 0
             if not inside.any():
-                if t[0] > hi:
+                if t[0] > hi and not every_row:
                     break
                 continue
             t, values = t[inside], values[inside]
             data = StreamData({name: self._window_rows(name, windows[name], t, offsets) for name in others},
                               self._periods())
             yield merge(self.recording, t, self._wrench_on_load(values), data, offsets)
+        if every_row:
+            self.checked = {"wrench": wrench_rows, **{name: window.drain() for name, window in windows.items()}}
 
     def _window_rows(self, name, window: _Window, t: np.ndarray, offsets: dict):
         t_s, values = window.covering(t[0] + offsets[name], t[-1] + offsets[name])

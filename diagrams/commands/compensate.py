@@ -68,10 +68,6 @@ def run(args) -> int:
     estimate = read_load_estimate(args.estimate)
     source = open_recording(args.recording, args.estimate)
     recording = source.recording
-    checked = source.check_rows()
-    say.info("every row checked before computing: " + ", ".join(f"{name} {rows}" for name, rows in checked.items()))
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     for key, value in source.choices.items():
         if not key.endswith("_span"):
             say.info(f"{key}: {value}")
@@ -87,13 +83,15 @@ def run(args) -> int:
                      + ("" if fit.observable else f"; NOT observable: {fit.why_not()}") + ")")
     offsets = source.resolved_offsets(offsets)
     sign = -1.0 if recording.wrench.exerted_on == "sensor" else 1.0
-    path = out / f"compensated.{args.format}"
     rows = source.spans["wrench"][2]
-    threshold = contact_threshold(() if args.contact_threshold is not None else
-                                  source.chunks(offsets, stride=scan_stride(rows)), estimate.phi, estimate.offsets,
-                                  args.contact_threshold, None if estimate.residual_rms is None
-                                  else estimate.residual_rms[:3])
+    threshold = contact_threshold(source.chunks(offsets, stride=scan_stride(rows), every_row=True), estimate.phi,
+                                  estimate.offsets, args.contact_threshold,
+                                  None if estimate.residual_rms is None else estimate.residual_rms[:3])
+    say.info("every row checked before writing: " + ", ".join(f"{name} {n}" for name, n in source.checked.items()))
     say.info(f"contact threshold {threshold.value:.3g} N: {threshold.reason}")
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / f"compensated.{args.format}"
     result = compensate(_with_progress(source.chunks(offsets), rows), estimate.phi, estimate.offsets, sign, path,
                         threshold, rows)
     compensation_figure(result, out / "figure.png")
