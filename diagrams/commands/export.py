@@ -127,4 +127,7 @@ def run(args) -> int:
     files, counts = export_log(args.log, args.to, out, resolve_scenario(args.scenario).robot)
     where = files[0] if args.to == "mcap" else files[0].parent
     say.info(f"wrote {where}: {sum(counts.values())} messages on {len(counts)} topics")
+    if args.to == "mcap":
+        from heft.analysis.foxglove_layout import LAYOUT_FILE
+        say.info(f"open it in Foxglove or Lichtblick with the layout {LAYOUT_FILE} (docs/live_view.md)")
     return 0
