@@ -29,6 +29,8 @@ XYZ = ("x", "y", "z")
 WXYZ = ("w", "x", "y", "z")
 ARROW_SCALE = 0.005
 """Scene arrows: metres of shaft per newton."""
+ALL = 0
+"""A field's ``parts`` for an array of every entry from ``start`` (a robot's joints: 6 or 7)."""
 MASTER_BASE_IN_R = (0.3, -0.8, 0.2)
 """Where the scene draws the master's base B in R (m; for display: the two robots side by side)."""
 
@@ -36,7 +38,8 @@ MASTER_BASE_IN_R = (0.3, -0.8, 0.2)
 @dataclasses.dataclass(frozen=True)
 class Field:
     """One field of a message: array ``key``'s entries from ``start``; ``parts`` None (a number),
-    a tuple of names (an object of numbers) or a count (an array of numbers)."""
+    a tuple of names (an object of numbers), a count (an array of numbers) or ``ALL`` (an array of
+    the rest)."""
 
     name: str
     key: str
@@ -49,13 +52,15 @@ class Field:
         if self.parts is None:
             return _number(v[self.start])
         if isinstance(self.parts, int):
-            return [_number(x) for x in v[self.start:self.start + self.parts]]
+            return [_number(x) for x in v[self.start:None if self.parts == ALL else self.start + self.parts]]
         return {name: _number(v[self.start + i]) for i, name in enumerate(self.parts)}
 
     def schema(self) -> dict:
         number = {"type": ["number", "null"]}
         if self.parts is None:
             return {**number, "description": self.doc}
+        if self.parts == ALL:
+            return {"type": "array", "items": number, "description": self.doc}
         if isinstance(self.parts, int):
             return {"type": "array", "items": number, "minItems": self.parts, "maxItems": self.parts,
                     "description": self.doc}
@@ -110,7 +115,7 @@ def _phi(name: str, key: str, doc: str) -> Topic:
 def _joints(name: str, schema_name: str, doc: str, **keys) -> Topic:
     units = {"position": "rad", "velocity": "rad/s", "torque": "N·m"}
     return Topic(name, schema_name, doc,
-                 tuple(Field(field, key, 6, 0, f"{field} ({units[field]})") for field, key in keys.items()))
+                 tuple(Field(field, key, ALL, 0, f"{field} ({units[field]})") for field, key in keys.items()))
 
 
 TOPICS = (
