@@ -115,3 +115,26 @@ def test_savitzky_golay_is_scipys(order, deriv):
     samples = window_samples(0.004, 0.05, order)
     expected = savgol_filter(x, samples, order, deriv=deriv, delta=0.004, axis=0, mode="interp")
     np.testing.assert_allclose(savitzky_golay(x, 0.004, 0.05, order, deriv), expected, atol=1e-9 * np.abs(x).max())
+
+
+def test_like_derived_is_the_kernel_the_derivative_filter_puts_alpha_through():
+    """α = sin(2π·5 t): the Savitzky–Golay derivative of its exact integral ω (closed form) is α seen
+    through the derivative filter; ``like_derived`` gets it from α's samples alone (and scipy's
+    trapezoidal integral and filter agree)."""
+    from scipy.integrate import cumulative_trapezoid
+    from scipy.signal import savgol_filter
+
+    from heft.analysis.clock_offsets import like_derived
+
+    period, w = 1e-3, 2 * np.pi * 5.0
+    t = np.arange(0, 2.0, period)
+    alpha, omega = np.sin(w * t)[:, None], ((1 - np.cos(w * t)) / w)[:, None]
+    through_filter = savitzky_golay(omega, period, 0.05, 2, deriv=1)
+    ours = like_derived(alpha, period, 0.05, 2)
+    assert np.abs(ours - alpha).max() > 0.01  # the kernel smooths: 5 Hz over 50 ms loses some percent
+    trapezoid = 1.05 * period ** 2 * w ** 2 / 12  # the trapezoidal rule's error on α's derivative's scale
+    np.testing.assert_allclose(ours, through_filter, atol=trapezoid)
+    samples = window_samples(period, 0.05, 2)
+    integral = cumulative_trapezoid(alpha[:, 0], dx=period, initial=0.0)
+    scipys = savgol_filter(integral, samples, 2, deriv=1, delta=period, mode="interp")
+    np.testing.assert_allclose(ours[:, 0], scipys, atol=1e-9)
