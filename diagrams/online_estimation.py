@@ -8,13 +8,14 @@ from heft.systems.contact_threshold import ContactThresholdParams
 from heft.systems.estimator_gate import EstimatorGate
 from heft.systems.estimator_prefilter import EstimatorPrefilter
 from heft.systems.load_estimation_params import LoadEstimationParams
+from heft.systems.load_model import GraspSplit
 from heft.systems.rls_load_estimator import RlsLoadEstimator
 from heft.systems.tick_system import TickSum
 
 
 def AddOnlineLoadEstimator(builder: DiagramBuilder, params: LoadEstimationParams, contact: ContactThresholdParams,
-                           phi, period: float,
-                           accelerometer: AccelerometerConvention, force_scaling, slave_kinematics) -> OutputPort:
+                           phi, period: float, accelerometer: AccelerometerConvention, force_scaling, slave_kinematics,
+                           phi_gripper) -> OutputPort:
     """Adds the online estimator of φ̂ (10), starting from ``phi``, to ``builder`` and returns its
     output: ``AccelerometerToMotion`` (the reading in ``accelerometer``'s convention → S's
     kinematic [a; α]), ``EstimatorGate`` (which samples it takes: their excitation judged on the
@@ -22,8 +23,12 @@ def AddOnlineLoadEstimator(builder: DiagramBuilder, params: LoadEstimationParams
     ``LoadEstimatorSystem`` (``params.method``), ticking every ``period`` s. φ alone is
     estimated, from f − ô = c + V·φ̂ (``force_scaling``'s outputs): the offsets are the
     OffsetTracker's, so the weight cannot trade against the force offsets. ``slave_kinematics``
-    gives ω and g in S. Reads the Diagram input ``ft.acceleration_measured`` (exported already)
-    and exports ``estimator_reset`` (1, a request counter: a new load)."""
+    gives ω and g in S. ``GraspSplit`` (``phi_gripper`` the scenario's φ_gr or None) splits φ̂ for
+    ``force_scaling`` at a grasp and asks the estimator for a new load, or to restart from a new estimate.
+    Reads the Diagram inputs ``ft.acceleration_measured`` and ``estimate`` (exported already) and exports
+    ``holding`` (1: the gripper holds an object), ``estimator_reset`` (1, a request counter: a new load) and
+    ``input_age`` (1, s: the oldest reading's age; the gate refuses readings older than
+    ``params.max_input_age``)."""
     to_motion = builder.AddNamedSystem("accelerometer_to_motion", AccelerometerToMotion(accelerometer))
     estimator = builder.AddNamedSystem("phi_hat", RlsLoadEstimator(params, phi, period))
     unbiased = builder.AddNamedSystem("wrench_without_offsets", TickSum(6))
@@ -32,8 +37,17 @@ def AddOnlineLoadEstimator(builder: DiagramBuilder, params: LoadEstimationParams
 
     connect = builder.Connect
     builder.ConnectInput("ft.acceleration_measured", to_motion.GetInputPort("reading"))
-    builder.ExportInput(estimator.GetInputPort("reset"), "estimator_reset")
-    builder.ConnectInput("estimator_reset", gate.GetInputPort("reset"))
+    grasp = builder.AddNamedSystem("grasp", GraspSplit(phi_gripper, period))
+    builder.ExportInput(grasp.GetInputPort("holding"), "holding")
+    builder.ExportInput(grasp.GetInputPort("reset"), "estimator_reset")
+    builder.ConnectInput("estimate", grasp.GetInputPort("estimate"))
+    builder.ExportInput(gate.GetInputPort("input_age"), "input_age")
+    connect(estimator.GetOutputPort("phi"), grasp.GetInputPort("phi"))
+    connect(grasp.GetOutputPort("estimator_reset"), estimator.GetInputPort("reset"))
+    connect(grasp.GetOutputPort("estimator_reset"), gate.GetInputPort("reset"))
+    connect(grasp.GetOutputPort("estimator_restart"), estimator.GetInputPort("restart"))
+    connect(grasp.GetOutputPort("phi_gripper"), force_scaling.GetInputPort("phi_gripper"))
+    connect(grasp.GetOutputPort("split"), force_scaling.GetInputPort("split"))
     connect(force_scaling.GetOutputPort("wrench_contact"), unbiased.GetInputPort("u0"))
     connect(force_scaling.GetOutputPort("wrench_noncontact"), unbiased.GetInputPort("u1"))
     connect(gravity, to_motion.GetInputPort("gravity"))

@@ -3,8 +3,8 @@
 ``MakeTeleopController`` knows nothing of the station: its inputs and outputs
 carry the station port names of docs/design.md §3, so it connects unchanged to
 ``MakeSimStation`` (``teleop_simulation``) or to the hardware station; this
-module imports no simulation. ``MakeRealtimeTeleopController`` is the same
-controller as one computation per tick, for the hardware's real-time loop.
+module imports no simulation. The hardware's real-time loop steps it as its ``TickProgram``
+(``diagrams.teleop_controller``), the simulation as one ``TickProgramSystem``.
 """
 
 
@@ -23,11 +23,10 @@ from heft.systems.master_kinematics import MasterKinematics
 from heft.systems.motion_scaling import MotionScaling
 from heft.systems.offset_tracking import OffsetTracker
 from heft.systems.passivity_controller import PassivityController
-from heft.systems.realtime_controller import RealtimeTeleopController
 from heft.systems.rx_inverse_kinematics import RxKinematics
 from heft.systems.slave_inverse_kinematics import SlaveInverseKinematics
 from heft.systems.slave_kinematics import SlaveKinematics
-from heft.systems.tick_system import TickConstant
+from heft.systems.load_model import FixedLoad
 
 STATION_OUTPUTS_READ = ("master.position_measured", "master.velocity_estimated", "slave.position_measured",
                         "slave.velocity_estimated", "ft.wrench_measured", "ft.acceleration_measured")
@@ -48,17 +47,6 @@ def _slave_ik_model(robot: str) -> tuple[MultibodyPlant, RxKinematics, RigidTran
     return slave, kinematics, X_FS
 
 
-def MakeRealtimeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, period: float, *,
-                                 accelerometer: AccelerometerConvention) -> RealtimeTeleopController:
-    """The controller of ``MakeTeleopController`` as one computation per tick, for the hardware's
-    real-time loop (``systems.realtime_controller``) at the nominal ``period`` (s): same models,
-    same parameters, the estimator fixed or online as ``spec.estimator`` says."""
-    slave, kinematics, X_FS = _slave_ik_model(robot)
-    return RealtimeTeleopController(MakeMasterPlant(), slave, f"{robot}_base", kinematics, X_FS, load.phi, load.offsets,
-                                    spec.motion, spec.force, spec.feedback, spec.passivity, spec.offsets,
-                                    spec.contact, accelerometer, period, spec.estimator)
-
-
 def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, period: float, slave_initial_q, *,
                          accelerometer: AccelerometerConvention):
     """The hardware-agnostic controller Diagram of Fig. 4 (docs/design.md §3), ticking every ``period`` s.
@@ -66,12 +54,15 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     the scenario's ``accelerometer.convention()``).
 
     Inputs: the station outputs ``STATION_OUTPUTS_READ``; ``clutch`` (1, > 0.5 engaged);
-    optional ``sigma``, ``gamma``, ``eta`` (1 each; unconnected → ``spec.force``'s values),
-    ``rezero`` (1, a request counter: ``OffsetTracker``) and, with ``spec.estimator.mode``
-    "online", ``estimator_reset`` (1, a request counter: a new load). φ̂ is ``load.phi`` or,
-    online, the load estimator's (``AddOnlineLoadEstimator``).
+    optional ``sigma``, ``gamma``, ``eta`` (1 each; unconnected → ``spec.force``'s values), the load
+    commands ``rezero`` (1, a request counter: ``OffsetTracker``), ``tracking`` (1, > 0.5 on; unconnected
+    ``spec.offsets.tracking``) and ``estimate`` (``ESTIMATE_SIZE``: [counter, φ, offsets], a new tool's) and,
+    with ``spec.estimator.mode`` "online", ``holding`` (1, the gripper holds an object: the grasp's split,
+    ``GraspSplit``), ``estimator_reset`` (1, a request counter: a new load) and ``input_age`` (1, s). φ̂ is
+    ``load.phi`` (``FixedLoad``) or, online, the load estimator's (``AddOnlineLoadEstimator``).
     Outputs: ``master.torque_commanded`` (6, N·m), ``slave.position_commanded`` (6, rad),
-    and the ``CONTROLLER_LOG`` signals. The slave's tool frame T of the motion mapping is S.
+    the ``CONTROLLER_LOG`` signals, ``slave.gravity_S`` (3, g in S at the measured joints) and, online,
+    ``estimator.num_samples`` (1, since the last new load). The slave's tool frame T of the motion mapping is S.
     """
     builder = DiagramBuilder()
     slave, kinematics, X_FS = _slave_ik_model(robot)
@@ -101,11 +92,15 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
                  offsets.GetInputPort("slave_velocity"))
     export_input("ft.wrench_measured", force.GetInputPort("wrench"))
     export_input("ft.acceleration_measured", force.GetInputPort("acceleration"))
+    export_input("estimate", offsets.GetInputPort("estimate"))
+    export_input("tracking", offsets.GetInputPort("tracking"))
     if spec.estimator.mode == "online":
         phi_hat = AddOnlineLoadEstimator(builder, spec.estimator, spec.contact, load.phi, period, accelerometer,
-                                         force, slave_kinematics)
+                                         force, slave_kinematics, spec.force.phi_gripper)
     else:
-        phi_hat = builder.AddNamedSystem("phi_hat", TickConstant(load.phi)).get_output_port()
+        phi_hat = builder.AddNamedSystem("phi_hat", FixedLoad(load.phi, period))
+        builder.ConnectInput("estimate", phi_hat.GetInputPort("estimate"))
+        phi_hat = phi_hat.GetOutputPort("phi")
     export_input("clutch", motion.GetInputPort("clutch"))
     for name in ("sigma", "gamma", "eta"):
         export_input(name, force.GetInputPort(name))
@@ -144,6 +139,10 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
                        ("log.rezero_status", offsets.GetOutputPort("rezero_status")),
                        ("log.phi_hat", phi_hat)):
         builder.ExportOutput(port, name)
+    builder.ExportOutput(slave_kinematics.GetOutputPort("gravity_S"), "slave.gravity_S")
+    if spec.estimator.mode == "online":
+        builder.ExportOutput(builder.GetSubsystemByName("phi_hat").GetOutputPort("num_samples"),
+                             "estimator.num_samples")
     diagram = builder.Build()
     diagram.set_name("teleop_controller")
     return diagram

@@ -38,8 +38,7 @@ def _listed(values) -> str:
 
 
 class LoadCommandServer:
-    """Serves load commands to ``controller`` (a ``RealtimeTeleopController``, or one that takes none, given
-    with its ``refusal``) heard on ``bus``,
+    """Serves load commands to ``controller`` (a ``diagrams.teleop_controller.TeleopController``) heard on ``bus``,
     answered on ``command_bus`` (default ``bus``); a new estimate must fit the sensor's range
     ``wrench_full_scale`` ([f; τ], N, N·m) and be physical (``checked_load``), else it is
     refused with the reason.
@@ -47,12 +46,10 @@ class LoadCommandServer:
     ``serve(now_utime, healthy)`` once per tick: carries out every command that arrived and
     answers it; a re-zero is refused while the station is not healthy (the controller is
     not stepping). ``events`` lists what happened (utime, message) for the run's summary, the
-    first ``MAX_EVENTS`` of them (a flood of commands grows nothing further). With a ``refusal``
-    (a controller that takes no load commands), every command and gripper event is answered with it."""
+    first ``MAX_EVENTS`` of them (a flood of commands grows nothing further)."""
 
     def __init__(self, bus: lcm.LCM, channels: LcmChannels, controller, wrench_full_scale,
-                 command_bus: lcm.LCM | None = None, refusal: str | None = None):
-        self._refusal = refusal
+                 command_bus: lcm.LCM | None = None):
         self._command_bus = bus if command_bus is None else command_bus
         self._full_scale = np.asarray(wrench_full_scale, dtype=float)
         self._channel, self._controller = channels.load_status.name, controller
@@ -62,6 +59,7 @@ class LoadCommandServer:
         self._window = 0.0  # the re-zero window's length (s) at the last tick
         self._requests_seen = controller.rezero_requests_seen
         self._grasps: list[int] = []  # utimes of the grasps whose object is still being learned
+        self._estimates: list[int] = []  # utimes of the new estimates no tick has taken up yet
         self.events: list[tuple[int, str]] = []
 
     def serve(self, now_utime: int, healthy: bool, reading) -> None:
@@ -73,11 +71,14 @@ class LoadCommandServer:
             except Exception:  # whatever a malformed payload makes the generated decoder raise
                 self._answer(now_utime, 0, False, "a message on the load command channel is not a heft_load_command")
                 continue
-            accepted, message = (False, self._refusal) if self._refusal else self._apply(command, healthy)
-            self._answer(now_utime, command.utime, accepted, message)
-        if self._refusal:
-            return
+            accepted, message = self._apply(command, healthy)
+            if accepted is not None:
+                self._answer(now_utime, command.utime, accepted, message)
         controller = self._controller
+        if self._estimates and controller.estimates_taken == controller.estimates_requested:
+            for utime in self._estimates:
+                self._answer(now_utime, utime, True, f"new estimate in use: m = {controller.phi[0]:.4g} kg")
+            self._estimates.clear()
         if healthy and controller.rezero_status == COLLECTING:  # the window advances with the steps
             self._average_at_rest(reading)
         seen = controller.rezero_requests_seen
@@ -126,7 +127,7 @@ class LoadCommandServer:
     def gripper(self, now_utime: int, event: str) -> None:
         """Serves a grasp or release (``gripper_state_reader.GRASP``/``RELEASE``) the gripper's driver
         reported, as the same ``heft load`` action, answered with ``command_utime`` 0."""
-        accepted, message = (False, self._refusal) if self._refusal else self._grasp_or_release(event == GRASP, 0)
+        accepted, message = self._grasp_or_release(event == GRASP, 0)
         self._answer(now_utime, 0, accepted, f"gripper driver: {message}")
 
     def _object_learned(self) -> str:
@@ -153,13 +154,15 @@ class LoadCommandServer:
             return False, f"{'grasp' if grasp else 'release'} refused: {error}"
         if not grasp:
             self._grasps.clear()
-            return True, f"released: back to the gripper's φ (m = {controller.phi[0]:.4g} kg)"
+            gripper = controller.phi if controller.phi_gripper is None else controller.phi_gripper
+            return True, f"released: back to the gripper's φ (m = {gripper[0]:.4g} kg)"
         self._grasps.append(utime)
-        return True, (f"grasp: the gripper's φ kept (m = {controller.phi_gripper[0]:.4g} kg); learning the object for "
+        return True, (f"grasp: the gripper's φ kept (m = {controller.phi[0]:.4g} kg); learning the object for "
                       f"{controller.estimator.learning_window:g} s; η = {controller.scales[2]:g} of its non-contact "
                       "wrench fed back")
 
-    def _apply(self, command, healthy: bool) -> tuple[bool, str]:
+    def _apply(self, command, healthy: bool) -> tuple[bool | None, str]:
+        """Carries out ``command``: (accepted, the answer), or (None, "") for one answered later."""
         controller = self._controller
         if command.action == heft_load_command.REZERO:
             if not healthy:
@@ -176,7 +179,8 @@ class LoadCommandServer:
                 controller.set_load(*checked_load(command.phi, command.offsets, self._full_scale))
             except ValueError as error:
                 return False, f"new estimate refused: {error}"
-            return True, f"new estimate in use: m = {controller.phi[0]:.4g} kg"
+            self._estimates.append(command.utime)  # answered once a tick has taken it up
+            return None, ""
         if command.action in (heft_load_command.GRASP, heft_load_command.RELEASE):
             return self._grasp_or_release(command.action == heft_load_command.GRASP, command.utime)
         return False, (f"unknown load action {command.action}; "

@@ -26,8 +26,8 @@ class TeleopStatePublisher:
 
     def publish(self, utime: int, dt: float, starts: int, stamps, controller, gain: float) -> None:
         """The tick at ``utime`` (µs, the commands'), stepped by ``dt`` (s) on the driver messages
-        stamped ``stamps`` (master, slave, FT; µs), of ``controller`` (``RealtimeTeleopController`` or
-        ``DiagramTeleopController`` after ``step``, started ``starts`` times so far), with the watchdog's
+        stamped ``stamps`` (master, slave, FT; µs), of ``controller`` (``TeleopController``
+        after ``step``, started ``starts`` times so far), with the watchdog's
         ``gain``; ``dt`` is the hold the controller's blocks stepped by."""
         master_utime, slave_utime, ft_utime = stamps
         self._bus.publish(self._channel, self._layout.pack(

@@ -16,7 +16,7 @@ taken when
   ``controller.contact`` (``ContactThresholdParams``), except during ``learning_window`` s
   after a reset (a new load), when c holds the not yet learned load itself,
 * force scaling is not faulted, nor (on hardware) the readings older than
-  ``max_input_age`` (``OnlineLoadEstimator``: a stalled lab's catch-up jerks the
+  ``max_input_age`` (its ``input_age`` input: a stalled lab's catch-up jerks the
   arm and rings the load on its mount), and
 * no contact or fault for 2/``prefilter`` s before: the estimator's prefilter
   (``EstimatorPrefilter``) still carries such a sample that long; and
@@ -153,8 +153,11 @@ class EstimatorGate(TickSystem):
     counter, as the estimator's; unconnected 0), ``input_age`` (1, s: how old the oldest reading of the tick
     is; unconnected 0). State: the time since the last reset (s), the counter seen and
     the time since the last spoiled sample (s), advanced every ``period`` s; the ticks since the last reset
-    whose readings were older than ``params.max_input_age`` (output ``stale_ticks``).
+    whose readings were older than ``params.max_input_age`` (output ``stale_ticks``). It keeps its state
+    when the controller restarts (``kept_on_restart``).
     """
+
+    kept_on_restart = True
 
     def __init__(self, params: LoadEstimationParams, thresholds: ContactThresholdParams, period: float):
         super().__init__(period)
@@ -173,5 +176,6 @@ class EstimatorGate(TickSystem):
                              self.timing, np.zeros((7, 10)))
         self.DeclareTickOutput("enable", "calc:enable")
         self.DeclareTickOutput("stale_ticks", "x:stale_ticks")
+        self.DeclareTickOutput("clocks", "x:clocks")
         self.DeclareTickUpdate(gate_update, "next:clocks", "next:stale_ticks", "in:wrench_contact", "in:fault",
                                "in:reset", "in:input_age", self.settings, self.timing)

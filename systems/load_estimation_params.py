@@ -1,8 +1,8 @@
 """The settings of the load estimator in the loop (Fig. 4): fixed or learned online, and how.
 
-``controller.estimator`` of a scenario. With ``mode`` "online" the per-block controller wires
-``AccelerometerToMotion``, ``EstimatorGate``, ``EstimatorPrefilter`` and ``LoadEstimatorSystem``
-(``diagrams.online_estimation``), the real-time one ``OnlineLoadEstimator`` in one call per tick.
+``controller.estimator`` of a scenario. With ``mode`` "online" the controller Diagram wires
+``AccelerometerToMotion``, ``EstimatorGate``, ``EstimatorPrefilter``, ``RlsLoadEstimator`` and
+``GraspSplit`` (``diagrams.online_estimation``).
 """
 
 import dataclasses

@@ -119,10 +119,24 @@ def offsets_update_into(state, contact, fault, slave_velocity, dt, rest_joint_sp
             state[i] += min(max(gain * contact[i], -step), step)
 
 
-@compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:], float64[:])")
-def offset_tracker_update(state, contact, fault, slave_velocity, rezero, settings):
+ESTIMATE_SIZE = 17
+"""A new estimate as the blocks take it: [request counter, φ (10), offsets (6; N, N·m)]."""
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], "
+          "float64[:])")
+def offset_tracker_update(state, estimates_seen, contact, fault, slave_velocity, rezero, tracking, estimate,
+                          settings):
     """``offsets_update_into`` on the block's arrays: ``fault`` (1, > 0.5 faulted), ``rezero`` (1, the request
-    counter), ``settings`` [dt (s), ``kernel_settings``…, contact force (N), contact torque (N·m)]."""
+    counter), ``tracking`` (1, > 0.5 on), ``estimate`` (``ESTIMATE_SIZE``: a new estimate's offsets replace the
+    state's when its counter passes ``estimates_seen`` (1), a re-zero under way restarting its window),
+    ``settings`` [dt (s), ``kernel_settings``…, contact force (N), contact torque (N·m)]."""
+    if estimate[0] > estimates_seen[0]:
+        estimates_seen[0] = estimate[0]
+        for i in range(6):
+            state[i] = estimate[11 + i]
+        restart_rezero_window(state)
+    state[TRACKING] = 1.0 if tracking[0] > 0.5 else 0.0
     offsets_update_into(state, contact, fault[0] > 0.5, slave_velocity, settings[0], settings[1], settings[2],
                         settings[3], settings[4], settings[5], settings[6], settings[7], settings[8], settings[9],
                         rezero[0])
@@ -134,10 +148,15 @@ class OffsetTracker(TickSystem):
 
     Inputs: ``wrench_contact`` (6, c from force scaling), ``fault`` (1, force scaling's),
     ``slave_velocity`` (6, rad/s), ``rezero`` (1, optional: a request counter; each
-    increase starts one re-zero). Outputs (state): ``offsets`` (6; N, N·m) and
-    ``rezero_status`` (1, a code of ``STATUS_TEXT``). The update reads c of the same
-    tick, computed with the offsets in effect, as the real-time controller does.
+    increase starts one re-zero), ``tracking`` (1, optional: > 0.5 tracks; unconnected,
+    ``params.tracking``), ``estimate`` (``ESTIMATE_SIZE``, optional: a new tool's, whose offsets
+    replace the tracked ones). Outputs (state): ``offsets`` (6; N, N·m), ``rezero_status`` (1, a code
+    of ``STATUS_TEXT``) and ``rezero`` (the state: ``OFFSETS`` … ``REQUESTS``). The update reads c of
+    the same tick, computed with the offsets in effect. The block keeps its state when the controller
+    restarts (``kept_on_restart``).
     """
+
+    kept_on_restart = True
 
     def __init__(self, offsets, params: OffsetTrackingParams, thresholds: ContactThresholdParams, period: float):
         params.validate()
@@ -148,8 +167,13 @@ class OffsetTracker(TickSystem):
         self.DeclareTickInput("fault", 1)
         self.DeclareTickInput("slave_velocity", 6)
         self.DeclareTickInput("rezero", 1, [0.0])
+        self.DeclareTickInput("tracking", 1, [1.0 if params.tracking else 0.0])
+        self.DeclareTickInput("estimate", ESTIMATE_SIZE, np.zeros(ESTIMATE_SIZE))
         self.DeclareTickState("state", initial_state(offsets, params))
+        self.DeclareTickState("estimates_seen", [0.0])
         self.DeclareTickOutput("offsets", "x:state", OFFSETS.start, OFFSETS.stop)
         self.DeclareTickOutput("rezero_status", "x:state", STATUS, STATUS + 1)
-        self.DeclareTickUpdate(offset_tracker_update, "next:state", "in:wrench_contact", "in:fault",
-                               "in:slave_velocity", "in:rezero", self.settings)
+        self.DeclareTickOutput("rezero", "x:state")
+        self.DeclareTickUpdate(offset_tracker_update, "next:state", "next:estimates_seen", "in:wrench_contact",
+                               "in:fault", "in:slave_velocity", "in:rezero", "in:tracking", "in:estimate",
+                               self.settings)

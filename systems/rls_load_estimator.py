@@ -4,7 +4,7 @@
 f − ô = c + V·φ (the offsets are the OffsetTracker's, so the weight cannot trade against them), through
 ``recursive_estimation``'s kernels (``least_squares_update``: stabilized forgetting towards the prior
 P₀ = ``prior_covariance``·E). Two request counters restart it: ``reset`` (a new load, the grasp: the data
-forgotten, the estimate kept as the prior) and ``restart`` (a new estimate: [counter, φ (10)], from which it
+forgotten, the estimate kept as the prior) and ``restart`` (a new estimate: [counter, φ (10), …], from which it
 starts as from a new load).
 """
 
@@ -16,6 +16,7 @@ import numpy as np
 
 from heft.systems.compiled import compiled, record_views
 from heft.systems.load_estimation_params import LoadEstimationParams
+from heft.systems.offset_tracking import ESTIMATE_SIZE
 from heft.systems.recursive_estimation import (RecursiveLeastSquares, least_squares_start_from,
                                                least_squares_update)
 from heft.systems.tick_system import TickSystem
@@ -65,9 +66,12 @@ class RlsLoadEstimator(TickSystem):
     """φ̂ (10; Eq. 6) learned online from ``phi`` (module docstring), one sample every ``period`` s.
 
     Inputs (in S): ``wrench`` (6, f − ô; N, N·m), ``acceleration`` (6, kinematic [a; α]), ``omega`` (3),
-    ``gravity`` (3), ``enable`` (1), ``reset`` (1, a counter; unconnected 0), ``restart`` (11: a counter and
-    φ to start from; unconnected none). Outputs (state): ``phi`` (10), ``num_samples`` (1, since the last
+    ``gravity`` (3), ``enable`` (1), ``reset`` (1, a counter; unconnected 0), ``restart`` (``ESTIMATE_SIZE``: a
+    counter and φ to start from, then offsets it ignores; unconnected none). It keeps its state when the
+    controller restarts (``kept_on_restart``). Outputs (state): ``phi`` (10), ``num_samples`` (1, since the last
     reset or restart), ``num_skipped`` (1, enabled ticks whose sample held a NaN or inf)."""
+
+    kept_on_restart = True
 
     def __init__(self, params: LoadEstimationParams, phi, period: float):
         super().__init__(period)
@@ -84,7 +88,7 @@ class RlsLoadEstimator(TickSystem):
         for name, size in (("wrench", 6), ("acceleration", 6), ("omega", 3), ("gravity", 3), ("enable", 1)):
             self.DeclareTickInput(name, size)
         self.DeclareTickInput("reset", 1, [0.0])
-        self.DeclareTickInput("restart", 1 + P, np.zeros(1 + P))
+        self.DeclareTickInput("restart", ESTIMATE_SIZE, np.zeros(ESTIMATE_SIZE))
         self.DeclareTickState("state", state)
         self.DeclareTickState("counters", np.zeros(3))
         self.DeclareTickUpdate(rls_update, "next:state", "next:counters", "in:wrench", "in:acceleration", "in:omega",

@@ -226,6 +226,11 @@ class TickProgram:
                  - (self.state if in_state else self.signals).__array_interface__["data"][0]) // view.itemsize
         return in_state, slice(start, start + view.size)
 
+    def calculation(self, block_name: str, name: str) -> np.ndarray:
+        """The calculation ``name`` of the block ``block_name`` as the last tick computed it (a view)."""
+        block = self.diagram.GetSubsystemByName(block_name)
+        return self.signals[self._signal_slices[block, name]]
+
     def block_state(self, block_name: str, state: str) -> np.ndarray:
         """The state ``state`` of the block ``block_name`` (a view)."""
         block = self.diagram.GetSubsystemByName(block_name)
@@ -255,6 +260,12 @@ class TickProgram:
     def reset(self) -> None:
         """The state of a fresh context."""
         self.state[:] = self.initial_state
+
+    def restart(self) -> None:
+        """The state of a fresh context but that of the blocks ``kept_on_restart``."""
+        for (block, _), where in self._state_slices.items():
+            if not block.kept_on_restart:
+                self.state[where] = self.initial_state[where]
 
     def initialize(self) -> None:
         """The blocks' initialization events on the inputs and the state as they are (Drake's

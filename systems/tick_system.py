@@ -74,7 +74,10 @@ def _names(args) -> tuple[str, ...]:
 
 class TickSystem(LeafSystem):
     """A LeafSystem declared as kernels on named arrays (module docstring), updated every ``period`` s
-    (None: a block of calculations alone, which has no state)."""
+    (None: a block of calculations alone, which has no state). A block whose state outlives a restart of the
+    controller (what it learned of the load) sets ``kept_on_restart`` (``TickProgram.restart``)."""
+
+    kept_on_restart = False
 
     def __init__(self, period: float | None):
         super().__init__()

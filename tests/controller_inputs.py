@@ -2,6 +2,7 @@
 they are meant for: the tests hold two ways of stepping the controller equal on them."""
 
 import numpy as np
+from pydrake.systems.analysis import Simulator
 
 from heft.diagrams.scenario import Scenario, layered, overrides_text
 
@@ -53,3 +54,48 @@ def both_runs_scenario() -> Scenario:
         **{f"controller.offsets.{gate}": 1e3
            for gate in ("rezero_force", "rezero_torque")},
         "controller.contact.force": 1e3, "controller.contact.torque": 1e3}))
+
+
+def _outputs(diagram) -> tuple[list[str], list[str]]:
+    """The Diagram's outputs without feedthrough (its state) and those with (computed from a tick's inputs)."""
+    state, computed = [], []
+    for i in range(diagram.num_output_ports()):
+        (computed if diagram.HasDirectFeedthrough(i) else state).append(diagram.get_output_port(i).get_name())
+    return state, computed
+
+
+def drake_run(diagram, sequence: list[dict]) -> list[dict]:
+    """Drake's Simulator on the controller ``diagram`` fed ``sequence`` (each tick's inputs by name): per tick,
+    the outputs computed from the tick's inputs (feedthrough; as "computed NAME") and the others after its
+    update."""
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    state, computed = _outputs(diagram)
+    ticks = []
+    for k, inputs in enumerate(sequence):
+        for name, value in inputs.items():
+            diagram.GetInputPort(name).FixValue(context, value)
+        if k == 0:
+            simulator.Initialize()
+        tick = {f"computed {name}": diagram.GetOutputPort(name).Eval(context).copy() for name in computed}
+        simulator.AdvanceTo((k + 1) * PERIOD)
+        ticks.append({name: diagram.GetOutputPort(name).Eval(context).copy() for name in state} | tick)
+    return ticks
+
+
+def program_run(program, sequence: list[dict], each_tick=None) -> list[dict]:
+    """``TickProgram`` ``program`` fed ``sequence`` as ``drake_run`` feeds its Diagram, the same record per tick;
+    ``each_tick(k, program)`` after each tick adds what it returns to the record."""
+    state, computed = _outputs(program.diagram)
+    ticks = []
+    for k, inputs in enumerate(sequence):
+        for name, value in inputs.items():
+            program.input(name)[:] = value
+        if k == 0:
+            program.reset()
+            program.initialize()
+        program.tick()
+        ticks.append({name: program.output(name).copy() for name in state}
+                     | {f"computed {name}": program.output(name).copy() for name in computed}
+                     | (each_tick(k, program) if each_tick else {}))
+    return ticks

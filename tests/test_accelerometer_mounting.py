@@ -10,7 +10,7 @@ from heft.diagrams.identify import identify
 from heft.diagrams.running.sim_identification import simulated_recorder
 from heft.diagrams.running.simulation import true_load
 from heft.diagrams.scenario import IDEAL_STATION, NOISE_OFF, Scenario, layered, overrides_text
-from heft.diagrams.teleop import MakeRealtimeTeleopController
+from heft.diagrams.teleop_controller import TeleopController
 from heft.systems.accelerometer_calibration import AccelerometerCalibration
 
 R_SA = Rotation.from_rotvec([0.5, -0.9, 1.7]).as_matrix()
@@ -44,8 +44,7 @@ def test_the_controller_takes_a_mounted_reading_back_to_S():
     scenario = Scenario()
     load, _ = true_load(scenario)
     period, rng = scenario.controller_period, np.random.default_rng(4)
-    controllers = [MakeRealtimeTeleopController(s.controller, load, s.robot, period,
-                                                accelerometer=s.accelerometer.convention())
+    controllers = [TeleopController(s.controller, load, s.robot, period, accelerometer=s.accelerometer.convention())
                    for s in (scenario, mounted(scenario))]
     for controller in controllers:
         controller.start(np.array(scenario.slave_initial_q))

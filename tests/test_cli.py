@@ -279,28 +279,26 @@ def test_simulate_compares_the_papers_sigmas_unless_a_sigma_is_stated(capsys):
         sigmas("fig6", sigma=0.2, sigmas="1,0")
 
 
-def test_bench_step_ticks_the_diagram_as_the_fused_step_ticks():
-    """The bench's per-block Diagram, ticked by its periodic update alone, commands the torque the fused step
-    commands on the same readings (a tick that skipped the blocks' updates would command none)."""
+def test_bench_step_times_the_program_against_drakes_stepping_of_the_same_diagram():
+    """The bench's two ways of ticking the controller Diagram command the same torques on its readings,
+    exactly (a tick that skipped the blocks' updates would command none)."""
     import numpy as np
 
     from heft.diagrams.commands import bench_step
     from heft.diagrams.running.simulation import true_load
     from heft.diagrams.scenario import Scenario
-    from heft.diagrams.diagram_teleop_controller import DiagramTeleopController
-    from heft.diagrams.teleop import MakeRealtimeTeleopController
+    from heft.diagrams.teleop_controller import TeleopController
 
     scenario = Scenario()
     load, _ = true_load(scenario)
     period, convention = scenario.controller_period, scenario.accelerometer.convention()
     sequence = bench_step.readings(scenario, 60, period)
-    fused, blocks = [], []
-    bench_step.time_controller(MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, period,
-                                                            accelerometer=convention), sequence, period, fused)
-    bench_step.time_controller(DiagramTeleopController(scenario.controller, load, scenario.robot, period,
-                                                       accelerometer=convention), sequence, period, blocks)
-    assert np.abs(fused).max() > 0.01
-    np.testing.assert_allclose(blocks, fused, rtol=0, atol=1e-9)
+    program, drake = [], []
+    controller = TeleopController(scenario.controller, load, scenario.robot, period, accelerometer=convention)
+    bench_step.time_controller(controller, sequence, period, program)
+    bench_step.time_controller(bench_step.DrakeStepping(controller.diagram), sequence, period, drake)
+    assert np.abs(program).max() > 0.01
+    np.testing.assert_array_equal(drake, program)
 
 
 def test_teleop_uses_the_accelerometer_calibration_of_its_estimate(tmp_path, capsys):

@@ -163,34 +163,20 @@ for k in range(40):
     out["excitation"].append(excitation(motion[:6], motion[6:]))
     prefilter_step(coefficients, state, rng.normal(0, 3, WIDTH) if k != 20 else np.full(WIDTH, np.nan))
     out["prefilter"].append(np.nan_to_num(state, nan=-1.0))
-# The online estimator's tick: a new load at 20, a faulted sample at 30, contact from 40 to 45, stale
-# readings at 50; the gate open on the others once the prefilter has a sample.
-from heft.systems.contact_threshold import ContactThresholdParams
-from heft.systems.load_estimation_params import LoadEstimationParams
-from heft.systems.online_estimator import OnlineLoadEstimator
-
-online = OnlineLoadEstimator(LoadEstimationParams(mode="online", learning_window=0.0, prefilter=200.0),
-                             ContactThresholdParams(), rng.normal(0, 1, 10), 5e-4)
-out["online"] = []
-for k in range(60):
-    if k == 20:
-        online.new_load()
-    contact = rng.normal(0, 0.1, 6) + (30.0 if 40 <= k < 45 else 0.0)
-    online.step(5e-4, contact, rng.normal(0, 10, 6), rng.normal(0, 20, 6), rng.normal(0, 3, 3),
-                rng.normal(0, 5, 3), k == 30, 0.01 if k == 50 else 0.0)
-    out["online"].append(np.concatenate((online.phi, [online.enabled, online.num_skipped, online.num_stale,
-                                                      online.since_reset, online.num_samples])))
-# The real-time controller's fused step: the clutch pressed at tick 5, one faulted sensor sample at 20,
-# a re-zero asked for at 30, the gripper's split from 40.
+# The controller Diagram's program, its load learned online: the clutch pressed at tick 5, one faulted sensor
+# sample at 20, a re-zero asked for at 30, a grasp at 40, stale readings at 45, a new estimate at 50.
 from heft.diagrams.load_estimate import LoadEstimate
-from heft.diagrams.scenario import resolve_scenario
-from heft.diagrams.teleop import MakeRealtimeTeleopController
+from heft.diagrams.scenario import layered, overrides_text, resolve_scenario
+from heft.diagrams.teleop_controller import TeleopController
 from heft.systems.load_dynamics import InertialParameters
 
-scenario = resolve_scenario("fig6")
+scenario = layered(resolve_scenario("fig6"), overrides_text({
+    "controller.estimator.mode": "online", "controller.estimator.learning_window": 0.0,
+    "controller.estimator.prefilter": 200.0, "controller.estimator.min_excitation": 0.0,
+    "controller.contact.force": 1e3, "controller.contact.torque": 1e3}))  # the gate open: RLS learns
 load = InertialParameters(0.8, np.array([0.01, -0.02, 0.1]), np.diag([2e-3, 3e-3, 1e-3])).to_phi()
-controller = MakeRealtimeTeleopController(scenario.controller, LoadEstimate(load, rng.normal(0, 0.5, 6)),
-                                          scenario.robot, 5e-4, accelerometer=scenario.accelerometer.convention())
+controller = TeleopController(scenario.controller, LoadEstimate(load, rng.normal(0, 0.5, 6)), scenario.robot, 5e-4,
+                              accelerometer=scenario.accelerometer.convention())
 q_slave = np.array([0.1, -0.4, 1.2, 0.2, 0.6, -0.3])
 controller.start(q_slave)
 q_master = np.array([0.0, 0.2, 0.3, 0.0, 0.4, 0.0])
@@ -202,13 +188,16 @@ for k in range(60):
     if k == 30:
         controller.request_rezero()
     if k == 40:
-        controller._phi_gripper = 0.5 * load  # as a grasp leaves it, without the estimator
-    controller.step(5e-4 * (1 + k % 3), q_master, rng.normal(0, 0.3, 6), q_slave, rng.normal(0, 0.02, 6), wrench,
-                    rng.normal(0, 3, 6) + np.array([0, 0, 9.81, 0, 0, 0]), k >= 5)
+        controller.grasp()
+    if k == 50:
+        controller.set_load(1.1 * load, np.zeros(6))
+    controller.step(5e-4, q_master, rng.normal(0, 0.3, 6), q_slave, rng.normal(0, 0.02, 6), wrench,
+                    rng.normal(0, 3, 6) + np.array([0, 0, 9.81, 0, 0, 0]), k >= 5, 0.01 if k == 45 else 0.0)
     out["controller"].append(np.concatenate((controller.torque, controller.position, controller.master_wrench,
                                              controller.applied_wrench, controller.energy, controller.offsets,
-                                             controller.scales, controller.wrench_contact,
-                                             [controller.reachable, controller.rezero_status])))
+                                             controller.scales, controller.wrench_contact, controller.phi,
+                                             [controller.reachable, controller.rezero_status, controller.holding,
+                                              controller.estimator.num_samples, controller.estimator.num_stale])))
 # The simulated station's truth: a frame's motion, the load's wrenches at S (with and without a split).
 from heft.systems.station_truth import frame_motion_into, wrenches_at_S_into
 
@@ -329,8 +318,8 @@ def test_the_plain_python_kernels_equal_the_compiled_ones(tmp_path):
     assert fallback["station"][:, 0].any() and not fallback["station"][:, 0].all()  # healthy, and not always
     lags = set(fallback["station"][:, -1])  # the arm's echo (its statuses 4 steps apart): lags, and none of ours
     assert -1 in lags and len(lags) >= 4, lags
-    enabled = fallback["online"][:, 10]
-    assert enabled.any() and not enabled.all() and fallback["online"][-1, 12] > 0  # and stale ticks
+    ticks = fallback["controller"]
+    assert ticks[49, -2] > 0 and ticks[45:50, -1].all() and ticks[45:, -3].all()  # learned, stale ticks, held
     for name, expected in fallback.items():
         assert np.abs(expected).max() > 0, name
         assert machine_code[name].shape == expected.shape, name

@@ -15,7 +15,6 @@ from heft.systems.contact_threshold import ContactThresholdParams
 from heft.systems.estimator_gate import EstimatorGate, excitation, gate_open, gate_settings
 from heft.systems.load_dynamics import regressor
 from heft.systems.load_estimation_params import LoadEstimationParams
-from heft.systems.online_estimator import OnlineLoadEstimator
 from heft.systems.sensor_params import AccelerometerParams
 
 SPEC = LoadEstimationParams()
@@ -75,20 +74,32 @@ def test_bad_settings_are_named():
 def test_at_rest_the_accelerometers_noise_does_not_open_the_gate():
     """The slave still, the accelerometer's reading heft's noise model's (``AccelerometerParams``: α's
     0.5 rad/s² RMS), the bias its drifted offsets: the raw motion's excitation passes ``min_excitation``
-    often, the prefiltered motion's, which the estimator learns from, never; φ̂ stays as it started."""
-    period, rng = 0.0005, np.random.default_rng(5)
+    often, the prefiltered motion's, which the controller's estimator learns from, never; φ̂ stays as it
+    started."""
+    from heft.diagrams.load_estimate import LoadEstimate
+    from heft.diagrams.scenario import Scenario, layered, overrides_text
+    from heft.diagrams.teleop_controller import TeleopController
+    from heft.systems.accelerometer_reading import AT_S
+
+    scenario = layered(Scenario(), overrides_text({"controller.estimator.mode": "online"}))
+    period, rng = scenario.controller_period, np.random.default_rng(5)
     accelerometer = AccelerometerParams()
     noise, bias = np.array(accelerometer.noise_rms), np.array(accelerometer.drifted_offsets)
     phi = np.array([1.7, 0.0, 0.0, 0.15, 0.02, 0.0, 0.0, 0.02, 0.0, 0.003])
-    estimator = OnlineLoadEstimator(dataclasses.replace(SPEC, mode="online"), ContactThresholdParams(), phi, period)
-    gravity = np.array([0.0, 0.0, -9.81])
+    controller = TeleopController(scenario.controller, LoadEstimate(phi, np.zeros(6)), scenario.robot, period,
+                                  accelerometer=AT_S)
+    q, q_M = np.array(scenario.slave_initial_q), np.array(scenario.master_initial_q)
+    controller.start(q)
+    gravity = controller.gravity_S.copy()  # at the start position
+    assert np.linalg.norm(gravity) == pytest.approx(9.81)
+    at_rest = regressor(np.zeros(3), np.zeros(3), np.zeros(3), gravity) @ phi
     raw_open, taken = 0, 0
     for _ in range(4000):
         motion = bias + rng.normal(0.0, noise)
         raw_open += excitation(motion, np.zeros(3)) >= SPEC.min_excitation
-        estimator.step(period, rng.normal(0.0, 0.1, 6), regressor(np.zeros(3), np.zeros(3), np.zeros(3), gravity) @ phi,
-                       motion, np.zeros(3), gravity, False)
-        taken += estimator.enabled
+        reading = np.concatenate((motion[:3] - gravity, motion[3:]))  # a − g, α at S
+        controller.step(period, q_M, np.zeros(6), q, np.zeros(6), at_rest + rng.normal(0.0, 0.1, 6), reading, False)
+        taken += controller.program.calculation("estimator_gate", "enable")[0] > 0.5
     assert raw_open > 1000  # the noise alone would open it on a third of the ticks
-    assert taken == 0 and estimator.num_samples == 0
-    np.testing.assert_array_equal(estimator.phi, phi)
+    assert taken == 0 and controller.estimator.num_samples == 0
+    np.testing.assert_array_equal(controller.phi, phi)

@@ -15,7 +15,6 @@ from heft.diagrams.plants import AddArmWithSensor
 from heft.diagrams.scenario import resolve_scenario
 from heft.diagrams.running.simulation import true_load
 from heft.diagrams.stations.stand_in import FaultInjection, StandIn
-from heft.diagrams.diagram_teleop_controller import NO_LOAD_COMMANDS
 from heft.diagrams.running.hardware_teleop import HardwareTeleop, format_summary
 from heft.diagrams.running.realtime import TickTimes, timing_summary
 from heft.hardware_interface.channels import LcmChannels
@@ -38,11 +37,11 @@ class Lab:
     """Stand-in and controller on one memq:// bus, ticking together every ``PERIOD`` s."""
 
     def __init__(self, scenario: Scenario, faults=None, clutch_at=np.inf, load=None, publish_state=False,
-                 controller_scenario: Scenario | None = None, controller: str = "fused"):
+                 controller_scenario: Scenario | None = None):
         bus = self.bus = lcm.LCM("memq://")
         self.stand_in = StandIn(scenario, bus, LcmChannels(), faults or FaultInjection(), clutch_at=clutch_at)
         self.teleop = HardwareTeleop(controller_scenario or scenario, load or true_load(scenario)[0], bus,
-                                     LcmChannels(), publish_state=publish_state, controller=controller)
+                                     LcmChannels(), publish_state=publish_state)
         self.now = 0.0
         self.commands, self.torques, self.master_q, self.gains, self.stylus_wrenches = [], [], [], [], []
 
@@ -142,8 +141,7 @@ def test_a_tool_hanging_still_is_weighed_once(sigma):
     np.testing.assert_allclose(settled[:3], [0.0, 0.0, expected], atol=0.05)
 
 
-def still_lab(load_of, clutch_at=np.inf, amplitude=0.0, overrides=None, controller_overrides=None,
-              controller="fused"):
+def still_lab(load_of, clutch_at=np.inf, amplitude=0.0, overrides=None, controller_overrides=None):
     """fig6 with σ = 0, no white noise nor accelerometer bias, the operator's hand at rest (or
     moving by ``amplitude`` m), the controller given ``load_of(true load)`` and no offset
     tracking, then changed by ``overrides`` (a dict of dotted fields; the controller's by
@@ -156,8 +154,7 @@ def still_lab(load_of, clutch_at=np.inf, amplitude=0.0, overrides=None, controll
         scenario = layered(scenario, overrides_text(overrides))
     true = true_load(scenario)[0]
     controller_scenario = layered(scenario, overrides_text(controller_overrides)) if controller_overrides else None
-    lab = Lab(scenario, load=load_of(true), clutch_at=clutch_at, controller_scenario=controller_scenario,
-              controller=controller)
+    lab = Lab(scenario, load=load_of(true), clutch_at=clutch_at, controller_scenario=controller_scenario)
     lab.answers = []
     lab.bus.subscribe(LcmChannels().load_status.name,
                       lambda _, payload: lab.answers.append(heft_load_status.decode(payload)))
@@ -466,51 +463,25 @@ def test_an_online_estimator_needs_a_max_input_age_beyond_the_slowest_channel():
     HardwareTeleop(scenario, truth, lcm.LCM("memq://"), scenario.lab.lcm)
 
 
-def test_the_per_block_diagram_runs_the_lab_as_the_fused_step_does():
-    """``--controller diagram``: the same start that never moves the slave, the slave moved by the scaled
-    stylus motion once the clutch is held, and the forces within the Phantom's limits; its commands
-    follow the fused step's on the same lab (one tick later: its IK's command is state) to a fraction
-    of the motion."""
+def test_a_recorded_run_publishes_its_state_every_healthy_tick():
+    """The teleop state goes out each healthy tick, with the applied wrench the stylus peak is judged by; the
+    start never moves the slave, the clutch held moves it, the forces stay within the Phantom's limits."""
     scenario = resolve_scenario("fig6")
-    labs = {kind: Lab(scenario, clutch_at=0.2, controller=kind, publish_state=kind == "diagram")
-            for kind in ("fused", "diagram")}
-    states = []  # what a recorded run keeps of the Diagram's ticks
-    labs["diagram"].bus.subscribe(LcmChannels().teleop_state.name,
-                                  lambda _, payload: states.append(heft_teleop_state.decode(payload)))
-    for lab in labs.values():
-        lab.run(1.2)
-    diagram = labs["diagram"]
+    lab = Lab(scenario, clutch_at=0.2, publish_state=True)
+    states = []
+    lab.bus.subscribe(LcmChannels().teleop_state.name,
+                      lambda _, payload: states.append(heft_teleop_state.decode(payload)))
+    lab.run(1.2)
     # One state a healthy tick (the last tick's not yet handled by the bus).
-    assert diagram.teleop.healthy_ticks - 1 <= len(states) <= diagram.teleop.healthy_ticks
+    assert lab.teleop.healthy_ticks - 1 <= len(states) <= lab.teleop.healthy_ticks
     applied = np.array([state.applied_wrench for state in states])
-    assert np.linalg.norm(applied[:, :3], axis=1).max() == pytest.approx(diagram.teleop.stylus_force_peak)
+    assert np.linalg.norm(applied[:, :3], axis=1).max() == pytest.approx(lab.teleop.stylus_force_peak)
     engaged = round(0.2 / PERIOD)
-    before = np.array([c for c in diagram.commands[:engaged] if c is not None])
-    assert len(before) > 300 and diagram.teleop.first_healthy is not None and not diagram.teleop.faults
+    before = np.array([c for c in lab.commands[:engaged] if c is not None])
+    assert len(before) > 300 and lab.teleop.first_healthy is not None and not lab.teleop.faults
     np.testing.assert_allclose(before, np.repeat(before[:1], len(before), axis=0), atol=1e-12)
-    fused_q = np.array([c for c in labs["fused"].commands[engaged:] if c is not None])
-    diagram_q = np.array([c for c in diagram.commands[engaged:] if c is not None])
-    moved = np.abs(fused_q - fused_q[0]).max()
-    assert moved > 0.02, "the operator should have moved the slave"
-    n = min(len(fused_q), len(diagram_q))
-    assert np.abs(diagram_q[1:n] - fused_q[:n - 1]).max() < 0.02 * moved
-    peaks = np.array(diagram.stylus_wrenches)
+    after = np.array([c for c in lab.commands[engaged:] if c is not None])
+    assert np.abs(after - after[0]).max() > 0.02, "the operator should have moved the slave"
+    peaks = np.array(lab.stylus_wrenches)
     assert np.linalg.norm(peaks[:, :3], axis=1).max() <= MAX_FORCE + 1e-9
-    assert np.isfinite(np.array(diagram.torques)).all()
-
-
-def test_the_per_block_diagram_refuses_load_commands_with_the_reason():
-    """A re-zero or a new estimate sent to the Diagram controller is answered as refused, saying what to
-    run instead, and the loop goes on healthy; an online estimator is refused when the run is made."""
-    lab, true, _ = still_lab(lambda true: true, controller="diagram")
-    lab.run(0.2)
-    send(lab, heft_load_command.REZERO)
-    send(lab, heft_load_command.NEW_ESTIMATE, true.phi.tolist(), true.offsets.tolist())
-    lab.run(0.1)
-    assert [a.accepted for a in lab.answers] == [False, False]
-    assert all(a.message == NO_LOAD_COMMANDS for a in lab.answers)
-    assert lab.teleop.station.healthy and not lab.teleop.faults
-    online = resolve_scenario("grasp")
-    assert online.controller.estimator.mode == "online"
-    with pytest.raises(ValueError, match="keeps its load estimate fixed"):
-        HardwareTeleop(online, true_load(online)[0], lcm.LCM("memq://"), online.lab.lcm, controller="diagram")
+    assert np.isfinite(np.array(lab.torques)).all()

@@ -27,7 +27,7 @@ def fig7_master_port(overrides: dict) -> dict:
     master = station.GetSubsystemByName("master_plant")
     amplifiers = station.GetSubsystemByName("master_amplifiers")
     operator = station.GetSubsystemByName("operator")
-    passivity = diagram.GetSubsystemByName("controller").GetSubsystemByName("passivity")
+    controller = diagram.GetSubsystemByName("controller")
     B, E = master.GetFrameByName(BASE_FRAME), master.GetFrameByName(STYLUS_FRAME)
     stylus = master.GetBodyByName(STYLUS_FRAME)
     samples = {}
@@ -42,7 +42,7 @@ def fig7_master_port(overrides: dict) -> dict:
             stylus_jacobian(master, context, B, E),
             master.EvalBodySpatialVelocityInWorld(context, stylus).rotational().copy(),
             hand.F_Bq_W.rotational().copy(),
-            passivity.GetOutputPort("energy_observed").Eval(passivity.GetMyContextFromRoot(root)).copy())
+            controller.GetOutputPort("log.passivity_energy").Eval(controller.GetMyContextFromRoot(root)).copy())
         return EventStatus.Succeeded()
 
     simulator = Simulator(diagram)

@@ -6,7 +6,7 @@ import numpy as np
 
 from heft.diagrams.running.simulation import true_load
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.teleop import MakeRealtimeTeleopController
+from heft.diagrams.teleop_controller import TeleopController
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.lcmtypes import heft_teleop_state
 from heft.hardware_interface.teleop_state import TeleopStatePublisher
@@ -15,8 +15,8 @@ from heft.hardware_interface.teleop_state import TeleopStatePublisher
 def test_a_tick_is_published_field_by_field():
     scenario = Scenario()
     load, _ = true_load(scenario)
-    controller = MakeRealtimeTeleopController(scenario.controller, load, scenario.robot, scenario.controller_period,
-                                              accelerometer=scenario.accelerometer.convention())
+    controller = TeleopController(scenario.controller, load, scenario.robot, scenario.controller_period,
+                                  accelerometer=scenario.accelerometer.convention())
     controller.start(np.array(scenario.slave_initial_q))
     rng = np.random.default_rng(5)
     controller.step(5e-4, np.array(scenario.master_initial_q) + 0.01, rng.normal(0, 0.5, 6),

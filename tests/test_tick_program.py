@@ -14,7 +14,7 @@ from heft.systems.tick_program import TickProgram
 from heft.systems.tick_program_system import TickProgramSystem
 from heft.systems.tick_system import TickConstant
 
-from controller_inputs import FEEDTHROUGH, PERIOD, both_runs_scenario, input_sequence
+from controller_inputs import FEEDTHROUGH, PERIOD, both_runs_scenario, drake_run, input_sequence, program_run
 
 
 def make_controller():
@@ -24,50 +24,19 @@ def make_controller():
                                 accelerometer=scenario.accelerometer.convention()), scenario
 
 
-def drake_steps(sequence):
-    """Drake's Simulator on the per-block Diagram: per tick, the feedthrough outputs the tick computed from its
-    readings and every output after its update."""
-    diagram, _ = make_controller()
-    simulator = Simulator(diagram)
-    context = simulator.get_mutable_context()
-    outputs = [diagram.get_output_port(i).get_name() for i in range(diagram.num_output_ports())]
-    ticks = []
-    for k, inputs in enumerate(sequence):
-        for name, value in inputs.items():
-            diagram.GetInputPort(name).FixValue(context, value)
-        if k == 0:
-            simulator.Initialize()
-        computed = {name: diagram.GetOutputPort(name).Eval(context).copy() for name in FEEDTHROUGH}
-        simulator.AdvanceTo((k + 1) * PERIOD)
-        ticks.append({name: diagram.GetOutputPort(name).Eval(context).copy() for name in outputs}
-                     | {f"computed {name}": value for name, value in computed.items()})
-    return ticks
-
-
 @pytest.fixture(scope="module")
 def recorded():
     scenario = both_runs_scenario()
     sequence = input_sequence(scenario, PERIOD)
-    return sequence, drake_steps(sequence)
+    return sequence, drake_run(make_controller()[0], sequence)
 
 
 def test_the_program_steps_the_diagram_exactly(recorded):
     sequence, expected = recorded
-    diagram, _ = make_controller()
-    program = TickProgram(diagram)
-    outputs = {diagram.get_output_port(i).get_name() for i in range(diagram.num_output_ports())}
-    for k, inputs in enumerate(sequence):
-        for name, value in inputs.items():
-            program.input(name)[:] = value
-        if k == 0:
-            program.reset()
-            program.initialize()
-        program.tick()
-        for name in FEEDTHROUGH:  # what the tick computed, before its update
-            np.testing.assert_array_equal(program.output(name), expected[k][f"computed {name}"],
-                                          err_msg=f"{name} at tick {k}")
-        for name in outputs - set(FEEDTHROUGH):
-            np.testing.assert_array_equal(program.output(name), expected[k][name], err_msg=f"{name} at tick {k}")
+    program = TickProgram(make_controller()[0])
+    for k, (tick, reference) in enumerate(zip(program_run(program, sequence), expected, strict=True)):
+        for name, value in reference.items():
+            np.testing.assert_array_equal(tick[name], value, err_msg=f"{name} at tick {k}")
 
 
 def test_the_program_as_one_system_steps_the_diagram_exactly(recorded):

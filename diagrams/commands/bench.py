@@ -3,7 +3,7 @@
 ``regressor``: V·φ per sample and per batch against Drake; ``identify``: Monte Carlo accuracy
 of every estimator against the Cramér–Rao bound, and update costs; ``lcm``: the controller
 against a driver probe and the stand-in over LCM in two processes; ``step``: one controller tick,
-the fused step against the per-block Diagram; ``compensate``: rate and peak
+the controller Diagram as its program and as Drake steps it; ``compensate``: rate and peak
 memory of `heft compensate` on long recordings."""
 
 from __future__ import annotations
@@ -95,21 +95,23 @@ def _bench_lcm(args) -> int:
 
 
 def _bench_step(args) -> int:
-    from heft.diagrams.commands import bench_step as bench
-    from heft.diagrams.commands.bench_lcm import FIXED_ESTIMATE
-    from heft.diagrams.diagram_teleop_controller import DiagramTeleopController
-    from heft.diagrams.scenario import layered, overrides_text
-    from heft.diagrams.running.simulation import true_load
-    from heft.diagrams.teleop import MakeRealtimeTeleopController
+    import numpy as np
 
-    scenario = layered(scenario_from(args), overrides_text(FIXED_ESTIMATE))  # the Diagram's estimate is fixed
+    from heft.diagrams.commands import bench_step as bench
+    from heft.diagrams.running.simulation import true_load
+    from heft.diagrams.teleop_controller import TeleopController
+
+    scenario = scenario_from(args)
     load, _ = true_load(scenario)
     period, convention = scenario.controller_period, scenario.accelerometer.convention()
     sequence = bench.readings(scenario, args.ticks, period)
+    program = TeleopController(scenario.controller, load, scenario.robot, period, accelerometer=convention)
+    torques = {"program": [], "drake": []}
     results = {"ticks": args.ticks,
-               **{kind: bench.time_controller(make(scenario.controller, load, scenario.robot, period,
-                                                   accelerometer=convention), sequence, period)
-                  for kind, make in (("fused", MakeRealtimeTeleopController), ("diagram", DiagramTeleopController))}}
+               "program": bench.time_controller(program, sequence, period, torques["program"]),
+               "drake": bench.time_controller(bench.DrakeStepping(program.diagram), sequence, period,
+                                              torques["drake"])}
+    results["torque_difference"] = float(np.abs(np.array(torques["program"]) - np.array(torques["drake"])).max())
     bench.report(results, period)
     _write(args, results)
     return 0
@@ -156,8 +158,8 @@ def add_arguments(parser) -> None:
     add_lcm_urls(lcm_parser)
     add_out(lcm_parser, "bench_lcm.json (every number)")
     lcm_parser.set_defaults(bench=_bench_lcm)
-    step_parser = benches.add_parser("step", help="one controller tick in one process: the fused step against the "
-                                                  "per-block Diagram ticked by a forced update")
+    step_parser = benches.add_parser("step", help="one controller tick in one process: the Diagram's program "
+                                                  "against Drake's stepping of the same Diagram")
     add_scenario(step_parser, more="the controller's settings")
     step_parser.add_argument("--ticks", type=int, default=4000, help="ticks timed (default 4000)")
     add_out(step_parser, "bench_step.json (every number)")

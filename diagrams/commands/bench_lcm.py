@@ -312,14 +312,14 @@ def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder:
 
 
 def bench_stand_in(rate_hz: float, duration: float, channels, scenario: str, folder: Path, prefix,
-                   busy_wait: float = 0.0, controller: str = "fused") -> dict:
-    """The ``controller`` (``heft teleop --hardware --controller``) at ``rate_hz`` (its loop's ``busy_wait``)
-    against ``heft stand-in`` for ``duration`` s of wall time: messages per wall second each way, as each
-    side counted them, and the controller's summary."""
+                   busy_wait: float = 0.0) -> dict:
+    """The controller (``heft teleop --hardware``) at ``rate_hz`` (its loop's ``busy_wait``) against
+    ``heft stand-in`` for ``duration`` s of wall time: messages per wall second each way, as each side counted
+    them, and the controller's summary."""
     from heft.diagrams.commands.options import lab_settings_text
     from heft.diagrams.scenario import resolve_scenario
 
-    teleop_folder, stand_in_folder = folder / f"teleop_stand_in_{controller}", folder / f"stand_in_{controller}"
+    teleop_folder, stand_in_folder = folder / "teleop_stand_in", folder / "stand_in"
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONUNBUFFERED="1")
     cli = [*prefix, sys.executable, "-m", "heft.diagrams.cli"]
     stand_in = subprocess.Popen(
@@ -329,9 +329,8 @@ def bench_stand_in(rate_hz: float, duration: float, channels, scenario: str, fol
     started = _wait_for_line(stand_in, "stand-in: publishing", 120.0)
     teleop = subprocess.Popen(
         [*cli, "teleop", "--hardware", *_url_arguments(channels), "--scenario", scenario,
-         "--set", lab_settings_text(resolve_scenario(scenario), FIXED_ESTIMATE if controller == "diagram" else None),
-         "--rate", str(rate_hz),
-         "--busy-wait", str(busy_wait), "--controller", controller, "--duration", str(duration),
+         "--set", lab_settings_text(resolve_scenario(scenario)), "--rate", str(rate_hz),
+         "--busy-wait", str(busy_wait), "--duration", str(duration),
          "--out", str(teleop_folder)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
     _finish({"teleop": (teleop, duration + 120), "stand-in": (stand_in, duration + 120)}, {"stand-in": started})
@@ -344,37 +343,6 @@ def bench_stand_in(rate_hz: float, duration: float, channels, scenario: str, fol
             "controller": {key: summary[key] for key in ("sent_hz", "received_hz", "healthy_ticks", "ticks",
                                                           "faults", "timing", "scheduling", "rejected",
                                                           "second_publishers")}}
-
-
-FIXED_ESTIMATE = {"controller.estimator.mode": "fixed"}
-"""What the Diagram's run lays over the scenario: it keeps its load estimate fixed."""
-MIN_HEALTHY_SHARE = 0.5
-"""The share of its ticks on which the Diagram in the loop must have stepped for its timing to count."""
-
-
-def _print_diagram_in_loop(result: dict, fused: dict) -> None:
-    """``heft teleop --hardware --controller diagram`` against the stand-in (``bench_stand_in``), beside the
-    fused step's run: its tick, and whether it fits the tick; not judged if it hardly ever stepped."""
-    from heft.diagrams.commands.bench_step import FITS_DIAGRAM_P99
-
-    controller, rate = result["controller"], result["rate_hz"]
-    timing, fused_timing = controller["timing"], fused["controller"]["timing"]
-    healthy = f"healthy {controller['healthy_ticks']} of {controller['ticks']} ticks"
-    if controller["healthy_ticks"] < MIN_HEALTHY_SHARE * controller["ticks"]:
-        print(f"per-block Diagram in the loop against the stand-in at {rate:g} Hz: not measured, {healthy} only "
-              f"(received per second {controller['received_hz']}, rejected {controller['rejected']}, second "
-              f"publishers {controller['second_publishers']}, faults {controller['faults'][:3]})")
-        return
-    fits = timing["tick_wall_p99_us"] < 1e6 * FITS_DIAGRAM_P99
-    received = result["stand_in"]["received_hz_while_controlled"]
-    print(f"per-block Diagram in the loop against the stand-in at {rate:g} Hz (`heft teleop --hardware "
-          f"--controller diagram`; {controller['scheduling']}): sustained {timing['achieved_rate_hz']:.0f} Hz, "
-          f"{timing['skipped_ticks']} ticks skipped, tick wall p50 / p99 {timing['tick_wall_p50_us']:.0f} / "
-          f"{timing['tick_wall_p99_us']:.0f} µs against the fused step's {fused_timing['tick_wall_p50_us']:.0f} / "
-          f"{fused_timing['tick_wall_p99_us']:.0f} µs; the stand-in received "
-          + ", ".join(f"{name} {hz:.0f}/s" for name, hz in received.items())
-          + f"; {healthy}; it {'fits' if fits else 'does not fit'} a {1e3 / rate:g} ms tick with p99 < "
-          f"{1e6 * FITS_DIAGRAM_P99:.0f} µs")
 
 
 def _print_stand_in(result: dict) -> None:
@@ -409,8 +377,6 @@ def run(rates, duration: float, scenario: str, channels, busy_wait: float = 0.0)
                     results.append(bench_rate(rate, duration, channels, scenario, Path(folder), prefix, estimator,
                                               busy_wait))
             stand_in = bench_stand_in(rates[0], duration, channels, scenario, Path(folder), prefix, busy_wait)
-            diagram = bench_stand_in(rates[0], duration, channels, scenario, Path(folder), prefix, busy_wait,
-                                     controller="diagram")
     finally:
         cleanup()
     print(f"{'rate (Hz)':>10s}{'estimator':>10s}{'sustained (Hz)':>16s}{'ratio':>7s}{'skipped':>9s}"
@@ -438,9 +404,7 @@ def run(rates, duration: float, scenario: str, channels, busy_wait: float = 0.0)
         rate, updated = fixed["rate_hz"], 100 * online["estimator_updates_per_tick"]
         print(f"estimator online at {rate:g} Hz (updated on {updated:.0f} % of ticks), against fixed: {costs}")
     _print_stand_in(stand_in)
-    _print_diagram_in_loop(diagram, stand_in)
-    return {"duration_s": duration, "network": where, "busy_wait": busy_wait, "results": results, "stand_in": stand_in,
-            "diagram_in_loop": diagram}
+    return {"duration_s": duration, "network": where, "busy_wait": busy_wait, "results": results, "stand_in": stand_in}
 
 
 if __name__ == "__main__":

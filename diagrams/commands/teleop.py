@@ -38,10 +38,6 @@ def add_arguments(parser) -> None:
     parser.add_argument("--rt-priority", type=int, default=LOOP_PRIORITY,
                         help=f"SCHED_FIFO priority of the control loop, pinned to the last CPU (default "
                              f"{LOOP_PRIORITY}; 0: normal)")
-    parser.add_argument("--controller", choices=("fused", "diagram"), default="fused",
-                        help="what steps each tick: the blocks composed in one step (fused, the default) or the "
-                             "per-block Diagram the simulation runs (diagram: the lab's reference path; a fixed load "
-                             "estimate, no load commands)")
     parser.add_argument("--busy-wait", type=float, default=0.0,
                         help="share of each period before a tick that the control loop waits busy instead of "
                              "asleep (0 to 0.8, default 0): a shorter tick tail where a sleeping CPU wakes late, "
@@ -84,7 +80,7 @@ def run(args) -> int:
              f"{1.0 / scenario.controller_period:g} Hz for {args.duration:g} s of wall time; watchdog timeout "
              f"{scenario.lab.station.watchdog.timeout:g} s")
     summary = run_hardware_teleop(scenario, load, args.duration, record=args.record, priority=args.rt_priority,
-                                  busy_wait=args.busy_wait, controller=args.controller)
+                                  busy_wait=args.busy_wait)
     say.info(format_summary(summary, channels.lcm_url))
     if summary_path is not None:
         summary_path.write_text(json.dumps(summary, indent=2) + "\n")

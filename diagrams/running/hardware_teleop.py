@@ -2,10 +2,9 @@
 
 ``HardwareTeleop.tick`` is one controller tick on the wall clock: the hardware
 station receives (one LCM pump, the newest message of every channel), the
-controller steps (by default ``MakeRealtimeTeleopController``, Fig. 4 in one computation,
-with the measured tick duration; or the per-block Diagram, ``DiagramTeleopController``),
+controller Diagram steps (``TeleopController``: Fig. 4's blocks as its ``TickProgram``),
 and the station sends in the same tick, so a sensor sample reaches the master's command
-one tick after it arrives.
+in the tick it arrives.
 
 Start-up and recovery never move the slave: the controller starts only when the
 station is healthy (every channel fresh, so the slave's measured position is
@@ -14,7 +13,7 @@ the clutch disengaged; motion follows the stylus only while the operator holds
 the clutch button, anchored on the slave's measured pose at the press. Load
 commands (``heft load``: re-zero, offset tracking, a new tool's estimate, a grasp
 or release) and the gripper driver's grasps and releases are served after each
-tick's send (``hardware_interface.load_commands``; refused with the reason under the Diagram).
+tick's send (``hardware_interface.load_commands``), through the Diagram's inputs.
 When the run is recorded, what the controller computed goes out beside the commands each tick it steps
 (``hardware_interface.teleop_state``; about 45 µs a tick, so only then).
 
@@ -34,13 +33,12 @@ import lcm
 import numpy as np
 
 from heft.diagrams.device_limits import device_limits
-from heft.diagrams.diagram_teleop_controller import NO_LOAD_COMMANDS, DiagramTeleopController
 from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
 from heft.diagrams.running.realtime import (LOOP_PRIORITY, StopOnSignal, claim_realtime, format_timing,
                                             keep_cpu_for_loop, run_realtime, timing_summary)
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.load_estimate import LoadEstimate
-from heft.diagrams.teleop import MakeRealtimeTeleopController
+from heft.diagrams.teleop_controller import TeleopController
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.command_echo import SENT_KEEP
 from heft.hardware_interface.hardware_station import WATCHED_CHANNELS, HardwareStation, HardwareStationParams
@@ -51,9 +49,6 @@ from heft.systems.compiled import compiled
 from heft.systems.load_dynamics import wrench_norms
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
-CONTROLLERS = ("fused", "diagram")
-"""What steps in the loop: the fused step (``MakeRealtimeTeleopController``, the default) or the per-block
-Diagram (``DiagramTeleopController``, the lab's reference path)."""
 PHI_SAMPLE_PERIOD = 0.01
 """s between the samples of φ̂ a run's summary keeps while the estimator learns online."""
 MAX_PHI_SAMPLES = 60_000
@@ -70,29 +65,22 @@ class HardwareTeleop:
 
     def __init__(self, scenario: Scenario, load: LoadEstimate, bus: lcm.LCM, channels: LcmChannels,
                  params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None,
-                 publish_state: bool = False, controller: str = "fused"):
-        if controller not in CONTROLLERS:
-            raise ValueError(f"unknown controller {controller!r}: choose one of {', '.join(CONTROLLERS)}")
+                 publish_state: bool = False):
         estimator = scenario.controller.estimator
         slowest = max(WATCHED_CHANNELS, key=lambda name: 1.0 / getattr(channels, name).rate)
         period = 1.0 / getattr(channels, slowest).rate
-        if estimator.mode == "online" and controller == "fused" and not estimator.max_input_age > 2.0 * period:
+        if estimator.mode == "online" and not estimator.max_input_age > 2.0 * period:
             raise ValueError(f"controller.estimator.max_input_age ({1e3 * estimator.max_input_age:g} ms) must exceed "
                              f"twice the period of the slowest channel the station watches ({slowest} at "
                              f"{getattr(channels, slowest).rate:g} Hz: {1e3 * period:g} ms), or the online estimator "
                              f"would refuse the ticks of a healthy stream; set it to {2.5e3 * period:g} ms or more")
         # The controller's models first (about a second): the station's subscriptions then
         # start receiving only when the loop is about to pump them.
-        make = DiagramTeleopController if controller == "diagram" else MakeRealtimeTeleopController
-        self.controller = make(scenario.controller, load, scenario.robot, scenario.controller_period,
-                               accelerometer=scenario.accelerometer.convention())
-        # The hold the controller's blocks step by, which a recording carries: the tick's measured
-        # duration for the fused step, the period for the Diagram's blocks.
-        self._fixed_hold = scenario.controller_period if controller == "diagram" else None
+        self.controller = TeleopController(scenario.controller, load, scenario.robot, scenario.controller_period,
+                                           accelerometer=scenario.accelerometer.convention())
         limits = device_limits(scenario)
         self.station = HardwareStation(bus, channels, limits, params, command_bus)
-        self.load_commands = LoadCommandServer(bus, channels, self.controller, limits.wrench_full_scale, command_bus,
-                                               NO_LOAD_COMMANDS if controller == "diagram" else None)
+        self.load_commands = LoadCommandServer(bus, channels, self.controller, limits.wrench_full_scale, command_bus)
         self.state = (TeleopStatePublisher(bus if command_bus is None else command_bus, channels) if publish_state
                       else None)
         self.starts = 0
@@ -130,7 +118,7 @@ class HardwareTeleop:
                             station.oldest_age)
             station.send(now, controller.torque, controller.position)
             if self.state is not None:
-                self.state.publish(round((station.epoch + now) * 1e6), self._fixed_hold or dt, self.starts,
+                self.state.publish(round((station.epoch + now) * 1e6), controller.period, self.starts,
                                    station.stamps, controller, station.gain)
         else:
             station.send(now, self._zero, None)
@@ -314,7 +302,7 @@ def command_peaks(peaks, torque_sent, applied_wrench, gain, healthy, position, h
 
 
 def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float, record=None,
-                        priority: int = LOOP_PRIORITY, busy_wait: float = 0.0, controller: str = "fused") -> dict:
+                        priority: int = LOOP_PRIORITY, busy_wait: float = 0.0) -> dict:
     """Runs ``HardwareTeleop`` on the scenario's lab (``scenario.lab``: the LCM channels' two URLs,
     ``open_buses``, and the station's watchdog) at its rate (``controller_period``) for
     ``duration`` s of wall time, with real-time ``priority`` (``claim_realtime``: after the
@@ -322,19 +310,15 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float,
     LCM's receive thread shares it; then ``keep_cpu_for_loop`` moves that thread off the loop's
     CPU); returns its summary with ``timing`` (``timing_summary``), ``scheduling``, ``lcm_log``
     and ``epoch`` (wall-clock s since the Unix epoch at the loop's time 0). ``busy_wait``: the share of
-    each period before a tick that the loop waits busy (``run_realtime``); ``controller``: one of
-    ``CONTROLLERS``.
+    each period before a tick that the loop waits busy (``run_realtime``).
     SIGINT (Ctrl-C) or SIGTERM end the run early as its duration does: the station's
     last commands turn the forces off and hold the slave (``HardwareStation.stop``).
     ``record``: a path to record the LCM traffic to (``lcm-logger`` format), or None."""
     print(f"teleop: {scenario.accelerometer.convention()}", flush=True)
     print(f"teleop: {scenario.controller.force.mount_notch_summary()}", flush=True)
     estimator = scenario.controller.estimator
-    stepping = ("the per-block Diagram (the blocks the simulation runs)" if controller == "diagram"
-                else "the blocks composed in one step")
-    print(f"teleop: {stepping} steps each tick", flush=True)
+    print("teleop: the controller Diagram (the blocks the simulation runs) steps each tick", flush=True)
     print("teleop: load estimate " + (
-        "fixed (no load commands with the Diagram)" if controller == "diagram" else
         "fixed (`heft load --estimate` changes it)" if estimator.mode == "fixed" else
         f"learned online ({estimator.method}, forgetting {estimator.forgetting:g} per tick, prefilter "
         f"{estimator.prefilter:g} Hz, from readings at most {1e3 * estimator.max_input_age:g} ms old; "
@@ -346,7 +330,7 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float,
         print(f"teleop: {scheduling}", flush=True)
         bus, command_bus = open_buses(channels)
         teleop = HardwareTeleop(scenario, load, bus, channels, scenario.lab.station, command_bus,
-                                publish_state=record is not None, controller=controller)
+                                publish_state=record is not None)
         if priority:
             placement = keep_cpu_for_loop()
             scheduling += f"; {placement}"
