@@ -8,6 +8,8 @@ module imports no simulation. The hardware's real-time loop steps it as its ``Ti
 """
 
 
+from collections.abc import Callable, Sequence
+
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
@@ -26,8 +28,11 @@ from heft.systems.passivity_controller import PassivityController
 from heft.systems.rx_inverse_kinematics import RxKinematics
 from heft.systems.slave_inverse_kinematics import SlaveInverseKinematics
 from heft.systems.slave_kinematics import SlaveKinematics
+from heft.systems.tick_system import TickSystem
 from heft.systems.load_model import FixedLoad
 
+FeedbackBlock = Callable[[float], TickSystem]
+"""Makes a block of a lab's own for the feedback path from the controller's period (s)."""
 STATION_OUTPUTS_READ = ("master.position_measured", "master.velocity_estimated", "slave.position_measured",
                         "slave.velocity_estimated", "ft.wrench_measured", "ft.acceleration_measured")
 STATION_INPUTS_DRIVEN = ("master.torque_commanded", "slave.position_commanded")
@@ -48,7 +53,7 @@ def _slave_ik_model(robot: str) -> tuple[MultibodyPlant, RxKinematics, RigidTran
 
 
 def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, period: float, slave_initial_q, *,
-                         accelerometer: AccelerometerConvention):
+                         accelerometer: AccelerometerConvention, feedback_blocks: Sequence[FeedbackBlock] = ()):
     """The hardware-agnostic controller Diagram of Fig. 4 (docs/design.md §3), ticking every ``period`` s.
     ``accelerometer``: the convention of ``ft.acceleration_measured`` (``accelerometer_reading``;
     the scenario's ``accelerometer.convention()``).
@@ -60,6 +65,8 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     with ``spec.estimator.mode`` "online", ``holding`` (1, the gripper holds an object: the grasp's split,
     ``GraspSplit``), ``estimator_reset`` (1, a request counter: a new load) and ``input_age`` (1, s). φ̂ is
     ``load.phi`` (``FixedLoad``) or, online, the load estimator's (``AddOnlineLoadEstimator``).
+    ``feedback_blocks``: blocks of a lab's own between force scaling's f′ and the feedback mapping, in order
+    (each made by ``make(period)``: a TickSystem with an input and an output ``wrench``, 6, at S in S).
     Outputs: ``master.torque_commanded`` (6, N·m), ``slave.position_commanded`` (6, rad),
     the ``CONTROLLER_LOG`` signals, ``slave.gravity_S`` (3, g in S at the measured joints) and, online,
     ``estimator.num_samples`` (1, since the last new load). The slave's tool frame T of the motion mapping is S.
@@ -116,7 +123,12 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     connect(offsets.GetOutputPort("offsets"), force.GetInputPort("offsets"))
     connect(force.GetOutputPort("wrench_contact"), offsets.GetInputPort("wrench_contact"))
     connect(force.GetOutputPort("fault"), offsets.GetInputPort("fault"))
-    connect(force.GetOutputPort("wrench_feedback"), feedback.GetInputPort("wrench_S"))
+    wrench_feedback = force.GetOutputPort("wrench_feedback")
+    for i, make in enumerate(feedback_blocks):
+        block = builder.AddNamedSystem(f"feedback_block_{i}", make(period))
+        connect(wrench_feedback, block.GetInputPort("wrench"))
+        wrench_feedback = block.GetOutputPort("wrench")
+    connect(wrench_feedback, feedback.GetInputPort("wrench_S"))
     connect(slave_kinematics.GetOutputPort("pose_RS"), feedback.GetInputPort("pose_RS"))
     connect(master_kinematics.GetOutputPort("jacobian"), feedback.GetInputPort("jacobian"))
     connect(feedback.GetOutputPort("wrench_E"), passivity.GetInputPort("wrench"))

@@ -15,12 +15,13 @@ with the clutch disengaged; what the controller learned of the load (offsets, φ
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 
 import numpy as np
 
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.scenario import ControllerSpec
-from heft.diagrams.teleop import STATION_OUTPUTS_READ, MakeTeleopController
+from heft.diagrams.teleop import STATION_OUTPUTS_READ, FeedbackBlock, MakeTeleopController
 from heft.systems.accelerometer_reading import AccelerometerConvention, kernel_convention, motion_from_reading
 from heft.systems.load_dynamics import checked_load, regressor
 from heft.systems.load_model import ESTIMATES_SEEN, GRASPS, HOLDING, PHI_GRIPPER, RESTARTS, SPLIT
@@ -74,7 +75,8 @@ class OnlineEstimation:
 
 
 class TeleopController:
-    """``MakeTeleopController(spec, load, robot, period, …)`` stepped tick by tick (module docstring).
+    """``MakeTeleopController(spec, load, robot, period, …, feedback_blocks)`` stepped tick by tick (module
+    docstring).
 
     ``start(slave_position)`` begins (again); ``step(dt, …)`` takes one tick's readings. After a step:
     ``torque`` τ_M (6, N·m) and ``position`` q̄_S (6, rad) to send, the state the update left
@@ -83,11 +85,12 @@ class TeleopController:
     ``master_wrench``: at S in S, on the hand at E in B)."""
 
     def __init__(self, spec: ControllerSpec, load: LoadEstimate, robot: str, period: float, *,
-                 accelerometer: AccelerometerConvention):
+                 accelerometer: AccelerometerConvention, feedback_blocks: Sequence[FeedbackBlock] = ()):
         phi, offsets = checked_load(load.phi, load.offsets)
         self.period = period
         self.diagram = diagram = MakeTeleopController(spec, LoadEstimate(phi, offsets), robot, period,
-                                                      np.zeros(NUM_JOINTS), accelerometer=accelerometer)
+                                                      np.zeros(NUM_JOINTS), accelerometer=accelerometer,
+                                                      feedback_blocks=feedback_blocks)
         self.program = program = TickProgram(diagram)
         online = spec.estimator.mode == "online"
         self.estimator = OnlineEstimation(program, spec.estimator) if online else None

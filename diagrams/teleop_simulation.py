@@ -2,6 +2,7 @@
 in simulation, with an optional communication delay, and the signals analysis logs."""
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
@@ -12,7 +13,8 @@ from pydrake.trajectories import PiecewisePolynomial
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.diagrams.load_estimate import LoadEstimate
-from heft.diagrams.teleop import CONTROLLER_LOG, STATION_INPUTS_DRIVEN, STATION_OUTPUTS_READ, MakeTeleopController
+from heft.diagrams.teleop import (CONTROLLER_LOG, STATION_INPUTS_DRIVEN, STATION_OUTPUTS_READ, FeedbackBlock,
+                                  MakeTeleopController)
 from heft.systems.tick_program_system import TickProgramSystem
 
 
@@ -78,18 +80,20 @@ class SimulationLog:
         return {"t": log.sample_times().copy(), **{key: data[:, part].copy() for key, part in self.columns.items()}}
 
 
-def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, meshcat=None):
+def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, meshcat=None,
+                         feedback_blocks: Sequence[FeedbackBlock] = ()):
     """The controller closed around the simulated station, with its log.
 
     Returns (diagram, log): ``log`` a ``SimulationLog`` of ``STATION_LOG``'s and ``CONTROLLER_LOG``'s
-    signals, sampled every controller period; a ``meshcat`` shows the slave live (``MakeSimStation``).
+    signals, sampled every controller period; a ``meshcat`` shows the slave live (``MakeSimStation``);
+    ``feedback_blocks`` a lab's own blocks on the feedback path (``MakeTeleopController``).
     """
     spec = scenario.controller
     builder = DiagramBuilder()
     station = builder.AddNamedSystem("station", MakeSimStation(scenario, meshcat))
     controller = builder.AddNamedSystem("controller", TickProgramSystem(MakeTeleopController(
         spec, load, scenario.robot, scenario.controller_period, scenario.slave_initial_q,
-        accelerometer=scenario.accelerometer.convention())))
+        accelerometer=scenario.accelerometer.convention(), feedback_blocks=feedback_blocks)))
     period = scenario.controller_period
     ConnectControllerToStation(builder, controller, station, round(spec.delay / period), period,
                                {"master.position_measured": scenario.master_initial_q,

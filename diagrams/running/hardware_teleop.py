@@ -25,6 +25,7 @@ force and torque, the largest slave command step, message rates and timing.
 from __future__ import annotations
 
 import collections
+from collections.abc import Sequence
 import contextlib
 import math
 import time
@@ -38,6 +39,7 @@ from heft.diagrams.running.realtime import (LOOP_PRIORITY, StopOnSignal, claim_r
                                             keep_cpu_for_loop, run_realtime, timing_summary)
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.load_estimate import LoadEstimate
+from heft.diagrams.teleop import FeedbackBlock
 from heft.diagrams.teleop_controller import TeleopController
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.command_echo import SENT_KEEP
@@ -61,11 +63,12 @@ class HardwareTeleop:
 
     ``tick(now, dt)`` runs one tick at ``now`` (s, monotonic) ``dt`` s after the last, nominally the
     scenario's ``controller_period``; ``summary(elapsed)`` reports the
-    run so far. ``publish_state``: publish ``heft_teleop_state`` each tick the controller steps."""
+    run so far. ``publish_state``: publish ``heft_teleop_state`` each tick the controller steps;
+    ``feedback_blocks``: a lab's own blocks on the feedback path (``MakeTeleopController``)."""
 
     def __init__(self, scenario: Scenario, load: LoadEstimate, bus: lcm.LCM, channels: LcmChannels,
                  params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None,
-                 publish_state: bool = False):
+                 publish_state: bool = False, feedback_blocks: Sequence[FeedbackBlock] = ()):
         estimator = scenario.controller.estimator
         slowest = max(WATCHED_CHANNELS, key=lambda name: 1.0 / getattr(channels, name).rate)
         period = 1.0 / getattr(channels, slowest).rate
@@ -77,7 +80,8 @@ class HardwareTeleop:
         # The controller's models first (about a second): the station's subscriptions then
         # start receiving only when the loop is about to pump them.
         self.controller = TeleopController(scenario.controller, load, scenario.robot, scenario.controller_period,
-                                           accelerometer=scenario.accelerometer.convention())
+                                           accelerometer=scenario.accelerometer.convention(),
+                                           feedback_blocks=feedback_blocks)
         limits = device_limits(scenario)
         self.station = HardwareStation(bus, channels, limits, params, command_bus)
         self.load_commands = LoadCommandServer(bus, channels, self.controller, limits.wrench_full_scale, command_bus)
