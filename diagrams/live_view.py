@@ -35,7 +35,7 @@ DEFAULT_RATE = 100.0
 RING_ROWS = 4096
 """Rows of the shared ring: 2 s at 2 kHz for the recorder's worker to catch up in."""
 WORKER_NICENESS = 10
-"""The worker's nice value: below the loop's priority."""
+"""The worker's nice value: below the loop's priority (``_leave_the_loop``)."""
 POLL = 0.005
 """s between the worker's looks at the ring."""
 SCENE_RATE = DEFAULT_RATE
@@ -84,6 +84,7 @@ class TickTap:
         file.close()
         self._path = file.name
         memory = np.memmap(self._path, dtype=np.float64, mode="r+").view(np.ndarray)  # plain views: cheaper to set
+        memory[:] = 0.0  # every page touched now, not at a tick's first write to it
         self._head, ring = memory[:_HEADER], memory[_HEADER:].reshape(RING_ROWS, columns)
         self._slots, start = [], 1
         spans = []
@@ -201,9 +202,20 @@ def simulation_monitor(view: TickTap, log, names: dict):
     return monitor
 
 
+def _leave_the_loop() -> None:
+    """Gives up what the worker inherited from a real-time loop that started it: ``SCHED_FIFO``
+    (normal scheduling, niced by ``WORKER_NICENESS``), and a CPU of its own (the others, if any)."""
+    if os.sched_getscheduler(0) != os.SCHED_OTHER:
+        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    os.nice(WORKER_NICENESS)
+    mine, every = os.sched_getaffinity(0), set(range(os.cpu_count() or 1))
+    if len(mine) == 1 and every - mine:
+        os.sched_setaffinity(0, every - mine)
+
+
 def _work(path, widths: dict, sink: tuple, robot: str, rate: float, events, replies) -> None:
     """The worker process: serves or writes the ring's rows until told to stop."""
-    os.nice(WORKER_NICENESS)
+    _leave_the_loop()
     try:
         from heft.analysis.run_export import foxglove_channel, foxglove_sdk
         from heft.analysis.topics import (EVENT_TOPICS, SCENE_FRAMES, SCENE_KEYS, SCENE_WRENCHES, encode, row_messages,
