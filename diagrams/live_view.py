@@ -6,8 +6,10 @@ The loop's side of either is a hand-off into shared memory: ``publish(t, arrays)
 declared arrays into a ring of preallocated rows and moves a counter; no encoding, no lock, no
 system call, so it never waits for the viewer. ``LiveView`` takes at most ``rate`` rows a second
 (on the loop's clock ``t``), ``McapRecorder`` every row (the scene at ``SCENE_RATE``). The worker
-process (niced) reads the ring, adds the scene's poses (``diagrams.scene_poses``), encodes the
-messages and serves or writes them; rows it falls more than ``RING_ROWS`` behind on are lost, counted.
+process (niced, off a real-time loop's CPU) reads the ring, adds the scene's poses
+(``diagrams.scene_poses``), encodes the messages and serves or writes them. The recorder's worker
+first spools each row to a temporary file, so that an encoding slower than the loop loses nothing
+(it catches up after ``close``); rows a worker falls more than ``RING_ROWS`` behind on are lost, counted.
 
     view = LiveView(port=8765)                      # or McapRecorder("run.mcap")
     view.open({"wrench_measured": 6, "slave_q": 6, ...})  # once: starts the worker, waits for it
@@ -41,6 +43,8 @@ POLL = 0.005
 SCENE_RATE = DEFAULT_RATE
 """Scene messages a second at most (Hz, the loop's clock; the recorder's other topics take every row):
 a drawing, and the dearest message to make."""
+CLOSE_TIMEOUT = 30.0
+"""s the live view's worker may take to stop before it is ended."""
 LINGER = 0.5
 """s the server stays up after the last row, for its messages to reach the clients."""
 START_TIMEOUT = 120.0
@@ -148,11 +152,12 @@ class TickTap:
         self._events.put((topic, t, message))
 
     def close(self) -> dict:
-        """Stops the worker after it has handled every row; {"rows": handled, "dropped": lost} ({} if not open)."""
+        """Stops the worker after it has handled every row (the recorder: encoded every row it
+        spooled, however long that takes); {"rows": handled, "dropped": lost} ({} if not open)."""
         if self._process is None:
             return {}
         self._head[1] = 1.0
-        self._process.join(timeout=30.0)
+        self._process.join(timeout=None if self._rate == 0 else CLOSE_TIMEOUT)
         if self._process.is_alive():
             self._process.terminate()
             self._process.join()
@@ -250,8 +255,25 @@ def _work(path, widths: dict, sink: tuple, robot: str, rate: float, events, repl
     spans, start = {}, 1
     for key, width in widths.items():
         spans[key], start = slice(start, start + width), start + width
-    read, dropped, t0, next_scene = 0, 0, 0, -math.inf
     plain = [name for name in names if name not in (SCENE_FRAMES, SCENE_WRENCHES)]
+    next_scene = -math.inf
+
+    def send(log_time: int, row) -> None:
+        nonlocal next_scene
+        t = float(row[0])
+        arrays = {key: row[part] for key, part in spans.items()}
+        drawn = scene is not None and t >= next_scene - 1e-9
+        if drawn:  # the scene at most SCENE_RATE
+            next_scene = t + 1.0 / SCENE_RATE
+            scene.update(arrays["slave_q"], arrays["master_q"])
+            arrays.update(pose_RS=scene.pose_RS, pose_BE=scene.pose_BE)
+        for name, message in row_messages(t, arrays, names if drawn else plain):
+            channels[name].log(encode(message), log_time=log_time)
+
+    # The recorder spools every row to a file first (a copy), then encodes from it as it can: a
+    # loop faster than the encoding loses nothing, and the file is finished at close.
+    spool = _Spool(ring.shape[1]) if rate == 0 else None
+    read, sent, dropped, t0 = 0, 0, 0, 0
     try:
         while True:
             stopping = head[1] != 0.0
@@ -272,20 +294,54 @@ def _work(path, widths: dict, sink: tuple, robot: str, rate: float, events, repl
                 row = ring[i % RING_ROWS].copy()
                 if int(head[0]) - i >= RING_ROWS:  # overwritten while copied
                     dropped += 1
-                    continue
-                t = float(row[0])
-                arrays = {key: row[part] for key, part in spans.items()}
-                drawn = scene is not None and t >= next_scene - 1e-9
-                if drawn:  # the scene at most SCENE_RATE
-                    next_scene = t + 1.0 / SCENE_RATE
-                    scene.update(arrays["slave_q"], arrays["master_q"])
-                    arrays.update(pose_RS=scene.pose_RS, pose_BE=scene.pose_BE)
-                for name, message in row_messages(t, arrays, names if drawn else plain):
-                    channels[name].log(encode(message), log_time=t0 + round(t * 1e9))
+                elif spool is None:
+                    send(t0 + round(row[0] * 1e9), row)
+                    sent += 1
+                else:
+                    spool.add(t0 + round(row[0] * 1e9), row)
             read = written
-            if stopping and int(head[0]) == read:
+            deadline = time.monotonic() + POLL  # then back to the ring
+            while spool is not None and spool.pending and time.monotonic() < deadline:
+                for log_time, row in spool.take(8):
+                    send(log_time, row)
+                    sent += 1
+            if stopping and int(head[0]) == read and not (spool and spool.pending):
                 break
-            time.sleep(POLL if rate == 0 else min(POLL, 0.5 / rate))
+            if not (spool and spool.pending):
+                time.sleep(POLL if rate == 0 else min(POLL, 0.5 / rate))
     finally:
         stop()
-        replies.put({"rows": read - dropped, "dropped": dropped})
+        if spool is not None:
+            spool.close()
+        replies.put({"rows": sent, "dropped": dropped})
+
+
+class _Spool:
+    """Rows of ``columns`` floats with their log times (ns), appended to an unlinked temporary
+    file and taken back in order."""
+
+    def __init__(self, columns: int):
+        self._record = np.dtype([("log_time", np.int64), ("row", np.float64, columns)])
+        self._file = tempfile.TemporaryFile(prefix="heft-record-")
+        self._added = self._taken = 0
+
+    @property
+    def pending(self) -> int:
+        return self._added - self._taken
+
+    def add(self, log_time: int, row) -> None:
+        record = np.empty((), self._record)
+        record["log_time"], record["row"] = log_time, row
+        os.pwrite(self._file.fileno(), record.tobytes(), self._added * self._record.itemsize)
+        self._added += 1
+
+    def take(self, most: int):
+        """Up to ``most`` of the rows not yet taken, as (log time, row)."""
+        count = min(most, self.pending)
+        data = os.pread(self._file.fileno(), count * self._record.itemsize, self._taken * self._record.itemsize)
+        self._taken += count
+        records = np.frombuffer(data, dtype=self._record)
+        return [(int(record["log_time"]), record["row"]) for record in records]
+
+    def close(self) -> None:
+        self._file.close()

@@ -3,7 +3,8 @@ connects to `heft simulate fig6 --view`. foxglove-sdk serves that protocol under
 ``foxglove.sdk.v1`` only (the same messages), so the client offers both names, as Foxglove and
 Lichtblick do. It subscribes to every advertised topic and checks that
 each arrives at the view's rate and that the wrenches equal the run's log.npz row for row; the
-loop's hand-off (`LiveView.publish`) is timed against its budget; `McapRecorder` writes every row.
+loop's hand-off (`LiveView.publish`) is timed against its budget; `McapRecorder` writes every row,
+however fast they come.
 """
 
 import json
@@ -11,6 +12,7 @@ import socket
 import struct
 import subprocess
 import sys
+import threading
 import time
 
 import numpy as np
@@ -141,11 +143,16 @@ def rows(n: int, seed: int = 1) -> list[dict]:
 
 
 def test_the_recorder_writes_every_row_handed_to_it(tmp_path):
-    data = rows(600)
+    """Rows handed over at 10 kHz, faster than the worker encodes them (3 s of a 2 kHz loop in 0.6 s):
+    none is lost."""
+    data = rows(6000)
     with McapRecorder(tmp_path / "run.mcap") as recorder:
         recorder.open(WIDTHS, t0_ns=10**18)
         for k, row in enumerate(data):
+            start = time.perf_counter()
             assert recorder.publish(k * 0.0005, row)
+            while time.perf_counter() < start + 1e-4:
+                pass
         stats = recorder.close()
     assert stats == {"rows": len(data), "dropped": 0}
     with open(tmp_path / "run.mcap", "rb") as file:
@@ -159,7 +166,8 @@ def test_the_recorder_writes_every_row_handed_to_it(tmp_path):
     np.testing.assert_array_equal([m["hold"] for topic, _, m in messages if topic == "/loop"],
                                   [row["hold"][0] for row in data])
     assert [m["transforms"][0]["timestamp"] for topic, _, m in messages if topic == "/scene/frames"] == [
-        {"sec": 0, "nsec": round(k * 0.0005 * 1e9)} for k in range(0, len(data), 20)]  # the scene at 100 Hz
+        dict(zip(("sec", "nsec"), divmod(round(k * 0.0005 * 1e9), 10**9), strict=True))
+        for k in range(0, len(data), 20)]  # the scene at 100 Hz
 
 
 def test_the_loops_hand_off_takes_microseconds(tmp_path):
@@ -178,27 +186,31 @@ def test_the_loops_hand_off_takes_microseconds(tmp_path):
 
 
 def test_a_client_sees_the_rows_a_loop_hands_over_at_the_views_rate():
-    """Rows published at 2 kHz reach a client at 100 Hz, values and scene as handed over."""
-    data = rows(400, seed=2)
+    """Rows published by a 2 kHz loop reach a client at 100 Hz, values and scene as handed over."""
+    data = rows(2000, seed=2)
     port = free_port()
     with LiveView(port) as view:
         view.open(WIDTHS)
         client = FoxgloveClient(f"ws://127.0.0.1:{port}", timeout=30)
+        listening = threading.Thread(target=client.receive, args=(time.monotonic() + 120,))
+        listening.start()
         while not client.channels:  # advertised, and the client subscribed
-            client.receive(time.monotonic() + 0.2)
+            time.sleep(0.01)
         time.sleep(0.5)
         for k, row in enumerate(data):
+            start = time.perf_counter()
             view.publish(k * 0.0005, row)
+            while time.perf_counter() < start + 0.0005:
+                pass
         view.event("/faults", {"healthy": True}, 0.1)
         view.close()
-    while client.receive(time.monotonic() + 5.0):
-        pass
+    listening.join()
     by_topic = {}
     for topic, _, message in client.messages:
         by_topic.setdefault(topic, []).append(message)
     received = by_topic["/wrench/measured"]
     steps = [round(m["t"] / 0.0005) for m in received]  # taken every 10 ms of the loop's clock: every 20th row
-    assert steps == list(range(steps[0], len(data), 20)) and steps[0] <= 100, steps
+    assert steps == list(range(steps[0], len(data), 20)) and steps[0] <= 200, steps
     taken = [data[k] for k in steps]
     np.testing.assert_array_equal([[m["force"][a] for a in "xyz"] + [m["torque"][a] for a in "xyz"]
                                    for m in by_topic["/wrench/measured"]], [row["wrench_measured"] for row in taken])
