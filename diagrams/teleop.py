@@ -10,9 +10,11 @@ module imports no simulation. The hardware's real-time loop steps it as its ``Ti
 
 from collections.abc import Callable, Sequence
 
+import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import Adder, ConstantVectorSource, DiscreteTimeDelay
 
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.online_estimation import AddOnlineLoadEstimator
@@ -28,14 +30,12 @@ from heft.systems.passivity_controller import PassivityController
 from heft.systems.rx_inverse_kinematics import RxKinematics
 from heft.systems.slave_inverse_kinematics import SlaveInverseKinematics
 from heft.systems.slave_kinematics import SlaveKinematics
+from heft.systems.station_ports import CLUTCH, INPUT_AGE, STATION_INPUTS_DRIVEN, STATION_OUTPUTS_READ
 from heft.systems.tick_system import TickSystem
 from heft.systems.load_model import FixedLoad
 
 FeedbackBlock = Callable[[float], TickSystem]
 """Makes a block of a lab's own for the feedback path from the controller's period (s)."""
-STATION_OUTPUTS_READ = ("master.position_measured", "master.velocity_estimated", "slave.position_measured",
-                        "slave.velocity_estimated", "ft.wrench_measured", "ft.acceleration_measured")
-STATION_INPUTS_DRIVEN = ("master.torque_commanded", "slave.position_commanded")
 # Controller outputs logged for analysis (name → size).
 CONTROLLER_LOG = {"log.wrench_feedback": 6, "log.wrench_contact": 6, "log.wrench_noncontact": 6,
                   "log.master_wrench": 6, "log.applied_wrench": 6, "log.pose_RS_desired": 7, "log.passivity_energy": 2,
@@ -158,3 +158,44 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     diagram = builder.Build()
     diagram.set_name("teleop_controller")
     return diagram
+
+
+def ConnectControllerToStation(builder: DiagramBuilder, controller, station, delay_steps: int = 0,
+                               period: float = 0.0, initial_values: dict | None = None):
+    """Closes the loop by port name, the simulated station's or the lab's (``station_ports``): the readings and
+    the clutch to the controller, its commands to the station, and the readings' age where the station knows it
+    and the controller reads it.
+
+    ``delay_steps`` > 0 adds a communication delay of that many ``period`` s to every channel, both ways
+    (``AddDelay``; a channel starts at ``initial_values[name]``, else 0)."""
+    def link(source, name, sink):
+        if delay_steps:
+            source = AddDelay(builder, source, delay_steps, period, (initial_values or {}).get(name))
+        builder.Connect(source, sink)
+
+    for name in STATION_OUTPUTS_READ:
+        link(station.GetOutputPort(name), name, controller.GetInputPort(name))
+    for name in STATION_INPUTS_DRIVEN:
+        link(controller.GetOutputPort(name), name, station.GetInputPort(name))
+    builder.Connect(station.GetOutputPort(CLUTCH), controller.GetInputPort(CLUTCH))
+    if station.HasOutputPort(INPUT_AGE) and controller.HasInputPort(INPUT_AGE):
+        builder.Connect(station.GetOutputPort(INPUT_AGE), controller.GetInputPort(INPUT_AGE))
+
+
+def AddDelay(builder: DiagramBuilder, port, steps: int, period: float, initial=None):
+    """``port`` delayed by ``steps`` >= 1 samples of ``period`` s (a DiscreteTimeDelay): a system
+    sampling it at t_k reads the value of t_{k−steps}; until then ``initial`` (default zeros)."""
+    initial = np.zeros(port.size()) if initial is None else np.asarray(initial, dtype=float)
+    # The delay line's output is state updated at the samples: that hold is the first period.
+    delay = builder.AddSystem(DiscreteTimeDelay(period, steps - 1, port.size()))
+    if not initial.any():
+        builder.Connect(port, delay.get_input_port())
+        return delay.get_output_port()
+    # Delay the deviation from ``initial``, whose delay line starts at zero.
+    deviation, restored = builder.AddSystem(Adder(2, port.size())), builder.AddSystem(Adder(2, port.size()))
+    builder.Connect(port, deviation.get_input_port(0))
+    builder.Connect(builder.AddSystem(ConstantVectorSource(-initial)).get_output_port(), deviation.get_input_port(1))
+    builder.Connect(deviation.get_output_port(), delay.get_input_port())
+    builder.Connect(delay.get_output_port(), restored.get_input_port(0))
+    builder.Connect(builder.AddSystem(ConstantVectorSource(initial)).get_output_port(), restored.get_input_port(1))
+    return restored.get_output_port()

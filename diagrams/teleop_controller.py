@@ -15,18 +15,22 @@ with the clutch disengaged; what the controller learned of the load (offsets, φ
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
+from pydrake.systems.framework import DiagramBuilder
 
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.scenario import ControllerSpec
-from heft.diagrams.teleop import STATION_OUTPUTS_READ, FeedbackBlock, MakeTeleopController
+from heft.diagrams.teleop import ConnectControllerToStation, FeedbackBlock, MakeTeleopController
+from heft.hardware_interface.hardware_station import HardwareStation
+from heft.hardware_interface.hardware_station_system import HardwareStationSystem
 from heft.systems.accelerometer_reading import AccelerometerConvention, kernel_convention, motion_from_reading
 from heft.systems.load_dynamics import checked_load, regressor
 from heft.systems.load_model import ESTIMATES_SEEN, GRASPS, HOLDING, PHI_GRIPPER, RESTARTS, SPLIT
 from heft.systems.offset_tracking import ESTIMATE_SIZE, OFFSETS, REQUESTS, STATUS, TRACKING, WINDOW_TIME
 from heft.systems.slave_kinematics import NUM_JOINTS
+from heft.systems.station_ports import CLUTCH, INPUT_AGE, STATION_OUTPUTS_READ
 from heft.systems.tick_program import TickProgram
 
 
@@ -76,7 +80,8 @@ class OnlineEstimation:
 
 class TeleopController:
     """``MakeTeleopController(spec, load, robot, period, …, feedback_blocks)`` stepped tick by tick (module
-    docstring).
+    docstring); with a ``station`` (a function making the lab's ``HardwareStation``), the two in one Diagram
+    (``HardwareStationSystem``, connected as the simulation connects its station) stepped by ``tick(now)``.
 
     ``start(slave_position)`` begins (again); ``step(dt, …)`` takes one tick's readings. After a step:
     ``torque`` τ_M (6, N·m) and ``position`` q̄_S (6, rad) to send, the state the update left
@@ -85,32 +90,38 @@ class TeleopController:
     ``master_wrench``: at S in S, on the hand at E in B)."""
 
     def __init__(self, spec: ControllerSpec, load: LoadEstimate, robot: str, period: float, *,
-                 accelerometer: AccelerometerConvention, feedback_blocks: Sequence[FeedbackBlock] = ()):
+                 accelerometer: AccelerometerConvention, feedback_blocks: Sequence[FeedbackBlock] = (),
+                 station: Callable[[], HardwareStation] | None = None):
         phi, offsets = checked_load(load.phi, load.offsets)
         self.period = period
-        self.diagram = diagram = MakeTeleopController(spec, LoadEstimate(phi, offsets), robot, period,
-                                                      np.zeros(NUM_JOINTS), accelerometer=accelerometer,
-                                                      feedback_blocks=feedback_blocks)
-        self.program = program = TickProgram(diagram)
+        controller = MakeTeleopController(spec, LoadEstimate(phi, offsets), robot, period, np.zeros(NUM_JOINTS),
+                                          accelerometer=accelerometer, feedback_blocks=feedback_blocks)
+        # The station's subscriptions open after the controller's models are built (about a second), when the
+        # loop is about to pump them.
+        self.station = None if station is None else HardwareStationSystem(station(), period)
+        self.diagram = controller if station is None else _with_station(controller, self.station)
+        self.program = program = TickProgram(self.diagram)
         online = spec.estimator.mode == "online"
         self.estimator = OnlineEstimation(program, spec.estimator) if online else None
-        self._readings = [program.input(name) for name in STATION_OUTPUTS_READ]
-        self._clutch, self._rezero = program.input("clutch"), program.input("rezero")
+        if station is None:
+            self._readings = [program.input(name) for name in STATION_OUTPUTS_READ]
+            self._clutch = program.input(CLUTCH)
+            self._input_age = program.input(INPUT_AGE) if online else None
+        self._rezero = program.input("rezero")
         self._tracking, self._estimate = program.input("tracking"), program.input("estimate")
         self._holding = program.input("holding") if online else None
-        self._input_age = program.input("input_age") if online else None
         self._offset_state = program.block_state("offsets_hat", "state")
         self._estimates_seen = program.block_state("offsets_hat", "estimates_seen")
         self._grasp = program.block_state("grasp", "state") if online else None
         self._accelerometer = accelerometer
-        self._conventions = [program.diagram.GetSubsystemByName("force_scaling").settings]
+        self._conventions = [program.block("force_scaling").settings]
         if online:
-            self._conventions.append(program.diagram.GetSubsystemByName("accelerometer_to_motion").convention)
+            self._conventions.append(program.block("accelerometer_to_motion").convention)
         for name in ("torque", "position", "applied_wrench", "energy", "damping", "scales", "offsets", "phi",
                      "pose_RS_desired", "wrench_feedback", "wrench_contact", "wrench_noncontact", "master_wrench",
                      "gravity_S", "ik_status", "force_fault"):
             setattr(self, f"_{name}", program.output(OUTPUTS[name]))
-        self.started = False
+        self.started = self._was_healthy = False
 
     # --- ticking ------------------------------------------------------------------------
 
@@ -123,8 +134,9 @@ class TeleopController:
                              f"got {slave_position}")
         program = self.program
         program.restart()
-        program.input("slave.position_measured")[:] = slave_position
-        self._clutch[0] = 0.0
+        if self.station is None:
+            program.input("slave.position_measured")[:] = slave_position
+            self._clutch[0] = 0.0
         program.initialize()
         self.started = True
 
@@ -137,6 +149,8 @@ class TeleopController:
         if not self.started:
             raise RuntimeError("TeleopController.step before start(): start it from the measured slave position "
                                "once the station is healthy")
+        if self.station is not None:
+            raise RuntimeError("a TeleopController with its station reads it: tick(now), not step(…)")
         for array, value in zip(self._readings, (master_position, master_velocity, slave_position, slave_velocity,
                                                  wrench, acceleration)):
             array[:] = value
@@ -144,6 +158,24 @@ class TeleopController:
         if self._input_age is not None:
             self._input_age[0] = input_age
         self.program.tick()
+
+    def tick(self, now: float) -> bool:
+        """One tick of the controller with its hardware station at ``now`` (s, the loop's monotonic clock): the
+        station receives; while it is healthy the controller steps (started afresh, from the slave's measured
+        position, at the first healthy tick and each recovery); the station sends (zero torque and the slave
+        held while it is not healthy). Returns whether the controller stepped."""
+        station, program = self.station, self.program
+        station.now = now
+        program.receive()
+        healthy = station.station.healthy
+        if healthy:
+            if not self._was_healthy:
+                self.start(station.station.slave_position)
+            program.calculate()
+            program.update()
+        self._was_healthy = healthy
+        program.publish()
+        return healthy
 
     # --- what a tick left --------------------------------------------------------------
 
@@ -289,3 +321,24 @@ OUTPUTS = {"torque": "master.torque_commanded", "position": "slave.position_comm
            "master_wrench": "log.master_wrench", "gravity_S": "slave.gravity_S", "ik_status": "log.ik_status",
            "force_fault": "log.force_fault"}
 """``TeleopController``'s views by name: the Diagram output each reads."""
+
+
+def _with_station(controller, station: HardwareStationSystem):
+    """The controller Diagram and the hardware ``station`` in one Diagram, connected as the simulation connects
+    its station (``ConnectControllerToStation``); the controller's other inputs (load commands) and every output
+    exported under their names, and the station's health."""
+    builder = DiagramBuilder()
+    builder.AddNamedSystem("station", station)
+    builder.AddNamedSystem("controller", controller)
+    ConnectControllerToStation(builder, controller, station)
+    connected = {*STATION_OUTPUTS_READ, CLUTCH, INPUT_AGE}
+    for i in range(controller.num_input_ports()):
+        name = controller.get_input_port(i).get_name()
+        if name not in connected:
+            builder.ExportInput(controller.get_input_port(i), name)
+    for i in range(controller.num_output_ports()):
+        builder.ExportOutput(controller.get_output_port(i), controller.get_output_port(i).get_name())
+    builder.ExportOutput(station.GetOutputPort("healthy"), "station.healthy")
+    diagram = builder.Build()
+    diagram.set_name("teleop_on_hardware")
+    return diagram

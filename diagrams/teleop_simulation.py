@@ -6,15 +6,14 @@ from collections.abc import Sequence
 
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import (Adder, ConstantVectorSource, DiscreteTimeDelay, LogVectorOutput, Multiplexer,
+from pydrake.systems.primitives import (LogVectorOutput, Multiplexer,
                                         TrajectorySource)
 from pydrake.trajectories import PiecewisePolynomial
 
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.diagrams.load_estimate import LoadEstimate
-from heft.diagrams.teleop import (CONTROLLER_LOG, STATION_INPUTS_DRIVEN, STATION_OUTPUTS_READ, FeedbackBlock,
-                                  MakeTeleopController)
+from heft.diagrams.teleop import CONTROLLER_LOG, ConnectControllerToStation, FeedbackBlock, MakeTeleopController
 from heft.systems.tick_program_system import TickProgramSystem
 
 
@@ -26,44 +25,6 @@ STATION_LOG = {"ft.wrench_measured": "wrench_measured", "ft.acceleration_measure
                "master.position_measured": "master_q", "master.velocity_estimated": "master_v",
                "truth.ft_saturated": "ft_saturated", "truth.phi": "phi_true",
                "truth.wrench_noncontact_object": "wrench_noncontact_object_true"}
-
-
-def AddDelay(builder: DiagramBuilder, port, steps: int, period: float, initial=None):
-    """``port`` delayed by ``steps`` >= 1 samples of ``period`` s (a DiscreteTimeDelay): a system
-    sampling it at t_k reads the value of t_{k−steps}; until then ``initial`` (default zeros)."""
-    initial = np.zeros(port.size()) if initial is None else np.asarray(initial, dtype=float)
-    # The delay line's output is state updated at the samples: that hold is the first period.
-    delay = builder.AddSystem(DiscreteTimeDelay(period, steps - 1, port.size()))
-    if not initial.any():
-        builder.Connect(port, delay.get_input_port())
-        return delay.get_output_port()
-    # Delay the deviation from ``initial``, whose delay line starts at zero.
-    deviation, restored = builder.AddSystem(Adder(2, port.size())), builder.AddSystem(Adder(2, port.size()))
-    builder.Connect(port, deviation.get_input_port(0))
-    builder.Connect(builder.AddSystem(ConstantVectorSource(-initial)).get_output_port(), deviation.get_input_port(1))
-    builder.Connect(deviation.get_output_port(), delay.get_input_port())
-    builder.Connect(delay.get_output_port(), restored.get_input_port(0))
-    builder.Connect(builder.AddSystem(ConstantVectorSource(initial)).get_output_port(), restored.get_input_port(1))
-    return restored.get_output_port()
-
-
-def ConnectControllerToStation(builder: DiagramBuilder, controller, station, delay_steps: int = 0,
-                               period: float = 0.0, initial_values: dict | None = None):
-    """Closes the loop by port name (either station kind) and holds the clutch engaged.
-
-    ``delay_steps`` > 0 adds a communication delay of that many ``period`` s to every
-    channel, both ways (``AddDelay``; a channel starts at ``initial_values[name]``, else 0)."""
-    def link(source, name, sink):
-        if delay_steps:
-            source = AddDelay(builder, source, delay_steps, period, (initial_values or {}).get(name))
-        builder.Connect(source, sink)
-
-    for name in STATION_OUTPUTS_READ:
-        link(station.GetOutputPort(name), name, controller.GetInputPort(name))
-    for name in STATION_INPUTS_DRIVEN:
-        link(controller.GetOutputPort(name), name, station.GetInputPort(name))
-    builder.Connect(builder.AddNamedSystem("clutch", ConstantVectorSource([1.0])).get_output_port(),
-                    controller.GetInputPort("clutch"))
 
 
 class SimulationLog:

@@ -7,7 +7,9 @@ output it is connected to, so a connection costs nothing. Every block's state is
 flat array (``state``). A tick does what Drake's stepping of the Diagram does for its one periodic
 discrete update: every calculation, in an order that respects what each reads (computed from the
 graph; those nothing reads are left out); then every block's updates on a copy of the state; then the
-copy becomes the state. Each
+copy becomes the state. A block that talks to the world outside (the hardware station) receives before
+the calculations and publishes after the update, as Drake's unrestricted updates and publishes do. A
+Diagram inside the Diagram is laid out flat, its ports resolved to the blocks behind them. Each
 kernel is called with arrays bound once, so a tick allocates nothing and builds no objects.
 
 A block added to the Diagram is in the program with nothing else to write, and
@@ -36,7 +38,8 @@ class TickProgram:
 
     def __init__(self, diagram: Diagram):
         self.diagram = diagram
-        blocks = [system for system in diagram.GetSystems()]
+        self._parent, self._connections = {}, {}
+        blocks = self._leaves(diagram)
         for block in blocks:
             if not isinstance(block, TickSystem):
                 raise TypeError(f"the Diagram's system {block.get_name()!r} ({type(block).__name__}) is not a "
@@ -118,6 +121,10 @@ class TickProgram:
                          for kernel, args in block.tick_updates]
         self._initializations = [self._bind(block, kernel, args, self._next) for block in blocks
                                  for kernel, args in block.tick_initializations]
+        self._receives = [self._bind(block, kernel, args, self.state) for block in blocks
+                          for kernel, args in block.tick_receives]
+        self._publishes = [self._bind(block, kernel, args, None) for block in blocks
+                           for kernel, args in block.tick_publishes]
         self.state[:] = self.initial_state
 
     def _needed_calculations(self) -> list:
@@ -139,8 +146,7 @@ class TickProgram:
                     if isinstance(name, str | Reshaped):
                         read(block, name.name if isinstance(name, Reshaped) else name)
         for i in range(self.diagram.num_output_ports()):
-            block, index = self.diagram.get_output_port_locator(OutputPortIndex(i))
-            output = block.tick_outputs[block.get_output_port(index).get_name()]
+            block, output = self._leaf_output(self.diagram, i)
             if output.source.startswith("calc:"):
                 needed.append((block, output.source[len("calc:"):]))
         return needed
@@ -149,28 +155,48 @@ class TickProgram:
         """Each Diagram input at the default of the block inputs it feeds (zeros if they have none)."""
         for i in range(self.diagram.num_input_ports()):
             name = self.diagram.get_input_port(i).get_name()
-            for block, index in self.diagram.GetInputPortLocators(InputPortIndex(i)):
+            for block, index in self._input_sinks(self.diagram, i):
                 default = block.tick_inputs[block.get_input_port(index).get_name()].default
                 if default is not None:
                     self.signals[self._input_slices[name]] = default
                     break
 
+    def _input_sinks(self, diagram: Diagram, i: int) -> list:
+        """The leaf inputs (block, index) that ``diagram``'s input ``i`` feeds, down through the Diagrams inside."""
+        sinks = []
+        for system, index in diagram.GetInputPortLocators(InputPortIndex(i)):
+            sinks += self._input_sinks(system, index) if isinstance(system, Diagram) else [(system, index)]
+        return sinks
+
+    def _leaves(self, diagram: Diagram) -> list:
+        """The leaf systems of ``diagram`` and of the Diagrams inside it, each one's parent noted."""
+        self._connections[diagram] = dict(diagram.connection_map())
+        leaves = []
+        for system in diagram.GetSystems():
+            self._parent[system] = diagram
+            leaves += self._leaves(system) if isinstance(system, Diagram) else [system]
+        return leaves
+
     def _source(self, block, index):
-        """What feeds ``block``'s input ``index``: (block, ``TickOutput``), (None, Diagram input name), or None."""
-        connections = self._connections
+        """What feeds ``block``'s input ``index`` (through any Diagrams it is inside): (block, ``TickOutput``),
+        (None, the outermost Diagram's input name), or None."""
+        parent = self._parent[block]
         key = (block, InputPortIndex(int(index)))
-        if key in connections:
-            source, output_index = connections[key]
-            return source, source.tick_outputs[source.get_output_port(output_index).get_name()]
-        for i in range(self.diagram.num_input_ports()):
-            for system, port in self.diagram.GetInputPortLocators(InputPortIndex(i)):
+        if key in self._connections[parent]:
+            return self._leaf_output(*self._connections[parent][key])
+        for i in range(parent.num_input_ports()):
+            for system, port in parent.GetInputPortLocators(InputPortIndex(i)):
                 if system is block and int(port) == int(index):
-                    return None, self.diagram.get_input_port(i).get_name()
+                    if parent is self.diagram:
+                        return None, parent.get_input_port(i).get_name()
+                    return self._source(parent, i)
         return None
 
-    @functools.cached_property
-    def _connections(self) -> dict:
-        return dict(self.diagram.connection_map())
+    def _leaf_output(self, system, index):
+        """(block, ``TickOutput``) of ``system``'s output ``index``, down through the Diagrams it is."""
+        while isinstance(system, Diagram):
+            system, index = system.get_output_port_locator(OutputPortIndex(int(index)))
+        return system, system.tick_outputs[system.get_output_port(index).get_name()]
 
     def _output_view(self, block, output) -> np.ndarray:
         kind, _, what = output.source.partition(":")
@@ -214,9 +240,7 @@ class TickProgram:
 
     def output(self, name: str) -> np.ndarray:
         """The Diagram output ``name``'s array (a view: read it after a tick)."""
-        block, index = self.diagram.get_output_port_locator(
-            OutputPortIndex(self.diagram.GetOutputPort(name).get_index()))
-        return self._output_view(block, block.tick_outputs[block.get_output_port(index).get_name()])
+        return self._output_view(*self._leaf_output(self.diagram, self.diagram.GetOutputPort(name).get_index()))
 
     def locate(self, name: str) -> tuple[bool, slice]:
         """Where the Diagram output ``name`` lies: (True, its slice of ``state``) or (False, of ``signals``)."""
@@ -226,15 +250,20 @@ class TickProgram:
                  - (self.state if in_state else self.signals).__array_interface__["data"][0]) // view.itemsize
         return in_state, slice(start, start + view.size)
 
+    def block(self, name: str):
+        """The block named ``name`` (at any depth of the Diagram)."""
+        found = [block for block in self.blocks if block.get_name() == name]
+        if len(found) != 1:
+            raise KeyError(f"{len(found)} blocks are named {name!r} in the Diagram; name them apart")
+        return found[0]
+
     def calculation(self, block_name: str, name: str) -> np.ndarray:
         """The calculation ``name`` of the block ``block_name`` as the last tick computed it (a view)."""
-        block = self.diagram.GetSubsystemByName(block_name)
-        return self.signals[self._signal_slices[block, name]]
+        return self.signals[self._signal_slices[self.block(block_name), name]]
 
     def block_state(self, block_name: str, state: str) -> np.ndarray:
         """The state ``state`` of the block ``block_name`` (a view)."""
-        block = self.diagram.GetSubsystemByName(block_name)
-        return self.state[self._state_slices[block, state]]
+        return self.state[self._state_slices[self.block(block_name), state]]
 
     def calculate(self) -> None:
         """Every calculation, from the inputs and the state as they are."""
@@ -248,14 +277,28 @@ class TickProgram:
             update()
         np.copyto(self.state, self._next)
 
+    def receive(self) -> None:
+        """Every block's receives (what came from outside) into the state."""
+        for receive in self._receives:
+            receive()
+
+    def publish(self) -> None:
+        """Every block's publishes (what the tick left, sent outside)."""
+        for publish in self._publishes:
+            publish()
+
     def tick(self) -> None:
-        """One tick: ``calculate`` then ``update``."""
+        """One tick: ``receive``, ``calculate``, ``update``, ``publish``."""
+        for receive in self._receives:
+            receive()
         for calc in self._calcs:
             calc()
         np.copyto(self._next, self.state)
         for update in self._updates:
             update()
         np.copyto(self.state, self._next)
+        for publish in self._publishes:
+            publish()
 
     def reset(self) -> None:
         """The state of a fresh context."""

@@ -14,6 +14,7 @@ A kernel's arguments are named by strings:
 - ``"in:NAME"``: the input port NAME (an array of its size);
 - ``"x:NAME"``: the state NAME as the tick found it (read it only);
 - ``"next:NAME"``: the state NAME to write (holding, on entry, its value as the tick found it);
+  a receive writes the state itself, before the tick's calculations;
 - ``"calc:NAME"``: the calculation NAME (its own result when it is being computed);
 - ``Reshaped(name, shape)``: one of those seen with another shape (e.g. a 36-vector as 6 × 6);
 
@@ -88,6 +89,8 @@ class TickSystem(LeafSystem):
         self.tick_outputs: dict[str, TickOutput] = {}
         self.tick_updates: list[tuple] = []
         self.tick_initializations: list[tuple] = []
+        self.tick_receives: list[tuple] = []
+        self.tick_publishes: list[tuple] = []
         self._caches: dict[str, object] = {}
         self._update_declared = self._initialization_declared = False
 
@@ -172,6 +175,22 @@ class TickSystem(LeafSystem):
             self.DeclareInitializationDiscreteUpdateEvent(
                 lambda context, state: self._run(self.tick_initializations, context, state))
             self._initialization_declared = True
+
+    def DeclareTickReceive(self, kernel, *args) -> None:
+        """``kernel(*args)`` takes in what came from outside (a driver's messages) into the ``"next:…"`` states at
+        the start of every tick, before any calculation: Drake's unrestricted update, which precedes the
+        discrete ones."""
+        self.tick_receives.append((kernel, tuple(args)))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(
+            self.tick_period, 0.0, lambda context, state: self._run(
+                [(kernel, args)], context, state.get_mutable_discrete_state()))
+
+    def DeclareTickPublish(self, kernel, *args) -> None:
+        """``kernel(*args)`` sends what the tick left (``"in:…"``, ``"x:…"``) outside, at the end of every tick:
+        Drake's publish, which follows the updates."""
+        self.tick_publishes.append((kernel, tuple(args)))
+        self.DeclarePeriodicPublishEvent(self.tick_period, 0.0,
+                                         lambda context: self._run([(kernel, args)], context, None))
 
     # --- the Drake shell ---------------------------------------------------------------
 

@@ -17,11 +17,12 @@ WIRING = {"diagrams/teleop.py", "diagrams/online_estimation.py"}
 
 
 def controller_blocks() -> dict[str, str]:
-    """Every TickSystem subclass heft defines (the controller's blocks): name → the module defining it."""
+    """Every TickSystem subclass ``systems/`` defines (the controller's blocks; a station's are elsewhere): name →
+    the module defining it."""
     import importlib
 
     blocks = {}
-    for path in PACKAGE:
+    for path in (ROOT / "systems").rglob("*.py"):
         module = importlib.import_module("heft." + ".".join(path.relative_to(ROOT).with_suffix("").parts))
         for name, value in vars(module).items():
             if isinstance(value, type) and issubclass(value, TickSystem) and value.__module__ == module.__name__:
@@ -66,7 +67,7 @@ def test_no_module_calls_the_blocks_kernels_in_an_order_of_its_own(blocks):
     import importlib
 
     declared = set()
-    for name, where in blocks.items():
+    for where in blocks.values():
         module = importlib.import_module("heft." + where.removesuffix(".py").replace("/", "."))
         source = (ROOT / where).read_text()
         for node in ast.walk(ast.parse(source)):
@@ -85,8 +86,34 @@ def test_no_module_calls_the_blocks_kernels_in_an_order_of_its_own(blocks):
 
 
 def test_hardware_and_simulation_step_what_the_builder_builds():
-    """The real-time loop's controller and the simulation's are programs of ``MakeTeleopController``'s Diagram."""
+    """The real-time loop's controller and the simulation's are programs of ``MakeTeleopController``'s Diagram,
+    each connected to its station by the one function."""
     for where, made in (("diagrams/teleop_controller.py", "TickProgram"),
                         ("diagrams/teleop_simulation.py", "TickProgramSystem")):
         names = calls(ROOT / where)
-        assert {"MakeTeleopController", made} <= names, where
+        assert {"MakeTeleopController", made, "ConnectControllerToStation"} <= names, where
+
+
+def test_the_hardware_station_has_the_simulated_stations_ports():
+    """Swap the station, keep the controller: the lab's station System offers what the simulated one does."""
+    import lcm
+
+    from heft.diagrams.device_limits import device_limits
+    from heft.diagrams.scenario import resolve_scenario
+    from heft.diagrams.stations.sim_station import MakeSimStation
+    from heft.hardware_interface.channels import LcmChannels
+    from heft.hardware_interface.hardware_station import HardwareStation
+    from heft.hardware_interface.hardware_station_system import HardwareStationSystem
+    from heft.systems.station_ports import CLUTCH, STATION_INPUTS_DRIVEN, STATION_OUTPUTS_READ
+
+    scenario = resolve_scenario("fig6")
+    simulated = MakeSimStation(scenario)
+    hardware = HardwareStationSystem(HardwareStation(lcm.LCM("memq://"), LcmChannels(), device_limits(scenario)),
+                                     scenario.controller_period)
+    for station in (simulated, hardware):
+        for name in (*STATION_OUTPUTS_READ, CLUTCH):
+            assert station.GetOutputPort(name).size() == (1 if name == CLUTCH else 6), name
+        for name in STATION_INPUTS_DRIVEN:
+            assert station.GetInputPort(name).size() == 6, name
+    assert {hardware.get_input_port(i).get_name() for i in range(hardware.num_input_ports())} == \
+        set(STATION_INPUTS_DRIVEN)

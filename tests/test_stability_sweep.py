@@ -15,7 +15,8 @@ from heft.diagrams.commands.analyze_stability import add_arguments, axis_values,
 from heft.diagrams.scenario import layered, overrides_text, resolve_scenario
 from heft.diagrams.studies.stability_sweep import grid, point_scenario, simulate_point
 from heft.diagrams.load_estimate import LoadEstimate
-from heft.diagrams.teleop_simulation import AddDelay, MakeTeleopSimulation
+from heft.diagrams.teleop import AddDelay
+from heft.diagrams.teleop_simulation import MakeTeleopSimulation
 
 PERIOD = 0.0005
 

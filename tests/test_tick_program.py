@@ -117,3 +117,20 @@ def test_an_input_connected_to_nothing_without_a_default_is_refused():
     builder.AddNamedSystem("passivity", PassivityController(period=PERIOD))
     with pytest.raises(ValueError, match="'wrench' of 'passivity' is connected to nothing"):
         TickProgram(builder.Build())
+
+
+def test_a_diagram_inside_a_diagram_is_one_program(recorded):
+    """The controller Diagram inside another (as beside a station): the same ticks, through the outer
+    Diagram's ports."""
+    sequence, expected = recorded
+    builder = DiagramBuilder()
+    controller = builder.AddNamedSystem("controller", make_controller()[0])
+    for i in range(controller.num_input_ports()):
+        builder.ExportInput(controller.get_input_port(i), controller.get_input_port(i).get_name())
+    for i in range(controller.num_output_ports()):
+        builder.ExportOutput(controller.get_output_port(i), controller.get_output_port(i).get_name())
+    program = TickProgram(builder.Build())
+    assert program.block("force_scaling") is controller.GetSubsystemByName("force_scaling")
+    for k, (tick, reference) in enumerate(zip(program_run(program, sequence), expected, strict=True)):
+        for name, value in reference.items():
+            np.testing.assert_array_equal(tick[name], value, err_msg=f"{name} at tick {k}")

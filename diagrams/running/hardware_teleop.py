@@ -79,11 +79,12 @@ class HardwareTeleop:
                              f"would refuse the ticks of a healthy stream; set it to {2.5e3 * period:g} ms or more")
         # The controller's models first (about a second): the station's subscriptions then
         # start receiving only when the loop is about to pump them.
-        self.controller = TeleopController(scenario.controller, load, scenario.robot, scenario.controller_period,
-                                           accelerometer=scenario.accelerometer.convention(),
-                                           feedback_blocks=feedback_blocks)
         limits = device_limits(scenario)
-        self.station = HardwareStation(bus, channels, limits, params, command_bus)
+        self.controller = TeleopController(
+            scenario.controller, load, scenario.robot, scenario.controller_period,
+            accelerometer=scenario.accelerometer.convention(), feedback_blocks=feedback_blocks,
+            station=lambda: HardwareStation(bus, channels, limits, params, command_bus))
+        self.station = self.controller.station.station
         self.load_commands = LoadCommandServer(bus, channels, self.controller, limits.wrench_full_scale, command_bus)
         self.state = (TeleopStatePublisher(bus if command_bus is None else command_bus, channels) if publish_state
                       else None)
@@ -111,21 +112,12 @@ class HardwareTeleop:
     def tick(self, now: float, dt: float) -> None:
         self.now = now
         station, controller = self.station, self.controller
-        station.receive(now)
-        healthy = station.healthy
-        if healthy:
-            if not self._was_healthy:
-                controller.start(station.slave_position)
-                self.starts += 1
-            controller.step(dt, station.master_position, station.master_velocity, station.slave_position,
-                            station.slave_velocity, station.wrench, station.acceleration, station.clutch,
-                            station.oldest_age)
-            station.send(now, controller.torque, controller.position)
-            if self.state is not None:
-                self.state.publish(round((station.epoch + now) * 1e6), controller.period, self.starts,
-                                   station.stamps, controller, station.gain)
-        else:
-            station.send(now, self._zero, None)
+        healthy = controller.tick(now)
+        if healthy and not self._was_healthy:
+            self.starts += 1
+        if healthy and self.state is not None:
+            self.state.publish(round((station.epoch + now) * 1e6), controller.period, self.starts, station.stamps,
+                               controller, station.gain)
         utime = round((station.epoch + now) * 1e6)
         for event in station.gripper_events:
             self.load_commands.gripper(utime, event)

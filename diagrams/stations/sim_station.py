@@ -27,6 +27,7 @@ from heft.systems.load_dynamics import GRAVITY_W
 from heft.systems.operator_hand import OperatorHand
 from heft.systems.setpoint_filter import SetpointFilter
 from heft.systems.sensor_models import AccelerometerModel, ForceTorqueSensorModel
+from heft.systems.station_ports import CLUTCH
 from heft.systems.station_truth import ContactWrenchAtSensor, ReactionWrench, SensorAndLoadMotion
 
 # Point-contact stiffness of the ball tip on the plate (N/m): steel on steel is far stiffer than the
@@ -269,7 +270,7 @@ def MakeSimStation(scenario: Scenario, meshcat=None):
     ``slave.position_measured``, ``slave.velocity_estimated`` (6 each, rad, rad/s),
     ``ft.wrench_measured`` ([f; τ] on the load at S in S), ``ft.acceleration_measured``
     (the accelerometer's reading, ``accelerometer_reading``: [a − g; α] of its point A, in S's
-    axes), and
+    axes), ``clutch`` (1, held engaged), and
     ``truth.*`` (see ``_add_wrist_sensor``; ``truth.acceleration`` is the kinematic [a; α]).
     """
     scenario.validate()
@@ -277,6 +278,8 @@ def MakeSimStation(scenario: Scenario, meshcat=None):
     plant, parts = _add_slave(builder, scenario)
     _add_wrist_sensor(builder, scenario, plant, parts)
     _add_master(builder, scenario)
+    # The operator holds the clutch engaged throughout.
+    builder.ExportOutput(builder.AddNamedSystem("clutch", ConstantVectorSource([1.0])).get_output_port(), CLUTCH)
     if meshcat is not None:
         MeshcatVisualizer.AddToBuilder(builder, builder.GetMutableSubsystemByName("scene_graph"), meshcat)
     diagram = builder.Build()
