@@ -49,7 +49,7 @@ LINGER = 0.5
 """s the server stays up after the last row, for its messages to reach the clients."""
 START_TIMEOUT = 120.0
 """s the worker may take to start (imports, the scene's plants, the server's socket)."""
-_HEADER = 2  # [rows written, stop]
+_HEADER = 3  # [rows written, stop, the messages' time origin (ns, int64 bits)]
 
 
 class TickTap:
@@ -74,10 +74,10 @@ class TickTap:
         from heft.analysis.run_export import foxglove_sdk
 
         foxglove_sdk()  # the one-line install hint, here in the loop's process
-        self._t0 = time.time_ns() if t0_ns is None else int(t0_ns)
+        t0 = time.time_ns() if t0_ns is None else int(t0_ns)
         self._next = -math.inf
         if self._process is not None and self._process.is_alive() and dict(widths) == self._widths:
-            self._tell_origin()
+            self._origin[0] = t0
             return
         self.close()
         self._widths = dict(widths)
@@ -90,6 +90,8 @@ class TickTap:
         memory = np.memmap(self._path, dtype=np.float64, mode="r+").view(np.ndarray)  # plain views: cheaper to set
         memory[:] = 0.0  # every page touched now, not at a tick's first write to it
         self._head, ring = memory[:_HEADER], memory[_HEADER:].reshape(RING_ROWS, columns)
+        self._origin = memory[2:3].view(np.int64)
+        self._origin[0] = t0
         self._slots, start = [], 1
         spans = []
         for key, width in self._widths.items():
@@ -103,7 +105,6 @@ class TickTap:
         self._process = spawn.Process(target=_work, args=(self._path, self._widths, self._sink, self._robot,
                                                           self._rate, self._events, replies), daemon=True)
         self._process.start()
-        self._tell_origin()
         error = self._started(replies)
         if error:
             self.close()
@@ -124,9 +125,6 @@ class TickTap:
     def _address(self) -> str:
         kind, *where = self._sink
         return f"ws://{where[0]}:{where[1]}" if kind == "ws" else str(where[0])
-
-    def _tell_origin(self) -> None:
-        self._events.put(("origin", self._t0, None))
 
     def due(self, t: float) -> bool:
         """Whether a row at ``t`` (s) would be taken (the rate's next slot has come)."""
@@ -156,6 +154,8 @@ class TickTap:
         spooled, however long that takes); {"rows": handled, "dropped": lost} ({} if not open)."""
         if self._process is None:
             return {}
+        self._events.close()
+        self._events.join_thread()  # every event in the pipe before the worker is told to stop
         self._head[1] = 1.0
         self._process.join(timeout=None if self._rate == 0 else CLOSE_TIMEOUT)
         if self._process.is_alive():
@@ -252,6 +252,7 @@ def _work(path, widths: dict, sink: tuple, robot: str, rate: float, events, repl
     replies.put(None)
     memory = np.memmap(path, dtype=np.float64, mode="r+").view(np.ndarray)
     head, ring = memory[:_HEADER], memory[_HEADER:].reshape(RING_ROWS, -1)
+    origin = memory[2:3].view(np.int64)
     spans, start = {}, 1
     for key, width in widths.items():
         spans[key], start = slice(start, start + width), start + width
@@ -273,20 +274,17 @@ def _work(path, widths: dict, sink: tuple, robot: str, rate: float, events, repl
     # The recorder spools every row to a file first (a copy), then encodes from it as it can: a
     # loop faster than the encoding loses nothing, and the file is finished at close.
     spool = _Spool(ring.shape[1]) if rate == 0 else None
-    read, sent, dropped, t0 = 0, 0, 0, 0
+    read, sent, dropped = 0, 0, 0
     try:
         while True:
             stopping = head[1] != 0.0
-            written = int(head[0])
-            while True:  # events first: the origin comes before the rows timed by it
+            written, t0 = int(head[0]), int(origin[0])
+            while True:
                 try:
                     topic, t, message = events.get_nowait()
                 except queue.Empty:
                     break
-                if topic == "origin":
-                    t0 = t
-                else:
-                    channels[topic].log(encode(message), log_time=t0 + round(t * 1e9))
+                channels[topic].log(encode(message), log_time=t0 + round(t * 1e9))
             if written - read > RING_ROWS:
                 dropped += written - read - RING_ROWS
                 read = written - RING_ROWS
