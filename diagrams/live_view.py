@@ -59,7 +59,6 @@ class TickTap:
     def __init__(self, sink: tuple, rate: float, robot: str):
         self._sink, self._rate, self._robot = sink, rate, robot
         self._process = self._widths = None
-        self.address = ""
 
     def __enter__(self):
         return self
@@ -109,7 +108,6 @@ class TickTap:
         if error:
             self.close()
             raise ValueError(error)
-        self.address = self._address()
 
     def _started(self, replies) -> str | None:
         """None once the worker serves; else what went wrong."""
@@ -121,10 +119,6 @@ class TickTap:
                 if not self._process.is_alive():
                     return f"the view's worker exited (status {self._process.exitcode}) before it served"
         return f"the view's worker did not start in {START_TIMEOUT:g} s"
-
-    def _address(self) -> str:
-        kind, *where = self._sink
-        return f"ws://{where[0]}:{where[1]}" if kind == "ws" else str(where[0])
 
     def due(self, t: float) -> bool:
         """Whether a row at ``t`` (s) would be taken (the rate's next slot has come)."""
