@@ -68,7 +68,8 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     ``feedback_blocks``: blocks of a lab's own between force scaling's f′ and the feedback mapping, in order
     (each made by ``make(period)``: a TickSystem with an input and an output ``wrench``, 6, at S in S).
     Outputs: ``master.torque_commanded`` (6, N·m), ``slave.position_commanded`` (6, rad),
-    the ``CONTROLLER_LOG`` signals, ``slave.gravity_S`` (3, g in S at the measured joints) and, online,
+    the ``CONTROLLER_LOG`` signals, ``slave.gravity_S`` (3, g in S at the measured joints), ``slave.pose_RS`` and
+    ``master.pose_BE`` (7 each, X_RS and X_BE measured: [p (m); w, x, y, z]) and, online,
     ``estimator.num_samples`` (1, since the last new load). The slave's tool frame T of the motion mapping is S.
     """
     builder = DiagramBuilder()
@@ -152,6 +153,8 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
                        ("log.phi_hat", phi_hat)):
         builder.ExportOutput(port, name)
     builder.ExportOutput(slave_kinematics.GetOutputPort("gravity_S"), "slave.gravity_S")
+    builder.ExportOutput(slave_kinematics.GetOutputPort("pose_RS"), "slave.pose_RS")
+    builder.ExportOutput(master_kinematics.GetOutputPort("pose_BE"), "master.pose_BE")
     if spec.estimator.mode == "online":
         builder.ExportOutput(builder.GetSubsystemByName("phi_hat").GetOutputPort("num_samples"),
                              "estimator.num_samples")

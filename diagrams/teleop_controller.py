@@ -119,7 +119,7 @@ class TeleopController:
             self._conventions.append(program.block("accelerometer_to_motion").convention)
         for name in ("torque", "position", "applied_wrench", "energy", "damping", "scales", "offsets", "phi",
                      "pose_RS_desired", "wrench_feedback", "wrench_contact", "wrench_noncontact", "master_wrench",
-                     "gravity_S", "ik_status", "force_fault"):
+                     "gravity_S", "ik_status", "force_fault", "pose_RS", "pose_BE"):
             setattr(self, f"_{name}", program.output(OUTPUTS[name]))
         self.started = self._was_healthy = False
 
@@ -194,6 +194,9 @@ class TeleopController:
     master_wrench = property(lambda self: self._master_wrench,
                              doc="the wrench mapped onto the hand, the passivity controller's input (6, at E in B)")
     gravity_S = property(lambda self: self._gravity_S, doc="g in S (3, m/s²) at the slave's last reading")
+    pose_RS = property(lambda self: self._pose_RS, doc="X_RS (7) at the slave's last reading")
+    pose_BE = property(lambda self: self._pose_BE, doc="X_BE (7) at the master's last reading")
+    ik_status = property(lambda self: self._ik_status, doc="[this tick's pose reachable (1/0), ticks rejected]")
 
     @property
     def position(self) -> np.ndarray | None:
@@ -318,8 +321,8 @@ OUTPUTS = {"torque": "master.torque_commanded", "position": "slave.position_comm
            "damping": "log.passivity_damping", "scales": "log.scales", "offsets": "log.offsets", "phi": "log.phi_hat",
            "pose_RS_desired": "log.pose_RS_desired", "wrench_feedback": "log.wrench_feedback",
            "wrench_contact": "log.wrench_contact", "wrench_noncontact": "log.wrench_noncontact",
-           "master_wrench": "log.master_wrench", "gravity_S": "slave.gravity_S", "ik_status": "log.ik_status",
-           "force_fault": "log.force_fault"}
+           "master_wrench": "log.master_wrench", "gravity_S": "slave.gravity_S", "pose_RS": "slave.pose_RS",
+           "pose_BE": "master.pose_BE", "ik_status": "log.ik_status", "force_fault": "log.force_fault"}
 """``TeleopController``'s views by name: the Diagram output each reads."""
 
 

@@ -124,8 +124,7 @@ def hardware_log(tmp_path_factory):
     from test_hardware_teleop import Lab
     from test_run_log import Recorder
 
-    lab = Lab(resolve_scenario("fig6", overrides_text({"operator.start_time": 0.0})), clutch_at=0.05,
-              publish_state=True)
+    lab = Lab(resolve_scenario("fig6", overrides_text({"operator.start_time": 0.0})), clutch_at=0.05)
     recorder = Recorder(lab.bus)
     lab.run(0.15)
     pump(lab.bus)

@@ -36,12 +36,12 @@ MAX_FORCE, MAX_TORQUE = 8.5, 0.188  # the Phantom Premium 1.5 6DoF's continuous 
 class Lab:
     """Stand-in and controller on one memq:// bus, ticking together every ``PERIOD`` s."""
 
-    def __init__(self, scenario: Scenario, faults=None, clutch_at=np.inf, load=None, publish_state=False,
+    def __init__(self, scenario: Scenario, faults=None, clutch_at=np.inf, load=None,
                  controller_scenario: Scenario | None = None):
         bus = self.bus = lcm.LCM("memq://")
         self.stand_in = StandIn(scenario, bus, LcmChannels(), faults or FaultInjection(), clutch_at=clutch_at)
         self.teleop = HardwareTeleop(controller_scenario or scenario, load or true_load(scenario)[0], bus,
-                                     LcmChannels(), publish_state=publish_state)
+                                     LcmChannels())
         self.now = 0.0
         self.commands, self.torques, self.master_q, self.gains, self.stylus_wrenches = [], [], [], [], []
 
@@ -467,7 +467,7 @@ def test_a_recorded_run_publishes_its_state_every_healthy_tick():
     """The teleop state goes out each healthy tick, with the applied wrench the stylus peak is judged by; the
     start never moves the slave, the clutch held moves it, the forces stay within the Phantom's limits."""
     scenario = resolve_scenario("fig6")
-    lab = Lab(scenario, clutch_at=0.2, publish_state=True)
+    lab = Lab(scenario, clutch_at=0.2)
     states = []
     lab.bus.subscribe(LcmChannels().teleop_state.name,
                       lambda _, payload: states.append(heft_teleop_state.decode(payload)))

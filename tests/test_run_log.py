@@ -46,8 +46,7 @@ def lab_run():
     """The controller against the stand-in, the operator moving from the start and holding the clutch from
     0.05 s, for 0.2 s; per tick what the
     station read and the controller computed, and the traffic."""
-    lab = Lab(resolve_scenario("fig6", overrides_text({"operator.start_time": 0.0})), clutch_at=0.05,
-              publish_state=True)
+    lab = Lab(resolve_scenario("fig6", overrides_text({"operator.start_time": 0.0})), clutch_at=0.05)
     recorder = Recorder(lab.bus)
     station, controller = lab.teleop.station, lab.teleop.controller
     held = {key: [] for key in ("master_q", "master_v", "slave_q", "wrench", "energy", "damping", "contact", "torque")}

@@ -14,6 +14,7 @@ from heft.diagrams.commands.options import (add_lcm_urls, add_out, add_scenario,
                                            require_lab_settings, scenario_from)
 from heft.diagrams.running.realtime import LOOP_PRIORITY
 from heft.diagrams.commands.console import logger
+from heft.diagrams.commands.view_options import VIEW_HOWTO, add_view, view_from
 
 say = logger(__name__)
 
@@ -35,6 +36,10 @@ def add_arguments(parser) -> None:
     parser.add_argument("--rate", type=float, help="controller rate (Hz; default: the scenario's, 1/controller_period, "
                                                    "2000)")
     parser.add_argument("--record", help="record the LCM traffic to this file (lcm-logger format, for lcm-logplayer)")
+    parser.add_argument("--record-mcap", metavar="FILE",
+                        help="write every tick's row to this MCAP file, on the live view's topics (needs the view "
+                             "extra; docs/live_view.md)")
+    add_view(parser)
     parser.add_argument("--rt-priority", type=int, default=LOOP_PRIORITY,
                         help=f"SCHED_FIFO priority of the control loop, pinned to the last CPU (default "
                              f"{LOOP_PRIORITY}; 0: normal)")
@@ -79,8 +84,15 @@ def run(args) -> int:
     say.info(f"teleop: controller on {channels.lcm_url} (commands on {channels.command_lcm_url()}) at "
              f"{1.0 / scenario.controller_period:g} Hz for {args.duration:g} s of wall time; watchdog timeout "
              f"{scenario.lab.station.watchdog.timeout:g} s")
+    view = view_from(args, scenario.robot)
+    if args.record_mcap:
+        from heft.analysis.run_export import foxglove_sdk
+
+        foxglove_sdk()  # the recorder writes through it: the one-line install hint before the run
+    if view is not None:
+        say.info(f"teleop: live view on ws://localhost:{args.view_port}; {VIEW_HOWTO}")
     summary = run_hardware_teleop(scenario, load, args.duration, record=args.record, priority=args.rt_priority,
-                                  busy_wait=args.busy_wait)
+                                  busy_wait=args.busy_wait, view=view, record_mcap=args.record_mcap)
     say.info(format_summary(summary, channels.lcm_url))
     if summary_path is not None:
         summary_path.write_text(json.dumps(summary, indent=2) + "\n")

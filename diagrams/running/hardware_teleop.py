@@ -25,15 +25,18 @@ force and torque, the largest slave command step, message rates and timing.
 from __future__ import annotations
 
 import collections
-from collections.abc import Sequence
 import contextlib
+import logging
 import math
+import sys
 import time
+from collections.abc import Sequence
 
 import lcm
 import numpy as np
 
 from heft.diagrams.device_limits import device_limits
+from heft.diagrams.live_view import McapRecorder
 from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
 from heft.diagrams.running.realtime import (LOOP_PRIORITY, StopOnSignal, claim_realtime, format_timing,
                                             keep_cpu_for_loop, run_realtime, timing_summary)
@@ -51,6 +54,8 @@ from heft.systems.compiled import compiled
 from heft.systems.load_dynamics import wrench_norms
 from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
+say = logging.getLogger(__name__)
+"""What a run says (``heft -q`` quiets it): under the ``heft`` logger the command line configures."""
 PHI_SAMPLE_PERIOD = 0.01
 """s between the samples of φ̂ a run's summary keeps while the estimator learns online."""
 MAX_PHI_SAMPLES = 60_000
@@ -63,12 +68,13 @@ class HardwareTeleop:
 
     ``tick(now, dt)`` runs one tick at ``now`` (s, monotonic) ``dt`` s after the last, nominally the
     scenario's ``controller_period``; ``summary(elapsed)`` reports the
-    run so far. ``publish_state``: publish ``heft_teleop_state`` each tick the controller steps;
-    ``feedback_blocks``: a lab's own blocks on the feedback path (``MakeTeleopController``)."""
+    run so far; ``heft_teleop_state`` goes out each tick the controller steps. ``feedback_blocks``: a lab's own
+    blocks on the feedback path (``MakeTeleopController``); ``taps``: the live view and MCAP recorders
+    (``diagrams.live_view``, opened here) that take each tick's row (``rows``) off the loop's CPU."""
 
     def __init__(self, scenario: Scenario, load: LoadEstimate, bus: lcm.LCM, channels: LcmChannels,
                  params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None,
-                 publish_state: bool = False, feedback_blocks: Sequence[FeedbackBlock] = ()):
+                 feedback_blocks: Sequence[FeedbackBlock] = (), taps: Sequence = ()):
         estimator = scenario.controller.estimator
         slowest = max(WATCHED_CHANNELS, key=lambda name: 1.0 / getattr(channels, name).rate)
         period = 1.0 / getattr(channels, slowest).rate
@@ -86,8 +92,10 @@ class HardwareTeleop:
             station=lambda: HardwareStation(bus, channels, limits, params, command_bus))
         self.station = self.controller.station.station
         self.load_commands = LoadCommandServer(bus, channels, self.controller, limits.wrench_full_scale, command_bus)
-        self.state = (TeleopStatePublisher(bus if command_bus is None else command_bus, channels) if publish_state
-                      else None)
+        self.state = TeleopStatePublisher(bus if command_bus is None else command_bus, channels)
+        self.taps, self._row, self._scalars = list(taps), *tick_row(self)
+        for tap in self.taps:
+            tap.open({key: np.size(value) for key, value in self._row.items()})
         self.starts = 0
         """Controller starts so far (the first healthy tick and each recovery)."""
         self._channel_names = [getattr(channels, name).name for name in WATCHED_CHANNELS]
@@ -108,6 +116,9 @@ class HardwareTeleop:
         """(time (s), φ̂ in use (10)) every ``PHI_SAMPLE_PERIOD`` s while the estimator learns online (the
         first ``MAX_PHI_SAMPLES``)."""
         self._next_phi_sample = 0.0
+        self.status = None
+        """Called with a status line (``status_line``) each ``STATUS_PERIOD`` s, if set."""
+        self._next_status, self._ticks_at_status = STATUS_PERIOD, 0
 
     def tick(self, now: float, dt: float) -> None:
         self.now = now
@@ -115,9 +126,13 @@ class HardwareTeleop:
         healthy = controller.tick(now)
         if healthy and not self._was_healthy:
             self.starts += 1
-        if healthy and self.state is not None:
+        if healthy:
             self.state.publish(round((station.epoch + now) * 1e6), controller.period, self.starts, station.stamps,
                                controller, station.gain)
+        if self.taps:
+            self._scalars[:] = controller.period, station.gain, self.starts
+            for tap in self.taps:
+                tap.publish(now, self._row)
         utime = round((station.epoch + now) * 1e6)
         for event in station.gripper_events:
             self.load_commands.gripper(utime, event)
@@ -125,6 +140,8 @@ class HardwareTeleop:
         station.publish_status(now)
         self._observe(now, healthy)
         self._was_healthy = healthy
+        if self.status is not None and now >= self._next_status:
+            self._status(now)
 
     def _observe(self, now: float, healthy: bool) -> None:
         station = self.station
@@ -153,6 +170,13 @@ class HardwareTeleop:
         command_peaks(self._peaks, station.torque_sent, self.controller.applied_wrench, station.gain, healthy,
                       self._zero if position is None else position, position is not None, station.reanchored,
                       self._last_position)
+
+    def _status(self, now: float) -> None:
+        self.status(status_line({"t": now, "rate_hz": (self.ticks - self._ticks_at_status) / STATUS_PERIOD,
+                                 "healthy": self.station.healthy, "fault": self.station.fault,
+                                 "stylus_force_peak": self.stylus_force_peak, "mass": float(self.controller.phi[0]),
+                                 "faults": len(self.faults)}))
+        self._next_status, self._ticks_at_status = now + STATUS_PERIOD, self.ticks
 
     @property
     def torque_finite(self) -> bool:
@@ -247,6 +271,38 @@ class HardwareTeleop:
         return summary
 
 
+def tick_row(teleop: HardwareTeleop) -> tuple[dict, np.ndarray]:
+    """(row, scalars): the arrays a tick's row holds for the live view and the MCAP recorder, by
+    ``analysis.run_log``'s names, as views of the station's and the controller's own arrays (built once, read
+    in place each tick), and ``scalars`` [hold (s), gain, starts] for the loop to set."""
+    station, controller = teleop.station, teleop.controller
+    scalars = np.zeros(3)
+    row = {"wrench_measured": station.wrench, "accel_measured": station.acceleration,
+           "wrench_contact": controller.wrench_contact, "wrench_noncontact": controller.wrench_noncontact,
+           "wrench_feedback": controller.wrench_feedback, "master_force": controller.master_wrench,
+           "master_force_applied": controller.applied_wrench, "phi_hat": controller.phi,
+           "offsets_hat": controller.offsets, "passivity_energy": controller.energy,
+           "passivity_damping": controller.damping, "master_q": station.master_position,
+           "master_v": station.master_velocity, "master_torque": station.torque_sent,
+           "slave_q": station.slave_position, "slave_v": station.slave_velocity,
+           "slave_q_commanded": controller._position, "pose_RS_desired": controller.pose_RS_desired,
+           "pose_RS": controller.pose_RS, "pose_BE": controller.pose_BE, "scales": controller.scales,
+           "ik_status": controller.ik_status, "hold": scalars[0:1], "gain": scalars[1:2], "starts": scalars[2:3]}
+    return row, scalars
+
+
+def status_line(summary_so_far: dict) -> str:
+    """The line ``heft teleop --hardware`` writes to stderr each second (``STATUS_PERIOD``)."""
+    return (f"teleop: {summary_so_far['t']:.0f} s, {summary_so_far['rate_hz']:.0f} Hz, "
+            + ("healthy" if summary_so_far["healthy"] else f"FORCES OFF (fault bits {summary_so_far['fault']})")
+            + f", stylus force peak {summary_so_far['stylus_force_peak']:.2f} N, "
+            f"φ̂ mass {summary_so_far['mass']:.3f} kg, faults {summary_so_far['faults']}")
+
+
+STATUS_PERIOD = 1.0
+"""s between the status lines of a run."""
+
+
 def format_command_lag(lag: dict) -> str:
     """The line of ``summary``'s "arm_command_lag" (``CommandEcho.summary``)."""
     if not lag["statuses"]:
@@ -298,7 +354,8 @@ def command_peaks(peaks, torque_sent, applied_wrench, gain, healthy, position, h
 
 
 def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float, record=None,
-                        priority: int = LOOP_PRIORITY, busy_wait: float = 0.0) -> dict:
+                        priority: int = LOOP_PRIORITY, busy_wait: float = 0.0, view=None,
+                        record_mcap=None) -> dict:
     """Runs ``HardwareTeleop`` on the scenario's lab (``scenario.lab``: the LCM channels' two URLs,
     ``open_buses``, and the station's watchdog) at its rate (``controller_period``) for
     ``duration`` s of wall time, with real-time ``priority`` (``claim_realtime``: after the
@@ -309,36 +366,40 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float,
     each period before a tick that the loop waits busy (``run_realtime``).
     SIGINT (Ctrl-C) or SIGTERM end the run early as its duration does: the station's
     last commands turn the forces off and hold the slave (``HardwareStation.stop``).
-    ``record``: a path to record the LCM traffic to (``lcm-logger`` format), or None."""
-    print(f"teleop: {scenario.accelerometer.convention()}", flush=True)
-    print(f"teleop: {scenario.controller.force.mount_notch_summary()}", flush=True)
+    ``record``: a path to record the LCM traffic to (``lcm-logger`` format), or None; ``view`` a
+    ``diagrams.live_view.LiveView`` (not yet open) and ``record_mcap`` a path to write the run's rows to as
+    MCAP (``McapRecorder``), each fed each tick off the loop's CPU. A status line goes to stderr each second."""
+    say.info(f"teleop: {scenario.accelerometer.convention()}")
+    say.info(f"teleop: {scenario.controller.force.mount_notch_summary()}")
     estimator = scenario.controller.estimator
-    print("teleop: the controller Diagram (the blocks the simulation runs) steps each tick", flush=True)
-    print("teleop: load estimate " + (
+    say.info("teleop: the controller Diagram (the blocks the simulation runs) steps each tick")
+    say.info("teleop: load estimate " + (
         "fixed (`heft load --estimate` changes it)" if estimator.mode == "fixed" else
         f"learned online ({estimator.method}, forgetting {estimator.forgetting:g} per tick, prefilter "
         f"{estimator.prefilter:g} Hz, from readings at most {1e3 * estimator.max_input_age:g} ms old; "
         "`heft load --grasp`/`--release` or the gripper's driver split it into the "
-        "gripper's and the object's, η of the object's fed back)"), flush=True)
+        "gripper's and the object's, η of the object's fed back)"))
     channels, rate = scenario.lab.lcm, 1.0 / scenario.controller_period
     with contextlib.nullcontext() if record is None else LcmTrafficRecorder(channels, record):
         scheduling = claim_realtime(priority)
-        print(f"teleop: {scheduling}", flush=True)
+        say.info(f"teleop: {scheduling}")
         bus, command_bus = open_buses(channels)
-        teleop = HardwareTeleop(scenario, load, bus, channels, scenario.lab.station, command_bus,
-                                publish_state=record is not None)
+        taps = [tap for tap in (view, None if record_mcap is None else McapRecorder(record_mcap, scenario.robot))
+                if tap is not None]
+        teleop = HardwareTeleop(scenario, load, bus, channels, scenario.lab.station, command_bus, taps=taps)
+        teleop.status = lambda line: print(line, file=sys.stderr, flush=True)
         if priority:
             placement = keep_cpu_for_loop()
             scheduling += f"; {placement}"
-            print(f"teleop: {placement}", flush=True)
+            say.info(f"teleop: {placement}")
         if busy_wait:
             scheduling += f"; the last {busy_wait:g} of each period waited busy"
         anchor, ticking = teleop.station.loop_anchor(rate, busy_wait)
         scheduling += f"; {ticking}"
-        print(f"teleop: {ticking}", flush=True)
+        say.info(f"teleop: {ticking}")
         teleop.station.epoch = time.time()
         with StopOnSignal() as stop:
-            print("teleop: running (Ctrl-C stops with forces off and the slave held)", flush=True)
+            say.info("teleop: running (Ctrl-C stops with forces off and the slave held)")
             try:
                 times = run_realtime(lambda now, dt: teleop.tick(now, dt) or stop.requested, 1.0 / rate, duration,
                                      busy_wait=busy_wait, anchor=anchor)
@@ -346,6 +407,8 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float,
             finally:
                 teleop.station.stop(teleop.now)
                 teleop.station.publish_status(teleop.now, force=True)
+                for tap in teleop.taps:
+                    tap.close()
     return {"duration": times.elapsed, "rate_hz": rate, "epoch": teleop.station.epoch,
             "stopped_by_signal": stop.requested, **summary, "scheduling": scheduling,
             "lcm_log": None if record is None else str(record), "timing": timing_summary(times)}
