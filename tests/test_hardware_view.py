@@ -18,7 +18,7 @@ from heft.diagrams.scenario import resolve_scenario
 from heft.diagrams.stations.stand_in import FaultInjection, StandIn
 from heft.hardware_interface.channels import LcmChannels
 
-from test_live_view import FoxgloveClient, free_port
+from test_live_view import FoxgloveClient, free_port, wait_for_channels
 
 pytestmark = pytest.mark.slow
 
@@ -36,8 +36,7 @@ def test_the_hardware_loop_feeds_the_view_and_the_recorder(tmp_path):
     client = FoxgloveClient(f"ws://127.0.0.1:{port}", timeout=30)
     listening = threading.Thread(target=client.receive, args=(time.monotonic() + 60,))
     listening.start()
-    while not client.channels:
-        time.sleep(0.01)
+    wait_for_channels(client, listening)
     period, now, contact = scenario.controller_period, 0.0, {}
     for k in range(1000):
         now = (k + 1) * period

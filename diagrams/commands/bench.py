@@ -89,7 +89,7 @@ def _bench_lcm(args) -> int:
 
     check_busy_wait(args.busy_wait)
     rates = [float(r) for r in args.rates.split(",")]
-    results = run(rates, args.duration, args.scenario, scenario_from(args).lab.lcm, args.busy_wait)
+    results = run(rates, args.duration, args.scenario, scenario_from(args).lab.lcm, args.busy_wait, args.view)
     _write(args, results)
     return 0
 
@@ -157,6 +157,8 @@ def add_arguments(parser) -> None:
                             help="the controller's `heft teleop --busy-wait` (default 0)")
     add_lcm_urls(lcm_parser)
     add_out(lcm_parser, "bench_lcm.json (every number)")
+    lcm_parser.add_argument("--view", action="store_true",
+                            help="the controller feeds the live view too (`heft teleop --view`; needs the view extra)")
     lcm_parser.set_defaults(bench=_bench_lcm)
     step_parser = benches.add_parser("step", help="one controller tick in one process: the Diagram's program "
                                                   "against Drake's stepping of the same Diagram")

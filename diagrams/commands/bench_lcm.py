@@ -253,9 +253,10 @@ def _url_arguments(channels) -> list[str]:
 
 
 def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder: Path, prefix,
-               estimator: str = "fixed", busy_wait: float = 0.0) -> dict:
-    """One controller rate with the load ``estimator`` "fixed" or "online" (``ONLINE``) and its loop's
-    ``busy_wait``: both processes, then the latency statistics and the controller's timing."""
+               estimator: str = "fixed", busy_wait: float = 0.0, view: bool = False) -> dict:
+    """One controller rate with the load ``estimator`` "fixed" or "online" (``ONLINE``), its loop's
+    ``busy_wait`` and, if ``view``, the live view fed (``heft teleop --view``; no client): both processes, then
+    the latency statistics and the controller's timing."""
     import yaml
 
     from heft.diagrams.commands.options import lab_settings_text
@@ -274,7 +275,7 @@ def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder:
         [*python, "-m", "heft.diagrams.cli", "teleop", "--hardware", *_url_arguments(channels), "--scenario", scenario,
          "--set", yaml.safe_dump(settings, default_flow_style=True), "--rate", str(rate_hz),
          "--busy-wait", str(busy_wait), "--duration", str(duration + SETTLE),
-         "--out", str(summary_folder)],
+         "--out", str(summary_folder), *(["--view"] if view else [])],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
     probe = subprocess.Popen(
         [*python, "-m", "heft.diagrams.commands.bench_lcm", "--probe", channels.lcm_url, channels.command_lcm_url(),
@@ -359,23 +360,24 @@ def _print_stand_in(result: dict) -> None:
           f"{controller['healthy_ticks']} of {controller['ticks']} ticks; {len(controller['faults'])} faults")
 
 
-def run(rates, duration: float, scenario: str, channels, busy_wait: float = 0.0) -> dict:
+def run(rates, duration: float, scenario: str, channels, busy_wait: float = 0.0, view: bool = False) -> dict:
     """Benchmarks every rate in ``rates`` (Hz) against the probe, then the first against the
-    stand-in, the controller's loop waiting ``busy_wait`` of each period busy; prints tables; returns
-    the numbers."""
+    stand-in, the controller's loop waiting ``busy_wait`` of each period busy and feeding the live view if
+    ``view``; prints tables; returns the numbers."""
     prefix, cleanup = _namespace()
     where = "a private network namespace" if prefix else "this host's network"
     print(f"bench lcm: controller (heft teleop --hardware) and driver probe as two processes on {channels.lcm_url} "
           f"(commands on {channels.command_lcm_url()}), in "
           f"{where}; {duration:g} s per rate, a {STEP_FORCE:g} N sensor step every {STEP_PERIOD:g} s"
-          + (f"; the controller waits the last {busy_wait:g} of each period busy" if busy_wait else ""), flush=True)
+          + (f"; the controller waits the last {busy_wait:g} of each period busy" if busy_wait else "")
+          + ("; the controller feeds the live view (heft teleop --view)" if view else ""), flush=True)
     results = []
     try:
         with tempfile.TemporaryDirectory() as folder:
             for rate in rates:
                 for estimator in ESTIMATORS:
                     results.append(bench_rate(rate, duration, channels, scenario, Path(folder), prefix, estimator,
-                                              busy_wait))
+                                              busy_wait, view))
             stand_in = bench_stand_in(rates[0], duration, channels, scenario, Path(folder), prefix, busy_wait)
     finally:
         cleanup()
@@ -404,7 +406,8 @@ def run(rates, duration: float, scenario: str, channels, busy_wait: float = 0.0)
         rate, updated = fixed["rate_hz"], 100 * online["estimator_updates_per_tick"]
         print(f"estimator online at {rate:g} Hz (updated on {updated:.0f} % of ticks), against fixed: {costs}")
     _print_stand_in(stand_in)
-    return {"duration_s": duration, "network": where, "busy_wait": busy_wait, "results": results, "stand_in": stand_in}
+    return {"duration_s": duration, "network": where, "busy_wait": busy_wait, "view": view, "results": results,
+            "stand_in": stand_in}
 
 
 if __name__ == "__main__":
