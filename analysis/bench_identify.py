@@ -24,11 +24,11 @@ import time
 import numpy as np
 
 from heft.analysis.parallel import run_points
-from heft.systems.batch_estimation import METHODS, batch_estimate
+from heft.systems.identification.batch_estimation import METHODS, batch_estimate
 from heft.systems.load_dynamics import PARAMETER_NAMES
-from heft.systems.recursive_estimation import (
+from heft.systems.identification.recursive_estimation import (
     RecursiveInstrumentalVariables, RecursiveLeastSquares, RecursiveTotalLeastSquares, feed)
-from heft.systems.regression_noise import NoiseLevels, equation_error_covariance
+from heft.systems.identification.regression_noise import NoiseLevels, equation_error_covariance
 from heft.systems.load_dynamics import regressor_with_offsets
 
 RECURSIVE = {"rls": RecursiveLeastSquares, "riv": RecursiveInstrumentalVariables, "rtls": RecursiveTotalLeastSquares}

@@ -36,7 +36,7 @@ import numpy as np
 
 from heft.analysis.compensation import quiet_threshold
 from heft.analysis.recording_merge import RecordingSource, StreamData, merge, rotation_terms
-from heft.systems.rotation_sampling import savitzky_golay
+from heft.systems.identification.rotation_sampling import savitzky_golay
 
 COARSE_STEPS = 25
 """Grid points on each side of the stated offset at the coarse stage."""

@@ -10,7 +10,7 @@ import dataclasses
 
 import numpy as np
 
-from heft.systems.regression_noise import wrench_motion_jacobian
+from heft.systems.identification.regression_noise import wrench_motion_jacobian
 
 AXES = ("fx", "fy", "fz", "tx", "ty", "tz")
 ACCELEROMETER_AXES = ("ax", "ay", "az", "alpha_x", "alpha_y", "alpha_z")

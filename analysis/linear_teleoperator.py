@@ -16,9 +16,9 @@ Physics (continuous):
 Controller (discrete, period T, each block a Drake discrete system):
 
     x_c = k_t x_m delayed by d_fwd + n ticks → setpoint filter (critically damped, exact ZOH
-    discretisation of `heft.systems.setpoint_filter`) → [x_f, ẋ_f]
+    discretisation of `heft.systems.station.setpoint_filter`) → [x_f, ẋ_f]
     f_a = −k_f (γ N(c) + σ n) delayed by d_fb + n ticks, N the mount notch of
-    `heft.systems.force_scaling` (identity without one)
+    `heft.systems.controller.force_scaling` (identity without one)
 
 The plants step from kT with the controller outputs of the previous tick (both plants of
 the simulated station are discrete at the controller period and read their inputs before
@@ -48,8 +48,8 @@ from pathlib import Path
 from heft.analysis.plotting import plt
 import numpy as np
 from heft.analysis.stability import llewellyn_absolutely_stable
-from heft.systems.force_scaling import notch_coefficients
-from heft.systems.setpoint_filter import critically_damped_step_matrices
+from heft.systems.controller.force_scaling import notch_coefficients
+from heft.systems.station.setpoint_filter import critically_damped_step_matrices
 from pydrake.autodiffutils import ExtractGradient, InitializeAutoDiff
 from pydrake.systems.analysis import DiscreteTimeApproximation
 from pydrake.systems.framework import DiagramBuilder

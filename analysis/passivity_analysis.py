@@ -1,6 +1,6 @@
 """Energy at the master port and what the passivity controller did, from a run's log.
 
-The port is the one of `heft.systems.passivity_controller`: the network (teleoperator,
+The port is the one of `heft.systems.controller.passivity_controller`: the network (teleoperator,
 slave, environment) exerts the wrench w = [f; τ] (N, N·m) on the operator's hand at the
 stylus E, expressed in the master base B; E moves with the twist [v; ω] (m/s, rad/s) of E
 in B. w·[v; ω] is the power (W) the network delivers to the hand.

@@ -18,7 +18,7 @@ from pydrake.common.yaml import yaml_load_typed
 from heft.analysis.csv_layout import DELIMITERS
 from heft.systems.accelerometer_calibration import UNITS as ACCELEROMETER_UNITS
 from heft.systems.accelerometer_calibration import AccelerometerCalibration
-from heft.systems.rotation_sampling import ROTATION_TOLERANCE, rotation_defects
+from heft.systems.identification.rotation_sampling import ROTATION_TOLERANCE, rotation_defects
 
 ESTIMATE = "estimate"
 """The value of R_SA, bias or a clock's offset that asks heft to estimate it."""

@@ -19,7 +19,7 @@ from heft.analysis.column_files import ColumnFile, RecordingError
 from heft.analysis.recording import ESTIMATE, Recording
 from heft.systems.accelerometer_reading import AccelerometerConvention, motion_from_reading
 from heft.systems.load_dynamics import noncontact_wrench
-from heft.systems.rotation_sampling import (
+from heft.systems.identification.rotation_sampling import (
     ROTATION_TOLERANCE, body_angular_velocity, continuous, quaternions_from_matrices, rotate_into_body,
     rotation_defects, savitzky_golay, slerp, window_samples)
 

@@ -9,7 +9,7 @@ from scipy.spatial.transform import Rotation
 
 from heft.analysis.column_files import ColumnFile, RecordingError
 from heft.analysis.recording import Clock, Recording
-from heft.systems.rotation_sampling import ROTATION_TOLERANCE, rotation_defects
+from heft.systems.identification.rotation_sampling import ROTATION_TOLERANCE, rotation_defects
 
 
 @dataclasses.dataclass

@@ -151,7 +151,7 @@ TOPICS = (
     Topic("/controller/status", "heft.ControllerStatus", "the controller's flags and scales", (
         Field("force_fault", "force_fault", None, 0, "the force scaling's fault flag"),
         Field("ik", "ik_status", ("reachable", "rejected"), 0, "this tick's pose reachable (1/0), ticks rejected"),
-        Field("rezero", "rezero_status", None, 0, "the re-zero status code (systems.offset_tracking)"),
+        Field("rezero", "rezero_status", None, 0, "the re-zero status code (systems.controller.offset_tracking)"),
         Field("scales", "scales", ("sigma", "gamma", "eta"), 0, "σ, γ, η in effect"))),
 )
 """The topics of a run's rows, one message per row each."""

@@ -25,13 +25,14 @@ from heft.diagrams.plants import MakeSlavePlant
 from heft.diagrams.load_estimate import estimate_record, write_load_estimate
 from heft.diagrams.models.make_tool_inertia import RX60, RX90
 from heft.systems.accelerometer_reading import motion_from_reading
-from heft.systems.batch_estimation import METHODS, batch_estimate
-from heft.systems.recursive_estimation import (
+from heft.systems.identification.batch_estimation import METHODS, batch_estimate
+from heft.systems.identification.recursive_estimation import (
     RecursiveInstrumentalVariables, RecursiveLeastSquares, RecursiveTotalLeastSquares, feed)
-from heft.systems.regression_noise import NoiseLevels
+from heft.systems.identification.regression_noise import NoiseLevels
 from heft.systems.load_dynamics import regressor_with_offsets
-from heft.systems.excitation import ExcitationSettings, JointLimits, SensorFrameMotion, optimize_excitation
-from heft.systems.periodic_differentiation import differentiate_periodic
+from heft.systems.identification.excitation import (ExcitationSettings, JointLimits, SensorFrameMotion,
+                                                    optimize_excitation)
+from heft.systems.identification.periodic_differentiation import differentiate_periodic
 
 say = logging.getLogger(__name__)
 """What this module reports, which `heft` shows (-v, -q)."""

@@ -1,7 +1,7 @@
 """`heft identify --recording`: the load (and the accelerometer's calibration) from a lab's own
 recording (``analysis.recording``) instead of an excitation heft drives.
 
-Static poses (``recording.static_poses``) give m, m·c and the offsets (``systems.static_calibration``;
+Static poses (``recording.static_poses``) give m, m·c and the offsets (``systems.identification.static_calibration``;
 the inertia is not identifiable from them) and, where they carry the accelerometer's readings, its
 R_SA, bias and scale. A recording's streams, merged onto the wrench's timeline
 (``analysis.recording_merge``; the accelerometer calibrated from the poses where the recording
@@ -28,10 +28,11 @@ from heft.diagrams.load_estimate import estimate_record, write_load_estimate
 from heft.diagrams.recordings import open_recording
 from heft.diagrams.recording_kinematics import joint_orientation
 from heft.diagrams.scenario import Scenario
-from heft.systems.batch_estimation import batch_estimate
+from heft.systems.identification.batch_estimation import batch_estimate
 from heft.systems.load_dynamics import PARAMETER_NAMES
-from heft.systems.regression_noise import NoiseLevels
-from heft.systems.static_calibration import STATIC_NAMES, StaticCalibration, calibrate_static, point_mass_phi
+from heft.systems.identification.regression_noise import NoiseLevels
+from heft.systems.identification.static_calibration import (STATIC_NAMES, StaticCalibration, calibrate_static,
+                                                            point_mass_phi)
 
 say = logging.getLogger(__name__)
 """What this module reports, which `heft` shows (-v, -q)."""

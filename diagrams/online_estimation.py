@@ -4,12 +4,12 @@
 from pydrake.systems.framework import DiagramBuilder, OutputPort
 
 from heft.systems.accelerometer_reading import AccelerometerConvention, AccelerometerToMotion
-from heft.systems.contact_threshold import ContactThresholdParams
-from heft.systems.estimator_gate import EstimatorGate
-from heft.systems.estimator_prefilter import EstimatorPrefilter
-from heft.systems.load_estimation_params import LoadEstimationParams
-from heft.systems.load_model import GraspSplit
-from heft.systems.rls_load_estimator import RlsLoadEstimator
+from heft.systems.controller.contact_threshold import ContactThresholdParams
+from heft.systems.controller.estimator_gate import EstimatorGate
+from heft.systems.controller.estimator_prefilter import EstimatorPrefilter
+from heft.systems.controller.load_estimation_params import LoadEstimationParams
+from heft.systems.controller.load_model import GraspSplit
+from heft.systems.controller.rls_load_estimator import RlsLoadEstimator
 from heft.systems.tick_system import TickSum
 
 

@@ -20,7 +20,7 @@ from heft.diagrams import mount
 from heft.diagrams.models import model_path
 from heft.diagrams.scenario import LoadSpec, MountSpec, Scenario
 from heft.systems.load_dynamics import GRAVITY_W, InertialParameters, inertia_entries, inertia_matrix
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
+from heft.systems.controller.master_kinematics import BASE_FRAME, STYLUS_FRAME
 
 MASTER_URDF = "phantom_premium_6dof.urdf"
 

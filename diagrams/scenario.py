@@ -23,14 +23,14 @@ from pydrake.systems.analysis import SimulatorConfig
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station_params import HardwareStationParams
 from heft.hardware_interface.netft_params import NetFtParams
-from heft.systems.contact_threshold import ContactThresholdParams
-from heft.systems.load_estimation_params import LoadEstimationParams
-from heft.systems.feedback_mapping_params import FeedbackMappingParams
-from heft.systems.force_scaling_params import ForceScalingParams
-from heft.systems.motion_scaling_params import MotionScalingParams
-from heft.systems.offset_tracking_params import OffsetTrackingParams
-from heft.systems.passivity_params import PassivityParams
-from heft.systems.sensor_params import AccelerometerParams, ForceTorqueSensorParams
+from heft.systems.controller.contact_threshold import ContactThresholdParams
+from heft.systems.controller.load_estimation_params import LoadEstimationParams
+from heft.systems.controller.feedback_mapping_params import FeedbackMappingParams
+from heft.systems.controller.force_scaling_params import ForceScalingParams
+from heft.systems.controller.motion_scaling_params import MotionScalingParams
+from heft.systems.controller.offset_tracking_params import OffsetTrackingParams
+from heft.systems.controller.passivity_params import PassivityParams
+from heft.systems.station.sensor_params import AccelerometerParams, ForceTorqueSensorParams
 
 
 @dataclasses.dataclass

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
+from heft.systems.controller.master_kinematics import BASE_FRAME, STYLUS_FRAME
 from heft.systems.pose_vectors import POSE_SIZE, pose_into
 from heft.systems.serial_chain import SerialChain
 

@@ -21,18 +21,18 @@ from heft.diagrams.online_estimation import AddOnlineLoadEstimator
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
 from heft.diagrams.scenario import ControllerSpec
 from heft.systems.accelerometer_reading import AccelerometerConvention
-from heft.systems.feedback_mapping import FeedbackMapping
-from heft.systems.force_scaling import ForceScalingElimination
-from heft.systems.master_kinematics import MasterKinematics
-from heft.systems.motion_scaling import MotionScaling
-from heft.systems.offset_tracking import OffsetTracker
-from heft.systems.passivity_controller import PassivityController
-from heft.systems.rx_inverse_kinematics import RxKinematics
-from heft.systems.slave_inverse_kinematics import SlaveInverseKinematics
-from heft.systems.slave_kinematics import SlaveKinematics
+from heft.systems.controller.feedback_mapping import FeedbackMapping
+from heft.systems.controller.force_scaling import ForceScalingElimination
+from heft.systems.controller.master_kinematics import MasterKinematics
+from heft.systems.controller.motion_scaling import MotionScaling
+from heft.systems.controller.offset_tracking import OffsetTracker
+from heft.systems.controller.passivity_controller import PassivityController
+from heft.systems.controller.rx_inverse_kinematics import RxKinematics
+from heft.systems.controller.slave_inverse_kinematics import SlaveInverseKinematics
+from heft.systems.controller.slave_kinematics import SlaveKinematics
 from heft.systems.station_ports import CLUTCH, INPUT_AGE, STATION_INPUTS_DRIVEN, STATION_OUTPUTS_READ
 from heft.systems.tick_system import TickSystem
-from heft.systems.load_model import FixedLoad
+from heft.systems.controller.load_model import FixedLoad
 
 FeedbackBlock = Callable[[float], TickSystem]
 """Makes a block of a lab's own for the feedback path from the controller's period (s)."""

@@ -27,9 +27,9 @@ from heft.hardware_interface.hardware_station import HardwareStation
 from heft.hardware_interface.hardware_station_system import HardwareStationSystem
 from heft.systems.accelerometer_reading import AccelerometerConvention, kernel_convention, motion_from_reading
 from heft.systems.load_dynamics import checked_load, regressor
-from heft.systems.load_model import ESTIMATES_SEEN, GRASPS, HOLDING, PHI_GRIPPER, RESTARTS, SPLIT
-from heft.systems.offset_tracking import ESTIMATE_SIZE, OFFSETS, REQUESTS, STATUS, TRACKING, WINDOW_TIME
-from heft.systems.slave_kinematics import NUM_JOINTS
+from heft.systems.controller.load_model import ESTIMATES_SEEN, GRASPS, HOLDING, PHI_GRIPPER, RESTARTS, SPLIT
+from heft.systems.controller.offset_tracking import ESTIMATE_SIZE, OFFSETS, REQUESTS, STATUS, TRACKING, WINDOW_TIME
+from heft.systems.controller.slave_kinematics import NUM_JOINTS
 from heft.systems.station_ports import CLUTCH, INPUT_AGE, STATION_OUTPUTS_READ
 from heft.systems.tick_program import TickProgram
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from heft.systems.compiled import compiled
-from heft.systems.slave_kinematics import NUM_JOINTS
+from heft.systems.controller.slave_kinematics import NUM_JOINTS
 
 SENT_KEEP = 64
 """Commands remembered: an echo can be found while at most this many were sent after it (32 ms at 2 kHz)."""

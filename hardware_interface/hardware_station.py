@@ -31,7 +31,7 @@ import numpy as np
 from drake import lcmt_iiwa_command
 
 from heft.systems.compiled import compiled, float_array
-from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
+from heft.systems.controller.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.command_echo import CommandEcho

@@ -16,7 +16,7 @@ import numpy as np
 from drake import lcmt_iiwa_status
 
 from heft.systems.compiled import compiled
-from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
+from heft.systems.controller.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
 from heft.hardware_interface.fixed_layout import PAYLOAD, FixedLayout, of_layout, wire_double, wire_int
 from heft.hardware_interface.lcmtypes import heft_haptic_state

@@ -19,7 +19,7 @@ import numpy as np
 from heft.systems.accelerometer_calibration import unit_factor
 from heft.systems.accelerometer_reading import PLAUSIBLE_BIAS, bias_at_rest
 from heft.systems.load_dynamics import checked_load
-from heft.systems.offset_tracking import COLLECTING, DONE, STATUS_TEXT
+from heft.systems.controller.offset_tracking import COLLECTING, DONE, STATUS_TEXT
 
 from heft.hardware_interface.gripper_state_reader import GRASP
 

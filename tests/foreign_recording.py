@@ -34,8 +34,8 @@ from heft.diagrams.identify import Recording, design_excitation
 from heft.diagrams.plants import MakeSlavePlant
 from heft.diagrams.running.sim_identification import record_excitation
 from heft.diagrams.scenario import Scenario
-from heft.systems.excitation import ExcitationSettings
-from heft.systems.sensor_models import drift_offsets
+from heft.systems.identification.excitation import ExcitationSettings
+from heft.systems.station.sensor_models import drift_offsets
 
 G_UNIT = 9.80665                     # m/s² per g (standard gravity)
 ACCELEROMETER_R_SA = Rotation.from_euler("xyz", [25.0, -40.0, 110.0], degrees=True).as_matrix()

@@ -27,7 +27,7 @@ import numpy as np
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
 from heft.hardware_interface.channels import LcmChannels
 from drake_reference import pose_and_jacobian
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
+from heft.systems.controller.master_kinematics import BASE_FRAME, STYLUS_FRAME
 
 WINDOW = 0.01
 """s: the averages judged."""

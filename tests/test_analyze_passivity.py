@@ -11,7 +11,7 @@ from heft.diagrams.commands import analyze_passivity
 from heft.diagrams.running.simulation import true_load
 from heft.diagrams.scenario import NOISE_OFF, overrides_text, resolve_scenario
 from heft.diagrams.running.simulation import run_teleop, with_sigma
-from heft.systems.passivity_controller import PassivityParams
+from heft.systems.controller.passivity_controller import PassivityParams
 
 
 @pytest.fixture(scope="module")

@@ -5,7 +5,7 @@ built here from the model's Jacobians directly, and ∂(V·φ)/∂[a; α] matche
 import numpy as np
 
 from heft.analysis.bench_identify import cramer_rao_bound
-from heft.systems.regression_noise import NoiseLevels, wrench_motion_jacobian
+from heft.systems.identification.regression_noise import NoiseLevels, wrench_motion_jacobian
 from heft.systems.load_dynamics import InertialParameters, regressor, regressor_with_offsets
 
 

@@ -1,4 +1,4 @@
-"""The damped least-squares IK of any 6- or 7-joint chain (systems/chain_inverse_kinematics.py) against
+"""The damped least-squares IK of any 6- or 7-joint chain (systems/controller/chain_inverse_kinematics.py) against
 Drake's own forward kinematics (CalcRelativeTransform): it tracks a reachable pose trajectory on the
 bundled UR5e and iiwa 14, keeps every command within the position and speed limits, draws a 7-joint
 arm's null space to the start posture without moving the flange, and on the RX90 finds the pose its
@@ -17,10 +17,10 @@ from pydrake.multibody.plant import MultibodyPlant
 
 from heft.diagrams.plants import MakeArmPlant
 from heft.systems import compiled
-from heft.systems.chain_inverse_kinematics import (JOINT_LIMIT, NON_FINITE, NOT_CONVERGED, SLEWING, ChainIk,
+from heft.systems.controller.chain_inverse_kinematics import (JOINT_LIMIT, NON_FINITE, NOT_CONVERGED, SLEWING, ChainIk,
                                                    dls_ik_step)
 from heft.systems.pose_vectors import pose_vector
-from heft.systems.rx_inverse_kinematics import RxKinematics
+from heft.systems.controller.rx_inverse_kinematics import RxKinematics
 
 MODELS = Path(__file__).resolve().parents[1] / "diagrams" / "models"
 DT = 0.0005  # s, the controller's period

@@ -309,7 +309,7 @@ def test_teleop_uses_the_accelerometer_calibration_of_its_estimate(tmp_path, cap
 
     from heft.diagrams.load_estimate import write_load_estimate
     from heft.systems.accelerometer_calibration import AccelerometerCalibration
-    from heft.systems.static_calibration import point_mass_phi
+    from heft.systems.identification.static_calibration import point_mass_phi
 
     calibration = AccelerometerCalibration(R_SA=Rotation.from_rotvec([0.2, -0.4, 1.0]).as_matrix(),
                                            bias=[0.0, 0.08, 0.01], scale=0.99, unit="g")

@@ -11,9 +11,9 @@ import numpy as np
 
 from heft.hardware_interface.message_checks import REASONS
 from heft.systems import compiled
-from heft.systems.rx_inverse_kinematics import (JOINT_LIMIT, NON_FINITE, OUT_OF_REACH, SHOULDER_SINGULARITY,
+from heft.systems.controller.rx_inverse_kinematics import (JOINT_LIMIT, NON_FINITE, OUT_OF_REACH, SHOULDER_SINGULARITY,
                                                 WRIST_SINGULARITY)
-from heft.systems.slave_inverse_kinematics import SLEWING
+from heft.systems.controller.slave_inverse_kinematics import SLEWING
 
 _KERNELS = r"""
 import sys
@@ -21,10 +21,10 @@ import numpy as np
 from heft.diagrams.plants import MakeArmPlant
 from heft.systems import compiled
 from heft.systems.load_dynamics import GRAVITY_W, regressor_into
-from heft.systems.sensor_models import (ForceTorqueSensorParams, HeldLowpass, SixAxisMeasurement, lowpass,
+from heft.systems.station.sensor_models import (ForceTorqueSensorParams, HeldLowpass, SixAxisMeasurement, lowpass,
                                         lowpass_coefficients)
 from heft.systems.serial_chain import SerialChain
-from heft.systems.setpoint_filter import critically_damped_step_matrices, setpoint_step
+from heft.systems.station.setpoint_filter import critically_damped_step_matrices, setpoint_step
 
 rng = np.random.default_rng(11)
 plant, S = MakeArmPlant("rx90")
@@ -67,7 +67,7 @@ for command in rng.uniform(-1, 1, (50, 6)):
     servo_step(servo_A, servo_C, np.full(6, 0.002), command, setpoint, arm, deviation, qdd)
     out["servo"].append(np.concatenate((arm.ravel(), setpoint, qdd)))
 from heft.systems.accelerometer_reading import AccelerometerConvention, motion_from_reading
-from heft.systems.force_scaling import (EVALUATION_SIZE, evaluate, initial_memory, next_memory_and_scales,
+from heft.systems.controller.force_scaling import (EVALUATION_SIZE, evaluate, initial_memory, next_memory_and_scales,
                                         notch_coefficients)
 from heft.systems.pose_vectors import pose_into
 
@@ -89,7 +89,7 @@ for k in range(30):
     chain.update(rng.uniform(-3, 3, 6))
     pose_into(chain.R, chain.p, pose)
     out["pose"].append(pose)
-from heft.systems.motion_scaling import IDENTITY_POSE, motion_scaling_update
+from heft.systems.controller.motion_scaling import IDENTITY_POSE, motion_scaling_update
 
 memory = np.concatenate(([0.0, 1.0, 1.0], IDENTITY_POSE, IDENTITY_POSE))
 desired, R_RB, out["desired"] = IDENTITY_POSE.copy(), chain.R.copy(), []
@@ -99,8 +99,8 @@ for k in range(40):  # engaged, released at 10-14, the scales changed at 25
     memory, desired = motion_scaling_update(memory, desired, pose_BE, not 10 <= k < 15, out["pose"][k % 30],
                                             2.0 * scale, scale, R_RB)
     out["desired"].append(desired)
-from heft.systems.feedback_mapping import rendered_wrench
-from heft.systems.passivity_controller import master_torque
+from heft.systems.controller.feedback_mapping import rendered_wrench
+from heft.systems.controller.passivity_controller import master_torque
 
 energy, out["torque"], out["energy"] = np.zeros(2), [], []
 for k in range(40):  # the clamps act on about half of the samples
@@ -114,8 +114,8 @@ for k in range(40):  # the clamps act on about half of the samples
 # shoulder singularities and on the J1 axis; the rich API's kernels and one tick's.
 from pydrake.math import RigidTransform, RotationMatrix
 from heft.systems.pose_vectors import pose_into
-from heft.systems.rx_inverse_kinematics import WORK_ROWS, RxKinematics, all_solutions, nearest_solution
-from heft.systems.slave_inverse_kinematics import IkStep
+from heft.systems.controller.rx_inverse_kinematics import WORK_ROWS, RxKinematics, all_solutions, nearest_solution
+from heft.systems.controller.slave_inverse_kinematics import IkStep
 
 work, q, solutions, pose = np.empty((WORK_ROWS, 6)), np.empty(6), np.empty((8, 6)), np.empty(7)
 for name in ("ik_q", "ik_status", "ik_all", "ik_count", "step_command", "step_status"):
@@ -145,7 +145,7 @@ for robot in ("rx90", "rx60"):
         out["step_command"].append(command)
 out["ik_all"] = np.concatenate(out["ik_all"])
 # The RLS update with stabilized forgetting (its information update and second moments).
-from heft.systems.recursive_estimation import RecursiveLeastSquares
+from heft.systems.identification.recursive_estimation import RecursiveLeastSquares
 
 rls, out["rls"] = RecursiveLeastSquares(offsets=False, forgetting=0.999), []
 for _ in range(50):
@@ -153,8 +153,8 @@ for _ in range(50):
     rls.update(rng.normal(0, 20, 6), a, alpha, omega, g)
     out["rls"].append(rls.state_vector())
 # The online estimator's gate (its excitation) and prefilter.
-from heft.systems.estimator_gate import excitation
-from heft.systems.estimator_prefilter import STATE_SIZE, WIDTH, prefilter_coefficients, prefilter_step
+from heft.systems.controller.estimator_gate import excitation
+from heft.systems.controller.estimator_prefilter import STATE_SIZE, WIDTH, prefilter_coefficients, prefilter_step
 
 coefficients, state = prefilter_coefficients(20.0, 5e-4), np.full(STATE_SIZE, np.nan)
 out["excitation"], out["prefilter"] = [], []
@@ -199,7 +199,7 @@ for k in range(60):
                                              [controller.reachable, controller.rezero_status, controller.holding,
                                               controller.estimator.num_samples, controller.estimator.num_stale])))
 # The simulated station's truth: a frame's motion, the load's wrenches at S (with and without a split).
-from heft.systems.station_truth import frame_motion_into, wrenches_at_S_into
+from heft.systems.station.station_truth import frame_motion_into, wrenches_at_S_into
 
 out["truth"], motion, V_scratch = [], np.empty(12), np.empty((6, 10))
 for k in range(20):
@@ -210,13 +210,13 @@ for k in range(20):
                        wrenches)
     out["truth"].append(np.concatenate((motion, wrenches)))
 # The encoders' counts, half-counts included.
-from heft.systems.encoders import quantize_into
+from heft.systems.station.encoders import quantize_into
 
 step = 2 * np.pi / 4096
 out["counts"] = np.empty(40)
 quantize_into(np.concatenate((rng.uniform(-3, 3, 36), step * np.array([0.5, 1.5, -0.5, -2.5]))), step, out["counts"])
 # The simulated operator's hand: its reference and impedance.
-from heft.systems.operator_hand import hand_wrench_into, reference_into
+from heft.systems.station.operator_hand import hand_wrench_into, reference_into
 
 out["hand"], reference, hand = [], [np.empty(n) for n in ((3, 3), 3, 3, 3)], np.empty(6)
 for k in range(20):

@@ -4,10 +4,10 @@ against the norms of c taken here with numpy."""
 import numpy as np
 import pytest
 
-from heft.systems.contact_threshold import ContactThresholdParams
-from heft.systems.estimator_gate import gate_settings, spoiled
-from heft.systems.load_estimation_params import LoadEstimationParams
-from heft.systems.offset_tracking import OFFSETS, OffsetTrackingParams, initial_state, offsets_update
+from heft.systems.controller.contact_threshold import ContactThresholdParams
+from heft.systems.controller.estimator_gate import gate_settings, spoiled
+from heft.systems.controller.load_estimation_params import LoadEstimationParams
+from heft.systems.controller.offset_tracking import OFFSETS, OffsetTrackingParams, initial_state, offsets_update
 
 STILL = np.zeros(6)
 

@@ -7,7 +7,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from heft.systems.encoders import AddEncoderVelocityEstimate, EncoderQuantizer, EncoderVelocityEstimator
+from heft.systems.station.encoders import AddEncoderVelocityEstimate, EncoderQuantizer, EncoderVelocityEstimator
 
 PERIOD, CUTOFF = 0.0005, 100.0
 STEP = 2 * np.pi / 2**20  # rad per count

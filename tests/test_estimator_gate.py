@@ -11,11 +11,11 @@ import pytest
 
 from pydrake.systems.analysis import Simulator
 
-from heft.systems.contact_threshold import ContactThresholdParams
-from heft.systems.estimator_gate import EstimatorGate, excitation, gate_open, gate_settings
+from heft.systems.controller.contact_threshold import ContactThresholdParams
+from heft.systems.controller.estimator_gate import EstimatorGate, excitation, gate_open, gate_settings
 from heft.systems.load_dynamics import regressor
-from heft.systems.load_estimation_params import LoadEstimationParams
-from heft.systems.sensor_params import AccelerometerParams
+from heft.systems.controller.load_estimation_params import LoadEstimationParams
+from heft.systems.station.sensor_params import AccelerometerParams
 
 SPEC = LoadEstimationParams()
 MOVING = np.array([3.0, 0.0, 0.0, 0.0, 0.0, 0.0])  # m/s² along x, no rotation

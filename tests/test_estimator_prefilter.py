@@ -8,7 +8,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from heft.systems.estimator_prefilter import SIGNALS, EstimatorPrefilter
+from heft.systems.controller.estimator_prefilter import SIGNALS, EstimatorPrefilter
 from heft.systems.load_dynamics import InertialParameters, regressor
 
 PERIOD = 0.0005
@@ -94,7 +94,7 @@ def test_one_sample_step_is_scipys_filter_started_in_its_steady_state():
     against scipy's ``lfilter`` started at ``lfilter_zi`` times the first sample; a NaN restarts it."""
     from scipy.signal import lfilter, lfilter_zi
 
-    from heft.systems.estimator_prefilter import STATE_SIZE, WIDTH, prefilter_coefficients, prefilter_step
+    from heft.systems.controller.estimator_prefilter import STATE_SIZE, WIDTH, prefilter_coefficients, prefilter_step
 
     coefficients = prefilter_coefficients(CUTOFF, PERIOD)
     b, a = coefficients[:3], np.concatenate(([1.0], coefficients[3:]))

@@ -9,11 +9,11 @@ import scipy.linalg
 
 from heft.analysis.bench_identify import cramer_rao_bound
 from heft.diagrams.stations.load_on_sensor import simulate_random_motion
-from heft.systems.batch_estimation import batch_estimate, stack
+from heft.systems.identification.batch_estimation import batch_estimate, stack
 from heft.systems.load_dynamics import PARAMETER_NAMES, PHI_NAMES, InertialParameters, regressor
-from heft.systems.recursive_estimation import (
+from heft.systems.identification.recursive_estimation import (
     RecursiveInstrumentalVariables, RecursiveLeastSquares, RecursiveTotalLeastSquares, information_update)
-from heft.systems.regression_noise import NoiseLevels
+from heft.systems.identification.regression_noise import NoiseLevels
 
 RECURSIVE = (RecursiveLeastSquares, RecursiveInstrumentalVariables, RecursiveTotalLeastSquares)
 WRENCH_NOISE = np.repeat([0.1, 0.005], 3)  # N, N·m: docs/design.md §6
@@ -561,7 +561,7 @@ def test_recursive_update_rejects_bad_samples_and_keeps_its_state():
 
 
 def test_feed_runs_every_sample_and_requires_instruments_for_riv():
-    from heft.systems.recursive_estimation import feed
+    from heft.systems.identification.recursive_estimation import feed
     rng = np.random.default_rng(11)
     signals = [rng.normal(size=(50, 3)) for _ in range(4)]
     wrench = rng.normal(size=(50, 6))

@@ -12,7 +12,7 @@ from pydrake.systems.primitives import TrajectorySource
 
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import AddSlave
-from heft.systems.excitation import (
+from heft.systems.identification.excitation import (
     ExcitationSettings, FourierTrajectory, JointLimits, SensorFrameMotion, excitation_regressor,
     optimize_excitation, regressor_metrics, rest_basis)
 

@@ -11,7 +11,7 @@ import pytest
 from heft.diagrams.identify import identify
 from heft.diagrams.running.sim_identification import simulated_recorder
 from heft.diagrams.scenario import Scenario, layered, overrides_text
-from heft.systems.excitation import ExcitationSettings
+from heft.systems.identification.excitation import ExcitationSettings
 from tool_family import TOOLS
 
 # How far a tool's errors may exceed the paper tool's, scaled to the tool (see ``allowed``): the

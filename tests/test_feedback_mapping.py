@@ -14,9 +14,9 @@ from pydrake.systems.framework import DiagramBuilder
 from scipy.spatial.transform import Rotation
 
 from heft.diagrams.models import model_path
-from heft.systems.feedback_mapping import FeedbackMapping, FeedbackMappingParams
+from heft.systems.controller.feedback_mapping import FeedbackMapping, FeedbackMappingParams
 from heft.diagrams.plants import MakeMasterPlant
-from heft.systems.master_kinematics import MasterKinematics
+from heft.systems.controller.master_kinematics import MasterKinematics
 
 URDF = model_path("phantom_premium_6dof.urdf")
 UP = np.array([0.0, 0.0, 1.0])

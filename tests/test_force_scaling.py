@@ -11,7 +11,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from heft.systems.force_scaling import (
+from heft.systems.controller.force_scaling import (
     ForceScalingElimination, ForceScalingParams, clamp_scales, scale_wrench, slew)
 from heft.systems.load_dynamics import InertialParameters, regressor
 

@@ -10,8 +10,8 @@ from heft.diagrams.identify import design_excitation, identify
 from heft.diagrams.scenario import resolve_scenario
 from heft.diagrams.stations.stand_in import FaultInjection, StandIn
 from heft.hardware_interface.channels import LcmChannels
-from heft.systems.excitation import ExcitationSettings, FourierTrajectory
-from heft.systems.excitation_commander import (
+from heft.systems.identification.excitation import ExcitationSettings, FourierTrajectory
+from heft.systems.identification.excitation_commander import (
     QUINTIC_PEAK_SPEED,
     ExcitationCommander,
     Phase,

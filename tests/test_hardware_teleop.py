@@ -23,10 +23,10 @@ from heft.hardware_interface.lcmtypes import heft_load_command, heft_load_status
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.load_dynamics import InertialParameters
-from heft.systems.offset_tracking import DONE, REFUSED_MOVING
+from heft.systems.controller.offset_tracking import DONE, REFUSED_MOVING
 from drake_reference import stylus_jacobian
 from heft.diagrams.plants import MakeMasterPlant
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
+from heft.systems.controller.master_kinematics import BASE_FRAME, STYLUS_FRAME
 
 PERIOD = 0.0005
 TIMEOUT = HardwareStationParams().watchdog.timeout

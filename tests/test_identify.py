@@ -10,7 +10,7 @@ from heft.diagrams.identify import ALL_METHODS, FitRefused, identify
 from heft.diagrams.running.sim_identification import simulated_recorder
 from heft.diagrams.scenario import IDEAL_STATION, NOISE_OFF, Scenario, layered, overrides_text
 from heft.diagrams.load_estimate import read_load_estimate
-from heft.systems.excitation import ExcitationSettings
+from heft.systems.identification.excitation import ExcitationSettings
 
 
 # A 10 kg steel bar, 460 × 60 × 46 mm, lying across the sensor's axis from 0.23 m out: its
@@ -85,7 +85,7 @@ def test_estimate_file_keeps_the_accelerometer_calibration(tmp_path):
 
     from heft.diagrams.load_estimate import write_load_estimate
     from heft.systems.accelerometer_calibration import AccelerometerCalibration
-    from heft.systems.static_calibration import point_mass_phi
+    from heft.systems.identification.static_calibration import point_mass_phi
 
     calibration = AccelerometerCalibration(R_SA=Rotation.from_rotvec([0.2, -0.4, 1.0]).as_matrix(),
                                            bias=[0.0, 0.08, 0.01], scale=0.99, unit="g")
@@ -116,7 +116,7 @@ def test_a_method_that_refuses_the_data_leaves_the_others_their_estimates():
     from test_estimators import smooth_record
 
     from heft.diagrams.identify import estimate_all
-    from heft.systems.regression_noise import NoiseLevels
+    from heft.systems.identification.regression_noise import NoiseLevels
     from heft.systems.load_dynamics import regressor
 
     rng = np.random.default_rng(5)

@@ -30,7 +30,7 @@ from heft.diagrams.running.simulation import with_sigma
 from heft.diagrams.scenario import NOISE_OFF, overrides_text, resolve_scenario
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation
-from heft.systems.operator_hand import smooth_sine_offset
+from heft.systems.station.operator_hand import smooth_sine_offset
 from pydrake.systems.analysis import Simulator
 
 

@@ -7,7 +7,7 @@ from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 
 from heft.diagrams.stations.load_on_sensor import LoadOnSensorPlant, simulate_random_motion
 from heft.systems.drake_conventions import spatial_force_from_wrench, wrench_from_spatial_force
-from heft.systems.force_scaling import scale_wrench
+from heft.systems.controller.force_scaling import scale_wrench
 from heft.systems.load_dynamics import (
     InertialParameters, inertia_entries, inertia_matrix, noncontact_wrench, regressor, regressor_with_offsets)
 

@@ -11,9 +11,9 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Adder, Demultiplexer, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from heft.systems.recursive_estimation import RecursiveLeastSquares
+from heft.systems.identification.recursive_estimation import RecursiveLeastSquares
 from heft.systems.load_dynamics import InertialParameters, regressor
-from heft.systems.load_estimator_system import ESTIMATORS, QUALITY_NAMES, LoadEstimatorSystem
+from heft.systems.identification.load_estimator_system import ESTIMATORS, QUALITY_NAMES, LoadEstimatorSystem
 
 PERIOD = 1 / 2000
 SAMPLES = 1200

@@ -16,7 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from heft.diagrams.models import model_path
 from heft.diagrams.plants import MakeMasterPlant
-from heft.systems.master_kinematics import MasterKinematics
+from heft.systems.controller.master_kinematics import MasterKinematics
 from heft.systems.pose_vectors import rigid_transform
 
 URDF = model_path("phantom_premium_6dof.urdf")

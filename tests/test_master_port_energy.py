@@ -11,7 +11,7 @@ from heft.diagrams.running.simulation import true_load, with_sigma
 from heft.diagrams.scenario import overrides_text, resolve_scenario
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation
 from drake_reference import stylus_jacobian
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
+from heft.systems.controller.master_kinematics import BASE_FRAME, STYLUS_FRAME
 
 
 def fig7_master_port(overrides: dict) -> dict:

@@ -11,7 +11,7 @@ from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource, VectorLogSink
 from scipy.spatial.transform import Rotation
 
-from heft.systems.motion_scaling import (IDENTITY_POSE, MEMORY_SIZE, MotionScaling, MotionScalingParams,
+from heft.systems.controller.motion_scaling import (IDENTITY_POSE, MEMORY_SIZE, MotionScaling, MotionScalingParams,
                                          motion_scaling_update)
 
 PERIOD = 0.0005

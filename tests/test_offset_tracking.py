@@ -7,11 +7,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from heft.systems.offset_tracking import (
+from heft.systems.controller.offset_tracking import (
     DONE, OFFSETS, REFUSED_CONTACT, REFUSED_FAULT, REFUSED_MOVING, STATUS, OffsetTrackingParams, initial_state,
     offsets_update)
-from heft.systems.contact_threshold import ContactThresholdParams
-from heft.systems.sensor_models import FORCE_TORQUE_STREAM, ForceTorqueSensorParams, SixAxisMeasurement
+from heft.systems.controller.contact_threshold import ContactThresholdParams
+from heft.systems.station.sensor_models import FORCE_TORQUE_STREAM, ForceTorqueSensorParams, SixAxisMeasurement
 
 CONTACT = ContactThresholdParams()
 """The default contact thresholds (``controller.contact``)."""

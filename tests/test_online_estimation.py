@@ -19,8 +19,8 @@ from heft.diagrams.teleop import MakeTeleopController
 from heft.diagrams.teleop_controller import TeleopController
 from heft.systems.accelerometer_reading import AT_S
 from heft.systems.load_dynamics import GRAVITY_W, regressor
-from heft.systems.load_model import SPLIT
-from heft.systems.offset_tracking import COLLECTING, DONE, ESTIMATE_SIZE
+from heft.systems.controller.load_model import SPLIT
+from heft.systems.controller.offset_tracking import COLLECTING, DONE, ESTIMATE_SIZE
 from heft.systems.tick_program import TickProgram
 
 from controller_inputs import PERIOD, drake_run, program_run

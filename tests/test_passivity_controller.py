@@ -12,7 +12,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from heft.systems.passivity_controller import (
+from heft.systems.controller.passivity_controller import (
     PassivityController, PassivityParams, passivity_channel, passivity_step)
 
 PERIOD = 0.0005

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from heft.systems.periodic_differentiation import differentiate_periodic
+from heft.systems.identification.periodic_differentiation import differentiate_periodic
 
 
 def fourier(t, f, rho, delta, q0):

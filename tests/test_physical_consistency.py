@@ -4,7 +4,7 @@ projection against the physical set's own test and against nearby physical candi
 import numpy as np
 
 from heft.systems.load_dynamics import InertialParameters, pseudo_inertia
-from heft.systems.physical_consistency import phi_from_pseudo_inertia, project_to_physical
+from heft.systems.identification.physical_consistency import phi_from_pseudo_inertia, project_to_physical
 
 
 def test_pseudo_inertia_equals_the_point_mass_sum():

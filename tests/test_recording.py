@@ -15,7 +15,7 @@ from heft.analysis import column_files
 from heft.analysis.clock_offsets import estimate_clock_offsets
 from heft.analysis.recording import load_recording
 from heft.analysis.recording_merge import RecordingSource
-from heft.systems.rotation_sampling import (
+from heft.systems.identification.rotation_sampling import (
     body_angular_velocity, continuous, rotate_into_body, savitzky_golay, slerp, window_samples)
 
 @pytest.fixture(scope="module")

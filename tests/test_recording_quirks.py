@@ -18,7 +18,7 @@ from heft.analysis.recording import load_recording
 from heft.analysis.recording_merge import RecordingSource
 from heft.analysis.static_pose_table import read_static_poses
 from heft.diagrams.cli import main
-from heft.systems.batch_estimation import batch_estimate
+from heft.systems.identification.batch_estimation import batch_estimate
 
 FILES = {"wrench": "ft.csv", "accelerometer": "imu.csv", "orientation": "pose.csv"}
 

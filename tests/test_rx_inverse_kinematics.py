@@ -19,8 +19,8 @@ from heft.diagrams.models import model_path
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import AddSlave
 from heft.systems.pose_vectors import pose_vector, rigid_transform
-from heft.systems.rx_inverse_kinematics import RxKinematics
-from heft.systems.slave_inverse_kinematics import SlaveInverseKinematics
+from heft.systems.controller.rx_inverse_kinematics import RxKinematics
+from heft.systems.controller.slave_inverse_kinematics import SlaveInverseKinematics
 
 ROBOTS = ("rx90", "rx60")
 PERIOD = 0.0005  # s

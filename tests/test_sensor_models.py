@@ -12,7 +12,7 @@ from pydrake.systems.primitives import Adder, ConstantVectorSource, Gain, Trajec
 from pydrake.trajectories import PiecewisePolynomial
 from scipy.signal import butter, lfilter, lfilter_zi
 
-from heft.systems.sensor_models import (
+from heft.systems.station.sensor_models import (
     AccelerometerModel, AccelerometerParams, ForceTorqueSensorModel, ForceTorqueSensorParams, HeldLowpass,
     SixAxisMeasurement, drift_offsets, lowpass_coefficients, noise_key, quantize, standard_normals)
 

@@ -7,7 +7,7 @@ from pydrake.multibody.tree import JacobianWrtVariable
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
 from heft.systems.drake_conventions import swap_halves
 from heft.systems.load_dynamics import GRAVITY_W
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
+from heft.systems.controller.master_kinematics import BASE_FRAME, STYLUS_FRAME
 from heft.systems.serial_chain import SerialChain
 
 

@@ -4,7 +4,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
-from heft.systems.setpoint_filter import SetpointFilter
+from heft.systems.station.setpoint_filter import SetpointFilter
 
 
 def test_step_response_is_the_critically_damped_closed_form():

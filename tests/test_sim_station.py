@@ -15,8 +15,8 @@ from heft.diagrams.plants import AddSlave, mount_for
 from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.load_dynamics import InertialParameters, regressor
-from heft.systems.operator_hand import hand_wrench_into, reference_into, smooth_sine_offset, stroke_windows
-from heft.systems.station_truth import frame_motion_into
+from heft.systems.station.operator_hand import hand_wrench_into, reference_into, smooth_sine_offset, stroke_windows
+from heft.systems.station.station_truth import frame_motion_into
 
 STATION_PORTS = {
     "inputs": {"master.torque_commanded", "slave.position_commanded"},

@@ -8,9 +8,9 @@ import pytest
 
 from heft.diagrams.plants import MakeArmPlant
 from heft.systems.pose_vectors import pose_vector
-from heft.systems.rx_inverse_kinematics import (JOINT_LIMIT, NON_FINITE, OUT_OF_REACH, SHOULDER_SINGULARITY,
+from heft.systems.controller.rx_inverse_kinematics import (JOINT_LIMIT, NON_FINITE, OUT_OF_REACH, SHOULDER_SINGULARITY,
                                                 WRIST_SINGULARITY, RxKinematics, limit_joints)
-from heft.systems.slave_inverse_kinematics import SLEWING, IkStep
+from heft.systems.controller.slave_inverse_kinematics import SLEWING, IkStep
 
 
 class Slave:

@@ -10,8 +10,8 @@ from pydrake.multibody.tree import JacobianWrtVariable, SpatialInertia
 from heft.diagrams.scenario import Scenario, layered, overrides_text
 from heft.diagrams.plants import AddSlave
 from heft.systems.pose_vectors import rigid_transform
-from heft.systems.rx_inverse_kinematics import RxKinematics
-from heft.systems.slave_kinematics import SlaveKinematics
+from heft.systems.controller.rx_inverse_kinematics import RxKinematics
+from heft.systems.controller.slave_kinematics import SlaveKinematics
 
 GRAVITY_W = np.array([0.0, 0.0, -9.81])
 

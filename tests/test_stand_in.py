@@ -28,8 +28,8 @@ from heft.hardware_interface.lcmtypes import heft_haptic_command, heft_haptic_st
 from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.load_dynamics import noncontact_wrench
 from heft.diagrams.plants import MakeMasterPlant
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
-from heft.systems.operator_hand import smooth_sine_offset
+from heft.systems.controller.master_kinematics import BASE_FRAME, STYLUS_FRAME
+from heft.systems.station.operator_hand import smooth_sine_offset
 from heft.systems.serial_chain import SerialChain
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable

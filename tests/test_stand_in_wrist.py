@@ -28,7 +28,7 @@ from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
 from heft.hardware_interface.ft_messages import decode_samples
 from heft.hardware_interface.lcmtypes import heft_gripper_state
 from heft.systems.drake_conventions import wrench_from_spatial_force
-from heft.systems.encoders import AddEncoderVelocityEstimate
+from heft.systems.station.encoders import AddEncoderVelocityEstimate
 from heft.systems.load_dynamics import GRAVITY_W
 from test_stand_in import DELTA, SlavePlant, quiet_scenario
 

@@ -9,7 +9,7 @@ from scipy.spatial.transform import Rotation
 from heft.systems.accelerometer_calibration import (
     STANDARD_GRAVITY, AccelerometerCalibration, checked_rotation, fit_to_gravity, rotation_angle)
 from heft.systems.load_dynamics import InertialParameters
-from heft.systems.static_calibration import calibrate_static, point_mass_phi, static_gravity
+from heft.systems.identification.static_calibration import calibrate_static, point_mass_phi, static_gravity
 
 G = 9.81
 MASS = 3.13

@@ -97,7 +97,7 @@ def test_paper_experiments_with_the_true_load(name):
     shallower stroke (the paper's control) touches nothing, yet the measured force swings
     about as far as in the first, and after elimination it stays under the detection threshold."""
     from heft.analysis.experiment_metrics import DETECTION_THRESHOLD_N, experiment_metrics
-    from heft.systems.operator_hand import stroke_windows
+    from heft.systems.station.operator_hand import stroke_windows
     scenario = resolve_scenario(name, overrides_text({"duration": 1.2} if name == "fig6" else {}))
     load = true_load(scenario)
     runs = {sigma: run_teleop(with_sigma(scenario, sigma), load) for sigma in (1.0, 0.0)}

@@ -9,7 +9,7 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from heft.diagrams.running.simulation import true_load
 from heft.diagrams.teleop import MakeTeleopController
-from heft.systems.passivity_controller import PassivityController
+from heft.systems.controller.passivity_controller import PassivityController
 from heft.systems.tick_program import TickProgram
 from heft.systems.tick_program_system import TickProgramSystem
 from heft.systems.tick_system import TickConstant

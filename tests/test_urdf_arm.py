@@ -14,7 +14,7 @@ from pydrake.math import RigidTransform, RollPitchYaw
 
 from heft.diagrams.arm_params import ArmParams
 from heft.diagrams.urdf_arm import ArmRefused, read_arm
-from heft.systems.chain_inverse_kinematics import ChainIk
+from heft.systems.controller.chain_inverse_kinematics import ChainIk
 from heft.systems.pose_vectors import pose_vector
 
 MODELS = Path(__file__).resolve().parents[1] / "diagrams" / "models"

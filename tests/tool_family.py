@@ -22,7 +22,7 @@ from heft.diagrams.models.make_tool_inertia import ALUMINIUM, JR3_S_TO_TOOL_FACE
 
 Z0 = JR3_S_TO_TOOL_FACE  # m, the sensor's tool face below S
 GRAVITY = 9.81  # m/s²
-# The JR3 200N12's range (systems/sensor_models.py: 200 N, 12 N·m); the RX90's payload
+# The JR3 200N12's range (systems/station/sensor_models.py: 200 N, 12 N·m); the RX90's payload
 # (diagrams/models/SOURCES.md: 6 kg nominal, 12 kg max).
 FT_TORQUE_RANGE = 12.0  # N·m
 RX90_PAYLOAD_MAX = 12.0  # kg

@@ -32,7 +32,7 @@ from heft.analysis.passivity_analysis import (CHANNELS, passivity_controller_sum
                                               port_energy, port_power, sample_periods)
 from heft.analysis.run_log import KINDS, RunLog, complete_rows, longest_start, read_run_log
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
+from heft.systems.controller.master_kinematics import BASE_FRAME, STYLUS_FRAME
 from heft.systems.serial_chain import SerialChain
 from heft.diagrams.commands.console import logger
 from heft.diagrams.commands.options import add_out

@@ -41,8 +41,8 @@ def _bench_identify(args) -> int:
     from heft.diagrams.progress import ProgressBar
     from heft.diagrams.scenario import NOISE_OFF, Scenario, layered, overrides_text
     from heft.systems.load_dynamics import PARAMETER_NAMES
-    from heft.systems.regression_noise import NoiseLevels
-    from heft.systems.excitation import ExcitationSettings
+    from heft.systems.identification.regression_noise import NoiseLevels
+    from heft.systems.identification.excitation import ExcitationSettings
     from heft.systems.load_dynamics import noncontact_wrench
 
     scenario = layered(Scenario(), overrides_text(NOISE_OFF))  # the paper's tool; noise is added per run below

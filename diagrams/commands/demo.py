@@ -22,7 +22,7 @@ def run(args) -> int:
     from heft.diagrams.running.sim_identification import identify_in_simulation
     from heft.diagrams.scenario import resolve_scenario
     from heft.diagrams.running.simulation import PAPER_SIGMAS, simulate
-    from heft.systems.excitation import ExcitationSettings
+    from heft.systems.identification.excitation import ExcitationSettings
 
     out = Path(args.out)
     scenario = resolve_scenario("fig6")

@@ -52,7 +52,7 @@ def run(args) -> int:
     if not args.scenario:
         raise ValueError("identify needs --scenario (the excitation heft drives) or --recording (a lab's recording)")
     from heft.diagrams.identify import identify
-    from heft.systems.excitation import ExcitationSettings
+    from heft.systems.identification.excitation import ExcitationSettings
 
     if args.hardware and args.station:
         raise ValueError("--station chooses the simulated station; on hardware describe the lab's sensor instead, "

@@ -26,7 +26,7 @@ from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
 from heft.diagrams.running.realtime import (LOOP_PRIORITY, HardwareRunFailed, StopOnSignal, claim_realtime,
                                             format_timing, keep_cpu_for_loop, run_realtime, timing_summary)
 from heft.diagrams.scenario import Scenario
-from heft.systems.slave_kinematics import NUM_JOINTS
+from heft.systems.controller.slave_kinematics import NUM_JOINTS
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import (
     WATCHED_CHANNELS,
@@ -35,7 +35,7 @@ from heft.hardware_interface.hardware_station import (
 )
 from heft.hardware_interface.lcm_mailbox import open_buses
 from heft.hardware_interface.message_checks import DeviceLimits
-from heft.systems.excitation_commander import ExcitationCommander, Phase
+from heft.systems.identification.excitation_commander import ExcitationCommander, Phase
 
 
 say = logging.getLogger(__name__)

@@ -52,7 +52,7 @@ from heft.hardware_interface.load_commands import LoadCommandServer
 from heft.hardware_interface.teleop_state import TeleopStatePublisher
 from heft.systems.compiled import compiled
 from heft.systems.load_dynamics import wrench_norms
-from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
+from heft.systems.controller.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
 say = logging.getLogger(__name__)
 """What a run says (``heft -q`` quiets it): under the ``heft`` logger the command line configures."""

@@ -14,7 +14,7 @@ from heft.diagrams.load_estimate import LoadEstimate, read_load_estimate
 from heft.diagrams.progress import ProgressBar
 from heft.diagrams.scenario import Scenario, layered, overrides_text
 from heft.diagrams.stations.sim_station import MakeSimStation, set_holding
-from heft.systems.excitation import ExcitationSettings
+from heft.systems.identification.excitation import ExcitationSettings
 
 
 def record_excitation(scenario: Scenario, trajectory, duration: float) -> Recording:

@@ -22,7 +22,7 @@ from heft.diagrams.stations.sim_station import MakeSimStation, set_holding
 from heft.diagrams.live_view import simulation_monitor
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.teleop_simulation import MakeTeleopSimulation
-from heft.systems.operator_hand import stroke_windows
+from heft.systems.station.operator_hand import stroke_windows
 
 # Plant-truth logs, re-timed to the sensor sample they belong to (see run_teleop).
 SAMPLE_ALIGNED_TRUTH = ("wrench_contact_true", "wrench_noncontact_true", "accel_true", "omega_true", "gravity_S",

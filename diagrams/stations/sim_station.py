@@ -21,14 +21,14 @@ from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, Satu
 from heft.diagrams.plants import AddMaster, AddSlave, SlaveParts, phi_about_S
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.stations.slave_servo import slave_servo_gains
-from heft.systems.encoders import AddEncoderVelocityEstimate, EncoderQuantizer
-from heft.systems.gravity_compensation import GravityCompensation
+from heft.systems.station.encoders import AddEncoderVelocityEstimate, EncoderQuantizer
+from heft.systems.station.gravity_compensation import GravityCompensation
 from heft.systems.load_dynamics import GRAVITY_W
-from heft.systems.operator_hand import OperatorHand
-from heft.systems.setpoint_filter import SetpointFilter
-from heft.systems.sensor_models import AccelerometerModel, ForceTorqueSensorModel
+from heft.systems.station.operator_hand import OperatorHand
+from heft.systems.station.setpoint_filter import SetpointFilter
+from heft.systems.station.sensor_models import AccelerometerModel, ForceTorqueSensorModel
 from heft.systems.station_ports import CLUTCH
-from heft.systems.station_truth import ContactWrenchAtSensor, ReactionWrench, SensorAndLoadMotion
+from heft.systems.station.station_truth import ContactWrenchAtSensor, ReactionWrench, SensorAndLoadMotion
 
 # Point-contact stiffness of the ball tip on the plate (N/m): steel on steel is far stiffer than the
 # sheet spring, which then sets the felt stiffness; stiffer would only shrink the stable time step.

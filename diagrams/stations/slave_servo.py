@@ -1,7 +1,7 @@
 """The robot's own joint servo, as heft's stations model it.
 
 Both stations drive the arm through the robot controller's setpoint filter
-(``systems/setpoint_filter.py``) and then a stiff joint PD with gravity feed-forward:
+(``systems/station/setpoint_filter.py``) and then a stiff joint PD with gravity feed-forward:
 τ = Kp·(q_f − q) + Kd·(q̇_f − q̇) + g(q), Kp the scenario's ``slave_servo_stiffness`` and
 Kd = 2ζ·√(Kp·M_jj) for the damping ratio ζ (``slave_servo_damping_ratio``) at each joint's
 inertia M_jj (kg·m², the mass matrix's diagonal of arm and payload in the start pose)
@@ -23,7 +23,7 @@ from scipy.linalg import expm
 from heft.diagrams.plants import AddSlave
 from heft.diagrams.scenario import Scenario
 from heft.systems.compiled import compiled
-from heft.systems.setpoint_filter import critically_damped_dynamics
+from heft.systems.station.setpoint_filter import critically_damped_dynamics
 
 SERVO_ROWS = 4
 """The rows of the arm's state in ``servo_step``: the filter's q_f, q̇_f and the joints' q, q̇ (rad, rad/s)."""

@@ -96,12 +96,12 @@ from heft.diagrams.stations.slave_servo import SERVO_ROWS, servo_step, servo_ste
 from heft.diagrams.stations.stand_in_wrist import GraspTimes, SixAxisSampler, TruthRecord, Wrist
 from heft.hardware_interface.lcmtypes import heft_gripper_state, heft_haptic_command, heft_haptic_state
 from heft.systems.compiled import compiled, float_array
-from heft.systems.encoders import EncoderVelocityEstimator
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
-from heft.systems.operator_hand import smooth_sine_offset
+from heft.systems.station.encoders import EncoderVelocityEstimator
+from heft.systems.controller.master_kinematics import BASE_FRAME, STYLUS_FRAME
+from heft.systems.station.operator_hand import smooth_sine_offset
 from heft.systems.serial_chain import SerialChain, chain_dtype, chain_kinematics
-from heft.systems.sensor_models import ACCELEROMETER_STREAM, FORCE_TORQUE_STREAM, NUM_AXES, quantize
-from heft.systems.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
+from heft.systems.station.sensor_models import ACCELEROMETER_STREAM, FORCE_TORQUE_STREAM, NUM_AXES, quantize
+from heft.systems.controller.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
 """Joints of the master and of the slave."""
 HAPTIC_WATCHDOG_S = 0.02

@@ -21,9 +21,9 @@ from heft.systems.accelerometer_reading import reading_from_motion
 from heft.systems.compiled import compiled
 from heft.systems.load_dynamics import GRAVITY_W, regressor_into
 from heft.systems.serial_chain import ACCELERATION, GRAVITY, OMEGA, SerialChain, chain_dtype, chain_kinematics
-from heft.systems.sensor_models import (NUM_AXES, HeldLowpass, SixAxisMeasurement, SixAxisSensorParams, lowpass,
+from heft.systems.station.sensor_models import (NUM_AXES, HeldLowpass, SixAxisMeasurement, SixAxisSensorParams, lowpass,
                                         lowpass_coefficients)
-from heft.systems.slave_kinematics import NUM_JOINTS
+from heft.systems.controller.slave_kinematics import NUM_JOINTS
 
 GRIPPER_CLOSING_S = 0.2
 """How long (s) the gripper's fingers take from open to closed on the object (assumed: a Schunk

@@ -33,8 +33,8 @@ from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
 from heft.diagrams.running.sim_identification import identify_in_simulation
 from heft.diagrams.running.simulation import run_teleop, true_load, with_sigma
 from heft.diagrams.load_estimate import LoadEstimate
-from heft.systems.excitation import ExcitationSettings
-from heft.systems.master_kinematics import BASE_FRAME, STYLUS_FRAME
+from heft.systems.identification.excitation import ExcitationSettings
+from heft.systems.controller.master_kinematics import BASE_FRAME, STYLUS_FRAME
 
 SETTLE_TIME = 0.25
 """Time (s) after the operator starts moving that the fits leave out (the start transient)."""

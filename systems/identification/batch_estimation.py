@@ -15,10 +15,10 @@ import numpy as np
 import scipy.linalg
 from scipy.linalg import block_diag, solve_triangular
 
-from heft.systems.identifiability import ScaledSVD, check_rcond, mask_unidentifiable, restricted_inverse
+from heft.systems.identification.identifiability import ScaledSVD, check_rcond, mask_unidentifiable, restricted_inverse
 from heft.systems.load_dynamics import (
     PARAMETER_NAMES, PHI_NAMES, InertialParameters, regressor, regressor_with_offsets, with_offsets)
-from heft.systems.regression_noise import (
+from heft.systems.identification.regression_noise import (
     NoiseLevels, equation_error_covariance, motion_variances, noise_gram_terms, require_kinematic_noise,
     wrench_motion_jacobian)
 

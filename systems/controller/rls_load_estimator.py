@@ -15,9 +15,9 @@ import math
 import numpy as np
 
 from heft.systems.compiled import compiled, record_views
-from heft.systems.load_estimation_params import LoadEstimationParams
-from heft.systems.offset_tracking import ESTIMATE_SIZE
-from heft.systems.recursive_estimation import (RecursiveLeastSquares, least_squares_start_from,
+from heft.systems.controller.load_estimation_params import LoadEstimationParams
+from heft.systems.controller.offset_tracking import ESTIMATE_SIZE
+from heft.systems.identification.recursive_estimation import (RecursiveLeastSquares, least_squares_start_from,
                                                least_squares_update)
 from heft.systems.tick_system import TickSystem
 

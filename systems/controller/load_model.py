@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from heft.systems.compiled import compiled
-from heft.systems.offset_tracking import ESTIMATE_SIZE
+from heft.systems.controller.offset_tracking import ESTIMATE_SIZE
 from heft.systems.tick_system import TickSystem
 
 

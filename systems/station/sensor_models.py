@@ -46,7 +46,8 @@ from pydrake.systems.framework import LeafSystem
 from scipy.signal import butter, lfilter_zi
 
 from heft.systems.compiled import compiled, float_array
-from heft.systems.sensor_params import NUM_AXES, AccelerometerParams, ForceTorqueSensorParams, SixAxisSensorParams
+from heft.systems.station.sensor_params import (NUM_AXES, AccelerometerParams, ForceTorqueSensorParams,
+                                                SixAxisSensorParams)
 
 FORCE_TORQUE_STREAM = 0
 """Noise streams (``noise_key``) of the force-torque sensor and of the accelerometer."""

@@ -34,7 +34,7 @@ from scipy.signal import iirnotch, lfilter_zi
 from heft.systems.accelerometer_reading import (
     AT_S, AccelerometerConvention, kernel_convention, motion_from_reading_into)
 from heft.systems.compiled import compiled, float_array, record_views
-from heft.systems.force_scaling_params import ForceScalingParams
+from heft.systems.controller.force_scaling_params import ForceScalingParams
 from heft.systems.load_dynamics import regressor_into
 from heft.systems.sample_period import DEFAULT_PERIOD, require_period
 from heft.systems.tick_system import TickSystem

@@ -29,10 +29,10 @@ import math
 
 import numpy as np
 
-from heft.systems.contact_threshold import ContactThresholdParams
+from heft.systems.controller.contact_threshold import ContactThresholdParams
 from heft.systems.compiled import compiled, float_array
 from heft.systems.load_dynamics import beyond, regressor_into
-from heft.systems.load_estimation_params import LoadEstimationParams
+from heft.systems.controller.load_estimation_params import LoadEstimationParams
 from heft.systems.tick_system import TickSystem
 
 _ZERO = np.zeros(3)

@@ -15,7 +15,7 @@ import numpy as np
 
 from heft.systems.compiled import compiled
 from heft.systems.sample_period import require_period
-from heft.systems.sensor_models import lowpass_coefficients
+from heft.systems.station.sensor_models import lowpass_coefficients
 from heft.systems.tick_system import TickSystem
 
 # The signals filtered, in the order of the state's columns: name, size.

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from heft.systems.excitation import FourierTrajectory
+from heft.systems.identification.excitation import FourierTrajectory
 
 
 class Phase(enum.IntEnum):

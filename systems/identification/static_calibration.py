@@ -15,7 +15,7 @@ import dataclasses
 import numpy as np
 
 from heft.systems.accelerometer_calibration import GravityFit, fit_to_gravity
-from heft.systems.batch_estimation import Estimate, batch_estimate
+from heft.systems.identification.batch_estimation import Estimate, batch_estimate
 from heft.systems.load_dynamics import OFFSET_NAMES, PHI_NAMES
 
 STATIC_NAMES = OFFSET_NAMES + PHI_NAMES[:4]

@@ -14,12 +14,12 @@ import math
 import numpy as np
 from scipy.linalg import lapack, solve_triangular
 
-from heft.systems.batch_estimation import tls_covariance
+from heft.systems.identification.batch_estimation import tls_covariance
 from heft.systems.compiled import compiled
-from heft.systems.identifiability import (
+from heft.systems.identification.identifiability import (
     check_rcond, mask_unidentifiable, null_excitation, root_excitation)
 from heft.systems.load_dynamics import regressor, regressor_into
-from heft.systems.regression_noise import NoiseLevels, noise_gram_terms, require_kinematic_noise
+from heft.systems.identification.regression_noise import NoiseLevels, noise_gram_terms, require_kinematic_noise
 
 # Forgetting drives the entries of unexcited directions towards zero and, in the end, into
 # subnormal numbers, which x86 processes ~100× slower. Every _FLUSH_INTERVAL samples, state

@@ -23,10 +23,10 @@ keep it as discrete state; ``offsets_update`` is the one update, used by
 
 import numpy as np
 
-from heft.systems.contact_threshold import ContactThresholdParams
+from heft.systems.controller.contact_threshold import ContactThresholdParams
 from heft.systems.compiled import compiled, float_array
 from heft.systems.load_dynamics import beyond
-from heft.systems.offset_tracking_params import OffsetTrackingParams
+from heft.systems.controller.offset_tracking_params import OffsetTrackingParams
 from heft.systems.tick_system import TickSystem
 
 # Layout of the state: offsets, the re-zero window's sum of (c + o)·dt and its length (s),

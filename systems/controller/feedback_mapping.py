@@ -19,7 +19,7 @@ import numpy as np
 from pydrake.math import RollPitchYaw, RotationMatrix
 
 from heft.systems.compiled import compiled, float_array
-from heft.systems.feedback_mapping_params import FeedbackMappingParams
+from heft.systems.controller.feedback_mapping_params import FeedbackMappingParams
 from heft.systems.pose_vectors import POSE_SIZE, rotation_into
 from heft.systems.tick_system import TickSystem
 

@@ -8,9 +8,9 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import EventStatus, LeafSystem, ValueProducer
 
-from heft.systems.recursive_estimation import (
+from heft.systems.identification.recursive_estimation import (
     RecursiveInstrumentalVariables, RecursiveLeastSquares, RecursiveTotalLeastSquares)
-from heft.systems.regression_noise import NoiseLevels
+from heft.systems.identification.regression_noise import NoiseLevels
 
 ESTIMATORS = {
     "rls": RecursiveLeastSquares,

@@ -38,8 +38,8 @@ import math
 import numpy as np
 
 from heft.systems.compiled import compiled, float_array
-from heft.systems.feedback_mapping import clamp_factor
-from heft.systems.passivity_params import PassivityParams
+from heft.systems.controller.feedback_mapping import clamp_factor
+from heft.systems.controller.passivity_params import PassivityParams
 from heft.systems.sample_period import DEFAULT_PERIOD, require_period
 from heft.systems.tick_system import Reshaped, TickSystem
 

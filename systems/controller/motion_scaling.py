@@ -26,7 +26,7 @@ import numpy as np
 from pydrake.math import RollPitchYaw, RotationMatrix
 
 from heft.systems.compiled import compiled, float_array
-from heft.systems.motion_scaling_params import MotionScalingParams
+from heft.systems.controller.motion_scaling_params import MotionScalingParams
 from heft.systems.pose_vectors import POSE_SIZE
 from heft.systems.sample_period import DEFAULT_PERIOD, require_period
 from heft.systems.tick_system import TickSystem

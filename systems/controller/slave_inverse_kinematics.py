@@ -9,8 +9,9 @@ from pydrake.math import RigidTransform
 
 from heft.systems.compiled import compiled, record_views
 from heft.systems.pose_vectors import POSE_SIZE, rotation_into
-from heft.systems.rx_inverse_kinematics import NON_FINITE, UNREACHABLE, WORK_ROWS, RxKinematics, nearest_solution
-from heft.systems.slave_kinematics import NUM_JOINTS
+from heft.systems.controller.rx_inverse_kinematics import (NON_FINITE, UNREACHABLE, WORK_ROWS, RxKinematics,
+                                                          nearest_solution)
+from heft.systems.controller.slave_kinematics import NUM_JOINTS
 from heft.systems.tick_system import TickSystem
 
 SLEWING = 1 << 12

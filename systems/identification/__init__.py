@@ -1,0 +1,1 @@
+"""Identifying the load (Sec. IV): excitation, the batch and recursive estimators, static calibration."""
