@@ -1,7 +1,6 @@
-"""One tick of the slave IK (``ik_step`` through ``IkStep``, as the per-block Diagram and the fused
-step run it) against Drake's forward kinematics of the arm + sensor plant: the command puts S on the
-desired pose, moves at most at the speed limits, and holds on a pose it cannot reach, the status
-saying why."""
+"""One tick of the slave IK (``ik_step`` through ``IkStep``, as the slave IK block runs it) against Drake's
+forward kinematics of the arm + sensor plant: the command puts S on the desired pose, moves at most at the
+speed limits, and holds on a pose it cannot reach, the status saying why."""
 
 import numpy as np
 import pytest
