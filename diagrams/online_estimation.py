@@ -15,18 +15,19 @@ from heft.systems.tick_system import TickSum
 
 def AddOnlineLoadEstimator(builder: DiagramBuilder, params: LoadEstimationParams, contact: ContactThresholdParams,
                            phi, period: float, accelerometer: AccelerometerConvention, force_scaling, slave_kinematics,
-                           phi_gripper) -> OutputPort:
+                           offsets, phi_gripper) -> OutputPort:
     """Adds the online estimator of φ̂ (10), starting from ``phi``, to ``builder`` and returns its
     output: ``AccelerometerToMotion`` (the reading in ``accelerometer``'s convention → S's
     kinematic [a; α]), ``EstimatorGate`` (which samples it takes: their excitation judged on the
     prefiltered motion, contact by ``contact``), ``EstimatorPrefilter`` (unless ``params.prefilter`` is 0) and
-    ``LoadEstimatorSystem`` (``params.method``), ticking every ``period`` s. φ alone is
+    ``RlsLoadEstimator``, ticking every ``period`` s. φ alone is
     estimated, from f − ô = c + V·φ̂ (``force_scaling``'s outputs): the offsets are the
     OffsetTracker's, so the weight cannot trade against the force offsets. ``slave_kinematics``
     gives ω and g in S. ``GraspSplit`` (``phi_gripper`` the scenario's φ_gr or None) splits φ̂ for
-    ``force_scaling`` at a grasp and asks the estimator for a new load, or to restart from a new estimate.
-    Reads the Diagram inputs ``ft.acceleration_measured`` and ``estimate`` (exported already) and exports
-    ``holding`` (1: the gripper holds an object), ``estimator_reset`` (1, a request counter: a new load) and
+    ``force_scaling`` at a grasp and asks the estimator for a new load, or to restart from a new estimate, whose
+    offsets it passes to ``offsets`` (the ``OffsetTracker``) for the same tick. Reads the Diagram input
+    ``ft.acceleration_measured`` (exported already) and exports ``estimate`` (a new tool's), ``holding`` (1: the gripper
+    holds an object), ``estimator_reset`` (1, a request counter: a new load) and
     ``input_age`` (1, s: the oldest reading's age; the gate refuses readings older than
     ``params.max_input_age``)."""
     to_motion = builder.AddNamedSystem("accelerometer_to_motion", AccelerometerToMotion(accelerometer))
@@ -40,7 +41,8 @@ def AddOnlineLoadEstimator(builder: DiagramBuilder, params: LoadEstimationParams
     grasp = builder.AddNamedSystem("grasp", GraspSplit(phi_gripper, period))
     builder.ExportInput(grasp.GetInputPort("holding"), "holding")
     builder.ExportInput(grasp.GetInputPort("reset"), "estimator_reset")
-    builder.ConnectInput("estimate", grasp.GetInputPort("estimate"))
+    builder.ExportInput(grasp.GetInputPort("estimate"), "estimate")
+    connect(grasp.GetOutputPort("estimate"), offsets.GetInputPort("estimate"))
     builder.ExportInput(gate.GetInputPort("input_age"), "input_age")
     connect(estimator.GetOutputPort("phi"), grasp.GetInputPort("phi"))
     connect(grasp.GetOutputPort("estimator_reset"), estimator.GetInputPort("reset"))

@@ -61,8 +61,9 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     Inputs: the station outputs ``STATION_OUTPUTS_READ``; ``clutch`` (1, > 0.5 engaged);
     optional ``sigma``, ``gamma``, ``eta`` (1 each; unconnected → ``spec.force``'s values), the load
     commands ``rezero`` (1, a request counter: ``OffsetTracker``), ``tracking`` (1, > 0.5 on; unconnected
-    ``spec.offsets.tracking``) and ``estimate`` (``ESTIMATE_SIZE``: [counter, φ, offsets], a new tool's) and,
-    with ``spec.estimator.mode`` "online", ``holding`` (1, the gripper holds an object: the grasp's split,
+    ``spec.offsets.tracking``) and ``estimate`` (``ESTIMATE_SIZE``: [counter, φ, offsets], a new tool's), ``hold``
+    (1, s: how long this tick's torque is held, for the passivity observer; unconnected the period) and, with
+    ``spec.estimator.mode`` "online", ``holding`` (1, the gripper holds an object: the grasp's split,
     ``GraspSplit``), ``estimator_reset`` (1, a request counter: a new load) and ``input_age`` (1, s). φ̂ is
     ``load.phi`` (``FixedLoad``) or, online, the load estimator's (``AddOnlineLoadEstimator``).
     ``feedback_blocks``: blocks of a lab's own between force scaling's f′ and the feedback mapping, in order
@@ -94,20 +95,20 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
 
     export_input("master.position_measured", master_kinematics.get_input_port())
     export_input("master.velocity_estimated", passivity.GetInputPort("velocity"))
+    export_input("hold", passivity.GetInputPort("hold"))
     export_input("slave.position_measured", slave_kinematics.GetInputPort("position"),
                  ik.GetInputPort("position_measured"))
     export_input("slave.velocity_estimated", slave_kinematics.GetInputPort("velocity"),
                  offsets.GetInputPort("slave_velocity"))
     export_input("ft.wrench_measured", force.GetInputPort("wrench"))
     export_input("ft.acceleration_measured", force.GetInputPort("acceleration"))
-    export_input("estimate", offsets.GetInputPort("estimate"))
     export_input("tracking", offsets.GetInputPort("tracking"))
     if spec.estimator.mode == "online":
         phi_hat = AddOnlineLoadEstimator(builder, spec.estimator, spec.contact, load.phi, period, accelerometer,
-                                         force, slave_kinematics, spec.force.phi_gripper)
+                                         force, slave_kinematics, offsets, spec.force.phi_gripper)
     else:
         phi_hat = builder.AddNamedSystem("phi_hat", FixedLoad(load.phi, period))
-        builder.ConnectInput("estimate", phi_hat.GetInputPort("estimate"))
+        export_input("estimate", phi_hat.GetInputPort("estimate"), offsets.GetInputPort("estimate"))
         phi_hat = phi_hat.GetOutputPort("phi")
     export_input("clutch", motion.GetInputPort("clutch"))
     for name in ("sigma", "gamma", "eta"):

@@ -28,7 +28,7 @@ from heft.hardware_interface.hardware_station_system import HardwareStationSyste
 from heft.systems.accelerometer_reading import AccelerometerConvention, kernel_convention, motion_from_reading
 from heft.systems.load_dynamics import checked_load, regressor
 from heft.systems.controller.load_model import ESTIMATES_SEEN, GRASPS, HOLDING, PHI_GRIPPER, RESTARTS, SPLIT
-from heft.systems.controller.offset_tracking import ESTIMATE_SIZE, OFFSETS, REQUESTS, STATUS, TRACKING, WINDOW_TIME
+from heft.systems.controller.offset_tracking import ESTIMATE_SIZE, OFFSETS, REQUESTS, STATUS, WINDOW_TIME
 from heft.systems.controller.slave_kinematics import NUM_JOINTS
 from heft.systems.station_ports import CLUTCH, INPUT_AGE, STATION_OUTPUTS_READ
 from heft.systems.tick_program import TickProgram
@@ -121,6 +121,7 @@ class TeleopController:
                      "pose_RS_desired", "wrench_feedback", "wrench_contact", "wrench_noncontact", "master_wrench",
                      "gravity_S", "ik_status", "force_fault", "pose_RS", "pose_BE"):
             setattr(self, f"_{name}", program.output(OUTPUTS[name]))
+        self._hold, self._last_tick = program.input("hold"), None
         self.started = self._was_healthy = False
 
     # --- ticking ------------------------------------------------------------------------
@@ -162,10 +163,12 @@ class TeleopController:
     def tick(self, now: float) -> bool:
         """One tick of the controller with its hardware station at ``now`` (s, the loop's monotonic clock): the
         station receives; while it is healthy the controller steps (started afresh, from the slave's measured
-        position, at the first healthy tick and each recovery); the station sends (zero torque and the slave
-        held while it is not healthy). Returns whether the controller stepped."""
+        position, at the first healthy tick and each recovery), the passivity observer holding each torque for
+        the time measured since the last tick; the station sends (zero torque and the slave held while it is not
+        healthy). Returns whether the controller stepped."""
         station, program = self.station, self.program
-        station.now = now
+        self._hold[0] = self.period if self._last_tick is None else now - self._last_tick
+        self._last_tick = station.now = now
         program.receive()
         healthy = station.station.healthy
         if healthy:
@@ -204,6 +207,12 @@ class TeleopController:
         return self._position if self.started else None
 
     @property
+    def hold(self) -> float:
+        """How long (s) the last tick's torque is held: the period, or with a station the time measured since the
+        tick before (the passivity observer's)."""
+        return float(self._hold[0])
+
+    @property
     def reachable(self) -> bool:
         return bool(self._ik_status[0] > 0.5)
 
@@ -229,7 +238,8 @@ class TeleopController:
 
     @property
     def tracking(self) -> bool:
-        return bool(self._offset_state[TRACKING] > 0.5)
+        """Offset tracking on, as last set (``set_tracking``; the next tick takes it)."""
+        return bool(self._tracking[0] > 0.5)
 
     def request_rezero(self) -> None:
         """A re-zero from the next tick (refused there if the slave moves or touches)."""

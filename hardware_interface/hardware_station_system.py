@@ -39,7 +39,6 @@ class HardwareStationSystem(TickSystem):
         self.station = station
         self.now = 0.0
         """The tick's time (s, the loop's monotonic clock), set by the loop before each tick."""
-        self._zero = np.zeros(6)
         for name in STATION_INPUTS_DRIVEN:
             self.DeclareTickInput(name, 6)
         self.DeclareTickState("readings", np.zeros(READINGS_SIZE))
@@ -62,8 +61,6 @@ class HardwareStationSystem(TickSystem):
         readings[HEALTHY_AT] = 1.0 if station.healthy else 0.0
 
     def send(self, torque: np.ndarray, position: np.ndarray) -> None:
-        """The controller's commands at ``now`` while the station is healthy; else zero torque, the slave held."""
-        if self.station.healthy:
-            self.station.send(self.now, torque, position)
-        else:
-            self.station.send(self.now, self._zero, None)
+        """The controller's commands at ``now``, gated by the station (``HardwareStation.send``: while it is not
+        healthy, zero torque and the slave held)."""
+        self.station.send(self.now, torque, position)

@@ -71,7 +71,7 @@ class LoadCommandServer:
             except Exception:  # whatever a malformed payload makes the generated decoder raise
                 self._answer(now_utime, 0, False, "a message on the load command channel is not a heft_load_command")
                 continue
-            accepted, message = self._apply(command, healthy)
+            accepted, message = self._apply(command, healthy, now_utime)
             if accepted is not None:
                 self._answer(now_utime, command.utime, accepted, message)
         controller = self._controller
@@ -161,7 +161,7 @@ class LoadCommandServer:
                       f"{controller.estimator.learning_window:g} s; η = {controller.scales[2]:g} of its non-contact "
                       "wrench fed back")
 
-    def _apply(self, command, healthy: bool) -> tuple[bool | None, str]:
+    def _apply(self, command, healthy: bool, now_utime: int) -> tuple[bool | None, str]:
         """Carries out ``command``: (accepted, the answer), or (None, "") for one answered later."""
         controller = self._controller
         if command.action == heft_load_command.REZERO:
@@ -179,7 +179,10 @@ class LoadCommandServer:
                 controller.set_load(*checked_load(command.phi, command.offsets, self._full_scale))
             except ValueError as error:
                 return False, f"new estimate refused: {error}"
-            self._estimates.append(command.utime)  # answered once a tick has taken it up
+            for superseded in self._estimates:  # not yet taken up: the newest goes in, the others are told
+                self._answer(now_utime, superseded, False, "new estimate superseded by a newer one before a tick "
+                                                           "took it up")
+            self._estimates[:] = [command.utime]  # answered once a tick has taken it up
             return None, ""
         if command.action in (heft_load_command.GRASP, heft_load_command.RELEASE):
             return self._grasp_or_release(command.action == heft_load_command.GRASP, command.utime)

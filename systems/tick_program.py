@@ -10,7 +10,8 @@ graph; those nothing reads are left out); then every block's updates on a copy o
 copy becomes the state. A block that talks to the world outside (the hardware station) receives before
 the calculations and publishes after the update, as Drake's unrestricted updates and publishes do. A
 Diagram inside the Diagram is laid out flat, its ports resolved to the blocks behind them. Each
-kernel is called with arrays bound once, so a tick allocates nothing and builds no objects.
+kernel is called with arrays bound once, so the program itself allocates nothing and builds no objects in a tick
+(a block's kernel may: the hardware station's receive and send are Python).
 
 A block added to the Diagram is in the program with nothing else to write, and
 ``tests/test_tick_program.py`` holds the two tick for tick equal.
@@ -115,7 +116,7 @@ class TickProgram:
         for block, name in self._needed_calculations():
             visit(block, name)
         self.calculation_order = [(block.get_name(), name) for block, name in order]
-        self._calcs = [self._bind(block, block.tick_calcs[name].kernel, block.tick_calcs[name].args, self.signals)
+        self._calcs = [self._bind(block, block.tick_calcs[name].kernel, block.tick_calcs[name].args, None)
                        for block, name in order]
         self._updates = [self._bind(block, kernel, args, self._next) for block in blocks
                          for kernel, args in block.tick_updates]
@@ -128,7 +129,8 @@ class TickProgram:
         self.state[:] = self.initial_state
 
     def _needed_calculations(self) -> list:
-        """(block, calculation) that an update, an initialization or a Diagram output reads directly."""
+        """(block, calculation) that an update, an initialization, a receive, a publish or a Diagram output reads
+        directly (a publish reads what the tick calculated, before its update)."""
         needed = []
 
         def read(block, name):
@@ -141,7 +143,7 @@ class TickProgram:
                     needed.append((source[0], source[1].source[len("calc:"):]))
 
         for block in self.blocks:
-            for _, args in block.tick_updates + block.tick_initializations:
+            for _, args in block.tick_updates + block.tick_initializations + block.tick_receives + block.tick_publishes:
                 for name in args:
                     if isinstance(name, str | Reshaped):
                         read(block, name.name if isinstance(name, Reshaped) else name)
@@ -289,16 +291,10 @@ class TickProgram:
 
     def tick(self) -> None:
         """One tick: ``receive``, ``calculate``, ``update``, ``publish``."""
-        for receive in self._receives:
-            receive()
-        for calc in self._calcs:
-            calc()
-        np.copyto(self._next, self.state)
-        for update in self._updates:
-            update()
-        np.copyto(self.state, self._next)
-        for publish in self._publishes:
-            publish()
+        self.receive()
+        self.calculate()
+        self.update()
+        self.publish()
 
     def reset(self) -> None:
         """The state of a fresh context."""

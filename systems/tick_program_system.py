@@ -23,6 +23,10 @@ class TickProgramSystem(LeafSystem):
     def __init__(self, diagram: Diagram):
         super().__init__()
         self.program = program = TickProgram(diagram)
+        outside = [block.get_name() for block in program.blocks if block.tick_receives or block.tick_publishes]
+        if outside:
+            raise ValueError(f"the blocks {outside} talk to the world outside (receive, publish): step their Diagram's "
+                             "TickProgram in a real-time loop, not as one system in a Simulator")
         self._inputs = []
         for i in range(diagram.num_input_ports()):
             port = diagram.get_input_port(i)

@@ -90,7 +90,7 @@ def test_a_cut_off_outside_the_band_is_refused():
 
 
 def test_one_sample_step_is_scipys_filter_started_in_its_steady_state():
-    """``prefilter_step``, the per-tick recursion the Diagram and the real-time controller share,
+    """``prefilter_step``, the per-tick recursion the prefilter block runs,
     against scipy's ``lfilter`` started at ``lfilter_zi`` times the first sample; a NaN restarts it."""
     from scipy.signal import lfilter, lfilter_zi
 

@@ -127,10 +127,10 @@ class HardwareTeleop:
         if healthy and not self._was_healthy:
             self.starts += 1
         if healthy:
-            self.state.publish(round((station.epoch + now) * 1e6), controller.period, self.starts, station.stamps,
+            self.state.publish(round((station.epoch + now) * 1e6), controller.hold, self.starts, station.stamps,
                                controller, station.gain)
         if self.taps:
-            self._scalars[:] = controller.period, station.gain, self.starts
+            self._scalars[:] = controller.hold, station.gain, self.starts
             for tap in self.taps:
                 tap.publish(now, self._row)
         utime = round((station.epoch + now) * 1e6)

@@ -145,7 +145,7 @@ def gate_update(clocks, stale_ticks, contact, fault, reset, input_age, settings,
 
 
 class EstimatorGate(TickSystem):
-    """``enable`` (1: 1.0 to take the sample) for ``LoadEstimatorSystem`` (module docstring).
+    """``enable`` (1: 1.0 to take the sample) for ``RlsLoadEstimator`` (module docstring).
 
     Inputs: ``acceleration`` (6, kinematic [a; α]) and ``omega`` (3) of the sample the estimator learns
     from (``EstimatorPrefilter``'s outputs, or ``AccelerometerToMotion``'s and the kinematics' without one),

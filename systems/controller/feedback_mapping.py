@@ -57,11 +57,6 @@ def rendered_wrench_into(wrench_S, R_BS, force_scale, torque_scale, max_force, m
             out[part + r] *= factor
 
 
-def joint_torque(jacobian, wrench_E) -> np.ndarray:
-    """τ_M = J_Mᵀ·[f_E; τ_E] (N·m), J_M (6×6 or its 36 row-major entries) with rows [v_E; ω_E]."""
-    return np.reshape(jacobian, (6, 6)).T @ np.asarray(wrench_E, dtype=float)
-
-
 @compiled("void(float64[:, :], float64[:, :], float64[:, :])")
 def rotation_product_into(R_AB, R_BC, R_AC) -> None:
     """R_AC = R_AB·R_BC (3×3 each) into ``R_AC``."""

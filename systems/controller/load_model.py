@@ -5,8 +5,9 @@ split of φ̂ into the gripper's and the object's (Eq. 14).
 ``offset_tracking.ESTIMATE_SIZE``) when the counter rises. ``GraspSplit`` follows the gripper (``holding``,
 1 while an object is held): at the grasp it keeps φ̂ in use as the gripper's φ_gr, splits it off for force
 scaling and asks the online estimator for a new load; at the release it returns φ̂ to φ_gr (a restart of
-the estimator from it) and the split to what it was before. A new estimate passes through it to the
-estimator. Both keep their state when the controller restarts (``kept_on_restart``).
+the estimator from it) and the split to what it was before, both in one tick. A new estimate passes through
+it to the estimator and to the offsets, which change in the tick φ̂ does. Both keep their state when the controller
+restarts (``kept_on_restart``).
 """
 
 from __future__ import annotations
@@ -42,37 +43,46 @@ class FixedLoad(TickSystem):
         self.DeclareTickOutput("phi", "x:phi")
 
 
-HOLDING, GRASPS, ESTIMATES_SEEN, RESTARTS = range(4)
-"""The split's counters: an object held (1/0), grasps so far, new estimates seen, restarts asked for."""
-SPLIT_SIZE = 4 + 10 + 10 + 1 + ESTIMATE_SIZE
+HOLDING, GRASPS, ESTIMATES_SEEN, RESTARTS, RELEASING = range(5)
+"""The split's counters and flags: an object held (1/0), grasps so far, new estimates seen, restarts asked for,
+a release under way (the estimator restarting from φ_gr this tick)."""
+SPLIT_SIZE = 5 + 10 + 10 + 1 + 2 * ESTIMATE_SIZE
 """``GraspSplit``'s state: the counters, φ_gr in use, φ_gr given (the scenario's, zeros if none), the split in
-use (1/0), the restart asked of the estimator ([counter, φ, zeros])."""
-PHI_GRIPPER, GIVEN, SPLIT, RESTART = slice(4, 14), slice(14, 24), 24, slice(25, 25 + ESTIMATE_SIZE)
+use (1/0), the restart asked of the estimator ([counter, φ, zeros]), the last new estimate passed on
+([counter, φ, offsets], for the offsets to change in the tick φ̂ does)."""
+PHI_GRIPPER, GIVEN, SPLIT = slice(5, 15), slice(15, 25), 25
+RESTART, ESTIMATE = slice(26, 26 + ESTIMATE_SIZE), slice(26 + ESTIMATE_SIZE, 26 + 2 * ESTIMATE_SIZE)
 
 
 @compiled("void(float64[:], float64[:], float64[:], float64[:])")
 def grasp_update(state, holding, phi, estimate) -> None:
     """One tick of ``GraspSplit`` on its ``state`` (``SPLIT_SIZE``): ``holding`` (1) the gripper's, ``phi`` (10)
-    φ̂ in use, ``estimate`` a new one (``ESTIMATE_SIZE``)."""
+    φ̂ in use, ``estimate`` a new one (``ESTIMATE_SIZE``). A release and a new estimate reach the estimator at
+    the next tick's update; the split (at a release) and the offsets (a new estimate's) change with it."""
+    if state[RELEASING] > 0.5:  # the estimator restarts from φ_gr in this tick: the split given comes back
+        state[RELEASING] = 0.0
+        given = 0.0
+        for i in range(10):
+            state[PHI_GRIPPER.start + i] = state[GIVEN.start + i]
+            given += abs(state[GIVEN.start + i])
+        state[SPLIT] = 1.0 if given > 0.0 else 0.0
     held = holding[0] > 0.5
     if held and state[HOLDING] < 0.5:  # the grasp: φ̂ in use is the gripper's
         state[HOLDING], state[GRASPS], state[SPLIT] = 1.0, state[GRASPS] + 1.0, 1.0
         for i in range(10):
             state[PHI_GRIPPER.start + i] = phi[i]
-    elif not held and state[HOLDING] > 0.5:  # the release: back to the gripper's φ and the split given
-        state[HOLDING], state[RESTARTS] = 0.0, state[RESTARTS] + 1.0
+    elif not held and state[HOLDING] > 0.5:  # the release: the estimator back to the gripper's φ
+        state[HOLDING], state[RESTARTS], state[RELEASING] = 0.0, state[RESTARTS] + 1.0, 1.0
         state[RESTART.start] = state[RESTARTS]
-        given = 0.0
-        for i in range(10):
-            state[RESTART.start + 1 + i] = state[PHI_GRIPPER.start + i]
-            state[PHI_GRIPPER.start + i] = state[GIVEN.start + i]
-            given += abs(state[GIVEN.start + i])
-        state[SPLIT] = 1.0 if given > 0.0 else 0.0
-    if estimate[0] > state[ESTIMATES_SEEN]:  # a new tool: the estimator starts from it
+        for i in range(ESTIMATE_SIZE - 1):
+            state[RESTART.start + 1 + i] = state[PHI_GRIPPER.start + i] if i < 10 else 0.0
+    if estimate[0] > state[ESTIMATES_SEEN]:  # a new tool: the estimator starts from it, the offsets with it
         state[ESTIMATES_SEEN], state[RESTARTS] = estimate[0], state[RESTARTS] + 1.0
         state[RESTART.start] = state[RESTARTS]
-        for i in range(1, ESTIMATE_SIZE):
-            state[RESTART.start + i] = estimate[i]
+        for i in range(ESTIMATE_SIZE):
+            state[ESTIMATE.start + i] = estimate[i]
+            if i > 0:
+                state[RESTART.start + i] = estimate[i]
 
 
 @compiled("void(float64[:], float64[:], float64[:])")
@@ -89,7 +99,8 @@ class GraspSplit(TickSystem):
     Inputs: ``holding`` (1; unconnected 0), ``phi`` (10, φ̂ in use), ``estimate`` (``ESTIMATE_SIZE``; unconnected
     none), ``reset`` (1: new loads requested from outside; unconnected 0). Outputs: ``phi_gripper`` (10) and
     ``split`` (1) for force scaling, ``estimator_reset`` (1, a counter) and ``estimator_restart``
-    (``ESTIMATE_SIZE``) for the online estimator, ``holding`` (1)."""
+    (``ESTIMATE_SIZE``) for the online estimator, ``estimate`` (``ESTIMATE_SIZE``) for the offsets, ``holding``
+    (1)."""
 
     kept_on_restart = True
 
@@ -109,5 +120,6 @@ class GraspSplit(TickSystem):
         self.DeclareTickOutput("phi_gripper", "x:state", PHI_GRIPPER.start, PHI_GRIPPER.stop)
         self.DeclareTickOutput("split", "x:state", SPLIT, SPLIT + 1)
         self.DeclareTickOutput("estimator_restart", "x:state", RESTART.start, RESTART.stop)
+        self.DeclareTickOutput("estimate", "x:state", ESTIMATE.start, ESTIMATE.stop)
         self.DeclareTickOutput("estimator_reset", "calc:reset")
         self.DeclareTickOutput("holding", "x:state", HOLDING, HOLDING + 1)

@@ -17,8 +17,7 @@ noise, so there c + o = f − V·φ̂ measures the offsets. Two ways to use it:
 "At rest": every slave joint slower than ``rest_joint_speed`` (the encoders'
 velocity, independent of the wrench). Wrenches [f; τ] on the load at S, in S
 (N, N·m). The state is a flat vector (``STATE_SIZE``) so that a LeafSystem can
-keep it as discrete state; ``offsets_update`` is the one update, used by
-``OffsetTracker`` and by the real-time controller.
+keep it as discrete state; ``offsets_update_into`` is the one update, which ``OffsetTracker`` declares.
 """
 
 import numpy as np

@@ -153,11 +153,12 @@ def master_torque_into(wrench, velocity, jacobian, energy, period, max_damping, 
 # --- Drake system -------------------------------------------------------------
 
 @compiled("void(float64[:], float64[:], float64[:, :], float64[:], float64[:], float64[:], float64[:], float64[:], "
-          "float64[:], float64[:])")
-def passivity_update(wrench, velocity, jacobian, limits, energy, torque, applied, damping, dissipated, scratch):
-    """``master_torque_into`` on the block's arrays: ``limits`` [period (s), α_t max, α_r max, max force (N),
-    max torque (N·m)]; ``dissipated`` (2) adds up; ``scratch`` (8)."""
-    master_torque_into(wrench, velocity, jacobian, energy, limits[0], limits[1:3], limits[3], limits[4], torque,
+          "float64[:], float64[:], float64[:])")
+def passivity_update(wrench, velocity, jacobian, hold, limits, energy, torque, applied, damping, dissipated,
+                     scratch):
+    """``master_torque_into`` on the block's arrays: ``hold`` (1, s) the sample's, ``limits`` [α_t max, α_r max,
+    max force (N), max torque (N·m)]; ``dissipated`` (2) adds up; ``scratch`` (8)."""
+    master_torque_into(wrench, velocity, jacobian, energy, hold[0], limits[0:2], limits[2], limits[3], torque,
                        applied, damping, scratch[:2], scratch[2:])
     dissipated[0] += scratch[0]
     dissipated[1] += scratch[1]
@@ -168,7 +169,8 @@ class PassivityController(TickSystem):
 
     Inputs: ``wrench`` (6, desired [f; τ] on the hand at E, in B; N, N·m),
     ``velocity`` (6, q̇_M, rad/s), ``jacobian`` (36, row-major 6×6 J_M with
-    [v_E; ω_E] = J_M·q̇_M, translational rows first).
+    [v_E; ω_E] = J_M·q̇_M, translational rows first), ``hold`` (1, s: how long the torque of this
+    sample is held; unconnected the period; on hardware the tick's measured duration).
     Outputs (discrete state, held between samples): ``torque`` (6, τ_M =
     J_Mᵀ·applied wrench, N·m, the wrench within ``max_force`` (N) and ``max_torque``
     (N·m), the device's limits), ``energy_observed`` (2, [E_t, E_r] after the PC, J),
@@ -197,14 +199,15 @@ class PassivityController(TickSystem):
             raise ValueError(f"max_force and max_torque must be > 0; got {max_force}, {max_torque}")
         max_damping = ((params.max_translational_damping, params.max_rotational_damping) if params.enabled
                        else (0.0, 0.0))
-        self.limits = np.array((self.tick_period, *max_damping, max_force, max_torque))
+        self.limits = np.array((*max_damping, max_force, max_torque))
         self.DeclareTickInput("wrench", 6)
         self.DeclareTickInput("velocity", 6)
         self.DeclareTickInput("jacobian", 36)
+        self.DeclareTickInput("hold", 1, [self.tick_period])
         for name, size in (("torque", 6), ("energy", 2), ("damping", 2), ("dissipated", 2), ("applied", 6)):
             self.DeclareTickState(name, np.zeros(size))
         self.DeclareTickUpdate(passivity_update, "in:wrench", "in:velocity", Reshaped("in:jacobian", (6, 6)),
-                               self.limits, "next:energy", "next:torque", "next:applied", "next:damping",
+                               "in:hold", self.limits, "next:energy", "next:torque", "next:applied", "next:damping",
                                "next:dissipated", np.empty(8))
         for port, state in (("torque", "torque"), ("energy_observed", "energy"), ("damping", "damping"),
                             ("energy_dissipated", "dissipated"), ("applied_wrench", "applied")):
