@@ -121,7 +121,7 @@ class TeleopController:
                      "pose_RS_desired", "wrench_feedback", "wrench_contact", "wrench_noncontact", "master_wrench",
                      "gravity_S", "ik_status", "force_fault", "pose_RS", "pose_BE"):
             setattr(self, f"_{name}", program.output(OUTPUTS[name]))
-        self._hold, self._last_tick = program.input("hold"), None
+        self._hold = program.input("hold")
         self.started = self._was_healthy = False
 
     # --- ticking ------------------------------------------------------------------------
@@ -160,15 +160,16 @@ class TeleopController:
             self._input_age[0] = input_age
         self.program.tick()
 
-    def tick(self, now: float) -> bool:
-        """One tick of the controller with its hardware station at ``now`` (s, the loop's monotonic clock): the
-        station receives; while it is healthy the controller steps (started afresh, from the slave's measured
-        position, at the first healthy tick and each recovery), the passivity observer holding each torque for
-        the time measured since the last tick; the station sends (zero torque and the slave held while it is not
+    def tick(self, now: float, dt: float) -> bool:
+        """One tick of the controller with its hardware station at ``now`` (s, the loop's monotonic clock), ``dt``
+        s after the last (measured; 0 at the first): the station receives; while it is healthy the controller
+        steps (started afresh, from the slave's measured position, at the first healthy tick and each recovery),
+        the passivity observer holding this tick's torque for ``dt``; the station sends (zero torque and the slave
+        held while it is not
         healthy). Returns whether the controller stepped."""
         station, program = self.station, self.program
-        self._hold[0] = self.period if self._last_tick is None else now - self._last_tick
-        self._last_tick = station.now = now
+        self._hold[0] = dt
+        station.now = now
         program.receive()
         healthy = station.station.healthy
         if healthy:
@@ -208,8 +209,8 @@ class TeleopController:
 
     @property
     def hold(self) -> float:
-        """How long (s) the last tick's torque is held: the period, or with a station the time measured since the
-        tick before (the passivity observer's)."""
+        """How long (s) the last tick's torque is held (the passivity observer's): the period, or with a station
+        the tick's measured ``dt``."""
         return float(self._hold[0])
 
     @property

@@ -123,7 +123,7 @@ class HardwareTeleop:
     def tick(self, now: float, dt: float) -> None:
         self.now = now
         station, controller = self.station, self.controller
-        healthy = controller.tick(now)
+        healthy = controller.tick(now, dt)
         if healthy and not self._was_healthy:
             self.starts += 1
         if healthy:
