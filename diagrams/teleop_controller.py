@@ -165,8 +165,7 @@ class TeleopController:
         s after the last (measured; 0 at the first): the station receives; while it is healthy the controller
         steps (started afresh, from the slave's measured position, at the first healthy tick and each recovery),
         the passivity observer holding this tick's torque for ``dt``; the station sends (zero torque and the slave
-        held while it is not
-        healthy). Returns whether the controller stepped."""
+        held while it is not healthy). Returns whether the controller stepped."""
         station, program = self.station, self.program
         self._hold[0] = dt
         station.now = now
