@@ -37,11 +37,11 @@ class Lab:
     """Stand-in and controller on one memq:// bus, ticking together every ``PERIOD`` s."""
 
     def __init__(self, scenario: Scenario, faults=None, clutch_at=np.inf, load=None,
-                 controller_scenario: Scenario | None = None):
+                 controller_scenario: Scenario | None = None, state_every_tick: bool = True):
         bus = self.bus = lcm.LCM("memq://")
         self.stand_in = StandIn(scenario, bus, LcmChannels(), faults or FaultInjection(), clutch_at=clutch_at)
         self.teleop = HardwareTeleop(controller_scenario or scenario, load or true_load(scenario)[0], bus,
-                                     LcmChannels())
+                                     LcmChannels(), state_every_tick=state_every_tick)
         self.now = 0.0
         self.commands, self.torques, self.master_q, self.gains, self.stylus_wrenches = [], [], [], [], []
 
@@ -461,6 +461,19 @@ def test_an_online_estimator_needs_a_max_input_age_beyond_the_slowest_channel():
         HardwareTeleop(scenario, truth, lcm.LCM("memq://"), scenario.lab.lcm)
     scenario = layered(scenario, overrides_text({"controller.estimator.max_input_age": 0.01}))
     HardwareTeleop(scenario, truth, lcm.LCM("memq://"), scenario.lab.lcm)
+
+
+def test_an_unrecorded_run_publishes_its_state_at_the_state_rate():
+    """Not recorded, the teleop state still goes out while the controller steps, at ``STATE_RATE``."""
+    from heft.diagrams.running.hardware_teleop import STATE_RATE
+
+    lab = Lab(resolve_scenario("fig6"), state_every_tick=False)
+    states = []
+    lab.bus.subscribe(LcmChannels().teleop_state.name,
+                      lambda _, payload: states.append(heft_teleop_state.decode(payload)))
+    lab.run(0.5)
+    healthy_seconds = lab.teleop.healthy_ticks * PERIOD
+    assert healthy_seconds > 0.2 and abs(len(states) - STATE_RATE * healthy_seconds) <= 2, len(states)
 
 
 def test_a_recorded_run_publishes_its_state_every_healthy_tick():

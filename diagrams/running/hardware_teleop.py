@@ -56,6 +56,8 @@ from heft.systems.controller.slave_kinematics import NUM_JOINTS  # the Phantom h
 
 say = logging.getLogger(__name__)
 """What a run says (``heft -q`` quiets it): under the ``heft`` logger the command line configures."""
+STATE_RATE = 100.0
+"""Hz at which ``heft_teleop_state`` goes out while a run is not recorded."""
 PHI_SAMPLE_PERIOD = 0.01
 """s between the samples of φ̂ a run's summary keeps while the estimator learns online."""
 MAX_PHI_SAMPLES = 60_000
@@ -68,13 +70,15 @@ class HardwareTeleop:
 
     ``tick(now, dt)`` runs one tick at ``now`` (s, monotonic) ``dt`` s after the last, nominally the
     scenario's ``controller_period``; ``summary(elapsed)`` reports the
-    run so far; ``heft_teleop_state`` goes out each tick the controller steps. ``feedback_blocks``: a lab's own
+    run so far; ``heft_teleop_state`` goes out while the controller steps, each tick if ``state_every_tick`` (a
+    recording: the analyses need every tick), else at ``STATE_RATE`` (its encoding and publish cost a tick
+    tens of µs). ``feedback_blocks``: a lab's own
     blocks on the feedback path (``MakeTeleopController``); ``taps``: the live view and MCAP recorders
     (``diagrams.live_view``, opened here) that take each tick's row (``rows``) off the loop's CPU."""
 
     def __init__(self, scenario: Scenario, load: LoadEstimate, bus: lcm.LCM, channels: LcmChannels,
                  params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None,
-                 feedback_blocks: Sequence[FeedbackBlock] = (), taps: Sequence = ()):
+                 feedback_blocks: Sequence[FeedbackBlock] = (), taps: Sequence = (), state_every_tick: bool = False):
         estimator = scenario.controller.estimator
         slowest = max(WATCHED_CHANNELS, key=lambda name: 1.0 / getattr(channels, name).rate)
         period = 1.0 / getattr(channels, slowest).rate
@@ -93,6 +97,7 @@ class HardwareTeleop:
         self.station = self.controller.station.station
         self.load_commands = LoadCommandServer(bus, channels, self.controller, limits.wrench_full_scale, command_bus)
         self.state = TeleopStatePublisher(bus if command_bus is None else command_bus, channels)
+        self._state_every_tick, self._next_state = state_every_tick, 0.0
         self.taps, self._row, self._scalars = list(taps), *tick_row(self)
         for tap in self.taps:
             tap.open({key: np.size(value) for key, value in self._row.items()})
@@ -126,7 +131,8 @@ class HardwareTeleop:
         healthy = controller.tick(now, dt)
         if healthy and not self._was_healthy:
             self.starts += 1
-        if healthy:
+        if healthy and (self._state_every_tick or now >= self._next_state):
+            self._next_state = now + 1.0 / STATE_RATE
             self.state.publish(round((station.epoch + now) * 1e6), controller.hold, self.starts, station.stamps,
                                controller, station.gain)
         if self.taps:
@@ -386,7 +392,8 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float,
         bus, command_bus = open_buses(channels)
         taps = [tap for tap in (view, None if record_mcap is None else McapRecorder(record_mcap, scenario.robot))
                 if tap is not None]
-        teleop = HardwareTeleop(scenario, load, bus, channels, scenario.lab.station, command_bus, taps=taps)
+        teleop = HardwareTeleop(scenario, load, bus, channels, scenario.lab.station, command_bus, taps=taps,
+                                state_every_tick=record is not None)
         teleop.status = lambda line: print(line, file=sys.stderr, flush=True)
         if priority:
             placement = keep_cpu_for_loop()
