@@ -8,8 +8,10 @@ Diagram through its inputs (``rezero``, ``tracking``, ``estimate``, ``holding``)
 command (a physical estimate, a grasp that the estimator can learn) and sets the input; the blocks do the
 rest. The properties read the Diagram's outputs and the blocks' state in place.
 
-A start (the first healthy tick, each recovery) restarts the blocks from the slave's measured position
-with the clutch disengaged; what the controller learned of the load (offsets, φ̂, the grasp) is kept.
+A start (the first healthy tick, each recovery) restarts the blocks from the slave's measured position;
+what the controller learned of the load (offsets, φ̂, the grasp) is kept. Without a station the clutch is
+disengaged at a start; with one it is as the station reads it, and a clutch held at a start anchors the
+stylus on the slave's measured pose (motion scaling's initialization), so the slave does not move.
 """
 
 from __future__ import annotations
@@ -127,8 +129,9 @@ class TeleopController:
     # --- ticking ------------------------------------------------------------------------
 
     def start(self, slave_position) -> None:
-        """Begins (again) from the slave measured at ``slave_position`` (6, rad), the clutch disengaged: the
-        blocks restart, what was learned of the load is kept (``TickProgram.restart``)."""
+        """Begins (again) from the slave measured at ``slave_position`` (6, rad; with a station, its reading), the
+        clutch disengaged (with a station, as it reads it): the blocks restart, what was learned of the load is kept
+        (``TickProgram.restart``)."""
         slave_position = np.asarray(slave_position, dtype=float)
         if slave_position.shape != (NUM_JOINTS,) or not np.isfinite(slave_position).all():
             raise ValueError(f"the slave's start position must be {NUM_JOINTS} finite joint angles; "

@@ -154,14 +154,18 @@ class TickProgram:
         return needed
 
     def _default_inputs(self) -> None:
-        """Each Diagram input at the default of the block inputs it feeds (zeros if they have none)."""
+        """Each Diagram input at the default of the block inputs it feeds (zeros if they have none); a ValueError
+        if they have different ones (which block's would hold is not for the program to choose)."""
         for i in range(self.diagram.num_input_ports()):
             name = self.diagram.get_input_port(i).get_name()
-            for block, index in self._input_sinks(self.diagram, i):
-                default = block.tick_inputs[block.get_input_port(index).get_name()].default
-                if default is not None:
-                    self.signals[self._input_slices[name]] = default
-                    break
+            defaults = [block.tick_inputs[block.get_input_port(index).get_name()].default
+                        for block, index in self._input_sinks(self.diagram, i)]
+            defaults = [default for default in defaults if default is not None]
+            if any(not np.array_equal(default, defaults[0], equal_nan=True) for default in defaults[1:]):
+                raise ValueError(f"the Diagram input {name!r} feeds block inputs of different defaults; connect it, "
+                                 "or give them one default")
+            if defaults:
+                self.signals[self._input_slices[name]] = defaults[0]
 
     def _input_sinks(self, diagram: Diagram, i: int) -> list:
         """The leaf inputs (block, index) that ``diagram``'s input ``i`` feeds, down through the Diagrams inside."""

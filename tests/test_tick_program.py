@@ -134,3 +134,20 @@ def test_a_diagram_inside_a_diagram_is_one_program(recorded):
     for k, (tick, reference) in enumerate(zip(program_run(program, sequence), expected, strict=True)):
         for name, value in reference.items():
             np.testing.assert_array_equal(tick[name], value, err_msg=f"{name} at tick {k}")
+
+
+def test_an_input_feeding_blocks_of_different_defaults_is_refused():
+    """Which default would hold is not the program's to choose: Drake takes each block's own."""
+    from heft.systems.controller.motion_scaling import MotionScaling
+    from heft.systems.controller.motion_scaling_params import MotionScalingParams
+
+    builder = DiagramBuilder()
+    one, two = (builder.AddNamedSystem(name, MotionScaling(MotionScalingParams(translation_scale=scale), PERIOD))
+                for name, scale in (("one", 1.0), ("two", 2.0)))
+    builder.ExportInput(one.GetInputPort("translation_scale"), "translation_scale")
+    builder.ConnectInput("translation_scale", two.GetInputPort("translation_scale"))
+    for name in ("pose_BE", "clutch", "pose_RT_measured"):
+        builder.ExportInput(one.GetInputPort(name), name)
+        builder.ConnectInput(name, two.GetInputPort(name))
+    with pytest.raises(ValueError, match="'translation_scale' feeds block inputs of different defaults"):
+        TickProgram(builder.Build())
