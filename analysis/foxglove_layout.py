@@ -1,6 +1,6 @@
 """The Foxglove layout for heft's topics (``analysis.topics``), shipped as ``heft_layout.json``
 beside this module: the 3-D scene and the station's faults on the left; on the right, tabs of
-plots (wrenches, the hand, φ̂ and the offsets, passivity, joints, the loop) and the load
+plots (wrenches, the hand, φ̂ and the offsets, passivity, joints, the excitation, the loop) and the load
 commands' answers. It is in Foxglove's classic layout format, which Foxglove and Lichtblick
 both import (Layouts → Import from file). ``python -m heft.analysis.foxglove_layout`` writes it.
 """
@@ -42,7 +42,8 @@ def layout() -> dict:
         "Wrenches": {
             "contact": _plot("contact force, at S in S (N)", _forces({"/wrench/contact": "contact"})),
             "noncontact": _plot("non-contact and measured force, at S in S (N)",
-                                _forces({"/wrench/noncontact": "non-contact", "/wrench/measured": "measured"})),
+                                _forces({"/wrench/noncontact": "non-contact", "/wrench/measured": "measured",
+                                         "/truth/noncontact": "true non-contact"})),
             "torques": _plot("contact torque, at S in S (N·m)", _forces({"/wrench/contact": "contact"}, "torque"))},
         "Hand": {
             "hand": _plot("force on the hand, at E in B (N)",
@@ -50,6 +51,7 @@ def layout() -> dict:
             "feedback": _plot("force fed back, in S (N)", _forces({"/wrench/feedback": "fed back"}))},
         "Estimate": {
             "mass": _plot("φ̂: mass (kg)", [_series("/estimate/phi.mass", "m̂"), _series("/truth/phi.mass", "m")]),
+            "mass_std": _plot("φ̂: the mass's standard deviation (kg)", [_series("/estimate/phi.std[0]", "σ(m̂)")]),
             "moment": _plot("φ̂: m·c (kg·m)", [_series(f"/estimate/phi.first_moment.{a}", f"m·c {a}") for a in XYZ]),
             "offsets": _plot("offsets, force (N)", _forces({"/estimate/offsets": "offset"}))},
         "Passivity": {
@@ -63,6 +65,10 @@ def layout() -> dict:
             "slave": _plot("slave joints (rad)", [_series(f"/slave/joint_state.position[{i}]", f"q{i + 1}")
                                                   for i in range(6)] +
                            [_series(f"/slave/command.position[{i}]", f"q̄{i + 1}") for i in range(6)])},
+        "Identify": {
+            "excitation": _plot("the excitation: share played, phase",
+                                [_series("/identify/excitation.done", "played"),
+                                 _series("/identify/excitation.phase", "phase")])},
         "Loop": {
             "hold": _plot("tick (s)", [_series("/loop.hold", "hold"), _series("/loop.compute", "compute")]),
             "gain": _plot("watchdog gain", [_series("/loop.gain", "gain")])},

@@ -153,6 +153,11 @@ TOPICS = (
         Field("ik", "ik_status", ("reachable", "rejected"), 0, "this tick's pose reachable (1/0), ticks rejected"),
         Field("rezero", "rezero_status", None, 0, "the re-zero status code (systems.controller.offset_tracking)"),
         Field("scales", "scales", ("sigma", "gamma", "eta"), 0, "σ, γ, η in effect"))),
+    Topic("/identify/excitation", "heft.Excitation", "`heft identify --hardware`'s excitation under way", (
+        Field("phase", "excitation", None, 0, "0 waiting for healthy hardware, 1 approaching the start, 2 settling, "
+                                              "3 exciting, 4 done, 5 aborted (ExcitationCommander's Phase)"),
+        Field("time", "excitation", None, 1, "time into the excitation (s)"),
+        Field("done", "excitation", None, 2, "the share of the excitation played (0..1)"))),
 )
 """The topics of a run's rows, one message per row each."""
 TOPIC_BY_NAME = {topic.name: topic for topic in TOPICS}
@@ -301,9 +306,29 @@ def schema_of(name: str) -> tuple[str, dict, str]:
     raise KeyError(f"no topic {name}")
 
 
+ESTIMATOR_STATE, ESTIMATOR_PRIOR = "phi_hat_rls", "phi_hat_prior"
+"""Keys of a row that give ``phi_hat_std``: the online estimator's state (``RlsLoadEstimator``'s, the
+``state_vector`` of a ``RecursiveLeastSquares`` on φ alone) and its prior covariance (1)."""
+
+
+def phi_hat_std(state, prior_covariance: float) -> np.ndarray:
+    """The standard deviations of the online estimator's φ̂ (10; kg, kg·m, kg·m²) from its ``state``:
+    its covariance (``RecursiveLeastSquares.covariance``, the sandwich with the residual's variance per
+    wrench axis), inf (null) where the data do not determine it, every entry before a few samples."""
+    from heft.systems.identification.recursive_estimation import RecursiveLeastSquares
+
+    estimator = RecursiveLeastSquares(offsets=False, initial_covariance=prior_covariance)
+    estimator.load_state_vector(state)
+    with np.errstate(invalid="ignore"):
+        return np.sqrt(np.diag(estimator.covariance))
+
+
 def row_messages(t: float, row: dict, names) -> list[tuple[str, dict]]:
-    """(topic, message) of one row (``row``: key → that row's entries, at ``t`` s) on each topic of ``names``."""
-    row = {key: np.ravel(value).tolist() for key, value in row.items()}
+    """(topic, message) of one row (``row``: key → that row's entries, at ``t`` s) on each topic of ``names``;
+    ``phi_hat_std`` derived from the estimator's state where the row has it (``ESTIMATOR_STATE``)."""
+    if ESTIMATOR_STATE in row and "phi_hat_std" not in row:
+        row = {**row, "phi_hat_std": phi_hat_std(row[ESTIMATOR_STATE], float(np.ravel(row[ESTIMATOR_PRIOR])[0]))}
+    row = {key: np.ravel(value).tolist() for key, value in row.items() if key not in (ESTIMATOR_STATE, ESTIMATOR_PRIOR)}
     out = []
     for name in names:
         if name == SCENE_FRAMES:

@@ -175,7 +175,8 @@ def judge_fit(scenario: Scenario, recording: Recording, results: dict, method: s
 
 
 def identify(scenario: Scenario, out_dir, record, method: str = "tls", signals: str = "accelerometer",
-             settings: ExcitationSettings | None = None, periods: int = 1, accept_fit: bool = False) -> dict:
+             settings: ExcitationSettings | None = None, periods: int = 1, accept_fit: bool = False,
+             estimated=None) -> dict:
     """Sec. IV in one path for simulation and hardware: designs the excitation, has ``record``
     run it (``record(trajectory, duration)`` → (Recording, extra metrics): the simulated
     station's or the hardware's), estimates with every method, judges ``method``'s fit
@@ -183,7 +184,8 @@ def identify(scenario: Scenario, out_dir, record, method: str = "tls", signals: 
     spread of the mass between methods, the verdict as "fit_verdict"; where the recording knows
     the truth, in simulation, each method's error and convergence.png) and estimate.yaml
     (``method``'s) if the fit is ok or ``accept_fit``; raises ``FitRefused`` otherwise. Returns
-    the metrics."""
+    the metrics. ``estimated``, if given, is called with ``method``'s ``estimate_record`` as soon as
+    there is one, before the verdict (a live view shows it)."""
     if method not in ALL_METHODS:
         raise ValueError(f"method must be one of {', '.join(ALL_METHODS)}; got {method!r}")
     settings = settings or ExcitationSettings()
@@ -202,6 +204,8 @@ def identify(scenario: Scenario, out_dir, record, method: str = "tls", signals: 
     for m, why in failed.items():
         say.info(f"{m}: no estimate: {why}")
     records = {m: estimate_record(r, m, signals, len(recording.t)) for m, r in results.items()}
+    if estimated is not None and method in records:
+        estimated(records[method])
     masses = [r["phi"][0] for r in records.values()]
     metrics = {"signals": signals, "samples": len(recording.t), "duration_s": duration,
                "excitation_condition_number": excitation.metrics.condition_number, "estimates": records,

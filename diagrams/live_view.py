@@ -9,12 +9,13 @@ system call, so it never waits for the viewer. ``LiveView`` takes at most ``rate
 process (niced, off a real-time loop's CPU) reads the ring, adds the scene's poses
 (``diagrams.scene_poses``), encodes the messages and serves or writes them. The recorder's worker
 first spools each row to a temporary file, so that an encoding slower than the loop loses nothing
-(it catches up after ``close``); rows a worker falls more than ``RING_ROWS`` behind on are lost, counted.
+(it catches up after ``close``); rows a worker falls more than its ring (``RING_SECONDS``) behind on are lost,
+counted.
 
     view = LiveView(port=8765)                      # or McapRecorder("run.mcap")
     view.open({"wrench_measured": 6, "slave_q": 6, ...})  # once: starts the worker, waits for it
     view.publish(t, arrays)                         # each tick: key → array of the declared width
-    view.event("/faults", message, t)               # rare messages (analysis.topics.EVENT_TOPICS)
+    view.event("/faults", message, t)               # rare messages (EVENT_TOPICS; or once on a row topic)
     view.close()                                    # {"rows": …, "dropped": …}
 """
 
@@ -32,10 +33,14 @@ import numpy as np
 
 DEFAULT_PORT = 8765
 """The live view's TCP port (Foxglove's default), on localhost."""
+STAND_IN_PORT = DEFAULT_PORT + 1
+"""`heft stand-in`'s live view's port by default: beside a controller's view on the same machine."""
 DEFAULT_RATE = 100.0
 """Rows a second the live view serves (Hz, on the loop's clock)."""
 RING_ROWS = 4096
-"""Rows of the shared ring: 2 s at 2 kHz for the recorder's worker to catch up in."""
+"""Rows of the recorder's shared ring: 2 s at 2 kHz for its worker to catch up in."""
+RING_SECONDS = 2.0
+"""A rate-limited tap's ring holds this long of its rows (s at its rate; at most ``RING_ROWS``)."""
 WORKER_NICENESS = 10
 """The worker's nice value: below the loop's priority (``_leave_the_loop``)."""
 POLL = 0.005
@@ -58,7 +63,13 @@ class TickTap:
 
     def __init__(self, sink: tuple, rate: float, robot: str):
         self._sink, self._rate, self._robot = sink, rate, robot
+        self._rows = RING_ROWS if rate == 0 else min(RING_ROWS, math.ceil(RING_SECONDS * rate))
         self._process = self._widths = None
+
+    @property
+    def every_row(self) -> bool:
+        """Whether it takes every row (the recorder) rather than a rate's (the live view)."""
+        return self._rate == 0
 
     def __enter__(self):
         return self
@@ -83,12 +94,12 @@ class TickTap:
         columns = 1 + sum(self._widths.values())
         file = tempfile.NamedTemporaryFile(prefix="heft-view-", dir="/dev/shm" if os.path.isdir("/dev/shm") else None,
                                            delete=False)
-        file.truncate(8 * (_HEADER + RING_ROWS * columns))
+        file.truncate(8 * (_HEADER + self._rows * columns))
         file.close()
         self._path = file.name
         memory = np.memmap(self._path, dtype=np.float64, mode="r+").view(np.ndarray)  # plain views: cheaper to set
         memory[:] = 0.0  # every page touched now, not at a tick's first write to it
-        self._head, ring = memory[:_HEADER], memory[_HEADER:].reshape(RING_ROWS, columns)
+        self._head, ring = memory[:_HEADER], memory[_HEADER:].reshape(self._rows, columns)
         self._origin = memory[2:3].view(np.int64)
         self._origin[0] = t0
         self._slots, start = [], 1
@@ -96,13 +107,13 @@ class TickTap:
         for key, width in self._widths.items():
             spans.append((key, start, start + width))
             start += width
-        self._slots = [(ring[i, :1], [(key, ring[i, a:b]) for key, a, b in spans]) for i in range(RING_ROWS)]
+        self._slots = [(ring[i, :1], [(key, ring[i, a:b]) for key, a, b in spans]) for i in range(self._rows)]
         self._written = 0
         spawn = multiprocessing.get_context("spawn")
         self._events, replies = spawn.Queue(), spawn.Queue()
         self._replies = replies
-        self._process = spawn.Process(target=_work, args=(self._path, self._widths, self._sink, self._robot,
-                                                          self._rate, self._events, replies), daemon=True)
+        self._process = spawn.Process(target=_work, args=(self._path, self._widths, self._rows, self._sink,
+                                                          self._robot, self._rate, self._events, replies), daemon=True)
         self._process.start()
         error = self._started(replies)
         if error:
@@ -120,6 +131,11 @@ class TickTap:
                     return f"the view's worker exited (status {self._process.exitcode}) before it served"
         return f"the view's worker did not start in {START_TIMEOUT:g} s"
 
+    def since_origin(self) -> float:
+        """s from the messages' time origin (``open``'s ``t0_ns``) to now, by the wall clock: the loop's
+        clock, for an event that comes after the loop."""
+        return (time.time_ns() - int(self._origin[0])) * 1e-9
+
     def due(self, t: float) -> bool:
         """Whether a row at ``t`` (s) would be taken (the rate's next slot has come)."""
         return t >= self._next - 1e-9
@@ -131,7 +147,7 @@ class TickTap:
             return False
         if self._rate:
             self._next = self._next + 1.0 / self._rate if t < self._next + 1.0 / self._rate else t + 1.0 / self._rate
-        stamp, views = self._slots[self._written % RING_ROWS]
+        stamp, views = self._slots[self._written % self._rows]
         stamp[0] = t
         for key, view in views:
             view[:] = arrays[key]
@@ -140,7 +156,12 @@ class TickTap:
         return True
 
     def event(self, topic: str, message: dict, t: float) -> None:
-        """A rare message (``analysis.topics.EVENT_TOPICS``) at ``t`` (s, the loop's clock)."""
+        """A rare message at ``t`` (s, the loop's clock) on a topic of ``analysis.topics``: an event topic's
+        (``EVENT_TOPICS``), or a row topic's (``Topic.message``: e.g. an estimate that comes once, after
+        the loop), advertised by its first message if the rows lack it. A KeyError for an unknown topic."""
+        from heft.analysis.topics import schema_of
+
+        schema_of(topic)
         self._events.put((topic, t, message))
 
     def close(self) -> dict:
@@ -212,7 +233,7 @@ def _leave_the_loop() -> None:
         os.sched_setaffinity(0, every - mine)
 
 
-def _work(path, widths: dict, sink: tuple, robot: str, rate: float, events, replies) -> None:
+def _work(path, widths: dict, rows: int, sink: tuple, robot: str, rate: float, events, replies) -> None:
     """The worker process: serves or writes the ring's rows until told to stop."""
     _leave_the_loop()
     try:
@@ -245,7 +266,7 @@ def _work(path, widths: dict, sink: tuple, robot: str, rate: float, events, repl
         return
     replies.put(None)
     memory = np.memmap(path, dtype=np.float64, mode="r+").view(np.ndarray)
-    head, ring = memory[:_HEADER], memory[_HEADER:].reshape(RING_ROWS, -1)
+    head, ring = memory[:_HEADER], memory[_HEADER:].reshape(rows, -1)
     origin = memory[2:3].view(np.int64)
     spans, start = {}, 1
     for key, width in widths.items():
@@ -258,8 +279,9 @@ def _work(path, widths: dict, sink: tuple, robot: str, rate: float, events, repl
         t = float(row[0])
         arrays = {key: row[part] for key, part in spans.items()}
         drawn = scene is not None and t >= next_scene - 1e-9
-        if drawn:  # the scene at most SCENE_RATE
-            next_scene = t + 1.0 / SCENE_RATE
+        if drawn:  # the scene at most SCENE_RATE, on its grid (as ``publish`` takes rows: late ones do not drift it)
+            step = 1.0 / SCENE_RATE
+            next_scene = next_scene + step if t < next_scene + step else t + step
             scene.update(arrays["slave_q"], arrays["master_q"])
             arrays.update(pose_RS=scene.pose_RS, pose_BE=scene.pose_BE)
         for name, message in row_messages(t, arrays, names if drawn else plain):
@@ -278,13 +300,15 @@ def _work(path, widths: dict, sink: tuple, robot: str, rate: float, events, repl
                     topic, t, message = events.get_nowait()
                 except queue.Empty:
                     break
+                if topic not in channels:  # a row topic the rows lack: advertised now
+                    channels[topic] = foxglove_channel(foxglove, context, topic, schema_of(topic))
                 channels[topic].log(encode(message), log_time=t0 + round(t * 1e9))
-            if written - read > RING_ROWS:
-                dropped += written - read - RING_ROWS
-                read = written - RING_ROWS
+            if written - read > rows:
+                dropped += written - read - rows
+                read = written - rows
             for i in range(read, written):
-                row = ring[i % RING_ROWS].copy()
-                if int(head[0]) - i >= RING_ROWS:  # overwritten while copied
+                row = ring[i % rows].copy()
+                if int(head[0]) - i >= rows:  # overwritten while copied
                     dropped += 1
                 elif spool is None:
                     send(t0 + round(row[0] * 1e9), row)

@@ -3,10 +3,14 @@ in simulation or on the hardware, or from a lab's recording."""
 
 from __future__ import annotations
 
+import contextlib
+import functools
+
 from heft.diagrams.commands.options import (add_lcm_urls, add_out, add_scenario, add_set, add_station,
                                            require_lab_settings, scenario_from)
 from heft.diagrams.running.realtime import LOOP_PRIORITY
 from heft.diagrams.commands.console import logger
+from heft.diagrams.commands.view_options import VIEW_HOWTO, add_view, view_from
 
 say = logger(__name__)
 
@@ -44,6 +48,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--rt-priority", type=int, default=LOOP_PRIORITY,
                           help="with --hardware: SCHED_FIFO priority of the loop, pinned to the last CPU "
                                f"(default {LOOP_PRIORITY}; 0: normal)")
+    add_view(parser, what="with --hardware: the excitation (the measured wrench, its progress, the estimate)")
 
 
 def run(args) -> int:
@@ -61,18 +66,27 @@ def run(args) -> int:
     if args.hardware:
         require_lab_settings(args, "accelerometer.position")
     settings = ExcitationSettings.quick() if args.quick else ExcitationSettings()
+    view = shown = None
     if args.hardware:
-        from heft.diagrams.running.hardware_identify import hardware_recorder
+        from heft.diagrams.running.hardware_identify import hardware_recorder, show_estimate
         say.info(f"identify: {scenario.accelerometer.convention()}")
-        recorder = hardware_recorder(scenario, scenario.lab.lcm, args.record, scenario.lab.station, args.rt_priority)
+        view = view_from(args, scenario.robot)
+        if view is not None:
+            say.info(f"identify: live view on ws://localhost:{args.view_port}; {VIEW_HOWTO}")
+            shown = functools.partial(show_estimate, view)
+        recorder = hardware_recorder(scenario, scenario.lab.lcm, args.record, scenario.lab.station, args.rt_priority,
+                                     view)
         wrote = f"estimate.yaml, metrics.json{f', {args.record}' if args.record else ''}"
     else:
         from heft.diagrams.running.sim_identification import simulated_recorder
         if args.record:
             raise ValueError("--record records LCM traffic: it needs --hardware")
+        if args.view:
+            raise ValueError("--view shows the excitation on the lab: it needs --hardware")
         recorder, wrote = simulated_recorder(scenario), "estimate.yaml, metrics.json, convergence.png"
-    identify(scenario, args.out, recorder, method=args.method, signals=args.signals, settings=settings,
-             periods=args.periods, accept_fit=args.accept_fit)
+    with contextlib.nullcontext() if view is None else view:
+        identify(scenario, args.out, recorder, method=args.method, signals=args.signals, settings=settings,
+                 periods=args.periods, accept_fit=args.accept_fit, estimated=shown)
     say.info(f"wrote {args.out}/{wrote}")
     return 0
 
@@ -81,7 +95,7 @@ def _from_recording(args) -> int:
     from heft.diagrams.identify_recording import identify_recording
     from heft.diagrams.scenario import Scenario, layered
 
-    for option in ("hardware", "station", "record", "quick"):
+    for option in ("hardware", "station", "record", "quick", "view"):
         if getattr(args, option):
             raise ValueError(f"--{option} belongs to an excitation heft drives; a --recording is already recorded")
     if args.periods != 1:

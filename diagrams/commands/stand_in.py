@@ -7,8 +7,10 @@ import math
 
 
 from heft.diagrams.commands.options import add_lcm_urls, add_out, add_scenario, add_set, out_file, scenario_from
+from heft.diagrams.live_view import STAND_IN_PORT
 from heft.diagrams.running.realtime import LAB_PRIORITY
 from heft.diagrams.commands.console import logger
+from heft.diagrams.commands.view_options import VIEW_HOWTO, add_view, view_from
 
 say = logger(__name__)
 
@@ -50,6 +52,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--netft-status-at", type=float, default=math.inf, metavar="T", help="from this time (s)")
     parser.add_argument("--netft-status-until", type=float, default=math.inf, metavar="T",
                         help="until this time (s)")
+    add_view(parser, STAND_IN_PORT, "the lab (its joints, the true wrench, the commands it receives)")
     add_out(parser, f"{SUMMARY} (what was published and received) and {TRUTH} (the truth of every FT sample)")
 
 
@@ -71,6 +74,7 @@ def run(args) -> int:
                             nan_rate=args.nan_rate, saturate_at_s=args.saturate_at, die_at_s=args.die_at,
                             seed=args.seed, reorder_rate=args.reorder_rate)
     channels = scenario.lab.lcm
+    view = view_from(args, scenario.robot)
     netft = None
     if args.netft is not None:
         from heft.diagrams.stations.stand_in_netft import NetFtInjection, NetFtResponder
@@ -80,12 +84,14 @@ def run(args) -> int:
                  f"not on {channels.ft_sample.name}")
     say.info(f"stand-in: {args.scenario} on {channels.lcm_url} (commands on {channels.command_lcm_url()}) for "
              f"{args.duration:g} s at real time; {claim_lab_realtime(args.rt_priority)}")
+    if view is not None:
+        say.info(f"stand-in: live view on ws://localhost:{args.view_port}; {VIEW_HOWTO}")
     with StopOnSignal() as stop:
         summary = run_stand_in(scenario, channels, args.duration, faults, args.clutch_at, args.clutch_release_at,
                                ready=lambda epoch: say.info(f"stand-in: publishing; its stamps count from "
                                                             f"{epoch:.6f} s (wall clock, since the Unix epoch)"),
                                stop=lambda: stop.requested, grasp=grasp, ft_outlet=netft,
-                               truth_path=truth_path)
+                               truth_path=truth_path, view=view)
     if netft is not None:
         netft.close()
         summary["netft"] = served = netft.summary()

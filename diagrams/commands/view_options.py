@@ -7,11 +7,11 @@ from heft.diagrams.live_view import DEFAULT_PORT, LiveView
 VIEW_HOWTO = "open it in Foxglove or Lichtblick: Open connection → Foxglove WebSocket (docs/live_view.md)"
 
 
-def add_view(parser) -> None:
+def add_view(parser, port: int = DEFAULT_PORT, what: str = "the run") -> None:
     parser.add_argument("--view", action="store_true",
-                        help=f"serve the run live on ws://localhost:PORT; {VIEW_HOWTO}")
-    parser.add_argument("--view-port", type=int, default=DEFAULT_PORT, metavar="PORT",
-                        help=f"the live view's port (default {DEFAULT_PORT})")
+                        help=f"serve {what} live on ws://localhost:PORT; {VIEW_HOWTO}")
+    parser.add_argument("--view-port", type=int, default=port, metavar="PORT",
+                        help=f"the live view's port (default {port})")
 
 
 def view_from(args, robot: str) -> LiveView | None:

@@ -9,17 +9,22 @@ time into the excitation. ``recording`` resamples those ticks onto the
 controller rate's uniform grid — exactly the excitation's whole periods — for
 the same estimators as in simulation. There is no truth on hardware: the report
 gives each method's estimate, its standard deviations, the residual RMS of the
-wrench model per axis, and the spread between methods.
+wrench model per axis, and the spread between methods. A live view (``--view``) is fed
+each tick's row (``HardwareIdentification.row``) and, once estimated, the estimate
+(``show_estimate``).
 """
 
 from __future__ import annotations
 
 import contextlib
 import logging
+import math
+import time
 
 import lcm
 import numpy as np
 
+from heft.analysis.topics import TOPIC_BY_NAME
 from heft.diagrams.device_limits import device_limits
 from heft.diagrams.identify import Recording
 from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
@@ -55,20 +60,42 @@ class HardwareIdentification:
     ticked at most once per ``period`` s (the real-time loop's grid).
 
     ``tick(now, dt)`` returns True once the commander is done or aborted; it raises
-    ``IdentificationAborted`` if the hardware is not healthy within ``WAIT_LIMIT`` s."""
+    ``IdentificationAborted`` if the hardware is not healthy within ``WAIT_LIMIT`` s. ``taps``: live
+    views (``diagrams.live_view``, opened here; closed by their owner) fed ``row`` each tick, from
+    ``start``."""
 
     def __init__(self, trajectory, duration: float, period: float, bus: lcm.LCM, channels: LcmChannels,
                  limits: DeviceLimits, params: HardwareStationParams | None = None,
-                 command_bus: lcm.LCM | None = None):
-        self.station = HardwareStation(bus, channels, limits, params, command_bus)
-        self.commander = ExcitationCommander(trajectory, duration, limits.slave_velocity)
+                 command_bus: lcm.LCM | None = None, taps=()):
+        self.station = station = HardwareStation(bus, channels, limits, params, command_bus)
+        self.commander = commander = ExcitationCommander(trajectory, duration, limits.slave_velocity)
         self._zero = np.zeros(NUM_JOINTS)
         self.now = 0.0
         """The last tick's time (s)."""
+        self.epoch = time.time()
+        """Wall-clock s since the Unix epoch at the loop's time 0 (``start``)."""
+        self._excitation = np.zeros(3)
+        self.row = {"wrench_measured": station.wrench, "slave_q": station.slave_position,
+                    "slave_v": station.slave_velocity, "slave_q_commanded": commander.command,
+                    "master_q": station.master_position, "master_v": station.master_velocity,
+                    "excitation": self._excitation}
+        """A tick's row for a live view, by ``analysis.run_log``'s names, read in place: the measured wrench (at S
+        in S), the joints and the arm's command, and ``excitation`` [phase, time into it (s), share played]
+        (``analysis.topics``' ``/identify/excitation``)."""
+        self._widths = {key: np.size(value) for key, value in self.row.items()}
+        self.taps = list(taps)
+        for tap in self.taps:
+            tap.open(self._widths)
         # Per excitation tick: time into the excitation (s), wrench (6), acceleration (6), q_S (6).
         self._rows = np.empty((int(duration / period) + 2, 19))
         self._count = 0
         self.abort_reason = None
+
+    def start(self) -> None:
+        """The loop's time 0 is now: ``epoch``, from which the taps' messages are timed."""
+        self.epoch = time.time()
+        for tap in self.taps:  # the same keys: only the time origin moves
+            tap.open(self._widths, t0_ns=round(self.epoch * 1e9))
 
     def tick(self, now: float, dt: float) -> bool:
         self.now = now
@@ -78,6 +105,12 @@ class HardwareIdentification:
         station.send(now, self._zero, commander.command)
         station.publish_status(now)
         phase = commander.phase
+        if self.taps:
+            excitation, time_into = self._excitation, commander.excitation_time
+            excitation[0], excitation[1] = phase, time_into
+            excitation[2] = 0.0 if math.isnan(time_into) else min(max(time_into / commander.duration, 0.0), 1.0)
+            for tap in self.taps:
+                tap.publish(now, self.row)
         if phase == Phase.EXCITING:
             row = self._rows[self._count]  # one row per grid point at most: the buffer holds them all
             row[0] = commander.excitation_time
@@ -109,22 +142,33 @@ class HardwareIdentification:
         return Recording(t=t, wrench=resampled[:, :6], accel_measured=resampled[:, 6:12], q=resampled[:, 12:])
 
 
+def show_estimate(view, record: dict) -> None:
+    """Shows an estimate (``load_estimate.estimate_record``: φ̂ with its standard deviations, the offsets) on
+    ``view``'s ``/estimate/phi`` and ``/estimate/offsets``, at the loop's clock now."""
+    t = view.since_origin()
+    for topic, row in (("/estimate/phi", {"phi_hat": record["phi"], "phi_hat_std": record["std_phi"]}),
+                       ("/estimate/offsets", {"offsets_hat": record["offsets"]})):
+        view.event(topic, TOPIC_BY_NAME[topic].message(t, row), t)
+
+
 def record_on_hardware(scenario: Scenario, trajectory, duration: float, channels: LcmChannels, record=None,
-                       params: HardwareStationParams | None = None, priority: int = LOOP_PRIORITY):
+                       params: HardwareStationParams | None = None, priority: int = LOOP_PRIORITY, view=None):
     """Runs ``HardwareIdentification`` on ``channels``' two URLs (``open_buses``) in real time at
     the controller rate (real-time ``priority``: ``claim_realtime``, as ``run_hardware_teleop``
-    does) until the excitation is done (or aborted); returns (Recording, timing summary)."""
+    does) until the excitation is done (or aborted); returns (Recording, timing summary). ``view``: a
+    ``diagrams.live_view.LiveView`` fed each tick, left open for the estimate (its owner closes it)."""
     period = scenario.controller_period
     budget = WAIT_LIMIT + 60.0 + duration  # waiting, the slow approach and settling, the excitation
     with contextlib.nullcontext() if record is None else LcmTrafficRecorder(channels, record):
         say.info(f"identify: {claim_realtime(priority)}")
         bus, command_bus = open_buses(channels)
         run = HardwareIdentification(trajectory, duration, period, bus, channels, device_limits(scenario), params,
-                                     command_bus)
+                                     command_bus, taps=() if view is None else (view,))
         if priority:
             say.info(f"identify: {keep_cpu_for_loop()}")
         anchor, ticking = run.station.loop_anchor(1.0 / period, 0.0)
         say.info(f"identify: {ticking}")
+        run.start()
         with StopOnSignal() as stop:
             try:
                 times = run_realtime(lambda now, dt: run.tick(now, dt) or stop.requested, period, budget,
@@ -138,13 +182,14 @@ def record_on_hardware(scenario: Scenario, trajectory, duration: float, channels
 
 
 def hardware_recorder(scenario: Scenario, channels: LcmChannels, record=None,
-                      params: HardwareStationParams | None = None, priority: int = LOOP_PRIORITY):
-    """The ``record`` of ``identify`` on the hardware on ``channels`` (``record_on_hardware``); the
-    extra metrics are the LCM URLs, the loop's timing and the traffic log's path."""
+                      params: HardwareStationParams | None = None, priority: int = LOOP_PRIORITY, view=None):
+    """The ``record`` of ``identify`` on the hardware on ``channels`` (``record_on_hardware``, feeding ``view``);
+    the extra metrics are the LCM URLs, the loop's timing and the traffic log's path."""
     def run(trajectory, duration: float):
         say.info(f"identify: excitation of {duration:g} s on {channels.lcm_url} (commands on "
                  f"{channels.command_lcm_url()}); the arm first moves slowly to its start")
-        recording, timing = record_on_hardware(scenario, trajectory, duration, channels, record, params, priority)
+        recording, timing = record_on_hardware(scenario, trajectory, duration, channels, record, params, priority,
+                                               view)
         say.info(format_timing(timing))
         return recording, {"lcm_url": channels.lcm_url, "command_url": channels.command_lcm_url(), "timing": timing,
                            "lcm_log": None if record is None else str(record)}

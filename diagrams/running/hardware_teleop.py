@@ -35,6 +35,7 @@ from collections.abc import Sequence
 import lcm
 import numpy as np
 
+from heft.analysis.topics import ESTIMATOR_PRIOR, ESTIMATOR_STATE
 from heft.diagrams.device_limits import device_limits
 from heft.diagrams.live_view import McapRecorder
 from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
@@ -99,8 +100,10 @@ class HardwareTeleop:
         self.state = TeleopStatePublisher(bus if command_bus is None else command_bus, channels)
         self._state_every_tick, self._next_state = state_every_tick, 0.0
         self.taps, self._row, self._scalars = list(taps), *tick_row(self)
-        for tap in self.taps:
-            tap.open({key: np.size(value) for key, value in self._row.items()})
+        widths = {key: np.size(value) for key, value in self._row.items()}
+        for tap in self.taps:  # the estimator's state, whence φ̂'s uncertainty, to the live view only
+            tap.open({key: width for key, width in widths.items()
+                      if not (tap.every_row and key in (ESTIMATOR_STATE, ESTIMATOR_PRIOR))})
         self.starts = 0
         """Controller starts so far (the first healthy tick and each recovery)."""
         self._channel_names = [getattr(channels, name).name for name in WATCHED_CHANNELS]
@@ -280,7 +283,10 @@ class HardwareTeleop:
 def tick_row(teleop: HardwareTeleop) -> tuple[dict, np.ndarray]:
     """(row, scalars): the arrays a tick's row holds for the live view and the MCAP recorder, by
     ``analysis.run_log``'s names, as views of the station's and the controller's own arrays (built once, read
-    in place each tick), and ``scalars`` [hold (s), gain, starts] for the loop to set."""
+    in place each tick), and ``scalars`` [hold (s), gain, starts] for the loop to set. With the estimator
+    online, the row holds its state and prior covariance too (``analysis.topics.ESTIMATOR_STATE``): the
+    view's worker derives φ̂'s standard deviations from them (a copy of 997 numbers at the view's rate; the
+    recorder, whose rows are ``heft export``'s of the same run, takes neither)."""
     station, controller = teleop.station, teleop.controller
     scalars = np.zeros(3)
     row = {"wrench_measured": station.wrench, "accel_measured": station.acceleration,
@@ -294,6 +300,9 @@ def tick_row(teleop: HardwareTeleop) -> tuple[dict, np.ndarray]:
            "slave_q_commanded": controller._position, "pose_RS_desired": controller.pose_RS_desired,
            "pose_RS": controller.pose_RS, "pose_BE": controller.pose_BE, "scales": controller.scales,
            "ik_status": controller.ik_status, "hold": scalars[0:1], "gain": scalars[1:2], "starts": scalars[2:3]}
+    if controller.estimator is not None:
+        row[ESTIMATOR_STATE] = controller.program.block_state("phi_hat", "state")  # RlsLoadEstimator's, in place
+        row[ESTIMATOR_PRIOR] = np.array([controller.estimator.params.prior_covariance])
     return row, scalars
 
 

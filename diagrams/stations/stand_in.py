@@ -74,6 +74,7 @@ in µs at the message's sample time, so a restarted lab stamps from zero again
 from __future__ import annotations
 
 import collections
+import contextlib
 import dataclasses
 import math
 import select
@@ -349,7 +350,8 @@ class StandIn:
     jumped),
     ``published`` / ``received`` (channel name → messages),
     ``phi_true`` (10, φ about S in S of what the sensor carries now, Eq. 6), ``offsets`` (6, N, N·m: the FT
-    offsets in the latest sample, heft's sign), ``next_due`` (s, the nominal time of the next message),
+    offsets in the latest sample, heft's sign), ``wrench_measured`` (6, N, N·m: the latest sample as measured,
+    heft's sign, before the delivery faults), ``next_due`` (s, the nominal time of the next message),
     ``truth`` (the ``TruthRecord`` of every FT sample with ``record_truth``, else None).
 
     ``ft_outlet``, if given, takes the FT messages in place of the LCM channel (``name``, ``count``,
@@ -427,7 +429,7 @@ class StandIn:
         self._accelerometer = SixAxisSampler(scenario.accelerometer, ACCELEROMETER_STREAM, ft_period, per_step)
         self.truth = TruthRecord(channels.ft_sample.rate, self._wrist.phis, channels.slave_status.rate) \
             if record_truth else None
-        self.offsets = np.zeros(6)
+        self.offsets, self.wrench_measured = np.zeros(6), np.zeros(6)
         self._ft_messages = {}  # samples → a heft_ft_samples of that many, rewritten for each message
 
         self._master = _Master(scenario)
@@ -472,6 +474,16 @@ class StandIn:
     def next_due(self) -> float:
         due = min(self._due)
         return min(due, self._delayed[0][0]) if self._delayed else due
+
+    def view_row(self) -> dict:
+        """What the lab is now, by ``analysis.run_log``'s names, for a live view (``diagrams.live_view``): the
+        arm's true joints and its setpoint received (rad, rad/s), the Phantom's joints and the torque its
+        driver applies (N·m), the load's true non-contact wrench and the latest sample measured (at S in S,
+        heft's sign; no contact here) and φ of what the sensor carries (Eq. 6)."""
+        return {"slave_q": self._q, "slave_v": self._qd, "slave_q_commanded": self.slave_command,
+                "master_q": self._master.position, "master_v": self._master.velocity,
+                "master_torque": self.master_torque, "wrench_noncontact_true": self._wrist.wrench,
+                "wrench_measured": self.wrench_measured, "phi_true": self._wrist.phi}
 
     def step(self, now: float) -> bool:
         """Advances the lab to ``now`` (s since it started; never decreasing): takes the
@@ -598,6 +610,7 @@ class StandIn:
         if self.truth is not None:
             self.truth.add(first, count, wrist, offsets)
         self.offsets = offsets[-1]
+        self.wrench_measured[:] = wrench[-1]
         faults, outlet, newest = self._faults, self._outlets[_FT], last / rate
         if outlet.lost(last, newest):
             return count
@@ -631,7 +644,7 @@ class StandIn:
 def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
                  faults: FaultInjection | None = None, clutch_at: float = 0.0, clutch_release_at: float = math.inf,
                  clock=time.perf_counter, sleep=time.sleep, ready=None, stop=None, grasp: GraspTimes | None = None,
-                 truth_path=None, ft_outlet=None) -> dict:
+                 truth_path=None, ft_outlet=None, view=None) -> dict:
     """Runs ``StandIn`` on ``channels``' two URLs (``open_buses``) in real time on ``clock`` (s)
     for ``duration`` s or until it dies, waiting between due messages (a late lab catches up
     ``_MAX_STEP`` at a time): with the default
@@ -648,7 +661,8 @@ def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
     the wall-clock time (s since the Unix epoch) of its clock's zero, the time its ``utime``
     stamps count from; ``stop()``, if given, ends the run early once it returns True. With a
     ``truth_path``, the ``TruthRecord`` of the run is written there at the end (a .npz). ``ft_outlet``:
-    ``StandIn``'s.
+    ``StandIn``'s. ``view``: a ``diagrams.live_view.LiveView`` (not yet open; closed here) shown the lab
+    (``StandIn.view_row``) after each step at its rate, timed from the clock's zero.
     """
     bus, command_bus = open_buses(channels)
     lab = StandIn(scenario, bus, channels, faults, clutch_at, clutch_release_at, command_bus, grasp,
@@ -662,24 +676,32 @@ def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
         wait = sleep
     lateness, alive = 0.0, True
     by_second = [0.0] * (math.ceil(duration) if math.isfinite(duration) else 0)
-    cpu_start, start, epoch = time.process_time(), clock(), time.time()
-    if ready is not None:
-        ready(epoch)
-    now = wall = 0.0
-    while True:
-        late, second = wall - lab.next_due, int(lab.next_due)
-        lateness = max(lateness, late)
-        if second < len(by_second):
-            by_second[second] = max(by_second[second], late)
-        alive = lab.step(now)
-        if not alive or now >= duration - _DUE_SLACK or (stop is not None and stop()):
-            break
-        pause = min(lab.next_due, duration) - (clock() - start)
-        if pause > _DUE_SLACK:
-            wait(pause)
-        wall = clock() - start
-        now = min(wall, now + _MAX_STEP)
-    elapsed = max(clock() - start, 1e-9)
+    with contextlib.nullcontext() if view is None else view:
+        if view is not None:
+            widths = {key: np.size(value) for key, value in lab.view_row().items()}
+            view.open(widths)
+        cpu_start, start, epoch = time.process_time(), clock(), time.time()
+        if view is not None:  # the same keys: only the messages' time origin moves, to the clock's zero
+            view.open(widths, t0_ns=round(epoch * 1e9))
+        if ready is not None:
+            ready(epoch)
+        now = wall = 0.0
+        while True:
+            late, second = wall - lab.next_due, int(lab.next_due)
+            lateness = max(lateness, late)
+            if second < len(by_second):
+                by_second[second] = max(by_second[second], late)
+            alive = lab.step(now)
+            if view is not None and view.due(now):
+                view.publish(now, lab.view_row())
+            if not alive or now >= duration - _DUE_SLACK or (stop is not None and stop()):
+                break
+            pause = min(lab.next_due, duration) - (clock() - start)
+            if pause > _DUE_SLACK:
+                wait(pause)
+            wall = clock() - start
+            now = min(wall, now + _MAX_STEP)
+        elapsed = max(clock() - start, 1e-9)
     published, received = lab.published, lab.received
     summary = {"duration_s": elapsed, "died": not alive, "published": published, "received": received,
                "published_hz": {name: count / elapsed for name, count in published.items()},
