@@ -18,7 +18,7 @@ from heft.diagrams.scenario import resolve_scenario
 from heft.diagrams.stations.stand_in import FaultInjection, StandIn
 from heft.hardware_interface.channels import LcmChannels
 
-from test_live_view import FoxgloveClient, free_port, wait_for_channels
+from foxglove_client import FoxgloveClient, free_port, wait_for_channels
 
 pytestmark = pytest.mark.slow
 

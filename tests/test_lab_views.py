@@ -4,6 +4,7 @@ go through a real recorder process (``McapRecorder``, read back with the ``mcap`
 server; the lab is the stand-in on a memq:// bus, stepped on one clock."""
 
 import json
+from pathlib import Path
 
 import lcm
 import numpy as np
@@ -11,6 +12,7 @@ import pytest
 from mcap.reader import make_reader
 
 from heft.analysis.topics import ESTIMATOR_PRIOR, ESTIMATOR_STATE, TOPIC_BY_NAME, phi_hat_std, row_messages
+from heft.diagrams.cli import main
 from heft.diagrams.device_limits import device_limits
 from heft.diagrams.live_view import McapRecorder
 from heft.diagrams.running.hardware_identify import HardwareIdentification, show_estimate
@@ -22,6 +24,8 @@ from heft.systems.identification.recursive_estimation import RecursiveLeastSquar
 from heft.systems.load_dynamics import regressor
 
 from test_hardware_identify import TRAJECTORY
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "docs" / "example_recording"
 
 
 def read_mcap(path) -> dict:
@@ -112,3 +116,11 @@ def test_the_stand_ins_row_is_its_lab():
                                                          if topic.present(row)])]
     assert names == ["/wrench/measured", "/truth/noncontact", "/truth/phi", "/master/joint_state",
                      "/master/command", "/slave/joint_state", "/slave/command"]
+
+
+def test_the_views_options_are_refused_where_nothing_runs_on_the_lab(capsys):
+    """One line each: the view belongs to the lab's excitation, not to a simulated or recorded one."""
+    assert main(["identify", "--scenario", "fig6", "--view"]) == 2
+    assert "--view shows the excitation on the lab: it needs --hardware" in capsys.readouterr().err
+    assert main(["identify", "--recording", str(EXAMPLE / "poses.yaml"), "--view"]) == 2
+    assert "--view belongs to an excitation heft drives" in capsys.readouterr().err
