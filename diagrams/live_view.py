@@ -15,7 +15,7 @@ counted.
     view = LiveView(port=8765)                      # or McapRecorder("run.mcap")
     view.open({"wrench_measured": 6, "slave_q": 6, ...})  # once: starts the worker, waits for it
     view.publish(t, arrays)                         # each tick: key → array of the declared width
-    view.event("/faults", message, t)               # rare messages (EVENT_TOPICS; or once on a row topic)
+    view.event("/faults", message, t)               # rare messages (EVENT_TOPICS; row topics named at open)
     view.close()                                    # {"rows": …, "dropped": …}
 """
 
@@ -65,6 +65,7 @@ class TickTap:
         self._sink, self._rate, self._robot = sink, rate, robot
         self._rows = RING_ROWS if rate == 0 else min(RING_ROWS, math.ceil(RING_SECONDS * rate))
         self._process = self._widths = None
+        self._topics, self._event_topics = (), set()
 
     @property
     def every_row(self) -> bool:
@@ -77,20 +78,28 @@ class TickTap:
     def __exit__(self, *exc):
         self.close()
 
-    def open(self, widths: dict, t0_ns: int | None = None) -> None:
+    def open(self, widths: dict, t0_ns: int | None = None, topics=()) -> None:
         """Starts the worker for rows of the arrays ``widths`` (key → entries) and waits until it
-        serves; messages are timed ``t0_ns`` + t (ns; default: the wall clock now). Opening again
-        with the same keys keeps the worker (a live view's clients stay connected)."""
+        serves; messages are timed ``t0_ns`` + t (ns; default: the wall clock now). ``topics``: row
+        topics (``analysis.topics.TOPICS``) that come as events (``event``: e.g. an estimate that comes
+        once, after the loop), advertised from the start, so that a client has subscribed by then. Opening
+        again with the same keys and topics keeps the worker (a live view's clients stay connected)."""
         from heft.analysis.run_export import foxglove_sdk
+        from heft.analysis.topics import EVENT_TOPICS, TOPIC_BY_NAME
 
         foxglove_sdk()  # the one-line install hint, here in the loop's process
+        unknown = [topic for topic in topics if topic not in TOPIC_BY_NAME]
+        if unknown:
+            raise ValueError(f"no row topic {', '.join(unknown)} (analysis.topics.TOPICS)")
         t0 = time.time_ns() if t0_ns is None else int(t0_ns)
         self._next = -math.inf
-        if self._process is not None and self._process.is_alive() and dict(widths) == self._widths:
+        if self._process is not None and self._process.is_alive() and (dict(widths), tuple(topics)) == (
+                self._widths, self._topics):
             self._origin[0] = t0
             return
         self.close()
-        self._widths = dict(widths)
+        self._widths, self._topics = dict(widths), tuple(topics)
+        self._event_topics = {*(topic.name for topic in EVENT_TOPICS), *self._topics}
         columns = 1 + sum(self._widths.values())
         file = tempfile.NamedTemporaryFile(prefix="heft-view-", dir="/dev/shm" if os.path.isdir("/dev/shm") else None,
                                            delete=False)
@@ -112,8 +121,9 @@ class TickTap:
         spawn = multiprocessing.get_context("spawn")
         self._events, replies = spawn.Queue(), spawn.Queue()
         self._replies = replies
-        self._process = spawn.Process(target=_work, args=(self._path, self._widths, self._rows, self._sink,
-                                                          self._robot, self._rate, self._events, replies), daemon=True)
+        self._process = spawn.Process(target=_work, args=(self._path, self._widths, self._topics, self._rows,
+                                                          self._sink, self._robot, self._rate, self._events, replies),
+                                      daemon=True)
         self._process.start()
         error = self._started(replies)
         if error:
@@ -156,12 +166,10 @@ class TickTap:
         return True
 
     def event(self, topic: str, message: dict, t: float) -> None:
-        """A rare message at ``t`` (s, the loop's clock) on a topic of ``analysis.topics``: an event topic's
-        (``EVENT_TOPICS``), or a row topic's (``Topic.message``: e.g. an estimate that comes once, after
-        the loop), advertised by its first message if the rows lack it. A KeyError for an unknown topic."""
-        from heft.analysis.topics import schema_of
-
-        schema_of(topic)
+        """A rare message at ``t`` (s, the loop's clock): on an event topic (``analysis.topics.EVENT_TOPICS``),
+        or on a row topic named at ``open`` (``Topic.message``'s)."""
+        if topic not in self._event_topics:
+            raise ValueError(f"{topic} takes no events here: an event topic, or a row topic named by open(topics=…)")
         self._events.put((topic, t, message))
 
     def close(self) -> dict:
@@ -233,7 +241,8 @@ def _leave_the_loop() -> None:
         os.sched_setaffinity(0, every - mine)
 
 
-def _work(path, widths: dict, rows: int, sink: tuple, robot: str, rate: float, events, replies) -> None:
+def _work(path, widths: dict, topics: tuple, rows: int, sink: tuple, robot: str, rate: float, events,
+          replies) -> None:
     """The worker process: serves or writes the ring's rows until told to stop."""
     _leave_the_loop()
     try:
@@ -249,7 +258,7 @@ def _work(path, widths: dict, rows: int, sink: tuple, robot: str, rate: float, e
             scene = ScenePoses(robot)
         names = row_topics([*widths, *(SCENE_KEYS if scene else ())])
         channels = {name: foxglove_channel(foxglove, context, name, schema_of(name))
-                    for name in [*names, *(topic.name for topic in EVENT_TOPICS)]}
+                    for name in dict.fromkeys([*names, *topics, *(topic.name for topic in EVENT_TOPICS)])}
         if sink[0] == "ws":  # after the channels: a client's first advertisement lists them all
             server = foxglove.start_server(name="heft", host=sink[1], port=sink[2], context=context)
 
@@ -300,8 +309,6 @@ def _work(path, widths: dict, rows: int, sink: tuple, robot: str, rate: float, e
                     topic, t, message = events.get_nowait()
                 except queue.Empty:
                     break
-                if topic not in channels:  # a row topic the rows lack: advertised now
-                    channels[topic] = foxglove_channel(foxglove, context, topic, schema_of(topic))
                 channels[topic].log(encode(message), log_time=t0 + round(t * 1e9))
             if written - read > rows:
                 dropped += written - read - rows

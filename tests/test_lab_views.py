@@ -4,6 +4,8 @@ go through a real recorder process (``McapRecorder``, read back with the ``mcap`
 server; the lab is the stand-in on a memq:// bus, stepped on one clock."""
 
 import json
+import threading
+import time
 from pathlib import Path
 
 import lcm
@@ -14,7 +16,7 @@ from mcap.reader import make_reader
 from heft.analysis.topics import ESTIMATOR_PRIOR, ESTIMATOR_STATE, TOPIC_BY_NAME, phi_hat_std, row_messages
 from heft.diagrams.cli import main
 from heft.diagrams.device_limits import device_limits
-from heft.diagrams.live_view import McapRecorder
+from heft.diagrams.live_view import LiveView, McapRecorder
 from heft.diagrams.running.hardware_identify import HardwareIdentification, show_estimate
 from heft.diagrams.scenario import resolve_scenario
 from heft.diagrams.stations.stand_in import FaultInjection, StandIn
@@ -23,6 +25,7 @@ from heft.systems.identification.excitation_commander import Phase
 from heft.systems.identification.recursive_estimation import RecursiveLeastSquares
 from heft.systems.load_dynamics import regressor
 
+from foxglove_client import FoxgloveClient, free_port, wait_for_channels
 from test_hardware_identify import TRAJECTORY
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "docs" / "example_recording"
@@ -59,14 +62,19 @@ def test_phi_hat_std_is_the_online_estimators_covariance():
 
 
 def test_identification_shows_its_excitation_and_then_its_estimate(tmp_path):
-    """Each tick's measured wrench and progress, as the station read them; the estimate once it comes."""
+    """Each tick's measured wrench and progress, as the station read them; the estimate once it comes, to a
+    client that connected during the excitation too."""
     scenario = resolve_scenario("fig6")
     bus = lcm.LCM("memq://")
     stand_in = StandIn(scenario, bus, LcmChannels(), FaultInjection())
-    period, now, duration = scenario.controller_period, 0.0, 1.0
+    period, now, duration, port = scenario.controller_period, 0.0, 1.0, free_port()
     recorder = McapRecorder(tmp_path / "identify.mcap", scenario.robot)
     run = HardwareIdentification(TRAJECTORY, duration, period, bus, LcmChannels(), device_limits(scenario),
-                                 taps=[recorder])
+                                 taps=[recorder, LiveView(port, robot=scenario.robot)])
+    client = FoxgloveClient(f"ws://127.0.0.1:{port}", timeout=30)
+    listening = threading.Thread(target=client.receive, args=(time.monotonic() + 120,))
+    listening.start()
+    wait_for_channels(client, listening)
     run.start()
     wrenches, progress, done = [], [], False
     while not done:
@@ -76,8 +84,12 @@ def test_identification_shows_its_excitation_and_then_its_estimate(tmp_path):
         wrenches.append(run.station.wrench.copy())
         progress.append((run.commander.phase, run.commander.excitation_time))
     record = {"phi": list(stand_in.phi_true), "std_phi": [0.001] * 10, "offsets": [0.5] * 6}
-    show_estimate(recorder, record)
-    assert recorder.close()["dropped"] == 0
+    for tap in run.taps:
+        show_estimate(tap, record)
+    assert [tap.close()["dropped"] for tap in run.taps] == [0, 0]
+    listening.join()
+    [live] = [message for topic, _, message in client.messages if topic == "/estimate/phi"]
+    assert live["mass"] == stand_in.phi_true[0] and live["std"] == [0.001] * 10
     topics = read_mcap(tmp_path / "identify.mcap")
     assert {"/wrench/measured", "/slave/joint_state", "/slave/command", "/identify/excitation", "/scene/frames",
             "/estimate/phi", "/estimate/offsets"} <= set(topics)

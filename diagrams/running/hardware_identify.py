@@ -53,6 +53,8 @@ class IdentificationAborted(HardwareRunFailed):
 
 WAIT_LIMIT = 10.0
 """Seconds to wait for healthy hardware before giving up."""
+ESTIMATE_TOPICS = ("/estimate/phi", "/estimate/offsets")
+"""The live view's topics of the estimate (``show_estimate``), advertised with the rows'."""
 
 
 class HardwareIdentification:
@@ -85,7 +87,7 @@ class HardwareIdentification:
         self._widths = {key: np.size(value) for key, value in self.row.items()}
         self.taps = list(taps)
         for tap in self.taps:
-            tap.open(self._widths)
+            tap.open(self._widths, topics=ESTIMATE_TOPICS)
         # Per excitation tick: time into the excitation (s), wrench (6), acceleration (6), q_S (6).
         self._rows = np.empty((int(duration / period) + 2, 19))
         self._count = 0
@@ -95,7 +97,7 @@ class HardwareIdentification:
         """The loop's time 0 is now: ``epoch``, from which the taps' messages are timed."""
         self.epoch = time.time()
         for tap in self.taps:  # the same keys: only the time origin moves
-            tap.open(self._widths, t0_ns=round(self.epoch * 1e9))
+            tap.open(self._widths, t0_ns=round(self.epoch * 1e9), topics=ESTIMATE_TOPICS)
 
     def tick(self, now: float, dt: float) -> bool:
         self.now = now
@@ -146,9 +148,9 @@ def show_estimate(view, record: dict) -> None:
     """Shows an estimate (``load_estimate.estimate_record``: φ̂ with its standard deviations, the offsets) on
     ``view``'s ``/estimate/phi`` and ``/estimate/offsets``, at the loop's clock now."""
     t = view.since_origin()
-    for topic, row in (("/estimate/phi", {"phi_hat": record["phi"], "phi_hat_std": record["std_phi"]}),
-                       ("/estimate/offsets", {"offsets_hat": record["offsets"]})):
-        view.event(topic, TOPIC_BY_NAME[topic].message(t, row), t)
+    rows = {"phi_hat": record["phi"], "phi_hat_std": record["std_phi"], "offsets_hat": record["offsets"]}
+    for topic in ESTIMATE_TOPICS:
+        view.event(topic, TOPIC_BY_NAME[topic].message(t, rows), t)
 
 
 def record_on_hardware(scenario: Scenario, trajectory, duration: float, channels: LcmChannels, record=None,
