@@ -9,7 +9,9 @@ from heft.systems.controller.estimator_gate import EstimatorGate
 from heft.systems.controller.estimator_prefilter import EstimatorPrefilter
 from heft.systems.controller.load_estimation_params import LoadEstimationParams
 from heft.systems.controller.load_model import GraspSplit
+from heft.systems.controller.rest_learner import RestLearner
 from heft.systems.controller.rls_load_estimator import RlsLoadEstimator
+from heft.systems.identification.regression_noise import NoiseLevels
 from heft.systems.tick_system import TickSum
 
 
@@ -19,8 +21,9 @@ def AddOnlineLoadEstimator(builder: DiagramBuilder, params: LoadEstimationParams
     """Adds the online estimator of φ̂ (10), starting from ``phi``, to ``builder`` and returns its
     output: ``AccelerometerToMotion`` (the reading in ``accelerometer``'s convention → S's
     kinematic [a; α]), ``EstimatorGate`` (which samples it takes: their excitation judged on the
-    prefiltered motion, contact by ``contact``), ``EstimatorPrefilter`` (unless ``params.prefilter`` is 0) and
-    ``RlsLoadEstimator``, ticking every ``period`` s. φ alone is
+    prefiltered motion, contact by ``contact``), ``EstimatorPrefilter`` (unless ``params.prefilter`` is 0),
+    ``RlsLoadEstimator`` and ``RestLearner`` (a grasp held still: the object's weight and static moment from the
+    same inputs, handed to the estimator), ticking every ``period`` s. φ alone is
     estimated, from f − ô = c + V·φ̂ (``force_scaling``'s outputs): the offsets are the
     OffsetTracker's, so the weight cannot trade against the force offsets. ``slave_kinematics``
     gives ω and g in S. ``GraspSplit`` (``phi_gripper`` the scenario's φ_gr or None) splits φ̂ for
@@ -69,4 +72,11 @@ def AddOnlineLoadEstimator(builder: DiagramBuilder, params: LoadEstimationParams
         connect(source, estimator.GetInputPort(name))
     for name in ("acceleration", "omega"):  # the excitation of the sample learned from
         connect(inputs[name], gate.GetInputPort(name))
+    rest = builder.AddNamedSystem("rest_learner", RestLearner(params, period, NoiseLevels()))
+    for name, source in inputs.items():
+        connect(source, rest.GetInputPort(name))
+    connect(estimator.GetOutputPort("phi"), rest.GetInputPort("phi"))
+    connect(grasp.GetOutputPort("new_load"), rest.GetInputPort("grasps"))
+    connect(grasp.GetOutputPort("estimator_reset"), rest.GetInputPort("resets"))
+    connect(rest.GetOutputPort("sample"), estimator.GetInputPort("rest"))
     return estimator.GetOutputPort("phi")

@@ -1,8 +1,8 @@
 """The settings of the load estimator in the loop (Fig. 4): fixed or learned online, and how.
 
 ``controller.estimator`` of a scenario. With ``mode`` "online" the controller Diagram wires
-``AccelerometerToMotion``, ``EstimatorGate``, ``EstimatorPrefilter``, ``RlsLoadEstimator`` and
-``GraspSplit`` (``diagrams.online_estimation``).
+``AccelerometerToMotion``, ``EstimatorGate``, ``EstimatorPrefilter``, ``RlsLoadEstimator``, ``RestLearner``
+and ``GraspSplit`` (``diagrams.online_estimation``).
 """
 
 import dataclasses
@@ -44,6 +44,14 @@ class LoadEstimationParams:
     for some 2/``prefilter`` s, and a load that lands on a compliant mount rings meanwhile; 0
     learns at once (the simulation's grasp, made at rest, learns fastest so)."""
 
+    rest_window: float = 0.05
+    """Length (s) of the averages ``RestLearner`` compares at rest after a grasp: two in a row that agree and
+    leave a wrench φ̂ does not explain give the object's mass and the static moment the pose shows."""
+
+    rest_agreement: float = 0.02
+    """How far (a fraction of the newer's magnitude, plus one sample's noise) two averages at rest may lie
+    apart for the step at the grasp to count as settled (``RestLearner``)."""
+
     prefilter: float = 10.0
     """Cut-off (Hz) of the low-pass on both sides of W = V·φ before the estimator
     (``EstimatorPrefilter``): below the load's mount modes and above the operator's motion;
@@ -68,9 +76,11 @@ class LoadEstimationParams:
             raise ValueError(f"estimator forgetting must lie in [0.5, 1]; got {self.forgetting}")
         if not (math.isfinite(self.prior_covariance) and self.prior_covariance > 0):
             raise ValueError(f"estimator prior_covariance must be finite and > 0; got {self.prior_covariance}")
+        if not (math.isfinite(self.rest_window) and self.rest_window > 0):
+            raise ValueError(f"estimator rest_window must be finite and > 0 s; got {self.rest_window}")
         if not self.max_input_age > 0:  # NaN too
             raise ValueError(f"estimator max_input_age must be > 0 s (inf: never judged); got {self.max_input_age}")
-        for name in ("min_excitation", "learning_window", "new_load_wait", "prefilter"):
+        for name in ("min_excitation", "learning_window", "new_load_wait", "prefilter", "rest_agreement"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"estimator {name} must be finite and >= 0; got {value}")

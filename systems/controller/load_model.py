@@ -92,6 +92,13 @@ def grasp_reset_into(out, state, reset) -> None:
     out[0] = state[GRASPS] + state[RESTARTS] + reset[0]
 
 
+@compiled("void(float64[:], float64[:], float64[:])")
+def grasps_into(out, state, reset) -> None:
+    """The new loads of unknown φ (1, a counter): the grasps so far plus the ``reset`` requests from outside (a
+    release and a new tool's estimate are known loads)."""
+    out[0] = state[GRASPS] + reset[0]
+
+
 class GraspSplit(TickSystem):
     """The grasp's split of φ̂ (module docstring), updated every ``period`` s; ``phi_gripper`` the gripper's
     φ_gr given by the scenario (None: none, the load fed back as one body until a grasp).
@@ -99,8 +106,8 @@ class GraspSplit(TickSystem):
     Inputs: ``holding`` (1; unconnected 0), ``phi`` (10, φ̂ in use), ``estimate`` (``ESTIMATE_SIZE``; unconnected
     none), ``reset`` (1: new loads requested from outside; unconnected 0). Outputs: ``phi_gripper`` (10) and
     ``split`` (1) for force scaling, ``estimator_reset`` (1, a counter) and ``estimator_restart``
-    (``ESTIMATE_SIZE``) for the online estimator, ``estimate`` (``ESTIMATE_SIZE``) for the offsets, ``holding``
-    (1)."""
+    (``ESTIMATE_SIZE``) for the online estimator, ``new_load`` (1, a counter of the new loads among them whose φ
+    is unknown: ``grasps_into``), ``estimate`` (``ESTIMATE_SIZE``) for the offsets, ``holding`` (1)."""
 
     kept_on_restart = True
 
@@ -122,4 +129,6 @@ class GraspSplit(TickSystem):
         self.DeclareTickOutput("estimator_restart", "x:state", RESTART.start, RESTART.stop)
         self.DeclareTickOutput("estimate", "x:state", ESTIMATE.start, ESTIMATE.stop)
         self.DeclareTickOutput("estimator_reset", "calc:reset")
+        self.DeclareTickCalc("new_load", 1, grasps_into, "calc:new_load", "x:state", "in:reset")
+        self.DeclareTickOutput("new_load", "calc:new_load")
         self.DeclareTickOutput("holding", "x:state", HOLDING, HOLDING + 1)
