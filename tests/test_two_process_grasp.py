@@ -8,7 +8,9 @@ gripper closes on the 0.5 kg block at 2 s while the slave follows the operator's
 Judged by ``grasp_judge`` from what the processes wrote — the controller's φ̂ every 10 ms and its
 recorded traffic (the master torques through the Phantom's Jacobian at the driver's positions each
 command names) — against the stand-in's recorded truth of every FT sample (``test_grasp_lab``
-judges the same in one process, on one explicit clock).
+judges the same in one process, on one explicit clock). A second run holds still throughout (the clutch engaged,
+the operator not moving), the gripper closing at 2 s: the object is learned at rest (``RestLearner``) and judged
+from 2.5 s.
 
 Nothing here asserts how fast the machine is; a stand-in that could not keep its clock from the
 second before the grasp on (a busy machine) skips the judging with its lateness, while the grasp's
@@ -43,6 +45,8 @@ from test_two_process import FOREVER, LCM_URL, _Process, _stop_all, _summary, la
 pytestmark = pytest.mark.slow
 
 MOVE_FROM, GRASP_AT, STILL_FROM, END = 1.8, 2.0, 4.5, 6.5
+HELD_STILL_END = 4.0
+"""s: the end of the run held still, judged from ``GRASP_AT`` + 0.5 s."""
 ETA, BOUND, MAX_FORCE = 0.5, 0.05, 8.5
 LATE_MS = 20.0
 """A stand-in publishing later than this (ms; the watchdog's timeout) behind its clock from the second
@@ -88,11 +92,27 @@ def two_process_run(tmp_path_factory):
     from conftest import network_namespace
 
     folder = tmp_path_factory.mktemp("grasp")
+    holding_from = GRASP_AT + GRIPPER_CLOSING_S
     with network_namespace() as netns:
-        return _run(netns, folder)
+        return _run(netns, folder, MOVE_FROM, STILL_FROM, STILL_FROM, END,
+                    {after: holding_from + after for after in (1.0, 2.0)})
 
 
-def _run(netns, folder):
+@pytest.fixture(scope="module")
+def held_still_run(tmp_path_factory):
+    """The operator holds still throughout, the clutch engaged; judged from 0.5 s after the grasp."""
+    from conftest import network_namespace
+
+    folder = tmp_path_factory.mktemp("grasp_held_still")
+    with network_namespace() as netns:
+        return _run(netns, folder, 2 * HELD_STILL_END, 2 * HELD_STILL_END, GRASP_AT, HELD_STILL_END,
+                    {0.5: GRASP_AT + 0.5})
+
+
+def _run(netns, folder, move_from, clutch_release_at, still_from, end, learned_by):
+    """Both processes for ``end`` s: the operator's strokes from ``move_from`` s, the clutch let go at
+    ``clutch_release_at`` s; judged (``grasp_judge``, the slave still from ``still_from`` s) from each
+    ``learned_by`` time (s) under its key."""
     scenario = resolve_scenario("grasp")
     truth_load, phi_gripper = true_load(scenario)
     estimate = folder / "gripper.yaml"  # the gripper identified alone (its true φ and the sensor's offsets)
@@ -107,12 +127,13 @@ def _run(netns, folder):
         # Started with the lab, it re-zeroes once the controller is healthy, with the slave still at rest.
         rezero = _Process(netns, folder, "rezero", "load", "--lcm-url", LCM_URL, "--rezero", "--timeout", "30")
         stand_in = _Process(netns, folder, "stand_in", "stand-in", "--scenario", "grasp", "--lcm-url", LCM_URL,
-                            "--set", overrides_text({"operator.start_time": MOVE_FROM}), "--duration", str(END + 1.0),
-                            "--grasp-at", str(GRASP_AT), "--clutch-at", "0", "--clutch-release-at", str(STILL_FROM),
+                            "--set", overrides_text({"operator.start_time": move_from}), "--duration", str(end + 1.0),
+                            "--grasp-at", str(GRASP_AT), "--clutch-at", "0", "--clutch-release-at",
+                            str(clutch_release_at),
                             "--out", str(folder))
         stand_in.wait_for("stand-in: publishing")
         epoch = float(re.search(r"stamps count from ([0-9.]+) s", stand_in.text()).group(1))
-        while time.time() < epoch + END:
+        while time.time() < epoch + end:
             assert stand_in.popen.poll() is None, stand_in.text()
             time.sleep(0.1)
         summary = _summary(teleop, folder)
@@ -123,7 +144,7 @@ def _run(netns, folder):
     print(stand_in.text(), rezero.text())
     lab = json.loads(stand_in_out.read_text())
     lab["arm_late_steps"] = np.load(folder / "stand_in.truth.npz")["arm_late_steps"]
-    late = max(lab["lateness_ms_by_second"][int(GRASP_AT) - 1:math.ceil(END)])
+    late = max(lab["lateness_ms_by_second"][int(GRASP_AT) - 1:math.ceil(end)])
     if late > LATE_MS:
         return summary, lab, rezero.text(), (
             f"the stand-in published up to {late:.0f} ms behind its own clock around the grasp and after (CPU "
@@ -134,13 +155,12 @@ def _run(netns, folder):
     commands, master, slave, unjudged = _traffic(log)
     print(f"{len(commands)} commands judged at their master states, {unjudged} not (their state not recorded)")
     history = [(summary["epoch"] + t - epoch, phi) for t, phi in summary["estimator"]["phi_history"]]
-    holding_from = GRASP_AT + GRIPPER_CLOSING_S
-    results = {after: judge(truth, history, summary["estimator"]["phi_gripper"] or phi_gripper, commands, master,
-                            slave, robot=scenario.robot, eta=ETA, force_scale=1.0,
-                            learned_by=holding_from + after, still_from=STILL_FROM, end=END)
-               for after in (1.0, 2.0)}
-    for after, result in results.items():
-        print(f"from {after:g} s after the grasp:\n{report(result)}")
+    results = {key: judge(truth, history, summary["estimator"]["phi_gripper"] or phi_gripper, commands, master,
+                          slave, robot=scenario.robot, eta=ETA, force_scale=1.0, learned_by=start,
+                          still_from=still_from, end=end)
+               for key, start in learned_by.items()}
+    for start, result in zip(learned_by.values(), results.values()):
+        print(f"from {start:g} s:\n{report(result)}")
     return summary, lab, rezero.text(), results
 
 
@@ -204,3 +224,19 @@ def test_while_moving_the_stylus_follows_contact_and_eta_of_the_objects_wrench(t
                     f"{result['pauses']}): only {len(result['moving'])} windows of the strokes are clear of the "
                     "mount's ring")
     assert max(result["moving"]) <= BOUND
+
+
+def test_held_still_the_object_is_learned_at_rest(held_still_run):
+    """Judged or not: the grasp answered with the object's mass; judged: from 0.5 s after the gripper began to
+    close (0.3 s after it holds), the object's mass within 2 %."""
+    summary, _, _, results = held_still_run
+    assert any(event.startswith("object learned over") for event in summary["load_events"]), summary["load_events"]
+    result = judged(results)[0.5]
+    assert result["object_mass"] > 0.4
+    assert result["mass_error_max"] <= 0.02
+
+
+def test_held_still_from_half_a_second_after_the_grasp_the_stylus_feels_eta_of_the_weight(held_still_run):
+    result = judged(held_still_run[3])[0.5]
+    assert result["still_expected_force"] == pytest.approx(ETA * result["object_mass"] * 9.81, rel=0.02)
+    assert len(result["still"]) > 50 and max(result["still"]) <= BOUND

@@ -127,9 +127,10 @@ class RlsLoadEstimator(TickSystem):
     Inputs (in S): ``wrench`` (6, f − ô; N, N·m), ``acceleration`` (6, kinematic [a; α]), ``omega`` (3),
     ``gravity`` (3), ``enable`` (1), ``reset`` (1, a counter; unconnected 0), ``restart`` (``ESTIMATE_SIZE``: a
     counter and φ to start from, then offsets it ignores; unconnected none), ``rest`` (``SAMPLE_SIZE``: a new
-    load's static sample, ``RestLearner``'s; unconnected none). It keeps its state when the
-    controller restarts (``kept_on_restart``). Outputs (state): ``phi`` (10), ``num_samples`` (1, since the last
-    reset or restart, a static sample counting as the ticks it averaged), ``num_skipped`` (1, enabled ticks whose sample held a NaN or inf)."""
+    load's static sample, ``RestLearner``'s; unconnected none). It keeps its state when the controller restarts
+    (``kept_on_restart``). Outputs (state): ``phi`` (10), ``num_samples`` (1, since the last reset or restart, a
+    static sample counting as the ticks it averaged), ``num_skipped`` (1, enabled ticks whose sample held a NaN
+    or inf)."""
 
     kept_on_restart = True
 
