@@ -19,11 +19,13 @@ A block added to the Diagram is in the program with nothing else to write, and
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import numpy as np
 from pydrake.systems.framework import Diagram, InputPortIndex, OutputPortIndex
 
+from heft.systems.compiled_program import Slice, compilable, compile_program
 from heft.systems.tick_system import Reshaped, TickSystem
 
 
@@ -35,9 +37,12 @@ class TickProgram:
     ``output(name)`` the array a Diagram output is read from: after ``tick``, a state output holds the
     state the tick left and a calculation what the tick computed from its inputs (before the update),
     as Drake's ``EvalUniquePeriodicDiscreteUpdate`` sees them. ``reset`` then ``initialize`` is Drake's
-    ``ExecuteInitializationEvents`` on a default context with the inputs as they are."""
+    ``ExecuteInitializationEvents`` on a default context with the inputs as they are. With ``compile`` (and every
+    kernel compiled by numba), the calculations and the updates each run as one compiled function generated from
+    the program's order (``systems.compiled_program``); else each kernel is called from Python. The two agree
+    to the bit."""
 
-    def __init__(self, diagram: Diagram):
+    def __init__(self, diagram: Diagram, compile: bool = True):
         self.diagram = diagram
         self._parent, self._connections = {}, {}
         blocks = self._leaves(diagram)
@@ -116,10 +121,14 @@ class TickProgram:
         for block, name in self._needed_calculations():
             visit(block, name)
         self.calculation_order = [(block.get_name(), name) for block, name in order]
-        self._calcs = [self._bind(block, block.tick_calcs[name].kernel, block.tick_calcs[name].args, None)
-                       for block, name in order]
-        self._updates = [self._bind(block, kernel, args, self._next) for block in blocks
-                         for kernel, args in block.tick_updates]
+        calculations = [(block, block.tick_calcs[name].kernel, block.tick_calcs[name].args) for block, name in order]
+        updates = [(block, kernel, args) for block in blocks for kernel, args in block.tick_updates]
+        self._calcs = [self._bind(block, kernel, args, None) for block, kernel, args in calculations]
+        self._updates = [self._bind(block, kernel, args, self._next) for block, kernel, args in updates]
+        self.compiled = compile and compilable([kernel for _, kernel, _ in calculations + updates])
+        """Whether a tick calls the calculations and updates compiled as two functions (``_compile``)."""
+        if self.compiled:
+            self._compile(calculations, updates)
         self._initializations = [self._bind(block, kernel, args, self._next) for block in blocks
                                  for kernel, args in block.tick_initializations]
         self._receives = [self._bind(block, kernel, args, self.state) for block in blocks
@@ -204,39 +213,71 @@ class TickProgram:
             system, index = system.get_output_port_locator(OutputPortIndex(int(index)))
         return system, system.tick_outputs[system.get_output_port(index).get_name()]
 
-    def _output_view(self, block, output) -> np.ndarray:
+    def _output_where(self, block, output) -> Slice:
         kind, _, what = output.source.partition(":")
         if kind == "x":
-            return self.state[self._state_slices[block, what]][output.start:output.stop]
-        return self.signals[self._signal_slices[block, what]][output.start:output.stop]
+            where = self._state_slices[block, what]
+            return Slice("state", where.start + output.start, where.start + output.stop)
+        where = self._signal_slices[block, what]
+        return Slice("signals", where.start + output.start, where.start + output.stop)
 
-    def _view(self, block, name: str, next_state: np.ndarray) -> np.ndarray:
+    def _where(self, block, name: str) -> Slice:
+        """Which slice of which flat array (``signals``, ``state``, ``next_state``) ``block``'s array ``name`` is."""
         kind, _, what = name.partition(":")
         if kind == "in":
             source = self._source(block, block.tick_inputs[what].port.get_index())
             if source is None:
-                return self.signals[self._unconnected[block, what]]
-            if source[0] is None:
-                return self.signals[self._input_slices[source[1]]]
-            return self._output_view(*source)
-        if kind == "x":
-            return self.state[self._state_slices[block, what]]
-        if kind == "next":
-            return next_state[self._state_slices[block, what]]
+                where = self._unconnected[block, what]
+            elif source[0] is None:
+                where = self._input_slices[source[1]]
+            else:
+                return self._output_where(*source)
+            return Slice("signals", where.start, where.stop)
+        if kind in ("x", "next"):
+            where = self._state_slices[block, what]
+            return Slice("state" if kind == "x" else "next_state", where.start, where.stop)
         if kind == "calc":
-            return self.signals[self._signal_slices[block, what]]
+            where = self._signal_slices[block, what]
+            return Slice("signals", where.start, where.stop)
         raise ValueError(f"{block.get_name()!r}: unknown array {name!r}")
 
+    def _arguments(self, block, args) -> list:
+        """``args`` with each named array as its ``Slice`` (shaped if ``Reshaped``), other values as they are."""
+        return [dataclasses.replace(self._where(block, arg.name), shape=arg.shape) if isinstance(arg, Reshaped)
+                else self._where(block, arg) if isinstance(arg, str) else arg for arg in args]
+
     def _bind(self, block, kernel, args, next_state):
+        arrays = {"signals": self.signals, "state": self.state, "next_state": next_state}
         values = []
-        for arg in args:
-            if isinstance(arg, Reshaped):
-                values.append(self._view(block, arg.name, next_state).reshape(arg.shape))
-            elif isinstance(arg, str):
-                values.append(self._view(block, arg, next_state))
+        for arg in self._arguments(block, args):
+            if isinstance(arg, Slice):
+                view = arrays[arg.array][arg.start:arg.stop]
+                values.append(view if arg.shape is None else view.reshape(arg.shape))
             else:
                 values.append(arg)
         return functools.partial(kernel, *values)
+
+    def _compile(self, calculations, updates) -> None:
+        """The calculations and updates as two compiled functions (``systems.compiled_program``)."""
+        constants, index = [], {}
+
+        def described(block, args):
+            described = []
+            for arg in self._arguments(block, args):
+                if not isinstance(arg, Slice):
+                    if id(arg) not in index:
+                        index[id(arg)] = len(constants)
+                        constants.append(arg)
+                    arg = index[id(arg)]
+                described.append(arg)
+            return described
+
+        calls = {"calculate": [(kernel, described(block, args)) for block, kernel, args in calculations],
+                 "update": [(kernel, described(block, args)) for block, kernel, args in updates]}
+        calculate, update, bounds = compile_program(calls, constants)
+        self._compiled_calculate = functools.partial(calculate, self.signals, self.state, self._next, bounds,
+                                                     *constants)
+        self._compiled_update = functools.partial(update, self.signals, self.state, self._next, bounds, *constants)
 
     # --- running ------------------------------------------------------------------------
 
@@ -246,15 +287,13 @@ class TickProgram:
 
     def output(self, name: str) -> np.ndarray:
         """The Diagram output ``name``'s array (a view: read it after a tick)."""
-        return self._output_view(*self._leaf_output(self.diagram, self.diagram.GetOutputPort(name).get_index()))
+        in_state, where = self.locate(name)
+        return (self.state if in_state else self.signals)[where]
 
     def locate(self, name: str) -> tuple[bool, slice]:
         """Where the Diagram output ``name`` lies: (True, its slice of ``state``) or (False, of ``signals``)."""
-        view = self.output(name)
-        in_state = np.shares_memory(view, self.state)
-        start = (view.__array_interface__["data"][0]
-                 - (self.state if in_state else self.signals).__array_interface__["data"][0]) // view.itemsize
-        return in_state, slice(start, start + view.size)
+        where = self._output_where(*self._leaf_output(self.diagram, self.diagram.GetOutputPort(name).get_index()))
+        return where.array == "state", slice(where.start, where.stop)
 
     def block(self, name: str):
         """The block named ``name`` (at any depth of the Diagram)."""
@@ -273,11 +312,17 @@ class TickProgram:
 
     def calculate(self) -> None:
         """Every calculation, from the inputs and the state as they are."""
+        if self.compiled:
+            self._compiled_calculate()
+            return
         for calc in self._calcs:
             calc()
 
     def update(self) -> None:
         """Every block's update from the calculations and the state; the result becomes the state."""
+        if self.compiled:
+            self._compiled_update()
+            return
         np.copyto(self._next, self.state)
         for update in self._updates:
             update()

@@ -10,6 +10,7 @@ from pydrake.systems.primitives import ConstantVectorSource
 from heft.diagrams.running.simulation import true_load
 from heft.diagrams.teleop import MakeTeleopController
 from heft.systems.controller.passivity_controller import PassivityController
+from heft.systems.compiled import PURE_PYTHON
 from heft.systems.tick_program import TickProgram
 from heft.systems.tick_program_system import TickProgramSystem
 from heft.systems.tick_system import TickConstant
@@ -31,9 +32,11 @@ def recorded():
     return sequence, drake_run(make_controller()[0], sequence)
 
 
-def test_the_program_steps_the_diagram_exactly(recorded):
+@pytest.mark.parametrize("compile", [True, False], ids=["compiled", "kernel by kernel"])
+def test_the_program_steps_the_diagram_exactly(recorded, compile):
     sequence, expected = recorded
-    program = TickProgram(make_controller()[0])
+    program = TickProgram(make_controller()[0], compile=compile)
+    assert program.compiled == (compile and not PURE_PYTHON)
     for k, (tick, reference) in enumerate(zip(program_run(program, sequence), expected, strict=True)):
         for name, value in reference.items():
             np.testing.assert_array_equal(tick[name], value, err_msg=f"{name} at tick {k}")
