@@ -20,6 +20,7 @@ from heft.systems.accelerometer_calibration import unit_factor
 from heft.systems.accelerometer_reading import PLAUSIBLE_BIAS, bias_at_rest
 from heft.systems.load_dynamics import checked_load
 from heft.systems.controller.offset_tracking import COLLECTING, DONE, STATUS_TEXT
+from heft.systems.controller.rls_load_estimator import AT_REST
 
 from heft.hardware_interface.gripper_state_reader import GRASP
 
@@ -139,12 +140,16 @@ class LoadCommandServer:
                  f"{1e3 * estimator.max_input_age:g} ms" if estimator.num_stale else "")
         if not estimator.num_samples:
             return (f"object not learned over {estimator.learning_window:g} s: no sample taken{stale}; until it is "
-                    "(`heft load --grasp` again, the slave moving steadily), its whole weight is felt as contact")
+                    "(`heft load --grasp` again, the slave held still or moving steadily), its whole weight is felt as "
+                    "contact")
         mass = phi[0] - gripper[0]
         centre = (phi[1:4] - gripper[1:4]) / mass if mass > 0 else [math.nan] * 3
+        at_rest = estimator.program.block_state("phi_hat", "counters")[AT_REST] == estimator.num_samples
         return (f"object learned over {estimator.learning_window:g} s: m = {mass:.4g} kg, its centre of "
                 f"mass at [" + ", ".join(f"{1e3 * x:.1f}" for x in centre) + "] mm in S "
-                f"({estimator.num_samples} samples taken{stale})")
+                f"({estimator.num_samples} samples taken{stale}"
+                + ("; at rest only: its centre of mass along gravity and its inertia are learned once the arm "
+                   "moves" if at_rest else "") + ")")
 
     def _grasp_or_release(self, grasp: bool, utime: int) -> tuple[bool, str]:
         controller = self._controller

@@ -30,9 +30,9 @@ RLS = np.dtype([("weighted", float, (6, P + 1)), ("row", float, P + 1), ("V", fl
                 ("forgetting", float), ("sqrt_forgetting", float), ("pull", float), ("sqrt_prior", float),
                 ("theta", float, P)])
 """``least_squares_update``'s and ``least_squares_start_from``'s arguments besides the state, and a scratch φ."""
-SKIPPED, RESETS, RESTARTS, RESTS = range(4)
+SKIPPED, RESETS, RESTARTS, RESTS, AT_REST = range(5)
 """The block's counters: enabled ticks whose sample held a NaN or inf, the reset and restart requests seen, the
-static samples seen."""
+static samples seen, and the ticks at rest they averaged since the last reset or restart."""
 _ROOT = P + 2 + 6 * 12 * 12
 """Where the square-root information [S z; 0 ρ] starts in the state (``recursive_estimation``'s layout)."""
 
@@ -89,23 +89,23 @@ def take_rest_sample(state, rest, rls) -> None:
 @compiled("void(float64[::1], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], "
           "float64[:], float64[:], RLS[:])", RLS=RLS)
 def rls_update(state, counters, wrench, acceleration, omega, gravity, enable, reset, restart, rest, rls) -> None:
-    """One tick on the estimator's ``state`` and ``counters`` (4): a restart ([counter, φ]) or a reset
+    """One tick on the estimator's ``state`` and ``counters`` (5): a restart ([counter, φ]) or a reset
     (counter) request first, then a new static sample (``rest``, ``take_rest_sample``), then the sample if
     ``enable`` (1) > 0.5 and it is finite."""
     r = rls[0]
     theta = r["theta"]
     if restart[0] > counters[RESTARTS]:
-        counters[RESTARTS] = restart[0]
+        counters[RESTARTS], counters[AT_REST] = restart[0], 0.0
         for i in range(P):
             theta[i] = restart[1 + i]
         least_squares_start_from(state, P, r["sqrt_prior"], theta)
     if reset[0] > counters[RESETS]:
-        counters[RESETS] = reset[0]
+        counters[RESETS], counters[AT_REST] = reset[0], 0.0
         for i in range(P):
             theta[i] = state[i]
         least_squares_start_from(state, P, r["sqrt_prior"], theta)
     if rest[0] > counters[RESTS]:
-        counters[RESTS] = rest[0]
+        counters[RESTS], counters[AT_REST] = rest[0], counters[AT_REST] + rest[1]
         take_rest_sample(state, rest, rls)
     if not enable[0] > 0.5:
         return
@@ -152,7 +152,7 @@ class RlsLoadEstimator(TickSystem):
         self.DeclareTickInput("restart", ESTIMATE_SIZE, np.zeros(ESTIMATE_SIZE))
         self.DeclareTickState("state", state)
         self.DeclareTickInput("rest", SAMPLE_SIZE, np.zeros(SAMPLE_SIZE))
-        self.DeclareTickState("counters", np.zeros(4))
+        self.DeclareTickState("counters", np.zeros(5))
         self.DeclareTickUpdate(rls_update, "next:state", "next:counters", "in:wrench", "in:acceleration", "in:omega",
                                "in:gravity", "in:enable", "in:reset", "in:restart", "in:rest", self.rls)
         self.DeclareTickOutput("phi", "x:state", 0, P)
