@@ -89,11 +89,11 @@ class TeleopController:
     ``torque`` τ_M (6, N·m) and ``position`` q̄_S (6, rad) to send, the state the update left
     (``applied_wrench``, ``energy``, ``damping``, ``scales``, ``offsets``, ``phi``, ``pose_RS_desired``) and
     what the tick computed from its readings (``wrench_feedback``, ``wrench_contact``, ``wrench_noncontact``,
-    ``master_wrench``: at S in S, on the hand at E in B)."""
+    ``master_wrench``: at S in S, on the hand at E in B). ``compile`` as ``TickProgram``'s."""
 
     def __init__(self, spec: ControllerSpec, load: LoadEstimate, robot: str, period: float, *,
                  accelerometer: AccelerometerConvention, feedback_blocks: Sequence[FeedbackBlock] = (),
-                 station: Callable[[], HardwareStation] | None = None):
+                 station: Callable[[], HardwareStation] | None = None, compile: bool = True):
         phi, offsets = checked_load(load.phi, load.offsets)
         self.period = period
         controller = MakeTeleopController(spec, LoadEstimate(phi, offsets), robot, period, np.zeros(NUM_JOINTS),
@@ -102,7 +102,7 @@ class TeleopController:
         # loop is about to pump them.
         self.station = None if station is None else HardwareStationSystem(station(), period)
         self.diagram = controller if station is None else _with_station(controller, self.station)
-        self.program = program = TickProgram(self.diagram)
+        self.program = program = TickProgram(self.diagram, compile=compile)
         online = spec.estimator.mode == "online"
         self.estimator = OnlineEstimation(program, spec.estimator) if online else None
         if station is None:

@@ -280,8 +280,8 @@ def test_simulate_compares_the_papers_sigmas_unless_a_sigma_is_stated(capsys):
 
 
 def test_bench_step_times_the_program_against_drakes_stepping_of_the_same_diagram():
-    """The bench's two ways of ticking the controller Diagram command the same torques on its readings,
-    exactly (a tick that skipped the blocks' updates would command none)."""
+    """The bench's ways of ticking the controller Diagram (compiled, kernel by kernel, Drake's) command the same
+    torques on its readings, exactly (a tick that skipped the blocks' updates would command none)."""
     import numpy as np
 
     from heft.diagrams.commands import bench_step
@@ -293,12 +293,15 @@ def test_bench_step_times_the_program_against_drakes_stepping_of_the_same_diagra
     load, _ = true_load(scenario)
     period, convention = scenario.controller_period, scenario.accelerometer.convention()
     sequence = bench_step.readings(scenario, 60, period)
-    program, drake = [], []
+    program, by_kernel, drake = [], [], []
     controller = TeleopController(scenario.controller, load, scenario.robot, period, accelerometer=convention)
     bench_step.time_controller(controller, sequence, period, program)
+    bench_step.time_controller(TeleopController(scenario.controller, load, scenario.robot, period,
+                                                accelerometer=convention, compile=False), sequence, period, by_kernel)
     bench_step.time_controller(bench_step.DrakeStepping(controller.diagram), sequence, period, drake)
     assert np.abs(program).max() > 0.01
     np.testing.assert_array_equal(drake, program)
+    np.testing.assert_array_equal(drake, by_kernel)
 
 
 def test_teleop_uses_the_accelerometer_calibration_of_its_estimate(tmp_path, capsys):

@@ -105,13 +105,16 @@ def _bench_step(args) -> int:
     load, _ = true_load(scenario)
     period, convention = scenario.controller_period, scenario.accelerometer.convention()
     sequence = bench.readings(scenario, args.ticks, period)
-    program = TeleopController(scenario.controller, load, scenario.robot, period, accelerometer=convention)
-    torques = {"program": [], "drake": []}
-    results = {"ticks": args.ticks,
+    program, by_kernel = (TeleopController(scenario.controller, load, scenario.robot, period, accelerometer=convention,
+                                           compile=compile) for compile in (True, False))
+    torques = {"program": [], "by_kernel": [], "drake": []}
+    results = {"ticks": args.ticks, "compiled": program.program.compiled,
                "program": bench.time_controller(program, sequence, period, torques["program"]),
+               "by_kernel": bench.time_controller(by_kernel, sequence, period, torques["by_kernel"]),
                "drake": bench.time_controller(bench.DrakeStepping(program.diagram), sequence, period,
                                               torques["drake"])}
-    results["torque_difference"] = float(np.abs(np.array(torques["program"]) - np.array(torques["drake"])).max())
+    results["torque_difference"] = float(max(np.abs(np.array(torques[name]) - np.array(torques["drake"])).max()
+                                             for name in ("program", "by_kernel")))
     bench.report(results, period)
     _write(args, results)
     return 0
