@@ -16,6 +16,7 @@ import yaml
 from pydrake.common.yaml import yaml_load_typed
 
 from heft.analysis.csv_layout import DELIMITERS
+from heft.analysis.yaml_tree import yaml_tree
 from heft.systems.accelerometer_calibration import UNITS as ACCELEROMETER_UNITS
 from heft.systems.accelerometer_calibration import AccelerometerCalibration
 from heft.systems.identification.rotation_sampling import ROTATION_TOLERANCE, rotation_defects
@@ -26,11 +27,11 @@ ESTIMATE = "estimate"
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 """A time column's unit → s."""
 
-ORIENTATION_KINDS = {"rotation_matrix": 9, "quaternion_wxyz": 4, "quaternion_xyzw": 4, "joint_positions": 6}
-"""Orientation kinds → their number of columns: R_WS row-major (r11, r12, …, r33); a unit quaternion
-of R_WS either way round; the arm's joint angles (rad), R_WS from heft's model of ``robot``."""
-
-ROBOTS = ("rx90", "rx60")
+ORIENTATION_KINDS = {"rotation_matrix": (9,), "quaternion_wxyz": (4,), "quaternion_xyzw": (4,),
+                     "joint_positions": (6, 7)}
+"""Orientation kinds → their numbers of columns: R_WS row-major (r11, r12, …, r33); a unit quaternion
+of R_WS either way round; the arm's joint angles (rad), R_WS from heft's model of ``robot`` (a bundled
+arm, or ``custom``: the recording's ``arm``; ``diagrams.recording_kinematics``)."""
 
 
 @dataclasses.dataclass
@@ -94,8 +95,8 @@ class AccelerometerStream(StreamFile):
 
 @dataclasses.dataclass
 class OrientationStream(StreamFile):
-    """R_WS over time: ``kind`` (``ORIENTATION_KINDS``) and its columns; ``robot`` (rx90 | rx60) for
-    joint_positions."""
+    """R_WS over time: ``kind`` (``ORIENTATION_KINDS``) and its columns; ``robot`` for joint_positions (a
+    bundled arm's name, or ``custom``: the recording's ``arm``)."""
     time: Clock = dataclasses.field(default_factory=Clock)
     kind: str = "rotation_matrix"
     columns: list[str] = dataclasses.field(
@@ -147,6 +148,9 @@ class Recording:
     lcm_log: str | None = None
     """A log of `heft … --hardware --record`: the wrench, the accelerometer and the joint angles from heft's
     channels (``diagrams.recordings``); stream entries then give settings only (p_SA, robot, offsets)."""
+    arm: dict | None = None
+    """For joint angles of ``robot: custom``: the arm as a scenario's ``arm`` section gives it (urdf, base,
+    flange, X_FS; ``diagrams/arm_params.py``), its URDF relative to this file; read by ``diagrams``."""
     folder: str = "."
     source: str = "recording"
 
@@ -171,7 +175,7 @@ def load_recording(path) -> Recording:
     if not path.is_file():
         raise ValueError(f"recording file {path} does not exist")
     try:
-        recording = _typed(yaml.safe_load(path.read_text()) or {})
+        recording = _typed(yaml_tree(path.read_text()))
     except yaml.MarkedYAMLError as error:
         mark = error.problem_mark or error.context_mark
         raise ValueError(f"{path}, line {mark.line + 1}, column {mark.column + 1}: {error.problem or error.context}"
@@ -197,7 +201,11 @@ def _typed(data: dict) -> Recording:
     if not isinstance(data, dict):
         raise ValueError("a recording is a YAML mapping of its streams (wrench, accelerometer, …)")
     parts = {name: data.pop(name) for name in list(data) if name in _OPTIONAL_PARTS}
+    arm = data.pop("arm", None)
+    if arm is not None and not isinstance(arm, dict):
+        raise ValueError(f"arm must be a mapping of its fields (urdf, base, flange, X_FS) or null; got {arm!r}")
     recording = yaml_load_typed(schema=Recording, data=yaml.safe_dump(data)) if data else Recording()
+    recording.arm = arm
     for name, value in parts.items():
         if value is not None:
             if not isinstance(value, dict):
@@ -268,7 +276,7 @@ def _first_problem(recording: Recording) -> str | None:
                    None if np.isfinite(acc.scale) and acc.scale > 0 else
                    f"accelerometer.scale must be a positive number; got {acc.scale}"]
     if ori is not None:
-        checks.append(_orientation_problem("orientation", ori.kind, ori.columns, ori.robot))
+        checks.append(_orientation_problem("orientation", ori.kind, ori.columns, ori.robot, recording.arm))
     if omega is not None:
         checks.append(_columns_problem("angular_velocity", omega.columns, (3,)))
     poses = recording.static_poses
@@ -282,21 +290,23 @@ def _first_problem(recording: Recording) -> str | None:
                    None if poses.gravity_S is None else
                    _columns_problem("static_poses.gravity_S", poses.gravity_S, (3,)),
                    None if poses.orientation is None else _orientation_problem(
-                       "static_poses", poses.orientation_kind, poses.orientation, poses.robot, "orientation_kind",
-                       "orientation")]
+                       "static_poses", poses.orientation_kind, poses.orientation, poses.robot, recording.arm,
+                       "orientation_kind", "orientation")]
     checks.append(_vector_problem("gravity_W", recording.gravity_W, estimable=False))
     checks.append(None if recording.differentiation.window > 0 and recording.differentiation.order >= 1 else
                   "differentiation needs a window > 0 (s) and an order >= 1")
     return next((c for c in checks if c), None)
 
 
-def _orientation_problem(name, kind, columns, robot, kind_field="kind", columns_field="columns") -> str | None:
+def _orientation_problem(name, kind, columns, robot, arm, kind_field="kind", columns_field="columns") -> str | None:
     if kind not in ORIENTATION_KINDS:
         return f"{name}.{kind_field} {kind!r} is not one of {', '.join(ORIENTATION_KINDS)}"
-    if kind == "joint_positions" and robot not in ROBOTS:
-        return f"{name}.robot must be one of {', '.join(ROBOTS)} for joint_positions; got {robot!r}"
-    return _columns_problem(f"{name}.{columns_field}" if columns_field != "columns" else f"{name}.columns",
-                            columns, (ORIENTATION_KINDS[kind],))
+    if kind == "joint_positions" and not (isinstance(robot, str) and robot):
+        return f"{name}.robot must name the arm for joint_positions (a bundled arm, or custom); got {robot!r}"
+    if kind == "joint_positions" and robot == "custom" and arm is None:
+        return f"{name}.robot custom needs the recording's arm section (urdf, base, flange, X_FS)"
+    return _columns_problem(name if columns_field == "columns" else f"{name}.{columns_field}", columns,
+                            ORIENTATION_KINDS[kind])
 
 
 def _vector_problem(name: str, value, estimable: bool) -> str | None:

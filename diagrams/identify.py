@@ -21,9 +21,8 @@ from heft.analysis.fit_verdict import FitEvidence, fit_verdict, noise_floor
 from heft.analysis.identification_report import convergence_figure, estimate_errors, verdict_report
 from heft.diagrams.progress import ProgressBar
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.plants import MakeSlavePlant
+from heft.diagrams.plants import MakeSlavePlant, arm_name, payload_max, slave_arm
 from heft.diagrams.load_estimate import estimate_record, write_load_estimate
-from heft.diagrams.models.make_tool_inertia import RX60, RX90
 from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.identification.batch_estimation import METHODS, batch_estimate
 from heft.systems.identification.recursive_estimation import (
@@ -48,7 +47,6 @@ EXCITATION_VELOCITY_FRACTION = 0.5
 EXCITATION_ACCELERATION = 10.0
 # Recursive estimates are sampled this often (samples) for the convergence plot.
 HISTORY_STRIDE = 200
-ARMS = {arm.name: arm for arm in (RX90, RX60)}
 
 
 class FitRefused(ValueError):
@@ -170,7 +168,8 @@ def judge_fit(scenario: Scenario, recording: Recording, results: dict, method: s
         residual=fit_residual(result, signal_set, recording.wrench), noise_floor=floor(result),
         sample_period=recording.t[1] - recording.t[0], wrench=recording.wrench, wrench_full_scale=ft.full_scale,
         acceleration=recording.accel_measured, acceleration_full_scale=accelerometer.full_scale,
-        mass=float(result.phi[0]), payload_max=ARMS[scenario.robot].payload_max, robot=scenario.robot,
+        mass=float(result.phi[0]), payload_max=payload_max(slave_arm(scenario)),
+        robot=arm_name(slave_arm(scenario)),
         q_measured=recording.q, q_commanded=trajectory.position(recording.t), other_methods=others))
 
 

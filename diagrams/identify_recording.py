@@ -23,10 +23,11 @@ from heft.analysis.fit_verdict import AXES, RESIDUAL_RATIO_LIMIT, FitEvidence, f
 from heft.analysis.identification_report import estimate_history_figure, static_pose_figure, verdict_report
 from heft.analysis.recording import ESTIMATE, load_recording
 from heft.analysis.static_pose_table import read_static_poses
-from heft.diagrams.identify import ALL_METHODS, ARMS, FitRefused, estimate_all, fit_residual, residual_rms
+from heft.diagrams.identify import ALL_METHODS, FitRefused, estimate_all, fit_residual, residual_rms
 from heft.diagrams.load_estimate import estimate_record, write_load_estimate
+from heft.diagrams.plants import arm_name, payload_max, slave_arm
 from heft.diagrams.recordings import open_recording
-from heft.diagrams.recording_kinematics import joint_orientation
+from heft.diagrams.recording_kinematics import recording_joint_orientation
 from heft.diagrams.scenario import Scenario
 from heft.systems.identification.batch_estimation import batch_estimate
 from heft.systems.load_dynamics import PARAMETER_NAMES
@@ -46,8 +47,12 @@ DERIVED_ALPHA_NOISE = 0.05
 a smooth pose; the estimators that model noise need one above 0), a tenth of an accelerometer's."""
 
 
-def _joints(recording, robot):
-    return joint_orientation(robot) if robot else None
+def _joints(recording):
+    """The static poses' arm kinematics, where they give the orientation as joint angles."""
+    poses = recording.static_poses
+    if poses.orientation is None or poses.orientation_kind != "joint_positions":
+        return None
+    return recording_joint_orientation(recording, poses.robot, poses.orientation, "static_poses")
 
 
 def recording_noise(scenario: Scenario, alpha_recorded: bool) -> NoiseLevels:
@@ -93,10 +98,11 @@ def static_verdict(static: StaticCalibration, scenario: Scenario) -> dict:
         worst = int(np.argmax(ratio))
         words.append(f"the poses disagree: residual {ratio[worst]:.1f}× the sensor's noise on {AXES[worst]}; a pose "
                      "not at rest, a cable pulling, the load touching something, or gravity given in another frame")
-    payload = ARMS[scenario.robot].payload_max
+    payload = payload_max(slave_arm(scenario))
     if static.mass > payload:
         causes.append("payload")
-        words.append(f"the mass {static.mass:.2f} kg exceeds the {scenario.robot.upper()}'s payload of {payload:g} kg")
+        words.append(f"the mass {static.mass:.2f} kg exceeds the {arm_name(slave_arm(scenario)).upper()}'s payload "
+                     f"of {payload:g} kg")
     message = ("the poses agree within the sensor's noise" if not causes else
                "the fit is not to be trusted: " + "; ".join(words))
     return {"ok": not causes, "causes": causes, "message": message, "residual_ratio": ratio.tolist()}
@@ -155,9 +161,10 @@ def _stream_fit(recording, source, scenario: Scenario, method: str, out: Path) -
     verdict = fit_verdict(FitEvidence(
         residual=fit_residual(result, signals, merged.wrench), noise_floor=floor(result), sample_period=period,
         wrench=merged.wrench, wrench_full_scale=scenario.ft_sensor.full_scale, acceleration=None,
-        acceleration_full_scale=None, mass=float(result.phi[0]), payload_max=ARMS[scenario.robot].payload_max,
-        robot=scenario.robot, other_methods={m: float(np.max(residual_rms(r, signals, merged.wrench) / floor(r)))
-                                             for m, r in results.items() if m != method}))
+        acceleration_full_scale=None, mass=float(result.phi[0]), payload_max=payload_max(slave_arm(scenario)),
+        robot=arm_name(slave_arm(scenario)),
+        other_methods={m: float(np.max(residual_rms(r, signals, merged.wrench) / floor(r)))
+                       for m, r in results.items() if m != method}))
     metrics["fit_verdict"] = verdict
     say.info(verdict_report(verdict, method))
     return metrics, {**records[method], "verdict": verdict}
@@ -176,7 +183,7 @@ def identify_recording(path, out_dir, scenario: Scenario, method: str = "tls", a
     out.mkdir(parents=True, exist_ok=True)
     metrics, calibration, record, verdict = {"recording": str(path)}, None, None, None
     if recording.static_poses is not None:
-        table = read_static_poses(recording, _joints(recording, recording.static_poses.robot))
+        table = read_static_poses(recording, _joints(recording))
         unit = recording.accelerometer.unit if recording.accelerometer is not None else "m/s^2"
         static = calibrate_static(table.wrench, table.gravity_S, table.accelerometer, unit)
         metrics["static_poses"], lines = static_report(static)

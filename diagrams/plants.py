@@ -17,8 +17,10 @@ from pydrake.multibody.tree import (LinearBushingRollPitchYaw, QuaternionFloatin
                                     SpatialInertia)
 
 from heft.diagrams import mount
+from heft.diagrams.arm_params import BUNDLED_ARMS, ArmParams
 from heft.diagrams.models import model_path
 from heft.diagrams.scenario import LoadSpec, MountSpec, Scenario
+from heft.diagrams.urdf_arm import AddArmFromUrdf, ArmChain
 from heft.systems.load_dynamics import GRAVITY_W, InertialParameters, inertia_entries, inertia_matrix
 from heft.systems.controller.master_kinematics import BASE_FRAME, STYLUS_FRAME
 
@@ -29,6 +31,7 @@ MASTER_URDF = "phantom_premium_6dof.urdf"
 class SlaveParts:
     """Handles into a plant holding the slave arm, its wrist sensor and load."""
     arm: object                 # ModelInstanceIndex of the arm
+    chain: ArmChain             # the arm's base R, flange F, joints and actuators base to flange, limits
     sensor_body: object         # the JR3 body; its frame is on the flange
     S: object                   # the sensor frame S
     load_bodies: list           # bodies below S (tool, or gripper and object, or custom)
@@ -44,17 +47,51 @@ def _custom_load_inertia(spec) -> SpatialInertia:
         load.mass, load.com, RotationalInertia(I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]))
 
 
-def AddArmWithSensor(plant: MultibodyPlant, robot: str):
-    """Adds the arm ``robot`` ("rx90" or "rx60", base welded at W = R) and the JR3 on its
-    flange; returns (arm model instance, sensor body, sensor frame S)."""
+Robot = str | ArmParams
+"""A slave arm as the builders take it: a bundled arm's name (``BUNDLED_ARMS``), or a custom arm's
+``ArmParams`` (its URDF's path absolute, or relative to the working directory)."""
+
+
+def slave_arm(scenario: Scenario) -> Robot:
+    """The scenario's slave arm: its ``robot``, or for ``robot: custom`` its ``arm`` section."""
+    return scenario.arm if scenario.robot == "custom" else scenario.robot
+
+
+def arm_params(robot: Robot) -> ArmParams:
+    """The URDF and links of ``robot``: a bundled arm's model file, ``<name>_base`` and ``flange``."""
+    if isinstance(robot, ArmParams):
+        return robot
+    if robot not in BUNDLED_ARMS:
+        raise ValueError(f"no bundled arm {robot!r}; bundled: {', '.join(BUNDLED_ARMS)}")
+    return ArmParams(urdf=model_path(f"{robot}.urdf"), base=f"{robot}_base", flange="flange")
+
+
+def arm_name(robot: Robot) -> str:
+    """The name reports give ``robot``: a bundled arm's, else the custom arm's URDF file name."""
+    return robot if isinstance(robot, str) else arm_params(robot).urdf_path().name
+
+
+def payload_max(robot: Robot) -> float:
+    """The arm's rated payload (kg; inf where a custom arm states none)."""
+    return BUNDLED_ARMS[robot].payload if isinstance(robot, str) else robot.payload
+
+
+def AddArmWithSensor(plant: MultibodyPlant, robot: Robot):
+    """Adds the arm ``robot`` (``AddArmFromUrdf``: base welded at W = R, every joint actuated) and the JR3 on
+    its flange: a bundled arm's on the flange face, a custom arm's with S at its ``X_FS``; returns (the arm's
+    chain, the sensor body, the sensor frame S). A custom arm's URDF that lacks what heft needs is refused
+    (``ArmRefused``, one line)."""
+    params = arm_params(robot)
+    chain = AddArmFromUrdf(plant, params)
     parser = Parser(plant)
     parser.SetAutoRenaming(True)
-    (arm,) = parser.AddModels(model_path(f"{robot}.urdf"))
-    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(f"{robot}_base", arm))
     (sensor_instance,) = parser.AddModels(model_path("jr3_sensor.urdf"))
     sensor_body = plant.GetBodyByName("jr3_sensor", sensor_instance)
-    plant.WeldFrames(plant.GetFrameByName("flange", arm), sensor_body.body_frame())
-    return arm, sensor_body, plant.GetFrameByName("S", sensor_instance)
+    S = plant.GetFrameByName("S", sensor_instance)
+    X_FJ = RigidTransform() if isinstance(robot, str) else (
+        params.X_FS.GetDeterministicValue() @ S.GetFixedPoseInBodyFrame().inverse())
+    plant.WeldFrames(chain.flange, sensor_body.body_frame(), X_FJ)
+    return chain, sensor_body, S
 
 
 def _add_compliant_mount(plant: MultibodyPlant, S, load_body, spec: MountSpec):
@@ -93,13 +130,20 @@ def AddSlave(plant: MultibodyPlant, scenario: Scenario, mount_compliance: bool =
     a compliant mount with ``mount_compliance`` (the simulated station's physics; models of the
     load for control and analysis stay rigid) of ``mount_constants``, by default the scenario's
     mount as the station builds it (``mount_for``)."""
-    arm, sensor_body, S = AddArmWithSensor(plant, scenario.robot)
+    chain, sensor_body, S = AddArmWithSensor(plant, slave_arm(scenario))
+    if len(scenario.slave_initial_q) != chain.num_joints:
+        raise ValueError(f"scenario field 'slave_initial_q' needs {chain.num_joints} joint angles (rad) for the arm "
+                         f"{arm_name(slave_arm(scenario))}; got {len(scenario.slave_initial_q)}")
+    outside = [f"joint {j + 1} at {q:g} outside [{lo:g}, {hi:g}]" for j, (q, lo, hi) in
+               enumerate(zip(scenario.slave_initial_q, chain.lower, chain.upper)) if not lo <= q <= hi]
+    if outside:
+        raise ValueError(f"scenario field 'slave_initial_q' must lie within the joint limits (rad): {'; '.join(outside)}")
     load_bodies, gripper_bodies = _add_load(plant, scenario.load)
     if mount_compliance and not scenario.load.mount.rigid:
         weld, joint = _add_compliant_mount(plant, S, load_bodies[0], mount_constants or mount_for(scenario))
     else:
         weld, joint = plant.WeldFrames(S, load_bodies[0].body_frame()), None
-    return SlaveParts(arm, sensor_body, S, load_bodies, weld, gripper_bodies, joint)
+    return SlaveParts(chain.instance, chain, sensor_body, S, load_bodies, weld, gripper_bodies, joint)
 
 
 def load_phi(spec: LoadSpec) -> np.ndarray:
@@ -181,7 +225,7 @@ def MakeMasterPlant() -> MultibodyPlant:
     return plant
 
 
-def MakeArmPlant(robot: str) -> tuple[MultibodyPlant, object]:
+def MakeArmPlant(robot: Robot) -> tuple[MultibodyPlant, object]:
     """(finalized continuous plant of the arm ``robot`` with its JR3, its sensor frame S): the
     kinematic model a controller or an analysis needs (no load)."""
     plant = MultibodyPlant(time_step=0.0)

@@ -34,8 +34,8 @@ def open_recording(path, estimate_path=None, calibration=None, calibrated_by: st
         recording, calibrated = with_accelerometer_calibration(recording, calibration), calibrated_by
     orientation, joints = recording.orientation, None
     if orientation is not None and orientation.kind == "joint_positions":
-        from heft.diagrams.recording_kinematics import joint_orientation
-        joints = joint_orientation(orientation.robot)
+        from heft.diagrams.recording_kinematics import recording_joint_orientation
+        joints = recording_joint_orientation(recording, orientation.robot, orientation.columns, "orientation")
     source = RecordingSource(recording, joints)
     source.choices.update(log_choices)
     if calibrated:

@@ -20,6 +20,8 @@ from pydrake.common.yaml import yaml_load_typed
 from pydrake.multibody.plant import MultibodyPlantConfig
 from pydrake.systems.analysis import SimulatorConfig
 
+from heft.analysis.yaml_tree import yaml_tree
+from heft.diagrams.arm_params import BUNDLED_ARMS, ROBOTS, ArmParams
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station_params import HardwareStationParams
 from heft.hardware_interface.netft_params import NetFtParams
@@ -180,9 +182,11 @@ class Scenario:
     """One simulated station and run. ``experiment`` names which of the paper's
     experiments it replays ("fig6", "fig7", "fig8"), choosing metrics and figure; "" for none."""
     experiment: str = ""
-    robot: str = "rx90"                     # "rx90" or "rx60"
-    slave_initial_q: list[float] = dataclasses.field(
-        default_factory=lambda: [0.0, 0.5, 1.8, 0.0, 0.84, 0.0])  # rad
+    robot: str = "rx90"                     # the slave: a bundled arm (``BUNDLED_ARMS``) or "custom"
+    arm: ArmParams = dataclasses.field(default_factory=ArmParams)  # robot "custom" only: the lab's arm
+    # The slave's start posture (rad, one angle per joint). A robot stated without it (in a file, or laid over
+    # one) starts in its own (``BundledArm.start``; ``with_arm_defaults``); a custom arm needs it stated.
+    slave_initial_q: list[float] = dataclasses.field(default_factory=lambda: list(BUNDLED_ARMS["rx90"].start))
     master_initial_q: list[float] = dataclasses.field(default_factory=lambda: [0.0] * 6)  # rad
     load: LoadSpec = dataclasses.field(default_factory=LoadSpec)
     environment: EnvironmentSpec = dataclasses.field(default_factory=EnvironmentSpec)
@@ -200,8 +204,10 @@ class Scenario:
     # to the wall clock; the defaults run as fast as they can.
     simulator: SimulatorConfig = dataclasses.field(default_factory=SimulatorConfig)
     controller_period: float = 0.0005       # s, 2 kHz (on hardware too: the loop's rate)
+    # N·m/rad, the robot's own joint loop, one per joint; empty: ringing at ``SERVO_FREQUENCY``. A robot stated
+    # without it takes its own (``BundledArm.servo_stiffness``), as the start posture.
     slave_servo_stiffness: list[float] = dataclasses.field(
-        default_factory=lambda: [4e4, 4e4, 2e4, 2e3, 2e3, 5e2])  # N·m/rad, the robot's own joint loop
+        default_factory=lambda: list(BUNDLED_ARMS["rx90"].servo_stiffness))
     slave_servo_damping_ratio: float = 1.0
     slave_setpoint_bandwidth: float = 20.0  # Hz, the robot controller's setpoint filter
     encoder_counts_per_rev: float = 2.0 ** 20  # slave; the master's is in the model notes
@@ -224,8 +230,23 @@ class Scenario:
              "split; give controller.force.phi_gripper (the gripper's φ, Eq. 6), use a load with a grasp "
              "(load.grasp_at: the gripper is identified alone), learn the load online "
              "(controller.estimator.mode: online; on hardware a grasp over LCM splits it) or leave η at 1")
-        need(self.robot in ("rx90", "rx60"), "robot", f"must be 'rx90' or 'rx60', not {self.robot!r}")
-        need(len(self.slave_initial_q) == 6, "slave_initial_q", "needs 6 joint angles (rad)")
+        need(self.robot in ROBOTS, "robot", f"must be one of {', '.join(ROBOTS)}, not {self.robot!r}")
+        if self.robot == "custom":
+            try:
+                self.arm.validate()
+            except ValueError as error:  # its message starts with the field's name
+                field, _, what = str(error).partition(" ")
+                raise ValueError(f"scenario field 'arm.{field}' {what} (robot: custom)") from None
+            need(len(self.slave_initial_q) > 0, "slave_initial_q",
+                 "needs the custom arm's start posture, one angle per joint (rad)")
+        else:
+            need(not (self.arm.urdf or self.arm.base or self.arm.flange), "arm",
+                 f"describes a custom arm: give it with robot: custom, not robot: {self.robot}")
+            joints = len(BUNDLED_ARMS[self.robot].start)
+            need(len(self.slave_initial_q) == joints, "slave_initial_q",
+                 f"needs {joints} joint angles (rad) for the {self.robot}; got {len(self.slave_initial_q)}")
+            need(len(self.slave_servo_stiffness) in (0, joints), "slave_servo_stiffness",
+                 f"needs {joints} gains (N·m/rad) for the {self.robot}, or none (from its inertias)")
         need(len(self.master_initial_q) == 6, "master_initial_q", "needs 6 joint angles (rad)")
         need(self.load.kind in ("tool", "gripper_object", "custom"), "load.kind",
              f"must be 'tool', 'gripper_object' or 'custom', not {self.load.kind!r}")
@@ -257,8 +278,8 @@ class Scenario:
         need(math.isfinite(steps) and steps >= 0 and abs(steps - round(steps)) < 1e-6, "controller.delay",
              f"must be >= 0 and a whole number of controller periods ({self.controller_period:g} s); "
              f"got {self.controller.delay!r} s")
-        need(len(self.slave_servo_stiffness) == 6 and min(self.slave_servo_stiffness) > 0,
-             "slave_servo_stiffness", "needs 6 positive gains (N·m/rad)")
+        need(all(math.isfinite(k) and k > 0 for k in self.slave_servo_stiffness), "slave_servo_stiffness",
+             "needs gains > 0 (N·m/rad)")
         need(self.duration > 0, "duration", "must be > 0 (s)")
         need(math.isfinite(self.slave_velocity_filter) and self.slave_velocity_filter >= 0, "slave_velocity_filter",
              "must be >= 0 (Hz; 0: the true velocity)")
@@ -272,6 +293,24 @@ class Scenario:
         need(self.slave_setpoint_bandwidth > 0, "slave_setpoint_bandwidth", "must be > 0 (Hz)")
         need(math.isfinite(self.duration), "duration", "must be finite")
         return self
+
+
+def with_arm_defaults(scenario: Scenario, stated: dict, robot_before: str) -> Scenario:
+    """``scenario`` (changed in place), whose YAML ``stated`` its fields, with its robot's own start posture,
+    servo gains and motion scale (``BundledArm``) where ``stated`` names a robot other than ``robot_before``
+    and not them; a custom arm brings none (its start posture must then be stated, its gains come from its
+    inertias, the motion scale stays the scenario's)."""
+    if stated.get("robot", robot_before) == robot_before:
+        return scenario
+    arm = BUNDLED_ARMS.get(scenario.robot)
+    if "slave_initial_q" not in stated:
+        scenario.slave_initial_q = list(arm.start) if arm else []
+    if "slave_servo_stiffness" not in stated:
+        scenario.slave_servo_stiffness = list(arm.servo_stiffness) if arm else []
+    motion = (stated.get("controller") or {}).get("motion") or {}
+    if arm and arm.translation_scale is not None and "translation_scale" not in motion:
+        scenario.controller.motion.translation_scale = arm.translation_scale
+    return scenario
 
 
 def _check_fields(data, schema, path=""):
@@ -331,10 +370,13 @@ def resolve_scenario(name_or_path: str, overrides: str = "") -> Scenario:
 def layered(scenario: Scenario, text: str) -> Scenario:
     """A copy of ``scenario`` with the YAML ``text`` laid over it: any subset of a scenario
     file's fields, nested as there (``"{controller: {force: {gamma: 0.5}}, duration: 3}"``);
-    the fields it leaves out keep ``scenario``'s values. Validated; errors name the field."""
+    the fields it leaves out keep ``scenario``'s values, but for a new ``robot``'s start posture, servo
+    gains and motion scale (``with_arm_defaults``). Validated; errors name the field."""
     try:
-        _check_fields(yaml.safe_load(text) or {}, Scenario)
-        return yaml_load_typed(schema=Scenario, data=text, defaults=scenario).validate()
+        stated = yaml_tree(text)
+        _check_fields(stated, Scenario)
+        return with_arm_defaults(yaml_load_typed(schema=Scenario, data=text, defaults=scenario), stated,
+                                 scenario.robot).validate()
     except yaml.YAMLError as error:
         raise ValueError(f"scenario override {text!r} is not valid YAML: {error}") from None
     except ValueError as error:
@@ -375,8 +417,12 @@ def load_scenario(path) -> Scenario:
         raise ValueError(f"scenario file {path} does not exist")
     text = path.read_text()
     try:
-        _check_fields(yaml.safe_load(text) or {}, Scenario)
-        return yaml_load_typed(schema=Scenario, data=text).validate()
+        stated = yaml_tree(text)
+        _check_fields(stated, Scenario)
+        scenario = with_arm_defaults(yaml_load_typed(schema=Scenario, data=text), stated, Scenario().robot)
+        if scenario.arm.urdf:  # a relative path is taken from the file's folder
+            scenario.arm.urdf = str(scenario.arm.urdf_path(path.parent))
+        return scenario.validate()
     except yaml.YAMLError as error:
         raise ValueError(f"scenario file {path} is not valid YAML: {error}") from None
     except ValueError as error:

@@ -11,16 +11,16 @@ module imports no simulation. The hardware's real-time loop steps it as its ``Ti
 from collections.abc import Callable, Sequence
 
 import numpy as np
-from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Adder, ConstantVectorSource, DiscreteTimeDelay
 
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.online_estimation import AddOnlineLoadEstimator
-from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
+from heft.diagrams.plants import AddArmWithSensor, MakeMasterPlant, Robot
 from heft.diagrams.scenario import ControllerSpec
 from heft.systems.accelerometer_reading import AccelerometerConvention
+from heft.systems.controller.chain_inverse_kinematics import ChainIk, ChainInverseKinematics
 from heft.systems.controller.feedback_mapping import FeedbackMapping
 from heft.systems.controller.force_scaling import ForceScalingElimination
 from heft.systems.controller.master_kinematics import MasterKinematics
@@ -43,16 +43,27 @@ CONTROLLER_LOG = {"log.wrench_feedback": 6, "log.wrench_contact": 6, "log.wrench
                   "log.offsets": 6, "log.rezero_status": 1, "log.phi_hat": 10}
 
 
-def _slave_ik_model(robot: str) -> tuple[MultibodyPlant, RxKinematics, RigidTransform]:
-    """The controller's slave model: (arm + sensor plant (no load needed), closed-form IK, X_FS the
-    pose of S in the flange)."""
-    slave, _ = MakeArmPlant(robot)
-    kinematics = RxKinematics.rx90() if robot == "rx90" else RxKinematics.rx60()
-    X_FS = slave.GetFrameByName("S").CalcPose(slave.CreateDefaultContext(), slave.GetFrameByName("flange"))
-    return slave, kinematics, X_FS
+RX_KINEMATICS = {"rx90": RxKinematics.rx90, "rx60": RxKinematics.rx60}
+"""The bundled arms whose inverse kinematics is a closed form (``rx_inverse_kinematics``), and its numbers;
+every other arm's is damped least squares on its chain (``chain_inverse_kinematics``)."""
 
 
-def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, period: float, slave_initial_q, *,
+def _slave_model(robot: Robot, period: float, slave_initial_q) -> tuple[MultibodyPlant, str, TickSystem]:
+    """The controller's slave model: (arm + sensor plant (no load needed), the name of its base R, the
+    inverse kinematics block to S: the RX's closed form, else damped least squares on the chain whose null
+    space, on 7 joints, is drawn to ``slave_initial_q``)."""
+    slave = MultibodyPlant(time_step=0.0)
+    chain, _, S = AddArmWithSensor(slave, robot)
+    slave.Finalize()
+    if isinstance(robot, str) and robot in RX_KINEMATICS:
+        X_FS = S.CalcPose(slave.CreateDefaultContext(), chain.flange)
+        ik = SlaveInverseKinematics(RX_KINEMATICS[robot](), X_FS, slave_initial_q, period)
+    else:
+        ik = ChainInverseKinematics(ChainIk(slave, chain.base, S, slave_initial_q), period)
+    return slave, chain.base.name(), ik
+
+
+def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: Robot, period: float, slave_initial_q, *,
                          accelerometer: AccelerometerConvention, feedback_blocks: Sequence[FeedbackBlock] = ()):
     """The hardware-agnostic controller Diagram of Fig. 4 (docs/design.md §3), ticking every ``period`` s.
     ``accelerometer``: the convention of ``ft.acceleration_measured`` (``accelerometer_reading``;
@@ -68,25 +79,27 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: str, p
     ``load.phi`` (``FixedLoad``) or, online, the load estimator's (``AddOnlineLoadEstimator``).
     ``feedback_blocks``: blocks of a lab's own between force scaling's f′ and the feedback mapping, in order
     (each made by ``make(period)``: a TickSystem with an input and an output ``wrench``, 6, at S in S).
-    Outputs: ``master.torque_commanded`` (6, N·m), ``slave.position_commanded`` (6, rad),
+    ``robot``: the slave arm (``plants.Robot``), ``slave_initial_q`` its start posture (rad).
+    Outputs: ``master.torque_commanded`` (6, N·m), ``slave.position_commanded`` (n, rad: the arm's joints),
     the ``CONTROLLER_LOG`` signals, ``slave.gravity_S`` (3, g in S at the measured joints), ``slave.pose_RS`` and
     ``master.pose_BE`` (7 each, X_RS and X_BE measured: [p (m); w, x, y, z]) and, online,
     ``estimator.num_samples`` (1, since the last new load). The slave's tool frame T of the motion mapping is S.
     """
     builder = DiagramBuilder()
-    slave, kinematics, X_FS = _slave_ik_model(robot)
+    slave, base, slave_ik = _slave_model(robot, period, slave_initial_q)
     master_kinematics = builder.AddNamedSystem("master_kinematics", MasterKinematics(MakeMasterPlant()))
     slave_kinematics = builder.AddNamedSystem(
-        "slave_kinematics", SlaveKinematics(slave, base_frame=f"{robot}_base", sensor_frame="S"))
+        "slave_kinematics", SlaveKinematics(slave, base_frame=base, sensor_frame="S"))
     motion = builder.AddNamedSystem("motion_scaling", MotionScaling(spec.motion, period))
-    ik = builder.AddNamedSystem("slave_ik", SlaveInverseKinematics(kinematics, X_FS, slave_initial_q, period))
+    ik = builder.AddNamedSystem("slave_ik", slave_ik)
     force = builder.AddNamedSystem("force_scaling", ForceScalingElimination(
         spec.force, period, accelerometer))
     feedback = builder.AddNamedSystem("feedback_mapping", FeedbackMapping(spec.feedback, spec.motion.R_RB))
     passivity = builder.AddNamedSystem("passivity", PassivityController(
         spec.passivity, spec.feedback.max_force, spec.feedback.max_torque, period))
     spec.estimator.validate()
-    offsets = builder.AddNamedSystem("offsets_hat", OffsetTracker(load.offsets, spec.offsets, spec.contact, period))
+    offsets = builder.AddNamedSystem("offsets_hat", OffsetTracker(load.offsets, spec.offsets, spec.contact, period,
+                                                                    slave.num_positions()))
 
     def export_input(name, *ports):
         builder.ExportInput(ports[0], name)

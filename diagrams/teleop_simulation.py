@@ -10,6 +10,7 @@ from pydrake.systems.primitives import (LogVectorOutput, Multiplexer,
                                         TrajectorySource)
 from pydrake.trajectories import PiecewisePolynomial
 
+from heft.diagrams.plants import slave_arm
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.diagrams.load_estimate import LoadEstimate
@@ -53,7 +54,7 @@ def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, meshcat=None,
     builder = DiagramBuilder()
     station = builder.AddNamedSystem("station", MakeSimStation(scenario, meshcat))
     controller = builder.AddNamedSystem("controller", TickProgramSystem(MakeTeleopController(
-        spec, load, scenario.robot, scenario.controller_period, scenario.slave_initial_q,
+        spec, load, slave_arm(scenario), scenario.controller_period, scenario.slave_initial_q,
         accelerometer=scenario.accelerometer.convention(), feedback_blocks=feedback_blocks)))
     period = scenario.controller_period
     ConnectControllerToStation(builder, controller, station, round(spec.delay / period), period,

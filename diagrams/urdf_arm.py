@@ -3,9 +3,11 @@ with the limits heft needs, or a refusal in one line.
 
 heft needs, of every joint between ``base`` and ``flange``: a revolute or prismatic joint with a
 ``<limit>`` whose ``lower`` < ``upper`` are finite and whose ``velocity`` and ``effort`` are finite
-and > 0; of the URDF: one unbranched chain, no joint that moves anything off it, 6 or 7 joints.
-The limits are read from the URDF's own ``<limit>`` elements (Drake keeps an effort only with a
-``<transmission>``, and stops on a lower limit above the upper one), then the file is parsed by Drake.
+and > 0, and whose link has a mass > 0 and a physically valid inertia; of the URDF: one unbranched
+chain, no joint that moves anything off it, 6 or 7 joints. The limits are read from the URDF's own
+``<limit>`` elements (Drake keeps an effort only with a ``<transmission>``, and stops on a lower limit
+above the upper one), then the file is parsed by Drake. A joint without a ``<transmission>`` gets an
+actuator of its URDF effort, so that every joint of the chain is driven, in the chain's order.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import JointActuatorIndex
 
 from heft.diagrams.arm_params import ArmParams
 
@@ -35,11 +38,13 @@ class ArmRefused(ValueError):
 @dataclasses.dataclass
 class ArmChain:
     """The arm as added to a plant: its model instance, the frames R (``base``) and F (``flange``), the
-    joints from R to F, and their limits (n,) in the joints' units (rad or m; per s; N·m or N)."""
+    joints from R to F and their actuators, and their limits (n,) in the joints' units (rad or m; per s;
+    N·m or N)."""
     instance: object
     base: object
     flange: object
     joints: list
+    actuators: list
     lower: np.ndarray
     upper: np.ndarray
     velocity: np.ndarray
@@ -103,9 +108,16 @@ def AddArmFromUrdf(plant: MultibodyPlant, params: ArmParams, relative_to=None) -
                f"({', '.join(j.name() for j in moving) or 'none'}); heft takes "
                + " or ".join(str(n) for n in CHAIN_JOINTS))
     rows = [_checked_limits(joint.name(), joint.type_name(), limits.get(joint.name()), refuse) for joint in moving]
+    for joint in moving:
+        body = joint.child_body()
+        if not (body.default_mass() > 0 and body.default_spatial_inertia().IsPhysicallyValid()):
+            refuse(f"link '{body.name()}' (moved by joint '{joint.name()}') has no mass or no physical inertia: "
+                   "heft needs its <inertial> (mass > 0, a valid inertia)")
     _weld_base(plant, base, inboard)
     lower, upper, velocity, effort = (np.array(column, dtype=float) for column in zip(*rows))
-    return ArmChain(instance, base.body_frame(), flange.body_frame(), moving, lower, upper, velocity, effort)
+    actuators = _actuators(plant, instance, moving, effort, refuse)
+    return ArmChain(instance, base.body_frame(), flange.body_frame(), moving, actuators, lower, upper, velocity,
+                    effort)
 
 
 def read_arm(params: ArmParams, relative_to=None) -> tuple[MultibodyPlant, ArmChain]:
@@ -168,6 +180,26 @@ def _checked_limits(name: str, kind: str, entry, refuse) -> tuple[float, float, 
             refuse(f"joint '{name}' has {key}={attributes[key]!r}: it must be a finite number > 0 ({unit})")
         values[key] = value
     return lower, upper, values["velocity"], values["effort"]
+
+
+def _actuators(plant: MultibodyPlant, instance, joints: list, effort: np.ndarray, refuse) -> list:
+    """The actuators of ``joints`` in their order: the URDF's transmissions', and one of the joint's
+    ``effort`` added for each joint without one; refuses transmissions that leave the actuators out of the
+    chain's order (the plant takes its actuation in the actuators' order)."""
+    def instance_actuators():  # by index (GetJointActuatorIndices is empty before Finalize)
+        found = (plant.get_joint_actuator(JointActuatorIndex(i)) for i in range(plant.num_actuators()))
+        return [actuator for actuator in found if actuator.model_instance() == instance]
+
+    driven = {actuator.joint().index() for actuator in instance_actuators()}
+    for joint, limit in zip(joints, effort):
+        if joint.index() not in driven:
+            plant.AddJointActuator(f"{joint.name()}_motor", joint, float(limit))
+    actuators = instance_actuators()
+    if [actuator.joint().name() for actuator in actuators] != [joint.name() for joint in joints]:
+        refuse(f"its transmissions drive the joints in the order "
+               f"{', '.join(actuator.joint().name() for actuator in actuators)}: give one for every joint of the "
+               "chain, base to flange, or none")
+    return actuators
 
 
 def _weld_base(plant: MultibodyPlant, base, inboard: dict) -> None:

@@ -10,8 +10,7 @@ import importlib.util
 import math
 from pathlib import Path
 
-import yaml
-
+from heft.analysis.yaml_tree import yaml_tree
 from heft.diagrams.commands.console import logger
 from heft.hardware_interface.channels import DEFAULT_LCM_URL
 
@@ -153,7 +152,7 @@ def stated_fields(text: str) -> set[str]:
         if not isinstance(node, dict):
             return {prefix}
         return set().union(*(leaves(value, f"{prefix}.{key}" if prefix else str(key)) for key, value in node.items()))
-    tree = yaml.safe_load(text) or {}
+    tree = yaml_tree(text)
     return leaves(tree, "") if isinstance(tree, dict) and tree else set()
 
 

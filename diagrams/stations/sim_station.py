@@ -12,7 +12,7 @@ import numpy as np
 from pydrake.common.eigen_geometry import AngleAxis
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, MultibodyPlant
-from pydrake.multibody.tree import (FixedOffsetFrame, JointActuatorIndex, MultibodyForces, PdControllerGains,
+from pydrake.multibody.tree import (FixedOffsetFrame, MultibodyForces, PdControllerGains,
                                     PrismaticJoint, PrismaticSpring, SpatialInertia)
 from pydrake.geometry import AddContactMaterial, Box, MeshcatVisualizer, ProximityProperties
 from pydrake.systems.framework import DiagramBuilder
@@ -79,11 +79,8 @@ def _add_slave(builder: DiagramBuilder, scenario: Scenario):
 
     # Stiff joint servo standing in for the robot's own 10 kHz loop: implicit PD in SAP.
     kp, kd, _ = slave_servo_gains(scenario)
-    # (GetJointActuatorIndices is empty before Finalize; the arm's actuators come in joint order.)
-    arm_actuators = [plant.get_mutable_joint_actuator(JointActuatorIndex(i)) for i in range(plant.num_actuators())
-                     if plant.get_joint_actuator(JointActuatorIndex(i)).model_instance() == parts.arm]
-    for actuator, p, d in zip(arm_actuators, kp, kd, strict=True):
-        actuator.set_controller_gains(PdControllerGains(p=p, d=d))
+    for actuator, p, d in zip(parts.chain.actuators, kp, kd, strict=True):  # in joint order
+        plant.get_mutable_joint_actuator(actuator.index()).set_controller_gains(PdControllerGains(p=p, d=d))
     plant.Finalize()
     plant.SetDefaultPositions(parts.arm, scenario.slave_initial_q)
     if parts.mount_joint is not None:
@@ -91,7 +88,8 @@ def _add_slave(builder: DiagramBuilder, scenario: Scenario):
         settle_mount(plant, context, parts.mount_joint)
         parts.mount_joint.SetDefaultPose(parts.mount_joint.GetPose(context))
 
-    state = builder.AddSystem(Demultiplexer([6, 6]))
+    n = parts.chain.num_joints
+    state = builder.AddSystem(Demultiplexer([n, n]))
     builder.Connect(plant.get_state_output_port(parts.arm), state.get_input_port())
     gravity = builder.AddSystem(GravityCompensation(control_plant))
     gravity.set_name("slave_gravity_feedforward")
@@ -103,7 +101,7 @@ def _add_slave(builder: DiagramBuilder, scenario: Scenario):
     builder.Connect(setpoints.get_output_port(), plant.get_desired_state_input_port(parts.arm))
     builder.ExportInput(setpoints.get_input_port(), "slave.position_commanded")
 
-    encoders = builder.AddSystem(EncoderQuantizer(6, scenario.encoder_counts_per_rev))
+    encoders = builder.AddSystem(EncoderQuantizer(n, scenario.encoder_counts_per_rev))
     encoders.set_name("slave_encoders")
     builder.Connect(state.get_output_port(0), encoders.get_input_port())
     builder.ExportOutput(encoders.get_output_port(), "slave.position_measured")
@@ -265,9 +263,10 @@ def MakeSimStation(scenario: Scenario, meshcat=None):
     """The simulated station Diagram for ``scenario`` (validated here); with a ``meshcat``,
     the slave, its load and environment are drawn there live.
 
-    Inputs: ``master.torque_commanded`` (6, N·m), ``slave.position_commanded`` (6, rad).
-    Outputs: ``master.position_measured``, ``master.velocity_estimated``,
-    ``slave.position_measured``, ``slave.velocity_estimated`` (6 each, rad, rad/s),
+    Inputs: ``master.torque_commanded`` (6, N·m), ``slave.position_commanded`` (n, rad: one per joint
+    of the slave).
+    Outputs: ``master.position_measured``, ``master.velocity_estimated`` (6 each, rad, rad/s),
+    ``slave.position_measured``, ``slave.velocity_estimated`` (n each, rad, rad/s),
     ``ft.wrench_measured`` ([f; τ] on the load at S in S), ``ft.acceleration_measured``
     (the accelerometer's reading, ``accelerometer_reading``: [a − g; α] of its point A, in S's
     axes), ``clutch`` (1, held engaged), and

@@ -2,7 +2,8 @@
 
 Both stations drive the arm through the robot controller's setpoint filter
 (``systems/station/setpoint_filter.py``) and then a stiff joint PD with gravity feed-forward:
-τ = Kp·(q_f − q) + Kd·(q̇_f − q̇) + g(q), Kp the scenario's ``slave_servo_stiffness`` and
+τ = Kp·(q_f − q) + Kd·(q̇_f − q̇) + g(q), Kp the scenario's ``slave_servo_stiffness`` (or, where it states
+none, M_jj·(2π·``SERVO_FREQUENCY``)²) and
 Kd = 2ζ·√(Kp·M_jj) for the damping ratio ζ (``slave_servo_damping_ratio``) at each joint's
 inertia M_jj (kg·m², the mass matrix's diagonal of arm and payload in the start pose)
 (``slave_servo_gains``). The simulated station gives these gains to the plant's implicit PD.
@@ -20,6 +21,7 @@ import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 from scipy.linalg import expm
 
+from heft.diagrams.arm_params import SERVO_FREQUENCY
 from heft.diagrams.plants import AddSlave
 from heft.diagrams.scenario import Scenario
 from heft.systems.compiled import compiled
@@ -33,12 +35,16 @@ def slave_servo_gains(scenario: Scenario) -> tuple[np.ndarray, np.ndarray, np.nd
     """The joint servo's stiffness Kp (N·m/rad), damping Kd (N·m·s/rad) and the mass matrix M (kg·m²)
     they are sized at: arm and payload welded at S (``AddSlave``), in the start pose."""
     plant = MultibodyPlant(time_step=0.0)
-    AddSlave(plant, scenario)
+    parts = AddSlave(plant, scenario)
     plant.Finalize()
     context = plant.CreateDefaultContext()
     plant.SetPositions(context, scenario.slave_initial_q)
     mass_matrix = plant.CalcMassMatrix(context)
-    kp = np.asarray(scenario.slave_servo_stiffness, dtype=float)
+    kp = np.asarray(scenario.slave_servo_stiffness or np.diag(mass_matrix) * (2 * np.pi * SERVO_FREQUENCY) ** 2,
+                    dtype=float)
+    if kp.shape != (parts.chain.num_joints,):
+        raise ValueError(f"scenario field 'slave_servo_stiffness' needs {parts.chain.num_joints} gains (N·m/rad), "
+                         f"one per joint, or none (ringing at {SERVO_FREQUENCY:g} Hz); got {kp.size}")
     return kp, 2 * scenario.slave_servo_damping_ratio * np.sqrt(kp * np.diag(mass_matrix)), mass_matrix
 
 

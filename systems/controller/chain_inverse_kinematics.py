@@ -14,7 +14,10 @@ q_start by the share k = null rate × dt without moving E to first order (the da
 by λ²(JJᵀ + λ²I)⁻¹·J·z, which the tick's later steps take back, so that the pull leaves no lasting pose
 error); a chain of 6 has no null space and takes none. A step that would carry a joint past its limit
 holds it there, and the tick's later steps leave it out (its column of J zeroed). The command then
-moves from q_last toward the result by at most velocity × dt per joint.
+moves from q_last toward the result, every joint's move scaled by one factor so that none exceeds its
+velocity × dt: a slewing arm stays on the line in joint space between two postures of the path, which
+keeps the orientation a joint-by-joint clip would tilt (the joints that move E's orientation together
+no longer move by different shares of their way).
 
 Steps stop when both errors are within the tolerance. The kernel answers with a status of bit flags:
 ``NON_FINITE`` (the pose is not one: the command stays at q_last), ``NOT_CONVERGED`` (the tick's
@@ -32,8 +35,9 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import Frame
 
 from heft.systems.compiled import compiled, float_array
-from heft.systems.pose_vectors import rotation_into
+from heft.systems.pose_vectors import POSE_SIZE, rotation_into
 from heft.systems.serial_chain import MOTION_SIZE, SerialChain, chain_kinematics
+from heft.systems.tick_system import TickSystem
 
 NON_FINITE = 1
 NOT_CONVERGED = 2
@@ -128,7 +132,8 @@ def dls_ik_step(axes, points, M_R, M_p, lower, upper, velocity, settings, iterat
                 command, work):
     """One tick (module notes): writes into ``command`` (n, rad) the last command ``q_last`` moved toward the
     joint positions damped least squares finds for the desired pose ``pose`` of E ([p (m); w, x, y, z] in
-    B), each joint by at most ``velocity`` × dt (rad/s × s; a dt that is NaN or negative moves none), all
+    B), all joints by one share of their way such that none moves by more than its ``velocity`` × dt
+    (rad/s × s; a dt that is NaN or negative moves none), all
     within [``lower``, ``upper``] (rad). The chain: ``axes``, ``points``, ``M_R``, ``M_p`` as in
     ``chain_kinematics``; ``settings`` [λ (m), null rate (1/s), tolerance (m and rad)]; ``q_start`` (n, rad)
     the posture the null space is drawn to; ``work`` (``work_shape``): scratch. Returns the status bits.
@@ -203,12 +208,14 @@ def dls_ik_step(axes, points, M_R, M_p, lower, upper, velocity, settings, iterat
                 status |= JOINT_LIMIT
     if not converged:
         status |= NOT_CONVERGED
+    share = 1.0  # of the way to q, the same for every joint
     for j in range(n):
-        move, limit = q[j] - q_last[j], velocity[j] * dt
-        limited = min(max(move, -limit), limit)
-        if limited != move:
+        move, limit = abs(q[j] - q_last[j]), velocity[j] * dt
+        if move > limit:
+            share = min(share, limit / move)
             status |= SLEWING
-        command[j] = q_last[j] + limited
+    for j in range(n):
+        command[j] = q_last[j] + share * (q[j] - q_last[j])
     return status
 
 
@@ -263,6 +270,12 @@ class ChainIk:
             raise ValueError(f"q_start must be {self.num_joints} joint positions within the limits; got {q_start}")
         self.q_start[:] = q_start
 
+    def kernel_arguments(self) -> tuple:
+        """``chain_ik_update``'s arguments after the period: the chain, its limits, the settings, the iterations
+        (an array of one), ``q_start`` and the scratch (this object's own arrays)."""
+        return (self._axes, self._points, self._M_R, self._M_p, self.lower, self.upper, self.velocity, self.settings,
+                np.array([self.iterations], dtype=np.int64), self.q_start, self._work)
+
     def __call__(self, pose: np.ndarray, q_last: np.ndarray, dt: float, command: np.ndarray) -> int:
         """The status bits (module notes); ``command`` (n, rad) written, from ``q_last`` (n, rad, within
         the limits) toward the desired pose vector ``pose`` of T (7: [p (m); w, x, y, z] in B) in ``dt`` (s)."""
@@ -276,3 +289,67 @@ def _limits(given, own, n: int, name: str) -> np.ndarray:
     if values.shape != (n,):
         raise ValueError(f"{name} needs {n} values; got {values.shape}")
     return values
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:], float64[:, :], float64[:, :], "
+          "float64[:, :], float64[:], float64[:], float64[:], float64[:], float64[:], int64[:], float64[:], "
+          "float64[:, :])")
+def chain_ik_update(command, status, slewing, pose, period, axes, points, M_R, M_p, lower, upper, velocity,
+                    settings, iterations, q_start, work):
+    """``dls_ik_step`` from the last ``command`` (n, rad) toward ``pose`` over ``period`` (1, s), in place;
+    ``status`` (2) [the pose reached this tick (1/0), ticks it was not so far], ``slewing`` (1). The chain,
+    limits, settings, ``iterations`` (1) and ``q_start``: ``ChainIk``'s."""
+    result = dls_ik_step(axes, points, M_R, M_p, lower, upper, velocity, settings, iterations[0], pose, command,
+                         q_start, period[0], command, work)
+    if result & (NON_FINITE | NOT_CONVERGED):
+        status[0] = 0.0
+        status[1] += 1.0
+    else:
+        status[0] = 1.0
+    slewing[0] = 1.0 if result & SLEWING else 0.0
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64[:])")
+def chain_ik_initialize(command, measured, lower, upper):
+    """The command at the ``measured`` position (n, rad) within [``lower``, ``upper``], if it is finite."""
+    total = 0.0
+    for j in range(measured.shape[0]):
+        total += measured[j]
+    if not math.isfinite(total):
+        return
+    for j in range(command.shape[0]):
+        command[j] = min(max(measured[j], lower[j]), upper[j])
+
+
+class ChainInverseKinematics(TickSystem):
+    """Desired pose → joint command of a 6- or 7-joint chain (``ChainIk``), every ``period`` s, never jumping:
+    the ports of ``SlaveInverseKinematics``, for any arm.
+
+    Input ``pose_desired`` (7): X_BE*, the desired pose of the chain's end frame E in its base B,
+    [p (m); w, x, y, z]. Input ``position_measured`` (n, rad), optional: when connected (and finite), the
+    command starts there at initialization, clipped to the joint limits; else at ``ik.q_start``.
+
+    Outputs, all discrete state (no direct feedthrough):
+    ``position_commanded`` (n, rad): within the joint limits, each joint moving by at most its speed limit;
+    ``status`` (2): [1 if this tick's steps reached the pose (within the tolerance; the command may still be
+    slewing toward it) else 0, ticks they did not];
+    ``slewing`` (1): 1 if the speed limits held the command back this tick.
+    """
+
+    def __init__(self, ik: ChainIk, period: float):
+        if not (np.isfinite(period) and period > 0):
+            raise ValueError(f"period must be finite and > 0 (s); got {period}")
+        super().__init__(period)
+        n = ik.num_joints
+        self.DeclareTickInput("pose_desired", POSE_SIZE)
+        self.DeclareTickInput("position_measured", n, np.full(n, np.nan))
+        self.DeclareTickState("command", ik.q_start)
+        self.DeclareTickState("status", [1.0, 0.0])
+        self.DeclareTickState("slewing", [0.0])
+        self.DeclareTickInitialization(chain_ik_initialize, "next:command", "in:position_measured", ik.lower,
+                                       ik.upper)
+        self.DeclareTickUpdate(chain_ik_update, "next:command", "next:status", "next:slewing", "in:pose_desired",
+                               np.array([period]), *ik.kernel_arguments())
+        self.DeclareTickOutput("position_commanded", "x:command")
+        self.DeclareTickOutput("status", "x:status")
+        self.DeclareTickOutput("slewing", "x:slewing")

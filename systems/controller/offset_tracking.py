@@ -63,7 +63,7 @@ def restart_rezero_window(state) -> None:
 def offsets_update(state: np.ndarray, contact, fault: bool, slave_velocity, dt: float, params: OffsetTrackingParams,
                    thresholds: ContactThresholdParams, requests: float) -> None:
     """One tick, in place: ``contact`` c (6) of this tick computed with the state's offsets,
-    ``fault`` (c not computed), ``slave_velocity`` q̇_S (6, rad/s), ``dt`` (s), ``thresholds`` of
+    ``fault`` (c not computed), ``slave_velocity`` q̇_S (n, rad/s), ``dt`` (s), ``thresholds`` of
     contact (``controller.contact``), ``requests`` the re-zero request counter (a re-zero starts
     whenever it exceeds the last one seen). ``offsets_update_into`` with the settings as numbers."""
     offsets_update_into(state, float_array(contact), fault, float_array(slave_velocity), dt, *kernel_settings(params),
@@ -92,7 +92,7 @@ def offsets_update_into(state, contact, fault, slave_velocity, dt, rest_joint_sp
         state[STATUS] = COLLECTING
         restart_rezero_window(state)
     at_rest = True
-    for i in range(6):
+    for i in range(slave_velocity.shape[0]):
         if not abs(slave_velocity[i]) < rest_joint_speed:
             at_rest = False
     if state[STATUS] == COLLECTING:
@@ -146,7 +146,7 @@ class OffsetTracker(TickSystem):
     (module docstring), updated every ``period`` s.
 
     Inputs: ``wrench_contact`` (6, c from force scaling), ``fault`` (1, force scaling's),
-    ``slave_velocity`` (6, rad/s), ``rezero`` (1, optional: a request counter; each
+    ``slave_velocity`` (``num_joints``, rad/s), ``rezero`` (1, optional: a request counter; each
     increase starts one re-zero), ``tracking`` (1, optional: > 0.5 tracks; unconnected,
     ``params.tracking``), ``estimate`` (``ESTIMATE_SIZE``, optional: a new tool's, whose offsets
     replace the tracked ones). Outputs (state): ``offsets`` (6; N, N·m), ``rezero_status`` (1, a code
@@ -157,14 +157,15 @@ class OffsetTracker(TickSystem):
 
     kept_on_restart = True
 
-    def __init__(self, offsets, params: OffsetTrackingParams, thresholds: ContactThresholdParams, period: float):
+    def __init__(self, offsets, params: OffsetTrackingParams, thresholds: ContactThresholdParams, period: float,
+                 num_joints: int = 6):
         params.validate()
         thresholds.validate()
         super().__init__(period)
         self.settings = np.array((period, *kernel_settings(params), thresholds.force, thresholds.torque), dtype=float)
         self.DeclareTickInput("wrench_contact", 6)
         self.DeclareTickInput("fault", 1)
-        self.DeclareTickInput("slave_velocity", 6)
+        self.DeclareTickInput("slave_velocity", num_joints)
         self.DeclareTickInput("rezero", 1, [0.0])
         self.DeclareTickInput("tracking", 1, [1.0 if params.tracking else 0.0])
         self.DeclareTickInput("estimate", ESTIMATE_SIZE, np.zeros(ESTIMATE_SIZE))
