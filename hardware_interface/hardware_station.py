@@ -332,12 +332,12 @@ class HardwareStation:
             now, spacing, self.gain, watchdog.timeout, watchdog.ramp_time, master.clock.state, slave.clock.state,
             ft.clock.state, self.ages)
 
-    def publish_status(self, now: float, force: bool = False) -> None:
+    def publish_status(self, now: float, force: bool = False) -> heft_station_status | None:
         """Publishes ``heft_station_status`` (health, per channel the messages received, unread,
         rejected per reason, restarts, second publishers) at ``now`` (s) if its channel's period
-        has passed since the last, or if ``force``."""
+        has passed since the last, or if ``force``; returns the message published, or None."""
         if not (force or now >= self._next_status):
-            return
+            return None
         self._next_status = now + 1.0 / self._channels.station_status.rate
         msg = self._status_msg
         msg.utime = round((self.epoch + now) * 1e6)
@@ -349,6 +349,7 @@ class HardwareStation:
         msg.second_publisher = [bool(self.conflicts & (1 << i)) for i in range(len(WATCHED_CHANNELS))] + [
             self._gripper.clock.conflict(now)]
         self._command_bus.publish(self._channels.station_status.name, msg.encode())
+        return msg
 
     def stop(self, now: float) -> None:
         """The run's last commands at ``now`` (s): forces off, and the slave command one

@@ -62,6 +62,9 @@ class LoadCommandServer:
         self._grasps: list[int] = []  # utimes of the grasps whose object is still being learned
         self._estimates: list[int] = []  # utimes of the new estimates no tick has taken up yet
         self.events: list[tuple[int, str]] = []
+        self.on_message = None
+        """If set, called with (topic, message) for each command heard (``/load/command``) and each answer sent
+        (``/load/status``): the live view's events (``analysis.topics.EVENT_TOPICS``)."""
 
     def serve(self, now_utime: int, healthy: bool, reading) -> None:
         """Once per tick, after the controller's step on the accelerometer's ``reading`` (6, as the driver
@@ -72,6 +75,8 @@ class LoadCommandServer:
             except Exception:  # whatever a malformed payload makes the generated decoder raise
                 self._answer(now_utime, 0, False, "a message on the load command channel is not a heft_load_command")
                 continue
+            if self.on_message is not None:
+                self.on_message("/load/command", command)
             accepted, message = self._apply(command, healthy, now_utime)
             if accepted is not None:
                 self._answer(now_utime, command.utime, accepted, message)
@@ -202,5 +207,7 @@ class LoadCommandServer:
         status.rezero_status, status.tracking = controller.rezero_status, controller.tracking
         status.phi, status.offsets = controller.phi.tolist(), controller.offsets.tolist()
         self._command_bus.publish(self._channel, status.encode())
+        if self.on_message is not None:
+            self.on_message("/load/status", status)
         if len(self.events) < MAX_EVENTS:
             self.events.append((now_utime, message))

@@ -1,6 +1,7 @@
 """What a run on the lab shows while it goes on: the live view and the MCAP recorder fed by the hardware loop
 against the stand-in, and the status line `heft teleop --hardware` writes each second."""
 
+import json
 import subprocess
 import sys
 import threading
@@ -17,6 +18,7 @@ from heft.diagrams.running.simulation import true_load
 from heft.diagrams.scenario import resolve_scenario
 from heft.diagrams.stations.stand_in import FaultInjection, StandIn
 from heft.hardware_interface.channels import LcmChannels
+from heft.hardware_interface.lcmtypes import heft_load_command
 
 from foxglove_client import FoxgloveClient, free_port, wait_for_channels
 
@@ -25,7 +27,8 @@ pytestmark = pytest.mark.slow
 
 def test_the_hardware_loop_feeds_the_view_and_the_recorder(tmp_path):
     """A client sees the wrenches the controller computed, at the view's rate; the MCAP file holds one row a
-    tick, each wrench the controller's of that tick."""
+    tick, each wrench the controller's of that tick, and as events the station's status at its rate, a load
+    command heard and its answer."""
     scenario = resolve_scenario("fig6")
     port, path = free_port(), tmp_path / "run.mcap"
     bus = lcm.LCM("memq://")
@@ -41,6 +44,10 @@ def test_the_hardware_loop_feeds_the_view_and_the_recorder(tmp_path):
     for k in range(1000):
         now = (k + 1) * period
         stand_in.step(now)
+        if k == 600:  # an operator switches offset tracking off
+            command = heft_load_command()
+            command.utime, command.action = 1234, heft_load_command.TRACKING_OFF
+            bus.publish(LcmChannels().load_command.name, command.encode())
         teleop.tick(now, period)
         contact[round(now / period)] = teleop.controller.wrench_contact.copy()
     stats = [tap.close() for tap in teleop.taps]
@@ -56,6 +63,14 @@ def test_the_hardware_loop_feeds_the_view_and_the_recorder(tmp_path):
     assert sum(topic == "/wrench/contact" for topic, _ in recorded) == 1000
     assert {"/wrench/measured", "/hand/applied", "/estimate/phi", "/slave/joint_state", "/scene/frames"} <= \
         {topic for topic, _ in recorded}
+    faults = [json.loads(message.data) for topic, message in recorded if topic == "/faults"]
+    status_rate = LcmChannels().station_status.rate
+    assert abs(len(faults) - 1000 * period * status_rate) <= 1
+    assert faults[-1]["healthy"] and faults[-1]["channels"]["ft_sample"]["received"] > 0
+    heard = [json.loads(message.data) for topic, message in recorded if topic == "/load/command"]
+    answers = [json.loads(message.data) for topic, message in recorded if topic == "/load/status"]
+    assert [command["action"] for command in heard] == [heft_load_command.TRACKING_OFF]
+    assert [answer["command_utime"] for answer in answers] == [1234] and answers[0]["tracking"] is False
 
 
 def test_the_status_line_is_written_each_second_to_a_stderr_that_is_not_a_terminal(tmp_path):

@@ -35,6 +35,7 @@ from collections.abc import Sequence
 import lcm
 import numpy as np
 
+from heft.analysis.lcm_messages import as_dict, station_status_message
 from heft.analysis.topics import ESTIMATOR_PRIOR, ESTIMATOR_STATE
 from heft.diagrams.device_limits import device_limits
 from heft.diagrams.live_view import McapRecorder
@@ -75,7 +76,8 @@ class HardwareTeleop:
     recording: the analyses need every tick), else at ``STATE_RATE`` (its encoding and publish cost a tick
     tens of µs). ``feedback_blocks``: a lab's own
     blocks on the feedback path (``MakeTeleopController``); ``taps``: the live view and MCAP recorders
-    (``diagrams.live_view``, opened here) that take each tick's row (``rows``) off the loop's CPU."""
+    (``diagrams.live_view``, opened here) that take each tick's row (``rows``) off the loop's CPU, and as events
+    the station's status (``/faults``), the load commands heard and their answers (``/load/…``)."""
 
     def __init__(self, scenario: Scenario, load: LoadEstimate, bus: lcm.LCM, channels: LcmChannels,
                  params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None,
@@ -104,6 +106,8 @@ class HardwareTeleop:
         for tap in self.taps:  # the estimator's state, whence φ̂'s uncertainty, to the live view only
             tap.open({key: width for key, width in widths.items()
                       if not (tap.every_row and key in (ESTIMATOR_STATE, ESTIMATOR_PRIOR))})
+        if self.taps:
+            self.load_commands.on_message = lambda topic, message: self._event(topic, as_dict(message))
         self.starts = 0
         """Controller starts so far (the first healthy tick and each recovery)."""
         self._channel_names = [getattr(channels, name).name for name in WATCHED_CHANNELS]
@@ -146,11 +150,18 @@ class HardwareTeleop:
         for event in station.gripper_events:
             self.load_commands.gripper(utime, event)
         self.load_commands.serve(utime, healthy, station.acceleration)
-        station.publish_status(now)
+        status = station.publish_status(now)
+        if status is not None and self.taps:
+            self._event("/faults", station_status_message(status))
         self._observe(now, healthy)
         self._was_healthy = healthy
         if self.status is not None and now >= self._next_status:
             self._status(now)
+
+    def _event(self, topic: str, message: dict) -> None:
+        """``message`` on the event topic ``topic`` (``analysis.topics.EVENT_TOPICS``) to every tap, at this tick."""
+        for tap in self.taps:
+            tap.event(topic, message, self.now)
 
     def _observe(self, now: float, healthy: bool) -> None:
         station = self.station
