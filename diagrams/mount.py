@@ -24,6 +24,22 @@ damps too: implicit Euler takes 1 − 1/√(1 + (ωh)²) of a 49 Hz mode's ampli
 step, 7.6 % of critical damping on top of the mount's own 4 %, which would change what the
 paper's tool does on its mount (the dominant error of the realistic station, docs/scenarios.md). Sizing
 the mount to the load keeps the paper's tool exactly as it was and the rest within the step.
+
+Where the compliance sits. A tool's compliance is its adapter's at the sensor's face and its
+stem's bending along it: a mass on a stem rocks about a point on the stem, not about S (a
+cantilever's tip under a load at it turns as a rigid bar pivoting 2L/3 from the tip:
+δ = FL³/3EI, θ = FL²/2EI, the cantilever's tip formulas of any beam table). With the
+bushing at S a compact mass far out on a light stem has a mode far beyond the step, the mass
+turning about its own centre of mass against the bushing's translational stiffness times the
+lever arm squared (a 0.1 kg tungsten ball 0.25 m out, its stem left out: 32 times the bound);
+softening the whole mount by that much left it rocking at 1 Hz, sagging centimetres, and Drake's
+step then failed ("mass matrix … not positive-definite"); on a stem (0.9–1.8 times) it took the
+tool to 20–40 Hz, far from the notch. So a mount whose constants are left out is placed (``at``)
+on the line from S to the load's centre of mass, at S where the step integrates it there (the
+paper's tool and every tool near S), else at the first eighth of the way out where it does, and
+sized there: the same ratios of the load's inertia, now about that point. Only where no point
+of the line does (a compact 3 kg block 0.25 m out, its stem left out: the modes with the wrist
+beside it stay at 1.0 of the bound or more) is it softened, at the point that needs least.
 """
 
 from __future__ import annotations
@@ -42,6 +58,8 @@ _WRENCH_ORDER = np.r_[3:6, 0:3]
 """[rotation; translation] → heft's [translation; rotation]."""
 STEP_MARGIN = 0.8
 """The share of the step's stability bound a mount's mode may use (see the module's notes)."""
+PLACEMENTS = np.linspace(0.0, 1.0, 9)
+"""Where an unstated mount may sit: these shares of the way from S to the load's centre of mass."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -53,14 +71,27 @@ class Modes:
     shapes: np.ndarray
 
 
+def placement(mount: MountSpec) -> np.ndarray:
+    """T (6×6): the bushing's deflection [θ; d_P] at its point P (``mount.at``; S when None) from the
+    load frame's [θ; d] at S, d_P = d + θ × p_SP (rad, m; S's axes)."""
+    T = np.eye(6)
+    if mount.at is not None:
+        x, y, z = mount.at
+        T[3:, :3] = [[0.0, z, -y], [-z, 0.0, x], [y, -x, 0.0]]  # −[p_SP]×
+    return T
+
+
 def stiffness(mount: MountSpec) -> np.ndarray:
-    """The bushing's stiffness at rest, [rotation; translation] about and along S's axes (6×6)."""
-    return np.diag(mount.torque_stiffness + mount.force_stiffness)
+    """The bushing's stiffness at rest, [rotation; translation] of the load frame at S (6×6): its
+    constants about and along S's axes at its point P (``placement``), Tᵀ·K_P·T."""
+    T = placement(mount)
+    return T.T @ np.diag(mount.torque_stiffness + mount.force_stiffness) @ T
 
 
 def damping(mount: MountSpec) -> np.ndarray:
     """The bushing's damping at rest, as ``stiffness`` (6×6)."""
-    return np.diag(mount.torque_damping + mount.force_damping)
+    T = placement(mount)
+    return T.T @ np.diag(mount.torque_damping + mount.force_damping) @ T
 
 
 def modes(M: np.ndarray, K: np.ndarray, C: np.ndarray) -> Modes:
@@ -104,20 +135,69 @@ def step_usage(found: Modes, time_step: float) -> tuple[float, int]:
     return float(shares[worst]), worst
 
 
+def inertia_about(phi, point) -> np.ndarray:
+    """The load's rotational inertia (kg·m², S's axes) about ``point`` (m, in S), from φ (Eq. 6)."""
+    mass, r = phi[0], np.asarray(point, dtype=float)
+    h = np.asarray(phi[1:4])  # m·c
+    # The parallel-axis theorem from S to r: m(|r|²E − r rᵀ) − (2 r·h E − r hᵀ − h rᵀ).
+    return (inertia_matrix(phi[4:]) + mass * (r @ r * np.eye(3) - np.outer(r, r))
+            - (2 * (r @ h) * np.eye(3) - np.outer(r, h) - np.outer(h, r)))
+
+
 def sized_for_load(spec: MountSpec, phi, phi_paper_tool) -> MountSpec:
     """``spec`` with each constant it leaves out taken from ``DEFAULT_MOUNT`` and sized for the
-    load: on each axis where the load's inertia about S (``phi``; mass for the force constants)
-    is below the paper's tool's (``phi_paper_tool``), stiffness and damping shrink by that
-    ratio, which keeps the uncoupled modes' frequencies and damping ratios the paper's tool's;
-    where it is not, they stay the default's (stiffer would put the wrist beside a heavy tool
-    beyond the step), and the tool rocks lower, as a heavy tool on a given adapter does."""
-    diagonal = lambda p: np.array([p[4], p[7], p[9]])
-    torque = np.minimum(1.0, diagonal(phi) / diagonal(phi_paper_tool))
+    load: on each axis where the load's inertia about the mount's point (``spec.at``, S when None;
+    ``phi``; mass for the force constants) is below the paper's tool's about S
+    (``phi_paper_tool``), stiffness and damping shrink by that ratio, which keeps the uncoupled
+    modes' frequencies and damping ratios the paper's tool's; where it is not, they stay the
+    default's (stiffer would put the wrist beside a heavy tool beyond the step), and the tool
+    rocks lower, as a heavy tool on a given adapter does."""
+    torque = np.minimum(1.0, np.diag(inertia_about(phi, spec.at or np.zeros(3)))
+                        / np.array([phi_paper_tool[4], phi_paper_tool[7], phi_paper_tool[9]]))
     force = np.full(3, min(1.0, phi[0] / phi_paper_tool[0]))
     ratios = {"torque_stiffness": torque, "torque_damping": torque, "force_stiffness": force, "force_damping": force}
     return dataclasses.replace(spec, **{
         name: (np.asarray(getattr(DEFAULT_MOUNT, name)) * ratios[name]).tolist()
         for name in CONSTANTS if getattr(spec, name) is None})
+
+
+def fitted_to_step(spec: MountSpec, phi, phi_paper_tool, time_step: float, modes_of) -> MountSpec:
+    """The mount the station builds for a load of ``phi`` on ``spec`` (the scenario's) with the plant's
+    ``time_step`` (s); ``modes_of(constants)`` gives the modes with the arm beside it (``Modes``).
+
+    Constants left out are sized for the load (``sized_for_load``). A mount that states neither
+    constants nor its point is placed where the step integrates it (``PLACEMENTS`` of the way to the
+    load's centre of mass, the first that does; see the module's notes), or softened (``softened``)
+    at the point that needs the least; one that states some is kept where it is, softened only if
+    it states no constant. A mount with a stated constant the step cannot integrate is refused
+    (ValueError) with its mode, the bound and what to change."""
+    def usage(candidate):
+        found = modes_of(candidate)
+        share, worst = step_usage(found, time_step)
+        return share, found.frequencies[worst], found.damping_ratios[worst]
+
+    states_constant = any(getattr(spec, name) is not None for name in CONSTANTS)
+    com = np.asarray(phi[1:4]) / phi[0]
+    points = [spec.at] if states_constant or spec.at is not None or not com.any() else \
+        [None] + [(share * com).tolist() for share in PLACEMENTS[1:]]
+    tried = []
+    for point in points:
+        candidate = sized_for_load(dataclasses.replace(spec, at=point), phi, phi_paper_tool)
+        share, frequency, zeta = usage(candidate)
+        if share <= STEP_MARGIN:
+            return candidate
+        tried.append((share, frequency, zeta, candidate))
+    share, frequency, zeta, candidate = min(tried, key=lambda entry: entry[0])
+    if not states_constant:
+        return softened(candidate, (STEP_MARGIN / share) ** 2 * (1 - 1e-9))
+    stated = ", ".join(f"{name}: {getattr(spec, name)}" for name in CONSTANTS if getattr(spec, name) is not None)
+    raise ValueError(
+        f"the {phi[0]:.3g} kg load on its stated mount (load.mount {stated}) has a mode at {frequency:.0f} Hz "
+        f"({100 * zeta:.0f} % damped, with the arm's wrist), beyond the "
+        f"{STEP_MARGIN * step_bound_hz(zeta, time_step):.0f} Hz that the plant's step of "
+        f"{1e3 * time_step:g} ms integrates stably: soften the mount's stiffness (or leave its constants out to have "
+        f"the default sized for the load), make plant.time_step at most "
+        f"{1e3 * time_step * STEP_MARGIN / share:.2g} ms, or set load.mount.rigid: true")
 
 
 def softened(mount: MountSpec, factor: float) -> MountSpec:

@@ -13,13 +13,14 @@ import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.multibody.tree import (LinearBushingRollPitchYaw, QuaternionFloatingJoint, RotationalInertia,
-                                    SpatialInertia)
+from pydrake.multibody.tree import (FixedOffsetFrame, LinearBushingRollPitchYaw, QuaternionFloatingJoint,
+                                    RotationalInertia, SpatialInertia)
 
 from heft.diagrams import mount
 from heft.diagrams.arm_params import BUNDLED_ARMS, ArmParams
 from heft.diagrams.models import model_path
 from heft.diagrams.scenario import LoadSpec, MountSpec, Scenario
+from heft.diagrams.tool_check import check_inertia
 from heft.diagrams.urdf_arm import AddArmFromUrdf, ArmChain
 from heft.systems.load_dynamics import GRAVITY_W, InertialParameters, inertia_entries, inertia_matrix
 from heft.systems.controller.master_kinematics import BASE_FRAME, STYLUS_FRAME
@@ -42,6 +43,7 @@ class SlaveParts:
 
 def _custom_load_inertia(spec) -> SpatialInertia:
     load = InertialParameters(spec.mass, spec.com, inertia_matrix(spec.inertia_com)).require_physical("load")
+    check_inertia(spec)
     I = load.inertia_com
     return SpatialInertia.MakeFromCentralInertia(
         load.mass, load.com, RotationalInertia(I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]))
@@ -97,13 +99,16 @@ def AddArmWithSensor(plant: MultibodyPlant, robot: Robot):
 def _add_compliant_mount(plant: MultibodyPlant, S, load_body, spec: MountSpec):
     """The load on ``spec``'s spring-damper below S: a massless mount plate welded at S (its weld's
     reaction is then what the sensor measures), the load free on a floating joint from it, and
-    the bushing between the two, both frames at S at rest. Returns (weld, floating joint)."""
+    the bushing between the two at ``spec.at`` (S when None), its frames there at rest. Returns
+    (weld, floating joint)."""
     plate = plant.AddRigidBody("mount_plate", load_body.model_instance(), SpatialInertia.Zero())
     weld = plant.WeldFrames(S, plate.body_frame())
     joint = plant.AddJoint(QuaternionFloatingJoint("mount", plate.body_frame(), load_body.body_frame()))
+    at = RigidTransform(np.asarray(spec.at if spec.at is not None else np.zeros(3), dtype=float))
     plant.AddForceElement(LinearBushingRollPitchYaw(
-        plate.body_frame(), load_body.body_frame(), spec.torque_stiffness, spec.torque_damping,
-        spec.force_stiffness, spec.force_damping))
+        plant.AddFrame(FixedOffsetFrame("mount_plate_at", plate.body_frame(), at)),
+        plant.AddFrame(FixedOffsetFrame("mount_load_at", load_body.body_frame(), at)),
+        spec.torque_stiffness, spec.torque_damping, spec.force_stiffness, spec.force_damping))
     return weld, joint
 
 
@@ -172,30 +177,12 @@ def mount_modes(scenario: Scenario, constants: MountSpec) -> mount.Modes:
 
 
 def mount_for(scenario: Scenario) -> MountSpec:
-    """The constants of the scenario's compliant mount as the station builds it: each one the
-    scenario states, the rest ``DEFAULT_MOUNT``'s sized for the load (``mount.sized_for_load``).
-    A mount stated in none of them is softened further where need be (``mount.softened``), until
-    the plant's step integrates its every mode; a stated mount the step cannot integrate is
-    refused (ValueError) with what to change."""
-    spec = scenario.load.mount
-    phi = load_phi(scenario.load)
-    constants = mount.sized_for_load(spec, phi, load_phi(LoadSpec(kind="tool")))
-    time_step = scenario.plant.time_step
-    found = mount_modes(scenario, constants)
-    share, worst = mount.step_usage(found, time_step)
-    if share <= mount.STEP_MARGIN:
-        return constants
-    if all(getattr(spec, name) is None for name in mount.CONSTANTS):
-        return mount.softened(constants, (mount.STEP_MARGIN / share) ** 2 * (1 - 1e-9))
-    frequency, zeta = found.frequencies[worst], found.damping_ratios[worst]
-    stated = ", ".join(f"{name}: {getattr(spec, name)}" for name in mount.CONSTANTS if getattr(spec, name) is not None)
-    raise ValueError(
-        f"the {phi[0]:.3g} kg load on its stated mount (load.mount {stated}) has a mode at {frequency:.0f} Hz "
-        f"({100 * zeta:.0f} % damped, with the arm's wrist), beyond the "
-        f"{mount.STEP_MARGIN * mount.step_bound_hz(zeta, time_step):.0f} Hz that the plant's step of "
-        f"{1e3 * time_step:g} ms integrates stably: soften the mount's stiffness (or leave its constants out to have "
-        f"the default sized for the load), make plant.time_step at most "
-        f"{1e3 * time_step * mount.STEP_MARGIN / share:.2g} ms, or set load.mount.rigid: true")
+    """The scenario's compliant mount as the station builds it (``mount.fitted_to_step``): each
+    constant the scenario states, the rest ``DEFAULT_MOUNT``'s sized for the load; an unstated mount
+    placed or softened until the plant's step integrates its every mode with the arm beside it
+    (``mount_modes``); a stated one the step cannot integrate refused (ValueError) with what to change."""
+    return mount.fitted_to_step(scenario.load.mount, load_phi(scenario.load), load_phi(LoadSpec(kind="tool")),
+                                scenario.plant.time_step, lambda constants: mount_modes(scenario, constants))
 
 
 def phi_about_S(plant: MultibodyPlant, S, bodies, context=None) -> np.ndarray:

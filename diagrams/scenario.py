@@ -43,12 +43,15 @@ class MountSpec:
     a wrist flange with an adapter plate is. A constant left out (null) is ``DEFAULT_MOUNT``'s,
     sized for the load (``diagrams/mount.py``: a load lighter than the paper's tool about an axis
     gets a proportionally softer mount there, so that it rocks where that tool does); a stated
-    one is kept as stated, and the station refuses a mount its plant step cannot integrate."""
+    one is kept as stated, and the station refuses a mount its plant step cannot integrate. The
+    compliance sits at ``at``; left out (null), at S, or nearer the load's centre of mass where the
+    plant's step cannot integrate it at S (a compact mass far out on a stem)."""
     rigid: bool = False
     torque_stiffness: list[float] | None = None  # N·m/rad
     torque_damping: list[float] | None = None  # N·m·s/rad
     force_stiffness: list[float] | None = None  # N/m
     force_damping: list[float] | None = None  # N·s/m
+    at: list[float] | None = None  # m, in S: the point whose rotation and translation the constants resist
 
     def validate(self) -> None:
         """Raises ValueError naming the first stated field that is out of range (none when rigid)."""
@@ -62,6 +65,8 @@ class MountSpec:
             if len(value) != 3 or not all(math.isfinite(x) and (x > 0 if positive else x >= 0) for x in value):
                 raise ValueError(f"{name} needs 3 numbers {'> 0' if positive else '>= 0'} ({unit})"
                                  + ("; set rigid true for a rigid mount" if positive else "") + f"; got {value}")
+        if self.at is not None and (len(self.at) != 3 or not all(math.isfinite(x) for x in self.at)):
+            raise ValueError(f"at needs 3 finite numbers (m, in S), or null to have it placed; got {self.at}")
 
 
 DEFAULT_MOUNT = MountSpec(torque_stiffness=[3000.0, 3000.0, 3000.0], torque_damping=[0.85, 0.85, 0.4],

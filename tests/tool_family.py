@@ -3,7 +3,9 @@ steel and aluminium, 0.1–10 kg, centres of mass up to 0.25 m from S, each comp
 homogeneous solids in closed form (``diagrams/models/make_tool_inertia.py``: box
 m(b² + c²)/12, cylinder m r²/2 about its axis and m(3r² + L²)/12 across it, the parallel-axis
 theorem; the tables of e.g. Meriam & Kraige, Engineering Mechanics: Dynamics, Appendix B).
-Densities are SOURCES.md's standard values (steel 7850, aluminium 2700 kg/m³). Geometry starts
+Densities are SOURCES.md's standard values (steel 7850, aluminium 2700 kg/m³), and tungsten's
+19 250 kg/m³ (CRC Handbook of Chemistry and Physics, "Physical constants of inorganic compounds")
+for the dense end masses of balancing and impact tools. Geometry starts
 at the sensor's tool face, 17.5 mm below S along z (``JR3_S_TO_TOOL_FACE``). A tilted tool is its
 parts' composite turned about S's y axis (I' = R·I·Rᵀ), so that it has products of inertia.
 
@@ -21,6 +23,7 @@ from pydrake.math import RotationMatrix
 from heft.diagrams.models.make_tool_inertia import ALUMINIUM, JR3_S_TO_TOOL_FACE, STEEL, Solid, compose
 
 Z0 = JR3_S_TO_TOOL_FACE  # m, the sensor's tool face below S
+TUNGSTEN = 19250.0  # kg/m³ (CRC Handbook; see the module's notes)
 GRAVITY = 9.81  # m/s²
 # The JR3 200N12's range (systems/station/sensor_models.py: 200 N, 12 N·m); the RX90's payload
 # (diagrams/models/SOURCES.md: 6 kg nominal, 12 kg max).
@@ -91,11 +94,39 @@ def _box(name, material, size, center):
     return Solid(name, "box", tuple(size), tuple(center), density=material)
 
 
+def _on_stem(material, stem_diameter, stem_length, end):
+    """(a stem of ``material`` along z from the tool face, a compact mass at its end): ``end`` makes
+    that mass's Solid from the z (m, in S) where the stem ends."""
+    return _rod("stem", material, stem_diameter, stem_length), end(Z0 + stem_length)
+
+
+def _ball(material, radius):
+    """A ball of ``material`` whose surface touches the stem's end at z (m): for ``_on_stem``."""
+    return lambda z: Solid("ball", "sphere", (radius,), (0.0, 0.0, z + radius), density=material)
+
+
+def _slug(material, diameter, length):
+    """A cylinder along z (a hammer's head) starting at the stem's end: for ``_on_stem``."""
+    return lambda z: Solid("slug", "cylinder", (diameter / 2, length), (0.0, 0.0, z + length / 2), density=material)
+
+
 def _family() -> list[Tool]:
     stem = _rod("stem", ALUMINIUM, 0.020, 0.150)
     offset_arm = _box("arm", ALUMINIUM, (0.25, 0.03, 0.02), (0.125, 0.0, Z0 + 0.01))
     return [
         Tool("thin rod", "rod", (_rod("rod", ALUMINIUM, 0.0105, 0.46),)),
+        # Compact masses far out on light stems: with the mount's compliance at S they pivoted
+        # about their own centre of mass beyond the step (docs/scenarios.md, "Any tool on the mount").
+        Tool("tungsten ball on a stem", "block", _on_stem(ALUMINIUM, 0.006, 0.21, _ball(TUNGSTEN, 0.012))),
+        Tool("steel block on a stem", "block", _on_stem(ALUMINIUM, 0.008, 0.20, lambda z: _box(
+            "block", STEEL, (0.04, 0.04, 0.04), (0.0, 0.0, z + 0.02)))),
+        Tool("steel ball on a stem", "block", _on_stem(STEEL, 0.010, 0.16, _ball(STEEL, 0.025))),
+        Tool("thin rod with a tungsten end", "rod", _on_stem(STEEL, 0.008, 0.15,
+                                                             _slug(TUNGSTEN, 0.030, 0.0485))),
+        # As a lab writes it down having weighed the ball alone: 0.1 kg a quarter metre out, its
+        # stem left out. With the compliance at S this crashed Drake's step.
+        Tool("tungsten ball, its stem left out", "block",
+             (Solid("ball", "sphere", (0.0108,), (0.0, 0.0, 0.25), density=TUNGSTEN),)),
         Tool("crosswise rod", "rod", (_rod("rod", ALUMINIUM, 0.013, 0.30, axis="x"),)),
         Tool("T-handle", "handle", (stem, Solid("grip", "cylinder", (0.015, 0.12), (0.0, 0.0, Z0 + 0.165),
                                                 density=ALUMINIUM, axis="y"))),
@@ -120,5 +151,5 @@ def _family() -> list[Tool]:
     ]
 
 
-TOOLS = _family()
+TOOLS = sorted(_family(), key=lambda tool: tool.mass)
 """The family, lightest first."""

@@ -18,7 +18,9 @@ from pydrake.geometry import AddContactMaterial, Box, MeshcatVisualizer, Proximi
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, Saturation
 
-from heft.diagrams.plants import AddMaster, AddSlave, SlaveParts, phi_about_S
+from heft.diagrams.plants import (AddMaster, AddSlave, SlaveParts, arm_name, load_phi, payload_max, phi_about_S,
+                                   slave_arm)
+from heft.diagrams.tool_check import check_carried
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.stations.slave_servo import slave_servo_gains
 from heft.systems.station.encoders import AddEncoderVelocityEstimate, EncoderQuantizer
@@ -273,6 +275,8 @@ def MakeSimStation(scenario: Scenario, meshcat=None):
     ``truth.*`` (see ``_add_wrist_sensor``; ``truth.acceleration`` is the kinematic [a; α]).
     """
     scenario.validate()
+    robot = slave_arm(scenario)
+    check_carried(scenario, load_phi(scenario.load), payload_max(robot), arm_name(robot))
     builder = DiagramBuilder()
     plant, parts = _add_slave(builder, scenario)
     _add_wrist_sensor(builder, scenario, plant, parts)
