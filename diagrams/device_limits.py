@@ -3,15 +3,16 @@ of the master's and the slave's URDFs and the wrist sensor's full scale."""
 
 import numpy as np
 
-from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
+from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant, slave_arm
 from heft.diagrams.scenario import Scenario
 from heft.hardware_interface.message_checks import DeviceLimits
 
 
 def device_limits(scenario: Scenario) -> DeviceLimits:
-    """The ``DeviceLimits`` of ``scenario``'s robot, the Phantom and its sensor parameters."""
+    """The ``DeviceLimits`` of ``scenario``'s arm (``slave_arm``: one limit per joint), the Phantom and its sensor
+    parameters."""
     master = MakeMasterPlant()
-    slave, _ = MakeArmPlant(scenario.robot)
+    slave, _ = MakeArmPlant(slave_arm(scenario))
     return DeviceLimits(
         master_lower=master.GetPositionLowerLimits(), master_upper=master.GetPositionUpperLimits(),
         master_velocity=master.GetVelocityUpperLimits(),

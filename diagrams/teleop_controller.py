@@ -22,7 +22,9 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 
+from heft.diagrams.arm_params import BUNDLED_ARMS
 from heft.diagrams.load_estimate import LoadEstimate
+from heft.diagrams.plants import Robot, arm_name
 from heft.diagrams.scenario import ControllerSpec
 from heft.diagrams.teleop import ConnectControllerToStation, FeedbackBlock, MakeTeleopController
 from heft.hardware_interface.hardware_station import HardwareStation
@@ -31,7 +33,6 @@ from heft.systems.accelerometer_reading import AccelerometerConvention, kernel_c
 from heft.systems.load_dynamics import checked_load, regressor
 from heft.systems.controller.load_model import ESTIMATES_SEEN, GRASPS, HOLDING, PHI_GRIPPER, RESTARTS, SPLIT
 from heft.systems.controller.offset_tracking import ESTIMATE_SIZE, OFFSETS, REQUESTS, STATUS, WINDOW_TIME
-from heft.systems.controller.slave_kinematics import NUM_JOINTS
 from heft.systems.station_ports import CLUTCH, INPUT_AGE, STATION_OUTPUTS_READ
 from heft.systems.tick_program import TickProgram
 
@@ -85,19 +86,29 @@ class TeleopController:
     docstring); with a ``station`` (a function making the lab's ``HardwareStation``), the two in one Diagram
     (``HardwareStationSystem``, connected as the simulation connects its station) stepped by ``tick(now)``.
 
+    ``robot``: the slave arm (``plants.Robot``), ``slave_initial_q`` its start posture (rad; default a bundled
+    arm's own, ``BundledArm.start``), which the inverse kinematics of a 7-joint arm draws its null space to.
     ``start(slave_position)`` begins (again); ``step(dt, …)`` takes one tick's readings. After a step:
-    ``torque`` τ_M (6, N·m) and ``position`` q̄_S (6, rad) to send, the state the update left
+    ``torque`` τ_M (6, N·m) and ``position`` q̄_S (n, rad: the arm's joints) to send, the state the update left
     (``applied_wrench``, ``energy``, ``damping``, ``scales``, ``offsets``, ``phi``, ``pose_RS_desired``) and
     what the tick computed from its readings (``wrench_feedback``, ``wrench_contact``, ``wrench_noncontact``,
     ``master_wrench``: at S in S, on the hand at E in B). ``compile`` as ``TickProgram``'s."""
 
-    def __init__(self, spec: ControllerSpec, load: LoadEstimate, robot: str, period: float, *,
-                 accelerometer: AccelerometerConvention, feedback_blocks: Sequence[FeedbackBlock] = (),
-                 station: Callable[[], HardwareStation] | None = None, compile: bool = True):
+    def __init__(self, spec: ControllerSpec, load: LoadEstimate, robot: Robot, period: float, *,
+                 accelerometer: AccelerometerConvention, slave_initial_q=None,
+                 feedback_blocks: Sequence[FeedbackBlock] = (), station: Callable[[], HardwareStation] | None = None,
+                 compile: bool = True):
         phi, offsets = checked_load(load.phi, load.offsets)
         self.period = period
-        controller = MakeTeleopController(spec, LoadEstimate(phi, offsets), robot, period, np.zeros(NUM_JOINTS),
+        if slave_initial_q is None:
+            if not isinstance(robot, str):
+                raise ValueError(f"the controller of the arm {arm_name(robot)} needs its start posture "
+                                 "(slave_initial_q, one angle per joint, rad)")
+            slave_initial_q = BUNDLED_ARMS[robot].start
+        controller = MakeTeleopController(spec, LoadEstimate(phi, offsets), robot, period, slave_initial_q,
                                           accelerometer=accelerometer, feedback_blocks=feedback_blocks)
+        self.num_joints = len(slave_initial_q)
+        """The arm's joints."""
         # The station's subscriptions open after the controller's models are built (about a second), when the
         # loop is about to pump them.
         self.station = None if station is None else HardwareStationSystem(station(), period)
@@ -129,12 +140,12 @@ class TeleopController:
     # --- ticking ------------------------------------------------------------------------
 
     def start(self, slave_position) -> None:
-        """Begins (again) from the slave measured at ``slave_position`` (6, rad; with a station, its reading), the
+        """Begins (again) from the slave measured at ``slave_position`` (n, rad; with a station, its reading), the
         clutch disengaged (with a station, as it reads it): the blocks restart, what was learned of the load is kept
         (``TickProgram.restart``)."""
         slave_position = np.asarray(slave_position, dtype=float)
-        if slave_position.shape != (NUM_JOINTS,) or not np.isfinite(slave_position).all():
-            raise ValueError(f"the slave's start position must be {NUM_JOINTS} finite joint angles; "
+        if slave_position.shape != (self.num_joints,) or not np.isfinite(slave_position).all():
+            raise ValueError(f"the slave's start position must be {self.num_joints} finite joint angles; "
                              f"got {slave_position}")
         program = self.program
         program.restart()
@@ -206,7 +217,7 @@ class TeleopController:
 
     @property
     def position(self) -> np.ndarray | None:
-        """q̄_S (6, rad) to send; None before ``start``."""
+        """q̄_S (n, rad) to send; None before ``start``."""
         return self._position if self.started else None
 
     @property

@@ -16,7 +16,6 @@ from __future__ import annotations
 import numpy as np
 
 from heft.systems.compiled import compiled
-from heft.systems.controller.slave_kinematics import NUM_JOINTS
 
 SENT_KEEP = 64
 """Commands remembered: an echo can be found while at most this many were sent after it (32 ms at 2 kHz)."""
@@ -25,8 +24,8 @@ SENT_KEEP = 64
 @compiled("int64(float64[:, :], int64[:], int64, float64[:])")
 def echoed_status_utime(sent, answered, count, commanded) -> int:
     """The utime (µs, the driver's) of the status that the newest of the last ``count`` commands sent
-    (ring ``sent`` (K, 6) rad, ``answered`` (K,) the utimes of the statuses they answered) equal to
-    ``commanded`` (6, rad) answered; −1 if none of the last K is."""
+    (ring ``sent`` (K, n) rad, ``answered`` (K,) the utimes of the statuses they answered) equal to
+    ``commanded`` (n, rad) answered; −1 if none of the last K is."""
     keep = sent.shape[0]
     for back in range(min(count, keep)):
         row = (count - 1 - back) % keep
@@ -41,29 +40,29 @@ def echoed_status_utime(sent, answered, count, commanded) -> int:
 
 
 class CommandEcho:
-    """The lag of the commands the arm stepped on (module docstring), for an arm stepping every
-    ``step`` s. After each ``heard``: ``lag`` (steps; −1 unmeasured), and over the run ``statuses``
+    """The lag of the commands the arm stepped on (module docstring), for an arm of ``num_joints`` joints stepping
+    every ``step`` s. After each ``heard``: ``lag`` (steps; −1 unmeasured), and over the run ``statuses``
     (heard after a command was sent), ``late`` (lag ≥ 1), ``unmeasured`` (since the first echo found: the
     status before it echoes what the driver held before the first command), ``max_lag`` and
     ``max_lag_at`` (s after the first status heard after a command, on the driver's clock). A status
     stamped at or before the last (a restarted driver) starts it afresh: the commands sent before answered
     another clock."""
 
-    def __init__(self, step: float):
+    def __init__(self, step: float, num_joints: int):
         self._step_us = step * 1e6
-        self._sent, self._answered, self._count = np.zeros((SENT_KEEP, NUM_JOINTS)), np.zeros(SENT_KEEP, np.int64), 0
+        self._sent, self._answered, self._count = np.zeros((SENT_KEEP, num_joints)), np.zeros(SENT_KEEP, np.int64), 0
         self._last_utime, self._first_utime, self._matched = None, None, False
         self.lag, self.statuses, self.late, self.unmeasured, self.max_lag, self.max_lag_at = -1, 0, 0, 0, 0, 0.0
 
     def sent(self, position: np.ndarray, answered_utime: int) -> None:
-        """A command ``position`` (6, rad) sent in answer to the status stamped ``answered_utime`` (µs)."""
+        """A command ``position`` (n, rad) sent in answer to the status stamped ``answered_utime`` (µs)."""
         row = self._count % SENT_KEEP
         self._sent[row] = position
         self._answered[row] = answered_utime
         self._count += 1
 
     def heard(self, utime: int, commanded: np.ndarray) -> None:
-        """A new status stamped ``utime`` (µs) echoing ``commanded`` (6, rad, float64)."""
+        """A new status stamped ``utime`` (µs) echoing ``commanded`` (n, rad, float64)."""
         if self._last_utime is not None and utime <= self._last_utime:
             self._count, self._matched, self._first_utime = 0, False, None
         self._last_utime = utime

@@ -31,7 +31,7 @@ import numpy as np
 from drake import lcmt_iiwa_command
 
 from heft.systems.compiled import compiled, float_array
-from heft.systems.controller.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
+from heft.systems.controller.master_kinematics import NUM_JOINTS as MASTER_JOINTS
 
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.command_echo import CommandEcho
@@ -39,7 +39,7 @@ from heft.hardware_interface.fixed_layout import FixedLayout, put_wire_double, p
 from heft.hardware_interface.ft_receiver import FtSampleReader
 from heft.hardware_interface.gripper_state_reader import GripperStateReader
 from heft.hardware_interface.hardware_station_params import HardwareStationParams
-from heft.hardware_interface.joint_state_reader import HAPTIC_STATE, IIWA_STATUS, JointStateReader
+from heft.hardware_interface.joint_state_reader import HAPTIC_STATE, JointStateReader, iiwa_status
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
 from heft.hardware_interface.lcmtypes import heft_haptic_command, heft_station_status
 from heft.hardware_interface.message_checks import REASONS, DeviceLimits, JointRange
@@ -174,7 +174,9 @@ def command_buffer(layout: FixedLayout, fields, **lengths: int) -> tuple[np.ndar
 class HardwareStation:
     """The lab on ``bus`` (python-lcm, ``channels.lcm_url``), read by ``receive``, and on ``command_bus``
     (``channels.command_lcm_url()``; default ``bus``), written by ``send`` (module docstring);
-    ``limits`` are what the devices can report and the slave's speed limits.
+    ``limits`` are what the devices can report and the slave's speed limits, one per joint: the slave's
+    ``num_joints`` are as many as its limits (the scenario's arm, ``diagrams.device_limits``), and its
+    status and commands carry that many (a status of another count is rejected as ``joint_count``).
 
     Readings after ``receive`` (arrays updated in place): ``master_position``,
     ``master_velocity`` (rad, rad/s), ``clutch`` (the clutch button held),
@@ -194,6 +196,8 @@ class HardwareStation:
         self._command_bus = bus if command_bus is None else command_bus
         self._bus_fd = [bus.fileno()]
         self._limits = np.asarray(limits.slave_velocity, dtype=float)
+        self.num_joints = n = len(self._limits)
+        """The slave's joints (6 or 7)."""
         self._mail = (LcmMailbox(bus, channels.master_state.name, keep=JOINT_KEEP),
                       LcmMailbox(bus, channels.slave_status.name, keep=JOINT_KEEP),
                       LcmMailbox(bus, channels.ft_sample.name, keep=FT_KEEP),
@@ -202,13 +206,13 @@ class HardwareStation:
         self._master = JointStateReader(HAPTIC_STATE,
                                         JointRange(limits.master_lower, limits.master_upper, limits.master_velocity),
                                         silence)
-        self._slave = JointStateReader(IIWA_STATUS,
+        self._slave = JointStateReader(iiwa_status(n),
                                        JointRange(limits.slave_lower, limits.slave_upper, limits.slave_velocity),
                                        silence)
         self._ft = FtSampleReader(np.concatenate([limits.wrench_full_scale, limits.acceleration_full_scale]), silence)
         self._gripper = GripperStateReader(silence)
         self._readers = (self._master, self._slave, self._ft, self._gripper)
-        self.command_echo = CommandEcho(1.0 / channels.slave_status.rate)
+        self.command_echo = CommandEcho(1.0 / channels.slave_status.rate, n)
         """How late the arm stepped on the slave commands sent, from its status's echo (``command_echo``)."""
         self._echo_utime = 0
         self.gripper_events: list[str] = []
@@ -225,19 +229,19 @@ class HardwareStation:
         self._last_tick = None
         # The gate's memory (``gate_position_into``), the published slave command, the hold latched at a fault.
         self._gate = np.zeros(3)
-        self._position, self._hold = np.zeros(NUM_JOINTS), np.zeros(NUM_JOINTS)
+        self._position, self._hold = np.zeros(n), np.zeros(n)
         self._last_send = None
         self._master_command, self._master_at = command_buffer(
-            FixedLayout(heft_haptic_command, num_joints=NUM_JOINTS), MASTER_COMMAND_FIELDS, num_joints=NUM_JOINTS)
+            FixedLayout(heft_haptic_command, num_joints=MASTER_JOINTS), MASTER_COMMAND_FIELDS,
+            num_joints=MASTER_JOINTS)
         self._slave_command, self._slave_at = command_buffer(
-            FixedLayout(lcmt_iiwa_command, num_joints=NUM_JOINTS, num_torques=0), SLAVE_COMMAND_FIELDS,
-            num_joints=NUM_JOINTS)
-        self._no_position = np.zeros(NUM_JOINTS)
+            FixedLayout(lcmt_iiwa_command, num_joints=n, num_torques=0), SLAVE_COMMAND_FIELDS, num_joints=n)
+        self._no_position, self._no_torque = np.zeros(n), np.zeros(MASTER_JOINTS)
         status = self._status_msg = heft_station_status()
         status.num_channels, status.num_reasons = len(CHECKED_CHANNELS), len(REASONS)
         status.channels, status.reasons = list(CHECKED_CHANNELS), list(REASONS)
         self._next_status = 0.0
-        self.torque_sent = np.zeros(NUM_JOINTS)
+        self.torque_sent = np.zeros(MASTER_JOINTS)
         """The master torque last published (N·m), zero while forces are off."""
         self.position_sent = None
         """The slave command last published (rad), None before the first."""
@@ -356,7 +360,7 @@ class HardwareStation:
         rate-limited step towards a hold (the position measured now, or at the fault's onset if
         the station is already unhealthy)."""
         self.healthy = False
-        self.send(now, np.zeros(NUM_JOINTS), None)
+        self.send(now, self._no_torque, None)
 
     @property
     def reanchored(self) -> bool:
@@ -364,7 +368,7 @@ class HardwareStation:
         return bool(self._gate[REANCHORED])
 
     def send(self, now: float, torque, position) -> None:
-        """Publishes the gated master ``torque`` (6, N·m) and slave ``position`` (6, rad, or None:
+        """Publishes the gated master ``torque`` (6, N·m) and slave ``position`` (``num_joints``, rad, or None:
         no command from the controller) at ``now`` (s)."""
         utime = round((self.epoch + now) * 1e6)
         dt = 0.0 if self._last_send is None else min(now - self._last_send, self._params.watchdog.timeout)

@@ -15,20 +15,21 @@ from __future__ import annotations
 import numpy as np
 
 from heft.hardware_interface.hardware_station import HardwareStation
+from heft.systems.controller.master_kinematics import NUM_JOINTS as MASTER_JOINTS
 from heft.systems.station_ports import CLUTCH, INPUT_AGE, STATION_INPUTS_DRIVEN, STATION_OUTPUTS_READ
 from heft.systems.tick_system import TickSystem
 
-NUM_READINGS = 6 * len(STATION_OUTPUTS_READ)
-READINGS_SIZE = NUM_READINGS + 3
-"""The station's state: the six readings (6 each, in ``STATION_OUTPUTS_READ``'s order), the clutch (1), the
-oldest reading's age (1, s) and the health (1: 1.0 healthy)."""
-CLUTCH_AT, AGE_AT, HEALTHY_AT = NUM_READINGS, NUM_READINGS + 1, NUM_READINGS + 2
+CLUTCH_AT, AGE_AT, HEALTHY_AT = -3, -2, -1
+"""Where the station's state (``readings``) ends: after the six readings (in ``STATION_OUTPUTS_READ``'s order:
+q_M, q̇_M of the master's 6 joints, q_S, q̇_S of the slave's n, the wrench and the accelerometer's reading, 6
+each), the clutch (1), the oldest reading's age (1, s) and the health (1: 1.0 healthy)."""
 
 
 class HardwareStationSystem(TickSystem):
     """``station`` (a ``HardwareStation``) as a System ticking every ``period`` s (module docstring).
 
-    Inputs: ``master.torque_commanded`` (6, N·m), ``slave.position_commanded`` (6, rad). Outputs (state):
+    Inputs: ``master.torque_commanded`` (6, N·m), ``slave.position_commanded`` (n, rad: the station's
+    ``num_joints``). Outputs (state):
     the ``STATION_OUTPUTS_READ``, ``clutch`` (1), ``input_age`` (1, s) and ``healthy`` (1). Its state is the
     lab's, kept when the controller restarts (``kept_on_restart``)."""
 
@@ -39,23 +40,30 @@ class HardwareStationSystem(TickSystem):
         self.station = station
         self.now = 0.0
         """The tick's time (s, the loop's monotonic clock), set by the loop before each tick."""
-        for name in STATION_INPUTS_DRIVEN:
-            self.DeclareTickInput(name, 6)
-        self.DeclareTickState("readings", np.zeros(READINGS_SIZE))
+        n = station.num_joints
+        for name, size in zip(STATION_INPUTS_DRIVEN, (MASTER_JOINTS, n)):
+            self.DeclareTickInput(name, size)
+        self._slices, end = [], 0
+        for width in (MASTER_JOINTS, MASTER_JOINTS, n, n, 6, 6):
+            self._slices.append(slice(end, end + width))
+            end += width
+        size = end + 3
+        self.DeclareTickState("readings", np.zeros(size))
         self.DeclareTickReceive(self.receive_into, "next:readings")
-        for i, name in enumerate(STATION_OUTPUTS_READ):
-            self.DeclareTickOutput(name, "x:readings", 6 * i, 6 * i + 6)
+        for name, at in zip(STATION_OUTPUTS_READ, self._slices):
+            self.DeclareTickOutput(name, "x:readings", at.start, at.stop)
         for name, at in ((CLUTCH, CLUTCH_AT), (INPUT_AGE, AGE_AT), ("healthy", HEALTHY_AT)):
-            self.DeclareTickOutput(name, "x:readings", at, at + 1)
+            self.DeclareTickOutput(name, "x:readings", size + at, size + at + 1)
         self.DeclareTickPublish(self.send, *(f"in:{name}" for name in STATION_INPUTS_DRIVEN))
 
     def receive_into(self, readings: np.ndarray) -> None:
-        """One pump of the lab's channels at ``now`` into ``readings`` (``READINGS_SIZE``)."""
+        """One pump of the lab's channels at ``now`` into ``readings`` (the station's state)."""
         station = self.station
         station.receive(self.now)
-        for i, reading in enumerate((station.master_position, station.master_velocity, station.slave_position,
-                                     station.slave_velocity, station.wrench, station.acceleration)):
-            readings[6 * i:6 * i + 6] = reading
+        for at, reading in zip(self._slices, (station.master_position, station.master_velocity,
+                                              station.slave_position, station.slave_velocity, station.wrench,
+                                              station.acceleration)):
+            readings[at] = reading
         readings[CLUTCH_AT] = 1.0 if station.clutch else 0.0
         readings[AGE_AT] = station.oldest_age
         readings[HEALTHY_AT] = 1.0 if station.healthy else 0.0

@@ -158,6 +158,23 @@ def test_init_lab_writes_a_file_the_lab_commands_take(tmp_path, capsys):
     assert (tmp_path / "labs" / "mine.yaml").read_text().startswith("# heft lab file")
 
 
+@pytest.mark.parametrize("robot", ["ur5e", "iiwa14"])
+def test_init_lab_writes_a_file_of_any_bundled_arm_that_loads(tmp_path, robot):
+    """The arm's own start posture and motion scale, stated; its channels' joints are the arm's."""
+    from heft.diagrams.arm_params import BUNDLED_ARMS
+    from heft.diagrams.commands.options import scenario_from
+    from heft.diagrams.device_limits import device_limits
+
+    assert main(["init", "lab", "--robot", robot, "--out", str(tmp_path)]) == 0
+    text = (tmp_path / "lab.yaml").read_text()
+    arm = BUNDLED_ARMS[robot]
+    assert f"carry its {len(arm.start)} joints" in text
+    scenario = scenario_from(build_parser().parse_args(["stand-in", "--scenario", str(tmp_path / "lab.yaml")]))
+    assert scenario.robot == robot and scenario.slave_initial_q == list(arm.start)
+    assert scenario.controller.motion.translation_scale == arm.translation_scale
+    assert len(device_limits(scenario).slave_velocity) == len(arm.start)
+
+
 def test_the_package_installs_no_dask():
     """dask is the cluster extra's alone (pyproject), and the installed metadata says the same."""
     tomllib = pytest.importorskip("tomllib")

@@ -47,9 +47,9 @@ ALL = ("master", "slave", "ft")
 class Rig:
     """The station on a fresh memq:// bus; the test plays the drivers and the controller's ticks."""
 
-    def __init__(self, params=PARAMS):
+    def __init__(self, params=PARAMS, limits=LIMITS):
         self.bus = lcm.LCM("memq://")
-        self.station = HardwareStation(self.bus, CHANNELS, LIMITS, params)
+        self.station = HardwareStation(self.bus, CHANNELS, limits, params)
         self.master_out = LcmMailbox(self.bus, CHANNELS.master_command.name, keep=100_000)
         self.slave_out = LcmMailbox(self.bus, CHANNELS.slave_command.name, keep=100_000)
         self.now, self.driver_start, self.counter = 0.0, 0.0, 0
@@ -64,13 +64,7 @@ class Rig:
             msg.position, msg.velocity, msg.torque_applied = list(Q_MASTER), [0.0] * 6, [0.0] * 6
             self.bus.publish(CHANNELS.master_state.name, msg.encode())
         if "slave" in publish:
-            msg = lcmt_iiwa_status()
-            msg.utime, msg.num_joints = utime, 6
-            msg.joint_position_measured = list(q_slave)
-            for field in ("joint_velocity_estimated", "joint_position_commanded", "joint_position_ipo",
-                          "joint_torque_measured", "joint_torque_commanded", "joint_torque_external"):
-                setattr(msg, field, [0.0] * 6)
-            self.bus.publish(CHANNELS.slave_status.name, msg.encode())
+            self.bus.publish(CHANNELS.slave_status.name, iiwa_status(utime, q_slave))
         if "ft" in publish:
             self.counter += 1
             msg = heft_ft_sample()
@@ -255,6 +249,17 @@ def test_published_utime_is_wall_clock_and_names_the_master_state():
     assert math.isfinite(rig.station.ages.max())
 
 
+def iiwa_status(utime, position) -> bytes:
+    """The arm driver's status of the joints at ``position`` (rad), as many as it has."""
+    msg = lcmt_iiwa_status()
+    msg.utime, msg.num_joints = utime, len(position)
+    msg.joint_position_measured = list(position)
+    for field in ("joint_velocity_estimated", "joint_position_commanded", "joint_position_ipo",
+                  "joint_torque_measured", "joint_torque_commanded", "joint_torque_external"):
+        setattr(msg, field, [0.0] * len(position))
+    return msg.encode()
+
+
 def haptic_state(utime, position, num_joints=6, velocity=None) -> bytes:
     msg = heft_haptic_state()
     msg.utime, msg.num_joints = utime, num_joints
@@ -318,6 +323,32 @@ def test_malformed_messages_are_counted_and_never_reach_the_controller():
     assert {channel: {reason: count for reason, count in zip(status.reasons, row) if count}
             for channel, row in zip(status.channels, status.rejected)} == rig.station.rejections
     assert list(status.received) == [rig.station.received[name] for name in status.channels]
+
+
+IIWA = resolve_scenario("fig6", "{robot: iiwa14}")
+Q_IIWA = np.array(IIWA.slave_initial_q)
+
+
+def test_a_seven_joint_arm_is_read_and_commanded_in_its_joints_and_six_are_refused():
+    """The station of an iiwa (its limits: 7 joints) reads the driver's 7-joint statuses and sends 7-joint
+    commands; statuses of six joints between them, stamped on the driver's clock (an RX's driver on the
+    same channel, a misconfigured one), are rejected as of another joint count, counted and reported, and
+    never fatal: the station stays healthy on the driver's own."""
+    rig = Rig(limits=device_limits(IIWA))
+    assert rig.station.num_joints == 7
+    rig.run(0.05, q_slave=Q_IIWA, position=Q_IIWA + 0.01)
+    for _ in range(20):
+        rig.now += PERIOD
+        rig.publish(q_slave=Q_IIWA)
+        stamp = round(1e6 * (rig.now - rig.driver_start)) + 2
+        rig.bus.publish(CHANNELS.slave_status.name, iiwa_status(stamp, Q_SLAVE))
+        rig.tick(position=Q_IIWA + 0.01)
+        assert rig.station.healthy
+        np.testing.assert_array_equal(rig.station.slave_position, Q_IIWA)
+    assert rig.station.rejections["slave_status"] == {"joint_count": 20}
+    assert rig.enables[-1] and rig.station.conflicts == 0
+    assert {len(position) for position in rig.positions} == {7}
+    np.testing.assert_allclose(rig.positions[-1], Q_IIWA + 0.01)
 
 
 OPEN, CLOSING, HOLDING = heft_gripper_state.OPEN, heft_gripper_state.CLOSING, heft_gripper_state.HOLDING

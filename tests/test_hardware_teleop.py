@@ -61,19 +61,19 @@ class Lab:
                                             else np.zeros(6))
 
 
-def sensor_pose(q):
-    """X_RS of the slave's sensor frame at joint angles q, from Drake's own plant."""
+def sensor_pose(q, robot: str = "rx90"):
+    """X_RS of the bundled ``robot``'s sensor frame at joint angles q, from Drake's own plant."""
     plant = MultibodyPlant(0.0)
-    AddArmWithSensor(plant, "rx90")
+    chain, _, S = AddArmWithSensor(plant, robot)
     plant.Finalize()
     context = plant.CreateDefaultContext()
     plant.SetPositions(context, q)
-    return plant.CalcRelativeTransform(context, plant.GetFrameByName("rx90_base"), plant.GetFrameByName("S"))
+    return plant.CalcRelativeTransform(context, chain.base, S)
 
 
-def sensor_position(q) -> np.ndarray:
-    """p_RS (m) of the slave's sensor frame at joint angles q."""
-    return sensor_pose(q).translation()
+def sensor_position(q, robot: str = "rx90") -> np.ndarray:
+    """p_RS (m) of the bundled ``robot``'s sensor frame at joint angles q."""
+    return sensor_pose(q, robot).translation()
 
 
 def stylus_position(q) -> np.ndarray:
@@ -320,15 +320,26 @@ def test_a_non_physical_estimate_over_lcm_is_refused_with_the_reason(phi_of, off
     np.testing.assert_array_equal(lab.teleop.controller.phi, true.phi)
 
 
-def test_with_the_clutch_held_the_slave_moves_by_the_scaled_stylus_motion():
-    scenario = resolve_scenario("fig6")
+@pytest.mark.parametrize("robot", ["rx90", "ur5e", "iiwa14"])
+def test_with_the_clutch_held_the_slave_moves_by_the_scaled_stylus_motion(robot):
+    """Each bundled arm, its status and commands in its own joints (6, or the iiwa's 7): held still where it is
+    measured until the clutch is pressed, then S follows the stylus by the arm's motion scale."""
+    scenario = resolve_scenario("fig6", f"{{robot: {robot}}}")
     lab = Lab(scenario, clutch_at=0.2)
     lab.run(1.2)
+    joints = len(scenario.slave_initial_q)
+    assert lab.teleop.station.num_joints == joints and lab.teleop.summary(1.2)["slave_joints"] == joints
+    assert not any(lab.teleop.station.rejections.values()) and lab.stand_in.refused == {
+        name: {} for name in (LcmChannels().master_command.name, LcmChannels().slave_command.name)}
     k_t = scenario.controller.motion.translation_scale
     engaged = round(0.2 / PERIOD)
+    still = np.array([c for c in lab.commands[:engaged] if c is not None])
+    # Still to well within an encoder count (6e-6 rad): the iiwa's iterative IK settles to 1e-9 where it stands.
+    assert len(still) > 0.9 * engaged and np.ptp(still, axis=0).max() < 1e-9, "the slave moved before the clutch"
     q_S = [c for c in lab.commands[engaged:] if c is not None]
+    assert all(len(q) == joints for q in q_S)
     stylus = np.array([stylus_position(q) for q in lab.master_q[engaged::50]])
-    sensor = np.array([sensor_position(q) for q in q_S[::50]])
+    sensor = np.array([sensor_position(q, robot) for q in q_S[::50]])
     n = min(len(stylus), len(sensor))
     stylus_motion = np.linalg.norm(stylus[:n] - stylus[0], axis=1)
     sensor_motion = np.linalg.norm(sensor[:n] - sensor[0], axis=1)
@@ -336,6 +347,22 @@ def test_with_the_clutch_held_the_slave_moves_by_the_scaled_stylus_motion():
     # The slave follows (speed limits and one tick of lag aside) and never goes further.
     assert sensor_motion.max() <= k_t * stylus_motion.max() + 1e-3
     assert sensor_motion.max() >= 0.8 * k_t * stylus_motion.max()
+
+
+def test_a_lab_of_another_arm_never_reaches_the_controller():
+    """An iiwa's lab (7 joints) on the channels of a controller for the RX90 (6): every status is rejected as
+    of another joint count, counted and reported; the controller never starts, sends no slave command and no
+    force, and runs on."""
+    lab = Lab(resolve_scenario("fig6", "{robot: iiwa14}"), controller_scenario=resolve_scenario("fig6"))
+    lab.run(0.1)
+    summary = lab.teleop.summary(0.1)
+    assert summary["rejected"]["slave_status"] == {"joint_count": 200} and summary["ticks"] == 200
+    assert summary["healthy_ticks"] == 0 and summary["first_healthy"] is None
+    assert all(c is None for c in lab.commands) and not np.any(lab.torques)
+    assert "slave_status: 200 joint_count" in format_summary(
+        {**summary, "duration": 0.1, "rate_hz": 2000.0, "epoch": 0.0,
+         "timing": timing_summary(TickTimes(np.full(3, 1e-4), np.full(3, 1e-4), np.zeros(3), 0, 0.1, 5e-4))},
+        "memq://")
 
 
 def test_master_command_within_device_limits_under_faults():

@@ -300,6 +300,26 @@ def test_malformed_slave_commands_keep_the_last_setpoint():
     lab.step(0.02)
     np.testing.assert_array_equal(lab.stand_in.slave_command, q0 + DELTA)
     assert lab.stand_in.received[CHANNELS.slave_command.name] == 4
+    assert lab.stand_in.refused == {CHANNELS.master_command.name: {},
+                                    CHANNELS.slave_command.name: {"joint_count": 1, "non_finite": 1, "undecodable": 1}}
+
+
+def test_a_seven_joint_arm_reports_and_takes_seven_joints_only():
+    """The scenario's iiwa: its driver publishes 7 joints, follows a 7-joint command and refuses one of six (an
+    RX's controller on its channel), counting it by its reason."""
+    lab = Lab(quiet_scenario({"robot": "iiwa14"}))
+    q0 = np.asarray(lab.scenario.slave_initial_q)
+    assert lab.stand_in.num_joints == len(q0) == 7
+    step = np.append(DELTA, -0.1)
+    lab.command_slave(q0 + step, num_joints=7)
+    lab.step(0.01)
+    lab.command_slave(q0[:6], num_joints=6)
+    lab.run(0.5)
+    statuses = lab.messages(CHANNELS.slave_status.name)
+    assert {m.num_joints for m in statuses} == {7}
+    np.testing.assert_allclose(statuses[-1].joint_position_measured, q0 + step, atol=1e-5)
+    np.testing.assert_array_equal(lab.stand_in.slave_command, q0 + step)
+    assert lab.stand_in.refused[CHANNELS.slave_command.name] == {"joint_count": 1}
 
 
 
@@ -416,6 +436,8 @@ def test_haptic_driver_applies_only_valid_commands_and_times_out():
     lab.step(lab.stand_in.next_due)
     np.testing.assert_allclose(lab.stand_in.master_torque, [3.27, -3.27, 1.0, 0.188, -0.188, 0.1])
     assert lab.stand_in.received[CHANNELS.master_command.name] == 8
+    # A disabled command is valid (no torque); the NaN and the five joints are refused, counted.
+    assert lab.stand_in.refused[CHANNELS.master_command.name] == {"joint_count": 1, "non_finite": 1}
 
 
 def test_clutch_button_is_held_in_its_interval():

@@ -76,10 +76,10 @@ def run_probe(channels, duration: float, out: Path, master_q, slave_q) -> None:
     master.num_joints, master.position, master.velocity = 6, list(master_q), [0.0] * 6
     master.torque_applied = [0.0] * 6
     slave = lcmt_iiwa_status()
-    slave.num_joints, slave.joint_position_measured = 6, list(slave_q)
+    slave.num_joints, slave.joint_position_measured = len(slave_q), list(slave_q)  # the scenario's arm's joints
     for field in ("joint_velocity_estimated", "joint_position_commanded", "joint_position_ipo",
                   "joint_torque_measured", "joint_torque_commanded", "joint_torque_external"):
-        setattr(slave, field, [0.0] * 6)
+        setattr(slave, field, [0.0] * len(slave_q))
     ft = heft_ft_sample()
     ft.acceleration = [0.0, 0.0, -9.81, 0.0, 0.0, 0.0]  # at rest: one g up, S's z points down at the start pose
     streams = [(channels.master_state, master), (channels.slave_status, slave), (channels.ft_sample, ft)]

@@ -6,13 +6,13 @@ from __future__ import annotations
 import textwrap
 from pathlib import Path
 
+from heft.diagrams.arm_params import BUNDLED_ARMS
 from heft.diagrams.commands.console import logger
 from heft.diagrams.commands.options import LAB_SETTINGS
 
 say = logger(__name__)
 
 HELP = "write a commented lab.yaml for `--scenario` (`heft init lab --robot rx90 --out .`)"
-ROBOTS = ("rx90", "rx60")
 LAB_FILE = "lab.yaml"
 
 TEMPLATE = """\
@@ -24,14 +24,16 @@ TEMPLATE = """\
 # Every field left out keeps heft's default. The two marked MEASURE are the simulated lab's values,
 # which the stand-in plays: replace them with your lab's before running on hardware.
 
-robot: {robot}  # the slave: rx90 or rx60
-slave_initial_q: {slave_q}  # rad: the pose the stand-in's arm starts in
+robot: {robot}  # the slave: {robots} (docs/arms.md); its status and commands carry its {joints} joints
+{null_space}slave_initial_q: {slave_q}  # rad: the pose the stand-in's arm starts in
 
 accelerometer:
 {position_how}
   position: {position}
 
 controller:
+  motion:
+    translation_scale: {scale}  # m of the slave's stroke per m of the stylus's{scale_why}
   force:
 {notch_how}
     mount_notch: {notch}
@@ -53,15 +55,22 @@ lab:
 
 
 def lab_text(robot: str, name: str = LAB_FILE) -> str:
-    """The lab file for ``robot``, every value heft's default (the simulated lab's), ``name`` in its usage lines."""
-    from heft.diagrams.scenario import Scenario
+    """The lab file for the bundled arm ``robot``, every value heft's default for it (the simulated lab's, the arm's
+    own start posture and motion scale: ``with_arm_defaults``), ``name`` in its usage lines."""
+    from heft.diagrams.scenario import Scenario, with_arm_defaults
 
-    if robot not in ROBOTS:
-        raise ValueError(f"--robot must be one of {', '.join(ROBOTS)}; got {robot!r}")
-    default = Scenario(robot=robot)
+    if robot not in BUNDLED_ARMS:
+        raise ValueError(f"--robot must be one of {', '.join(BUNDLED_ARMS)}; got {robot!r}")
+    default = with_arm_defaults(Scenario(robot=robot), {"robot": robot}, Scenario().robot)
     force, lab = default.controller.force, default.lab
+    joints = len(default.slave_initial_q)
+    own_scale = BUNDLED_ARMS[robot].translation_scale is not None
     return TEMPLATE.format(
-        robot=robot, name=name, slave_q=list(default.slave_initial_q),
+        robot=robot, robots=", ".join(BUNDLED_ARMS), joints=joints, name=name, slave_q=list(default.slave_initial_q),
+        null_space="# 7 joints: the inverse kinematics draws the arm's redundant motion toward this posture\n"
+        if joints > 6 else "",
+        scale=default.controller.motion.translation_scale,
+        scale_why=f" (the {robot}'s: its joint speeds)" if own_scale else "",
         position_how=_measure("accelerometer.position", "  "), position=list(default.accelerometer.position),
         notch_how=_measure("controller.force.mount_notch", "    "), notch=force.mount_notch,
         sigma=force.sigma, gamma=force.gamma, period=default.controller_period, rate=1 / default.controller_period,
@@ -77,7 +86,8 @@ def _measure(field: str, indent: str) -> str:
 
 def add_arguments(parser) -> None:
     parser.add_argument("what", choices=("lab",), help="lab: the lab file")
-    parser.add_argument("--robot", choices=ROBOTS, default="rx90", help="the slave (default rx90)")
+    parser.add_argument("--robot", choices=tuple(BUNDLED_ARMS), default="rx90",
+                        help="the slave, a bundled arm (default rx90; docs/arms.md)")
     parser.add_argument("--out", metavar="DIR", default=".",
                         help=f"output folder (default .): {LAB_FILE}; a path ending in .yaml names the file itself")
     parser.add_argument("--force", action="store_true", help="overwrite an existing file")

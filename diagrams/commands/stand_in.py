@@ -61,6 +61,7 @@ SUMMARY, TRUTH = "stand_in.json", "stand_in.truth.npz"
 
 
 def run(args) -> int:
+    from heft.diagrams.plants import arm_name, slave_arm
     from heft.diagrams.running.realtime import StopOnSignal, claim_lab_realtime
     from heft.diagrams.stations.stand_in import FaultInjection, run_stand_in
     from heft.diagrams.stations.stand_in_wrist import GraspTimes
@@ -83,7 +84,8 @@ def run(args) -> int:
         say.info(f"stand-in: the wrist sensor answers as a Net F/T on {args.netft}:{scenario.lab.netft.port} (RDT), "
                  f"not on {channels.ft_sample.name}")
     say.info(f"stand-in: {args.scenario} on {channels.lcm_url} (commands on {channels.command_lcm_url()}) for "
-             f"{args.duration:g} s at real time; {claim_lab_realtime(args.rt_priority)}")
+             f"{args.duration:g} s at real time; the arm: {arm_name(slave_arm(scenario))}, "
+             f"{len(scenario.slave_initial_q)} joints; {claim_lab_realtime(args.rt_priority)}")
     if view is not None:
         say.info(f"stand-in: live view on ws://localhost:{args.view_port}; {VIEW_HOWTO}")
     with StopOnSignal() as stop:
@@ -101,10 +103,12 @@ def run(args) -> int:
     rates = "; ".join(f"{kind} Hz " + ", ".join(f"{name} {hz:.0f}" for name, hz in summary[f"{kind}_hz"].items())
                       for kind in ("published", "received"))
     died = " (died, as injected)" if summary["died"] else ""
+    refused = "; ".join(f"{name}: " + ", ".join(f"{count} {reason}" for reason, count in reasons.items())
+                        for name, reasons in summary["refused"].items() if reasons)
     say.info(f"stand-in: stopped at t = {summary['duration_s']:.3f} s{died}; {rates}; CPU {summary['cpu_s']:.2f} s; "
              f"max lateness {summary['max_lateness_ms']:.2f} ms; largest force rendered on the stylus "
              f"{summary['stylus_force_peak']:.4g} N; arm steps that took two commands after one that took none "
-             f"{summary['arm_steps_after_a_held_one']}")
+             f"{summary['arm_steps_after_a_held_one']}; commands refused: {refused or 'none'}")
     if summary_path is not None:
         summary["truth"] = TRUTH
         summary_path.write_text(json.dumps(summary, indent=2) + "\n")

@@ -31,7 +31,7 @@ from heft.diagrams.running.lcm_recording import LcmTrafficRecorder
 from heft.diagrams.running.realtime import (LOOP_PRIORITY, HardwareRunFailed, StopOnSignal, claim_realtime,
                                             format_timing, keep_cpu_for_loop, run_realtime, timing_summary)
 from heft.diagrams.scenario import Scenario
-from heft.systems.controller.slave_kinematics import NUM_JOINTS
+from heft.systems.controller.master_kinematics import NUM_JOINTS as MASTER_JOINTS
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import (
     WATCHED_CHANNELS,
@@ -71,7 +71,7 @@ class HardwareIdentification:
                  command_bus: lcm.LCM | None = None, taps=()):
         self.station = station = HardwareStation(bus, channels, limits, params, command_bus)
         self.commander = commander = ExcitationCommander(trajectory, duration, limits.slave_velocity)
-        self._zero = np.zeros(NUM_JOINTS)
+        self._zero = np.zeros(MASTER_JOINTS)  # the master's torque
         self.now = 0.0
         """The last tick's time (s)."""
         self.epoch = time.time()
@@ -88,8 +88,8 @@ class HardwareIdentification:
         self.taps = list(taps)
         for tap in self.taps:
             tap.open(self._widths, topics=ESTIMATE_TOPICS)
-        # Per excitation tick: time into the excitation (s), wrench (6), acceleration (6), q_S (6).
-        self._rows = np.empty((int(duration / period) + 2, 19))
+        # Per excitation tick: time into the excitation (s), wrench (6), acceleration (6), q_S (n).
+        self._rows = np.empty((int(duration / period) + 2, 13 + station.num_joints))
         self._count = 0
         self.abort_reason = None
 

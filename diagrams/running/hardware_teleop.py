@@ -44,6 +44,7 @@ from heft.diagrams.running.realtime import (LOOP_PRIORITY, StopOnSignal, claim_r
                                             keep_cpu_for_loop, run_realtime, timing_summary)
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.load_estimate import LoadEstimate
+from heft.diagrams.plants import arm_name, slave_arm
 from heft.diagrams.teleop import FeedbackBlock
 from heft.diagrams.teleop_controller import TeleopController
 from heft.hardware_interface.channels import LcmChannels
@@ -54,7 +55,6 @@ from heft.hardware_interface.load_commands import LoadCommandServer
 from heft.hardware_interface.teleop_state import TeleopStatePublisher
 from heft.systems.compiled import compiled
 from heft.systems.load_dynamics import wrench_norms
-from heft.systems.controller.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
 say = logging.getLogger(__name__)
 """What a run says (``heft -q`` quiets it): under the ``heft`` logger the command line configures."""
@@ -94,8 +94,9 @@ class HardwareTeleop:
         # start receiving only when the loop is about to pump them.
         limits = device_limits(scenario)
         self.controller = TeleopController(
-            scenario.controller, load, scenario.robot, scenario.controller_period,
-            accelerometer=scenario.accelerometer.convention(), feedback_blocks=feedback_blocks,
+            scenario.controller, load, slave_arm(scenario), scenario.controller_period,
+            accelerometer=scenario.accelerometer.convention(), slave_initial_q=scenario.slave_initial_q,
+            feedback_blocks=feedback_blocks,
             station=lambda: HardwareStation(bus, channels, limits, params, command_bus))
         self.station = self.controller.station.station
         self.load_commands = LoadCommandServer(bus, channels, self.controller, limits.wrench_full_scale, command_bus)
@@ -111,7 +112,7 @@ class HardwareTeleop:
         self.starts = 0
         """Controller starts so far (the first healthy tick and each recovery)."""
         self._channel_names = [getattr(channels, name).name for name in WATCHED_CHANNELS]
-        self._zero = np.zeros(NUM_JOINTS)
+        self._zero = np.zeros(self.station.num_joints)
         self.now = 0.0
         """The last tick's time (s)."""
         self._was_healthy = False
@@ -119,7 +120,8 @@ class HardwareTeleop:
         self.first_healthy = None
         self.faults = []
         self._peaks = np.zeros(PEAKS_SIZE)
-        self._last_position = np.full(NUM_JOINTS, np.nan)  # the last slave command sent (NaN before the first)
+        # The last slave command sent (NaN before the first).
+        self._last_position = np.full(self.station.num_joints, np.nan)
         self.reanchors = 0
         self.master_commands = self.slave_commands = 0
         self.conflicts = []
@@ -250,6 +252,7 @@ class HardwareTeleop:
         """The run so far (JSON-serialisable; times in s on the loop's clock, rates per wall second)."""
         station = self.station
         return {
+            "slave_joints": station.num_joints,
             "ticks": self.ticks,
             "healthy_ticks": self.healthy_ticks,
             "first_healthy": self.first_healthy,
@@ -415,6 +418,9 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float,
         teleop = HardwareTeleop(scenario, load, bus, channels, scenario.lab.station, command_bus, taps=taps,
                                 state_every_tick=record is not None)
         teleop.status = lambda line: print(line, file=sys.stderr, flush=True)
+        say.info(f"teleop: the slave is the {arm_name(slave_arm(scenario))}, {teleop.station.num_joints} joints on "
+                 f"{channels.slave_status.name} and {channels.slave_command.name} (a status of another joint count "
+                 "is rejected)")
         if priority:
             placement = keep_cpu_for_loop()
             scheduling += f"; {placement}"

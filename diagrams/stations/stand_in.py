@@ -1,7 +1,7 @@
 """The lab stand-in: the Phantom, arm, JR3 and gripper drivers on LCM, modelled cheaply
 enough to keep real time on one core.
 
-``StandIn`` publishes ``heft_haptic_state``, ``lcmt_iiwa_status`` (6 joints),
+``StandIn`` publishes ``heft_haptic_state``, ``lcmt_iiwa_status`` (the scenario's arm's 6 or 7 joints),
 ``heft_ft_samples`` (a buffered JR3 driver: the samples since the last arm step in one message)
 and, for a "gripper_object" load, ``heft_gripper_state`` at the channels' nominal rates
 (2, 2, 8 and 0.1 kHz by default: FT samples in messages at the arm's rate) on a python-lcm bus
@@ -51,8 +51,9 @@ Models (frames as docs/design.md §4: W world = R slave base, B master base, S w
   derivative of the position (published encoder-quantised). The driver
   applies the last command's torque, clipped to the amplifiers' limits, only if
   it is enabled, 6 joints and finite, and drops it to zero ``HAPTIC_WATCHDOG_S``
-  after the last valid command. Button bit 0 (the clutch) is held in
-  [``clutch_at``, ``clutch_release_at``).
+  after the last valid command. Button bit 0 (the clutch) is held in [``clutch_at``,
+  ``clutch_release_at``). Either driver refuses a command of another joint count, one that
+  does not decode or is not finite, and counts it by its reason (``StandIn.refused``).
 
 Left out against ``MakeSimStation``: contact and the environment (no sheet
 spring: the wrench is the load's own only), the arm's link dynamics but its inertia
@@ -86,34 +87,33 @@ import numpy as np
 from drake import lcmt_iiwa_command, lcmt_iiwa_status
 
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
+from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant, slave_arm
 from heft.diagrams.stations.sim_station import MASTER_ENCODER_COUNTS_PER_REV
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import CLUTCH_BUTTON
 from heft.hardware_interface.fixed_layout import FixedLayout, put_wire_double, put_wire_int
 from heft.hardware_interface.ft_messages import FIELDS, OFFSETS, SAMPLE_BYTES, pack_samples
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, open_buses, pump
+from heft.hardware_interface.message_checks import Rejections
 from heft.diagrams.stations.slave_servo import SERVO_ROWS, servo_step, servo_step_matrices, slave_servo_gains
 from heft.diagrams.stations.stand_in_wrist import GraspTimes, SixAxisSampler, TruthRecord, Wrist
 from heft.hardware_interface.lcmtypes import heft_gripper_state, heft_haptic_command, heft_haptic_state
 from heft.systems.compiled import compiled, float_array
 from heft.systems.station.encoders import EncoderVelocityEstimator
 from heft.systems.controller.master_kinematics import BASE_FRAME, STYLUS_FRAME
+from heft.systems.controller.master_kinematics import NUM_JOINTS as MASTER_JOINTS  # the Phantom's
 from heft.systems.station.operator_hand import smooth_sine_offset
 from heft.systems.serial_chain import SerialChain, chain_dtype, chain_kinematics
 from heft.systems.station.sensor_models import ACCELEROMETER_STREAM, FORCE_TORQUE_STREAM, NUM_AXES, quantize
-from heft.systems.controller.slave_kinematics import NUM_JOINTS  # the Phantom has as many (master_kinematics)
 
-"""Joints of the master and of the slave."""
 HAPTIC_WATCHDOG_S = 0.02
 """The Phantom driver zeroes its torque this long (s) after the last valid command."""
 _PUBLISHED_KEEP = 8192
 """Master states (utime, joint positions) the Phantom driver keeps, in a ring: 4 s at 2 kHz, more than
 a stalled lab publishes between a command's state and the command's arrival."""
-_NO_TORQUE = np.zeros(NUM_JOINTS)
+_NO_TORQUE = np.zeros(MASTER_JOINTS)
 _NO_TORQUE.flags.writeable = False
-_NO_TORQUE_VALUES = (0.0,) * NUM_JOINTS
-"""The arm driver's torques (measured, commanded, external), which the stand-in does not model."""
+"""The Phantom's torque while its driver applies none."""
 _WRENCH_SATURATED = 0x3F
 """The flag bits of the six wrench axes (``heft_ft_sample.saturated``)."""
 _UTIME, _COUNTER, _WRENCH, _ACCELERATION, _SATURATED, _ERROR = range(1, 1 + len(FIELDS))
@@ -219,7 +219,7 @@ class _Outlet:
             self._held = None
 
 
-@compiled("float64(CHAIN[:], float64[:], float64[:], float64[:, :])", CHAIN=chain_dtype(NUM_JOINTS))
+@compiled("float64(CHAIN[:], float64[:], float64[:], float64[:, :])", CHAIN=chain_dtype(MASTER_JOINTS))
 def stylus_force_at(chain, position, torque, work) -> float:
     """|f| (N) of the wrench [f; τ_E] that joint ``torque`` (N·m) renders on the hand at joint ``position``
     (rad): the solution of J_Mᵀ·[f; τ_E] = τ, J_M the ``chain``'s Jacobian there (a ``SerialChain.record``,
@@ -279,8 +279,8 @@ class _Master:
         # The reference's offset is amplitude × one shape in time, so the joints' is J⁻¹·amplitude × it.
         self._amplitude = np.linalg.solve(self._chain.J, np.concatenate((operator.amplitude,
                                                                          operator.rotation_amplitude)))
-        self.position, self.velocity = self._initial.copy(), np.zeros(NUM_JOINTS)
-        self._solve_work = np.empty((NUM_JOINTS, NUM_JOINTS + 1))
+        self.position, self.velocity = self._initial.copy(), np.zeros(MASTER_JOINTS)
+        self._solve_work = np.empty((MASTER_JOINTS, MASTER_JOINTS + 1))
 
     def stylus_force(self, torque, position) -> float:
         """|f| (N) of the wrench that joint ``torque`` (N·m) renders on the hand at joint
@@ -320,9 +320,11 @@ def ft_samples_into(message, starts, first, rate, saturate_at, wrench, accelerat
         message[starts[_ERROR] + k] = 0
 
 
-def _command_values(layout: FixedLayout, message_type, payload: bytes, *names: str):
-    """The fields ``names`` of a command for ``NUM_JOINTS`` joints (one value, or a tuple of them), or None
-    if ``payload`` is not one: unpacked by ``layout``, or decoded when of another size."""
+def _command_values(layout: FixedLayout, message_type, payload: bytes, num_joints: int, refused: Rejections,
+                    *names: str):
+    """The fields ``names`` of a command for ``num_joints`` joints (one value, or a tuple of them), or None
+    if ``payload`` is not one (counted in ``refused``: undecodable, or another joint count): unpacked by
+    ``layout``, or decoded when of another size."""
     values = layout.unpack(payload)
     if values is not None:
         fields = tuple(values[layout.field(name)] for name in names)
@@ -330,8 +332,10 @@ def _command_values(layout: FixedLayout, message_type, payload: bytes, *names: s
         try:
             msg = message_type.decode(payload)
         except (ValueError, struct.error):
+            refused.add("undecodable")
             return None
-        if msg.num_joints != NUM_JOINTS:
+        if msg.num_joints != num_joints:
+            refused.add("joint_count")
             return None
         fields = tuple(getattr(msg, name) for name in names)
     return fields[0] if len(fields) == 1 else fields
@@ -341,14 +345,15 @@ class StandIn:
     """The lab's three drivers publishing on ``bus`` (python ``lcm.LCM``) and obeying the commands
     on ``command_bus`` (default ``bus``); models in the module docstring.
 
-    Readable: ``slave_position`` (6, rad, the arm's true joints), ``slave_command`` (6, rad,
-    the last valid setpoint; ``slave_initial_q`` before the first), ``master_position``
-    (6, rad, true joints), ``master_torque`` (6, N·m, the torque the haptic driver applies
+    Readable: ``num_joints`` (the arm's, 6 or 7: the scenario's arm), ``slave_position`` (n, rad, the arm's true
+    joints), ``slave_command`` (n, rad, the last valid setpoint; ``slave_initial_q`` before the first),
+    ``master_position`` (6, rad, true joints), ``master_torque`` (6, N·m, the torque the haptic driver applies
     now), ``stylus_force_peak`` (N, the largest force a command's torque rendered on the hand,
     ``_observe_stylus_force``), ``arm_steps_after_a_held_one`` (the arm's steps that took two
     or more new commands, as many steps before them having taken none: the setpoint stalled, then
     jumped),
-    ``published`` / ``received`` (channel name → messages),
+    ``published`` / ``received`` (channel name → messages), ``refused`` (the commands' channel name → reason
+    (``message_checks.REASONS``) → commands refused),
     ``phi_true`` (10, φ about S in S of what the sensor carries now, Eq. 6), ``offsets`` (6, N, N·m: the FT
     offsets in the latest sample, heft's sign), ``wrench_measured`` (6, N, N·m: the latest sample as measured,
     heft's sign, before the delivery faults), ``next_due`` (s, the nominal time of the next message),
@@ -391,15 +396,20 @@ class StandIn:
         self._haptic_commands = LcmMailbox(command_bus, channels.master_command.name, keep=64)
         self._slave_commands = LcmMailbox(command_bus, channels.slave_command.name, keep=64)
 
-        # Slave: the setpoint filter and the joint servo on the (4, 6) state [q_f; q̇_f; q; q̇], and S's motion.
+        self._refused = (Rejections(), Rejections())  # the master's and the slave's commands refused, per reason
+
+        # Slave: the setpoint filter and the joint servo on the (4, n) state [q_f; q̇_f; q; q̇], and S's motion.
         slave_period = 1.0 / channels.slave_status.rate
         self._servo = servo_step_matrices(scenario.slave_setpoint_bandwidth, *slave_servo_gains(scenario),
                                           slave_period)
-        self._slave = np.zeros((SERVO_ROWS, NUM_JOINTS))
-        self._deviation = np.zeros(SERVO_ROWS * NUM_JOINTS)  # servo_step's working space
+        arm, _ = MakeArmPlant(slave_arm(scenario))
+        self.num_joints = n = arm.num_positions()
+        self._no_arm_torques = (0.0,) * (3 * n)  # the status's torques (measured, commanded, external): not modelled
+        self._slave = np.zeros((SERVO_ROWS, n))
+        self._deviation = np.zeros(SERVO_ROWS * n)  # servo_step's working space
         self._slave[0] = self._slave[2] = scenario.slave_initial_q
         self._q, self._qd = self._slave[2], self._slave[3]  # views of the joints' rows
-        self._qdd = np.zeros(NUM_JOINTS)  # the joints' q̈ at their state (rad/s²)
+        self._qdd = np.zeros(n)  # the joints' q̈ at their state (rad/s²)
         self.stylus_force_peak = 0.0
         self.arm_steps_after_a_held_one, self._commands_since_step = 0, 0
         # The master state (s) each of the latest master commands names, by the command's utime (its tick's, which
@@ -409,19 +419,18 @@ class StandIn:
         self._arm_command_utime = self._arm_command_state = None
         # The master states published lately: their utimes and (encoder-quantised) joint positions, a ring.
         self._published_utime = np.full(_PUBLISHED_KEEP, -1, dtype=np.int64)
-        self._published_position = np.zeros((_PUBLISHED_KEEP, NUM_JOINTS))
+        self._published_position = np.zeros((_PUBLISHED_KEEP, MASTER_JOINTS))
         self._published_count = 0
         self._now = 0.0  # the lab's time at the step under way (s)
         self.slave_command = np.array(scenario.slave_initial_q, dtype=float)
         self._setpoint = self.slave_command.copy()  # the command approached at the speed limits
-        arm, _ = MakeArmPlant(scenario.robot)
         self._max_setpoint_step = arm.GetVelocityUpperLimits() * slave_period  # rad per status step
         self._slave_step = 2 * math.pi / scenario.encoder_counts_per_rev  # rad per encoder count
         self._velocity = (EncoderVelocityEstimator(quantize(self._q, self._slave_step), slave_period,
                                                    scenario.slave_velocity_filter)
                           if scenario.slave_velocity_filter > 0 else None)  # else the joints' own q̇
         self._wrist = Wrist(scenario, slave_period, grasp, self._q)
-        self._wrist.update(0.0, self._q, self._qd, np.zeros(NUM_JOINTS))
+        self._wrist.update(0.0, self._q, self._qd, np.zeros(n))
 
         ft_period = 1.0 / channels.ft_sample.rate
         per_step = max(1, round(channels.ft_sample.rate / channels.slave_status.rate))  # FT samples per arm step
@@ -434,14 +443,14 @@ class StandIn:
 
         self._master = _Master(scenario)
         self._master_step = 2 * math.pi / MASTER_ENCODER_COUNTS_PER_REV
-        self._torque_commanded = np.zeros(NUM_JOINTS)
+        self._torque_commanded = np.zeros(MASTER_JOINTS)
         self._torque_until = -math.inf  # the driver's watchdog: no torque from this time on (s)
-        self.master_torque = np.zeros(NUM_JOINTS)
+        self.master_torque = np.zeros(MASTER_JOINTS)
 
-        self._command_layouts = {_MASTER: FixedLayout(heft_haptic_command, num_joints=NUM_JOINTS),
-                                 _SLAVE: FixedLayout(lcmt_iiwa_command, num_joints=NUM_JOINTS, num_torques=0)}
-        self._layouts = {_MASTER: FixedLayout(heft_haptic_state, num_joints=NUM_JOINTS),
-                         _SLAVE: FixedLayout(lcmt_iiwa_status, num_joints=NUM_JOINTS),
+        self._command_layouts = {_MASTER: FixedLayout(heft_haptic_command, num_joints=MASTER_JOINTS),
+                                 _SLAVE: FixedLayout(lcmt_iiwa_command, num_joints=n, num_torques=0)}
+        self._layouts = {_MASTER: FixedLayout(heft_haptic_state, num_joints=MASTER_JOINTS),
+                         _SLAVE: FixedLayout(lcmt_iiwa_status, num_joints=n),
                          _GRIPPER: FixedLayout(heft_gripper_state)}
 
     @property
@@ -469,6 +478,11 @@ class StandIn:
     @property
     def received(self) -> dict[str, int]:
         return {box.channel: box.count for box in (self._haptic_commands, self._slave_commands)}
+
+    @property
+    def refused(self) -> dict[str, dict[str, int]]:
+        return {box.channel: rejections.nonzero()
+                for box, rejections in zip((self._haptic_commands, self._slave_commands), self._refused)}
 
     @property
     def next_due(self) -> float:
@@ -516,19 +530,24 @@ class StandIn:
         return end < die_at
 
     def _take_commands(self, now: float) -> None:
-        """Applies the commands that arrived by ``now`` (s): a six-joint one unpacked by its layout, any
-        other decoded (and a wrong joint count or garbage refused)."""
+        """Applies the commands that arrived by ``now`` (s): one of the device's joint count unpacked by its
+        layout, any other decoded (and a wrong joint count, garbage or a value not finite refused and counted)."""
         pump(self._command_bus)
+        master_refused, slave_refused = self._refused
         for payload in self._slave_commands.take():
-            values = _command_values(self._command_layouts[_SLAVE], lcmt_iiwa_command, payload, "utime",
-                                     "joint_position")
-            if values is not None and math.isfinite(sum(values[1])):
+            values = _command_values(self._command_layouts[_SLAVE], lcmt_iiwa_command, payload, self.num_joints,
+                                     slave_refused, "utime", "joint_position")
+            if values is not None and not math.isfinite(sum(values[1])):
+                slave_refused.add("non_finite")
+            elif values is not None:
                 self.slave_command[:] = values[1]
                 self._commands_since_step += 1
                 self._arm_command_utime, self._arm_command_state = values[0], None
         for payload in self._haptic_commands.take():
-            values = _command_values(self._command_layouts[_MASTER], heft_haptic_command, payload, "torque",
-                                     "enable", "master_utime", "utime")
+            values = _command_values(self._command_layouts[_MASTER], heft_haptic_command, payload, MASTER_JOINTS,
+                                     master_refused, "torque", "enable", "master_utime", "utime")
+            if values is not None and not math.isfinite(sum(values[0])):
+                master_refused.add("non_finite")
             if values is not None and values[2] > 0:  # 0: the controller had heard no master state
                 named = self._states_named
                 named[values[3]] = values[2] * 1e-6
@@ -574,9 +593,9 @@ class StandIn:
         velocity = qd if self._velocity is None else self._velocity.update(measured)
         outlet = self._outlets[_SLAVE]
         if not outlet.lost(tick, t):
-            outlet.send(tick, self._layouts[_SLAVE].pack(round(t * 1e6), NUM_JOINTS, *measured.tolist(),
+            outlet.send(tick, self._layouts[_SLAVE].pack(round(t * 1e6), self.num_joints, *measured.tolist(),
                                                          *velocity.tolist(), *self.slave_command.tolist(), *u.tolist(),
-                                                         *_NO_TORQUE_VALUES * 3))
+                                                         *self._no_arm_torques))
         return 1
 
     def _master_tick(self, tick: int, t: float) -> int:
@@ -593,7 +612,7 @@ class StandIn:
         self._published_count += 1
         position = measured.tolist()
         buttons = CLUTCH_BUTTON if self._clutch[0] <= t < self._clutch[1] else 0
-        outlet.send(tick, self._layouts[_MASTER].pack(utime, NUM_JOINTS, *position,
+        outlet.send(tick, self._layouts[_MASTER].pack(utime, MASTER_JOINTS, *position,
                                                       *master.velocity.tolist(),
                                                       *self._applied_torque(t).tolist(), buttons, False))
         return 1
@@ -651,8 +670,9 @@ def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
     ``sleep`` the wait is a ``select`` on the command bus that also ends when a command
     arrives; another ``sleep(seconds)`` (e.g. with a fake ``clock``) is called instead.
 
-    Returns {"duration_s": wall time run (s; the lab's own time may lag it), "died",
-    "published" / "received" (channel name → messages), "published_hz" / "received_hz"
+    Returns {"duration_s": wall time run (s; the lab's own time may lag it), "died", "slave_joints" (the arm's),
+    "published" / "received" (channel name → messages), "refused" (``StandIn.refused``), "published_hz" /
+    "received_hz"
     (channel name → messages per wall second),
     "max_lateness_ms": the latest a message was published after its nominal time,
     "lateness_ms_by_second": the same for the messages due in each second of the lab's clock, "cpu_s":
@@ -703,7 +723,9 @@ def run_stand_in(scenario: Scenario, channels: LcmChannels, duration: float,
             now = min(wall, now + _MAX_STEP)
         elapsed = max(clock() - start, 1e-9)
     published, received = lab.published, lab.received
-    summary = {"duration_s": elapsed, "died": not alive, "published": published, "received": received,
+    summary = {"duration_s": elapsed, "died": not alive, "slave_joints": lab.num_joints, "published": published,
+               "received": received,
+               "refused": lab.refused,
                "published_hz": {name: count / elapsed for name, count in published.items()},
                "received_hz": {name: count / elapsed for name, count in received.items()},
                "max_lateness_ms": 1e3 * lateness, "lateness_ms_by_second": [1e3 * late for late in by_second],

@@ -23,7 +23,7 @@ from heft.systems.load_dynamics import GRAVITY_W, regressor_into
 from heft.systems.serial_chain import ACCELERATION, GRAVITY, OMEGA, SerialChain, chain_dtype, chain_kinematics
 from heft.systems.station.sensor_models import (NUM_AXES, HeldLowpass, SixAxisMeasurement, SixAxisSensorParams, lowpass,
                                         lowpass_coefficients)
-from heft.systems.controller.slave_kinematics import NUM_JOINTS
+from heft.systems.controller.slave_kinematics import CHAIN_JOINTS
 
 GRIPPER_CLOSING_S = 0.2
 """How long (s) the gripper's fingers take from open to closed on the object (assumed: a Schunk
@@ -139,9 +139,7 @@ def _regressor_times(V, phi, out) -> None:
         out[r] = total
 
 
-@compiled("void(CHAIN[:], float64[:], float64[:], float64[:], float64[:], float64[:, :], float64[:])",
-          CHAIN=chain_dtype(NUM_JOINTS))
-def rigid_wrench(chain, q, qd, qdd, phi, V, rigid) -> None:
+def _rigid_wrench(chain, q, qd, qdd, phi, V, rigid) -> None:
     """S's motion at joint positions ``q`` (rad), velocities ``qd`` (rad/s) and accelerations ``qdd``
     (rad/s²) into the ``chain``'s arrays (``chain_kinematics`` on a ``SerialChain.record``), the regressor
     ``V`` (6, 10, Eq. 5) of that motion and ``rigid`` = V·φ (6), the wrench that moves a load of ``phi``
@@ -152,6 +150,11 @@ def rigid_wrench(chain, q, qd, qdd, phi, V, rigid) -> None:
                      motion, c["work"])
     regressor_into(motion[0:3], motion[3:6], motion[6:9], motion[9:12], V)
     _regressor_times(V, phi, rigid)
+
+
+rigid_wrench = {n: compiled("void(CHAIN[:], float64[:], float64[:], float64[:], float64[:], float64[:, :], float64[:])",
+                            CHAIN=chain_dtype(n))(_rigid_wrench) for n in CHAIN_JOINTS}
+"""``_rigid_wrench`` compiled for each arm's chain record, by its number of joints."""
 
 
 @compiled("void(float64[:, :], float64[:], float64[:, :], float64[:], float64[:])")
@@ -183,6 +186,7 @@ class Wrist:
     def __init__(self, scenario: Scenario, period: float, grasp: GraspTimes, q0):
         plant, parts = MakeSlavePlant(scenario)
         self._chain = SerialChain(plant, plant.world_frame(), parts.S, GRAVITY_W)
+        self._rigid_wrench = rigid_wrench[self._chain.num_joints]
         self._accelerometer = scenario.accelerometer.convention()
         self._grasp = grasp
         phi_load = phi_about_S(plant, parts.S, parts.load_bodies)
@@ -204,14 +208,14 @@ class Wrist:
             constants = mount_for(scenario)
             self._mounts = {holding: mount.MountUnderMovingSensor(constants, phi, period)
                             for holding, phi in self.phis.items() if phi[0] > 0}  # a tool: always "holding"
-            self._motion(q0, np.zeros(NUM_JOINTS), np.zeros(NUM_JOINTS))
+            self._motion(q0, np.zeros(len(q0)), np.zeros(len(q0)))
             self._mount_state = self._mounts[self.holding].at_rest(self._rigid)  # settled under the load
         self._rigid_before[:] = self._rigid
 
     def _motion(self, q, qd, qdd) -> np.ndarray:
         """Sets ``acceleration``, ``reading`` and the rigid wrench V·φ from the joint state; returns V."""
         chain, V = self._chain, self._V
-        rigid_wrench(chain.record, q, qd, qdd, self.phi, V, self._rigid)
+        self._rigid_wrench(chain.record, q, qd, qdd, self.phi, V, self._rigid)
         self.acceleration[:] = chain.motion[ACCELERATION]
         self.reading[:] = reading_from_motion(self.acceleration, chain.motion[GRAVITY], chain.motion[OMEGA],
                                               self._accelerometer)

@@ -11,8 +11,10 @@ from heft.systems.compiled import compiled, record_views
 from heft.systems.pose_vectors import POSE_SIZE, rotation_into
 from heft.systems.controller.rx_inverse_kinematics import (NON_FINITE, UNREACHABLE, WORK_ROWS, RxKinematics,
                                                           nearest_solution)
-from heft.systems.controller.slave_kinematics import NUM_JOINTS
 from heft.systems.tick_system import TickSystem
+
+NUM_JOINTS = 6
+"""The RX's joints."""
 
 SLEWING = 1 << 12
 """``ik_step``'s status bit: the speed limits held the command back from the solution."""

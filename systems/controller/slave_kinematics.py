@@ -13,9 +13,6 @@ from heft.systems.compiled import compiled
 from heft.systems.serial_chain import GRAVITY, SerialChain, chain_dtype, chain_kinematics
 from heft.systems.tick_system import TickSystem
 
-NUM_JOINTS = 6
-"""The joints of the arms the lab's LCM channels carry (the RX90's, RX60's; the Phantom has as many)."""
-
 CHAIN_JOINTS = (6, 7)
 """The slave arms' numbers of joints ``SlaveKinematics`` takes."""
 
