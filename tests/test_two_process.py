@@ -23,6 +23,7 @@ import lcm
 import numpy as np
 import pytest
 import yaml
+from heft.diagrams.arm_params import BUNDLED_ARMS
 from heft.diagrams.cli import main
 from heft.diagrams.commands.options import lab_settings_text
 from heft.diagrams.device_limits import device_limits
@@ -40,6 +41,11 @@ FOREVER = "1000"
 MIN_HEALTHY_SHARE = 0.5
 """The share of its ticks a controller run must have stepped healthy for its counts to be judged."""
 STAND_IN_SENSOR = lab_settings_text(resolve_scenario("fig6"))  # the stand-in's sensor, stated as a lab states its own
+ARMS = tuple(BUNDLED_ARMS)
+"""The bundled arms, each the slave of a lab in the tests parametrized over them."""
+FORCES_OFF_MS = 25.0
+"""The latest (ms after the lab's last message) the forces may go off: the watchdog's 20 ms timeout, a tick,
+and a message or two lost before the lab went silent."""
 
 
 class _Process:
@@ -99,6 +105,11 @@ def _stand_in(netns, folder, *args, label="stand_in"):
     return stand_in
 
 
+def _with_arm(robot: str, settings: str = STAND_IN_SENSOR) -> str:
+    """``settings`` (YAML) with the slave ``robot``, which brings its own start posture and motion scale."""
+    return yaml.safe_dump(layered_dict(yaml.safe_load(settings), {"robot": robot}), default_flow_style=True)
+
+
 def _summary(teleop, folder, label="teleop") -> dict:
     """Stops the controller and returns its summary."""
     assert teleop.finish() == 0, teleop.text()
@@ -137,49 +148,64 @@ def test_controller_runs_against_the_stand_in(netns, tmp_path):
         assert counts.get(channel.name, 0) > 100, counts
 
 
-def test_the_controller_diagram_steps_in_the_real_time_loop_against_the_stand_in(netns, tmp_path):
+@pytest.mark.parametrize("robot", ARMS)
+def test_the_controller_diagram_steps_in_the_real_time_loop_against_the_stand_in(netns, tmp_path, robot):
     """`heft teleop --hardware` (the controller Diagram's program, as `heft bench lcm` measures it) against the
-    stand-in: it goes healthy, the lab receives about a command per arm step while it runs, and the forces it
-    renders stay within the Phantom's 8.5 N."""
+    stand-in, both on each bundled arm (its status and commands in its own joints, the iiwa's 7): it goes healthy,
+    rejects nothing, the lab receives about a command per arm step while it runs and refuses none, and the forces
+    it renders stay within the Phantom's 8.5 N."""
     teleop = stand_in = None
     seconds = 3.0
     try:
-        teleop = _teleop(netns, tmp_path)
-        stand_in = _stand_in(netns, tmp_path, "--duration", str(seconds), "--out", str(tmp_path))
+        teleop = _teleop(netns, tmp_path, settings=_with_arm(robot))
+        stand_in = _stand_in(netns, tmp_path, "--set", f"{{robot: {robot}}}", "--duration", str(seconds),
+                             "--out", str(tmp_path))
         assert stand_in.wait(timeout=RUN_TIMEOUT) == 0, stand_in.text()
         summary = _summary(teleop, tmp_path)
     finally:
         _stop_all(teleop, stand_in)
     assert "the controller Diagram (the blocks the simulation runs) steps each tick" in teleop.text()
     lab = json.loads((tmp_path / "stand_in.json").read_text())
+    joints = len(BUNDLED_ARMS[robot].start)
+    assert summary["slave_joints"] == lab["slave_joints"] == joints
+    assert f"the slave is the {robot}, {joints} joints" in teleop.text()
     ticks = seconds / resolve_scenario("fig6").controller_period  # the stand-in's arm steps at the loop's rate
     assert summary["healthy_ticks"] > MIN_HEALTHY_SHARE * ticks, summary
+    assert not any(summary["rejected"].values()) and not any(lab["refused"].values()), (summary["rejected"],
+                                                                                        lab["refused"])
     channels = LcmChannels()
     for channel in (channels.master_command, channels.slave_command):
         assert lab["received"][channel.name] > 0.9 * ticks, lab["received"]
+    print(f"{robot}: healthy in {summary['healthy_ticks']} of {summary['ticks']} ticks; largest stylus force "
+          f"{summary['stylus_force_peak']:.3f} N sent, {lab['stylus_force_peak']:.3f} N at the driver's joints")
     assert 0.0 < lab["stylus_force_peak"] <= 8.5 + 1e-9
     assert summary["stylus_force_peak"] <= 8.5 + 1e-9 and summary["master_torque_finite"]
 
 
-def test_controller_goes_safe_when_the_stand_in_dies(netns, tmp_path):
-    """Under 5 % drops and 5 % NaN samples the lab dies mid-run: every master command is finite
-    and within the device's limits, and the forces go off when a channel's last message gets
-    older than the watchdog's timeout (the age at that tick is printed; the watchdog's timing is
-    checked on an explicit clock in test_hardware_teleop)."""
+@pytest.mark.parametrize("robot", ARMS)
+def test_controller_goes_safe_when_the_stand_in_dies(netns, tmp_path, robot):
+    """Under 5 % drops and 5 % NaN samples the lab of each bundled arm dies mid-run: every master command is
+    finite and within the device's limits, and the forces go off when a channel's last message gets older than
+    the watchdog's timeout: at that tick, as the controller measured it, within ``FORCES_OFF_MS`` of the last
+    message it accepted (the watchdog's timing is checked on an explicit clock in test_hardware_teleop)."""
     stand_in = teleop = None
     try:
-        teleop = _teleop(netns, tmp_path)
-        stand_in = _stand_in(netns, tmp_path, "--duration", FOREVER, "--die-at", "2.0", "--drop-rate", "0.05",
-                             "--nan-rate", "0.05", "--clutch-at", "0.5")
+        teleop = _teleop(netns, tmp_path, settings=_with_arm(robot))
+        stand_in = _stand_in(netns, tmp_path, "--set", f"{{robot: {robot}}}", "--duration", FOREVER, "--die-at",
+                             "2.0", "--drop-rate", "0.05", "--nan-rate", "0.05", "--clutch-at", "0.5")
         assert stand_in.wait(timeout=RUN_TIMEOUT) == 0 and "died" in stand_in.text(), stand_in.text()
         time.sleep(0.5)
         summary = _summary(teleop, tmp_path)
     finally:
         _stop_all(teleop, stand_in)
+    assert summary["slave_joints"] == len(BUNDLED_ARMS[robot].start)
     assert summary["first_healthy"] is not None, "the watchdog never became healthy"
     assert summary["faults"] and summary["faults"][-1]["recovered"] is None, summary["faults"]
     assert summary["final_fault_bits"] == 0b111, "every channel of the dead lab should be stale"
-    print(f"forces off {max(summary['faults'][-1]['ages_ms']):.1f} ms after the lab's last message")
+    off = max(summary["faults"][-1]["ages_ms"])
+    print(f"{robot}: forces off {off:.1f} ms after the lab's last message; largest stylus force "
+          f"{summary['stylus_force_peak']:.3f} N, torque {summary['stylus_torque_peak']:.4f} N·m")
+    assert off <= FORCES_OFF_MS
     assert not summary["final_healthy"]
     assert summary["master_torque_finite"]
     assert summary["stylus_force_peak"] <= 8.5 + 1e-9 and summary["stylus_torque_peak"] <= 0.188 + 1e-9
@@ -399,12 +425,13 @@ def test_a_labs_scenario_file_runs_teleop_with_no_other_flag(netns, tmp_path):
     assert int(dict(re.findall(r"(\w+) (\d+)", heard))[scenario.lab.lcm.master_command.name]) > 0, heard
 
 
-def test_the_lab_file_of_heft_init_runs_as_written(netns, tmp_path):
-    """`heft init lab --out lab.yaml`, then `heft stand-in --scenario lab.yaml` and `heft teleop --hardware
-    --scenario lab.yaml` with no other flag: the controller runs its default 10 s against the stand-in,
-    healthy, hearing every driver, heard by the lab."""
+@pytest.mark.parametrize("robot", ["rx90", "iiwa14"])
+def test_the_lab_file_of_heft_init_runs_as_written(netns, tmp_path, robot):
+    """`heft init lab --robot ROBOT --out lab.yaml`, then `heft stand-in --scenario lab.yaml` and `heft teleop
+    --hardware --scenario lab.yaml` with no other flag: the controller runs its default 10 s against the
+    stand-in, healthy, hearing every driver, heard by the lab."""
     lab = tmp_path / "lab.yaml"
-    assert main(["init", "lab", "--out", str(lab)]) == 0
+    assert main(["init", "lab", "--robot", robot, "--out", str(lab)]) == 0
     stand_in = teleop = None
     try:
         # The lab runs until the test stops it (--duration), so that it outlasts the controller's start.
@@ -418,6 +445,7 @@ def test_the_lab_file_of_heft_init_runs_as_written(netns, tmp_path):
         _stop_all(teleop, stand_in)
     text = teleop.text()
     print(text, stand_in.text())
+    assert f"the slave is the {robot}, {len(BUNDLED_ARMS[robot].start)} joints" in text
     ran = re.search(r"ran [\d.]+ s at 2000 Hz: (\d+) ticks, healthy in (\d+)", text)
     assert ran is not None and int(ran.group(2)) > MIN_HEALTHY_SHARE * int(ran.group(1)), text
     received = dict(re.findall(r"(\w+) (\d+)", re.search(r"messages per second: received ([^;]*);", text).group(1)))
