@@ -47,8 +47,9 @@ def from_lcm_log(recording: Recording) -> tuple[Recording, dict]:
     """The recording with its streams read from its ``lcm_log`` (exported once into the folder
     ``<log>.streams`` beside it, ``hardware_interface.log_streams``), and what was left out. The wrench
     and the accelerometer share the FT sample's stamps; the joint angles (``orientation``, robot rx90
-    unless the recording says) have the arm driver's, their offset stated or estimated as any stream's."""
-    from heft.hardware_interface.log_streams import FT_COLUMNS, JOINT_COLUMNS, export_log_streams
+    unless the recording says; as many as the log's statuses carry) have the arm driver's, their offset stated
+    or estimated as any stream's."""
+    from heft.hardware_interface.log_streams import FT_COLUMNS, export_log_streams
 
     log = recording.path(recording.lcm_log)
     if not log.is_file():
@@ -63,7 +64,7 @@ def from_lcm_log(recording: Recording) -> tuple[Recording, dict]:
                               unit="m/s^2")
     ori = recording.orientation or OrientationStream(kind="joint_positions", robot="rx90")
     ori = dataclasses.replace(ori, file=str(folder / "slave.parquet"), kind="joint_positions",
-                              columns=list(JOINT_COLUMNS), robot=ori.robot or "rx90",
+                              columns=summary["joint_columns"], robot=ori.robot or "rx90",
                               time=dataclasses.replace(stamps, offset=ori.time.offset))
     choices = {"lcm_log": f"{log}: {summary['ft_samples']} FT samples, {summary['slave_samples']} joint states "
                           f"(robot {ori.robot}); left out: {summary['left_out']}"}

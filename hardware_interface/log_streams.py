@@ -4,9 +4,10 @@ the FT samples and the arm's joint angles, each on its driver's clock, as Parque
 ``ft.parquet``: one row per FT sample (of ``heft_ft_sample`` or ``heft_ft_samples`` messages: ``ft_messages``):
 ``utime`` (µs), ``fx … tz`` (the sensor's sign, as the messages carry it),
 ``ax, ay, az`` (specific force, m/s², in S) and ``alpha_x … alpha_z`` (rad/s²). ``slave.parquet``:
-``utime`` (µs) and ``q1 … q6`` (rad) of ``lcmt_iiwa_status``. As on hardware, a message that cannot
-be decoded is left out and counted, as is a sample that carries NaN, an error flag or a saturated axis,
-or is stamped at or before the last one kept (a late or repeated packet); none is fatal.
+``utime`` (µs) and ``q1 … qn`` (rad) of ``lcmt_iiwa_status``, n the joints of the log's first status (the
+arm's: 6, or an iiwa's 7). As on hardware, a message that cannot be decoded is left out and counted, as is a
+status of another joint count, a sample that carries NaN, an error flag or a saturated axis, or one stamped at
+or before the last one kept (a late or repeated packet); none is fatal.
 """
 
 from __future__ import annotations
@@ -24,8 +25,12 @@ from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.ft_messages import decode_samples
 
 FT_COLUMNS = ("fx", "fy", "fz", "tx", "ty", "tz", "ax", "ay", "az", "alpha_x", "alpha_y", "alpha_z")
-JOINT_COLUMNS = ("q1", "q2", "q3", "q4", "q5", "q6")
 BATCH = 65536
+
+
+def joint_columns(num_joints: int) -> tuple[str, ...]:
+    """The columns of ``slave.parquet`` after ``utime``: q1 … qn (rad)."""
+    return tuple(f"q{j + 1}" for j in range(num_joints))
 
 
 class _Table:
@@ -57,26 +62,30 @@ class _Table:
 
 def export_log_streams(log_path, folder, channels: LcmChannels | None = None) -> dict:
     """Writes ``ft.parquet`` and ``slave.parquet`` into ``folder`` from the LCM log ``log_path``; returns
-    {"ft_samples": kept, "slave_samples": kept, "left_out": {channel: {reason: count}}}."""
+    {"ft_samples": kept, "slave_samples": kept, "joint_columns": slave.parquet's after utime, "left_out":
+    {channel: {reason: count}}}."""
     channels = channels or LcmChannels()
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     ft = _Table(folder / "ft.parquet", FT_COLUMNS)
-    slave = _Table(folder / "slave.parquet", JOINT_COLUMNS)
+    slave = [None]  # the joints' table, opened at the first status (its joint count)
     left_out = {channels.ft_sample.name: Counter(), channels.slave_status.name: Counter()}
     try:
         for event in lcm.EventLog(str(log_path), "r"):
             if event.channel == channels.ft_sample.name:
                 _take_ft(event.data, ft, left_out[event.channel])
             elif event.channel == channels.slave_status.name:
-                _take_joints(event.data, slave, left_out[event.channel])
+                _take_joints(event.data, slave, folder / "slave.parquet", left_out[event.channel])
     finally:
         ft.close()
-        slave.close()
-    if ft.count < 2:
-        raise ValueError(f"{log_path}: fewer than two usable {channels.ft_sample.name} samples "
-                         f"({ft.count}; left out: {dict(left_out[channels.ft_sample.name])})")
-    return {"ft_samples": ft.count, "slave_samples": slave.count,
+        if slave[0] is not None:
+            slave[0].close()
+    for name, count in ((channels.ft_sample.name, ft.count), (channels.slave_status.name,
+                                                              0 if slave[0] is None else slave[0].count)):
+        if count < 2:
+            raise ValueError(f"{log_path}: fewer than two usable {name} messages ({count}; left out: "
+                             f"{dict(left_out[name])})")
+    return {"ft_samples": ft.count, "slave_samples": slave[0].count, "joint_columns": list(slave[0].names[1:]),
             "left_out": {channel: dict(counts) for channel, counts in left_out.items()}}
 
 
@@ -100,13 +109,18 @@ def _take_ft(data: bytes, table: _Table, left_out: Counter) -> None:
             table.add(msg.utime, values)
 
 
-def _take_joints(data: bytes, table: _Table, left_out: Counter) -> None:
+def _take_joints(data: bytes, table: list, path: Path, left_out: Counter) -> None:
+    """One status into ``table[0]``, the joints' ``_Table`` at ``path``, opened at the first status decoded with
+    its joint count."""
     try:
         msg = lcmt_iiwa_status.decode(data)
     except Exception:  # whatever a malformed payload makes the generated decoder raise
         left_out["undecodable"] += 1
         return
-    if msg.num_joints != len(JOINT_COLUMNS):
+    if table[0] is None and msg.num_joints > 0:
+        table[0] = _Table(path, joint_columns(msg.num_joints))
+    table = table[0]
+    if table is None or msg.num_joints != len(table.names) - 1:
         left_out["joint count"] += 1
     elif not math.isfinite(sum(msg.joint_position_measured)):
         left_out["not finite"] += 1

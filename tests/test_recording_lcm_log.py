@@ -1,15 +1,17 @@
 """A recording whose streams are an LCM log in heft's channels (as `heft … --hardware --record` writes):
-the RX90 moving its joints with the paper's tool on the JR3, the wrench from Drake's plant, the joint
-angles on the arm driver's clock; bad messages left out and counted; `heft compensate` on it."""
+the RX90 (or the iiwa, 7 joints) moving its joints with the paper's tool on the JR3, the wrench from Drake's
+plant, the joint angles on the arm driver's clock; bad messages left out and counted; `heft compensate` on it."""
 
 import json
 
 import lcm
 import numpy as np
+import pytest
 from drake import lcmt_iiwa_status
 from drake_motion import PAPER_TOOL
 from pydrake.multibody.math import SpatialAcceleration
 
+from heft.diagrams.arm_params import BUNDLED_ARMS
 from heft.diagrams.cli import main
 from heft.diagrams.plants import MakeArmPlant
 from heft.diagrams.stations.load_on_sensor import LoadOnSensorPlant
@@ -18,14 +20,16 @@ from heft.hardware_interface.lcmtypes import heft_ft_sample
 from heft.systems.accelerometer_reading import AccelerometerConvention, reading_from_motion
 
 P_SA = [0.02, 0.01, -0.008]
-Q0 = np.array([0.1, -0.4, 1.2, 0.2, 0.8, -0.3])
+Q0 = {"rx90": np.array([0.1, -0.4, 1.2, 0.2, 0.8, -0.3]), "iiwa14": np.array(BUNDLED_ARMS["iiwa14"].start)}
+"""Where each arm's joints swing about (rad)."""
 
 
-def _arm_motion(t):
-    """Joint angles, rates and accelerations: sines about Q0 (rad, rad/s, rad/s²)."""
-    w = 2 * np.pi * np.array([0.6, 0.8, 0.7, 1.1, 0.9, 1.3])
-    A = np.array([0.3, 0.2, 0.25, 0.5, 0.4, 0.6])
-    return Q0 + A * np.sin(w * t), A * w * np.cos(w * t), -A * w * w * np.sin(w * t)
+def _arm_motion(t, robot="rx90"):
+    """Joint angles, rates and accelerations: sines about ``Q0`` (rad, rad/s, rad/s²)."""
+    n = len(Q0[robot])
+    w = 2 * np.pi * np.array([0.6, 0.8, 0.7, 1.1, 0.9, 1.3, 1.0])[:n]
+    A = np.array([0.3, 0.2, 0.25, 0.5, 0.4, 0.6, 0.35])[:n]
+    return Q0[robot] + A * np.sin(w * t), A * w * np.cos(w * t), -A * w * w * np.sin(w * t)
 
 
 def _sensor_truth(plant, S, context, q, v, vdot, load_plant):
@@ -47,15 +51,15 @@ def _sensor_truth(plant, S, context, q, v, vdot, load_plant):
     return wrench, load_plant.motion_in_S(free_q, free_v, free_vdot)
 
 
-def write_log(path, duration=1.2, ft_rate=1000.0, joint_rate=250.0):
-    plant, S = MakeArmPlant("rx90")
+def write_log(path, duration=1.2, ft_rate=1000.0, joint_rate=250.0, robot="rx90"):
+    plant, S = MakeArmPlant(robot)
     context = plant.CreateDefaultContext()
     load_plant = LoadOnSensorPlant(PAPER_TOOL)
     channels = LcmChannels()
     log = lcm.EventLog(str(path), "w", overwrite=True)
     events = []
     for k, t in enumerate(np.arange(0, duration, 1 / ft_rate)):
-        wrench, (a, alpha, omega, g) = _sensor_truth(plant, S, context, *_arm_motion(t), load_plant)
+        wrench, (a, alpha, omega, g) = _sensor_truth(plant, S, context, *_arm_motion(t, robot), load_plant)
         msg = heft_ft_sample()
         msg.utime, msg.sample_counter = 5_000_000 + int(round(1e6 * t)), k
         msg.wrench = list(-wrench)  # the sensor's sign
@@ -69,14 +73,12 @@ def write_log(path, duration=1.2, ft_rate=1000.0, joint_rate=250.0):
             bad.utime += 500
             bad.error = True
             events.append((t, channels.ft_sample.name, bad))
-    for t in np.arange(0, duration, 1 / joint_rate):
-        msg = lcmt_iiwa_status()
-        msg.utime, msg.num_joints = 9_000_000 + int(round(1e6 * t)), 6  # the arm driver's own clock
-        msg.joint_position_measured = list(_arm_motion(t)[0])
-        for name in ("joint_position_commanded", "joint_position_ipo", "joint_velocity_estimated",
-                     "joint_torque_measured", "joint_torque_commanded", "joint_torque_external"):
-            setattr(msg, name, [0.0] * 6)
-        events.append((t, channels.slave_status.name, msg))
+    for k, t in enumerate(np.arange(0, duration, 1 / joint_rate)):
+        q = _arm_motion(t, robot)[0]
+        if k == 100:  # a status of another arm's joint count between the driver's
+            other = q[:6] if len(q) == 7 else np.append(q, 0.0)
+            events.append((t, channels.slave_status.name, _status(t, other)))
+        events.append((t, channels.slave_status.name, _status(t, q)))
     for t, channel, msg in sorted(events, key=lambda e: e[0]):
         log.write_event(int(1e6 * t), channel, msg.encode())
     for channel in (channels.ft_sample.name, channels.slave_status.name):  # a truncated datagram on each
@@ -84,12 +86,24 @@ def write_log(path, duration=1.2, ft_rate=1000.0, joint_rate=250.0):
     log.close()
 
 
-def test_compensate_reads_heft_s_own_hardware_log(tmp_path):
-    write_log(tmp_path / "run.lcmlog")
+def _status(t, q):
+    """The arm driver's status at ``t`` (s; its own clock) of the joints at ``q`` (rad)."""
+    msg = lcmt_iiwa_status()
+    msg.utime, msg.num_joints = 9_000_000 + int(round(1e6 * t)), len(q)
+    msg.joint_position_measured = list(q)
+    for name in ("joint_position_commanded", "joint_position_ipo", "joint_velocity_estimated",
+                 "joint_torque_measured", "joint_torque_commanded", "joint_torque_external"):
+        setattr(msg, name, [0.0] * len(q))
+    return msg
+
+
+@pytest.mark.parametrize("robot", ["rx90", "iiwa14"])
+def test_compensate_reads_heft_s_own_hardware_log(tmp_path, robot):
+    write_log(tmp_path / "run.lcmlog", robot=robot)
     (tmp_path / "rec.yaml").write_text(f"""
 lcm_log: run.lcmlog
 accelerometer: {{p_SA: {P_SA}}}
-orientation: {{robot: rx90, time: {{offset: 4.0}}}}
+orientation: {{robot: {robot}, time: {{offset: 4.0}}}}
 """)
     (tmp_path / "est.yaml").write_text(f"phi: {PAPER_TOOL.to_phi().tolist()}\noffsets: [0, 0, 0, 0, 0, 0]\n")
     code = main(["compensate", "--recording", str(tmp_path / "rec.yaml"), "--estimate", str(tmp_path / "est.yaml"),
@@ -100,6 +114,7 @@ orientation: {{robot: rx90, time: {{offset: 4.0}}}}
     assert "'stamped at or before the last': 2" in metrics["choices"]["lcm_log"]
     assert "'error flag': 1" in metrics["choices"]["lcm_log"]
     assert metrics["choices"]["lcm_log"].count("'undecodable': 1") == 2
+    assert "'joint count': 1" in metrics["choices"]["lcm_log"]
     assert metrics["intervals"] == []
     rms = metrics["residual_rms_without_contact"]
     # joints at 250 Hz differentiated for ω; the wrench reaches ~40 N and ~2 N·m
