@@ -15,8 +15,9 @@ Physics (continuous):
 
 Controller (discrete, period T, each block a Drake discrete system):
 
-    x_c = k_t x_m delayed by d_fwd + n ticks → setpoint filter (critically damped, exact ZOH
-    discretisation of `heft.systems.station.setpoint_filter`) → [x_f, ẋ_f]
+    x_c = k_t F(x_m) delayed by d_fwd + n ticks, F the master filter of
+    `heft.systems.controller.master_position_filter` (identity without one) → setpoint filter
+    (critically damped, exact ZOH discretisation of `heft.systems.station.setpoint_filter`) → [x_f, ẋ_f]
     f_a = −k_f (γ N(c) + σ n) delayed by d_fb + n ticks, N the mount notch of
     `heft.systems.controller.force_scaling` (identity without one)
 
@@ -49,6 +50,7 @@ from heft.analysis.plotting import plt
 import numpy as np
 from heft.analysis.stability import llewellyn_absolutely_stable
 from heft.systems.controller.force_scaling import notch_coefficients
+from heft.systems.station.sensor_models import lowpass_coefficients
 from heft.systems.station.setpoint_filter import critically_damped_step_matrices
 from pydrake.autodiffutils import ExtractGradient, InitializeAutoDiff
 from pydrake.systems.analysis import DiscreteTimeApproximation
@@ -94,6 +96,7 @@ class LinearTeleoperatorParams:
     communication_delay_ticks: int = 0  # n, added to each direction (ticks)
     mount_notch: float = 0.0            # Hz, the notch the contact is fed back through (0: none)
     mount_notch_quality: float = 0.7    # its Q
+    master_filter: float = 0.0          # Hz, the low-pass on the master's positions (0: none)
 
     def validate(self) -> LinearTeleoperatorParams:
         """Raises ValueError naming the first field out of range; returns self."""
@@ -110,6 +113,9 @@ class LinearTeleoperatorParams:
         for name in ("forward_delay_ticks", "feedback_delay_ticks", "communication_delay_ticks"):
             if int(getattr(self, name)) != getattr(self, name):
                 raise ValueError(f"{name} must be a whole number of ticks; got {getattr(self, name)}")
+        if self.master_filter >= 0.5 / self.period:
+            raise ValueError(f"master_filter must lie below the Nyquist frequency {0.5 / self.period:g} Hz; got "
+                             f"{self.master_filter}")
         if self.feedback_delay_ticks < 1:
             raise ValueError("feedback_delay_ticks must be >= 1: a sampled force reaches the actuator "
                              f"one tick after it was measured at the earliest; got {self.feedback_delay_ticks}")
@@ -203,20 +209,20 @@ def _delay(builder, ticks: int, period: float):
                                           D=np.zeros((1, 1)), time_period=period))
 
 
-def _notch_on_contact(p: LinearTeleoperatorParams):
-    """[x_m, c, n] → [x_m, N(c), n], N the controller's mount notch (`notch_coefficients`) as a
-    discrete state-space system of its transposed direct form II (a pass-through without one)."""
-    coefficients = notch_coefficients(p.mount_notch, p.mount_notch_quality, p.period)
+def _biquad_on(coefficients, channel: int, size: int, period: float):
+    """A ``size``-vector with its entry ``channel`` through the biquad ``coefficients`` (b0, b1, b2, a1, a2), the
+    others passed, as a discrete state-space system of its transposed direct form II (a pass-through for None)."""
     if coefficients is None:
-        return PassThrough(3)
+        return PassThrough(size)
     b0, b1, b2, a1, a2 = coefficients[:5]
     A = np.array([[-a1, 1.0], [-a2, 0.0]])
-    B = np.zeros((2, 3))
-    B[:, 1] = [b1 - a1 * b0, b2 - a2 * b0]
-    C = np.zeros((3, 2))
-    C[1, 0] = 1.0
-    D = np.diag([1.0, b0, 1.0])
-    return LinearSystem(A=A, B=B, C=C, D=D, time_period=p.period)
+    B = np.zeros((2, size))
+    B[:, channel] = [b1 - a1 * b0, b2 - a2 * b0]
+    C = np.zeros((size, 2))
+    C[channel, 0] = 1.0
+    D = np.eye(size)
+    D[channel, channel] = b0
+    return LinearSystem(A=A, B=B, C=C, D=D, time_period=period)
 
 
 def MakeController(params: LinearTeleoperatorParams):
@@ -228,16 +234,20 @@ def MakeController(params: LinearTeleoperatorParams):
     measured = builder.AddNamedSystem("measured", PassThrough(3))
     builder.ExportInput(measured.get_input_port(), "measured")
     motion = builder.AddNamedSystem("motion_scaling", MatrixGain(np.array([[p.translation_scale, 0, 0]])))
+    master_filter = builder.AddNamedSystem("master_filter", _biquad_on(
+        lowpass_coefficients(p.master_filter, p.period), 0, 1, p.period))
     forward = _delay(builder, int(p.forward_delay_ticks) + n, p.period)
     A, B = critically_damped_step_matrices(p.setpoint_bandwidth, p.period)
     setpoint_filter = builder.AddNamedSystem("setpoint_filter", LinearSystem(
         A=A, B=B[:, None], C=np.eye(2), D=np.zeros((2, 1)), time_period=p.period))
-    notch = builder.AddNamedSystem("mount_notch", _notch_on_contact(p))
+    notch = builder.AddNamedSystem("mount_notch", _biquad_on(
+        notch_coefficients(p.mount_notch, p.mount_notch_quality, p.period), 1, 3, p.period))
     force = builder.AddNamedSystem("force_feedback", MatrixGain(np.array([
         [0, -p.force_scale * p.gamma, -p.force_scale * p.sigma]])))
     feedback = _delay(builder, int(p.feedback_delay_ticks) + n, p.period)
     command = builder.AddNamedSystem("command", Multiplexer([1, 2]))
-    chain = ((measured, motion), (motion, forward), (forward, setpoint_filter), (measured, notch),
+    chain = ((measured, motion), (motion, master_filter), (master_filter, forward), (forward, setpoint_filter),
+             (measured, notch),
              (notch, force), (force, feedback))
     for source, sink in chain:
         builder.Connect(source.get_output_port(), sink.get_input_port())

@@ -24,6 +24,7 @@ from heft.systems.controller.chain_inverse_kinematics import ChainIk, ChainInver
 from heft.systems.controller.feedback_mapping import FeedbackMapping
 from heft.systems.controller.force_scaling import ForceScalingElimination
 from heft.systems.controller.master_kinematics import MasterKinematics
+from heft.systems.controller.master_position_filter import MasterPositionFilter
 from heft.systems.controller.motion_scaling import MotionScaling
 from heft.systems.controller.offset_tracking import OffsetTracker
 from heft.systems.controller.passivity_controller import PassivityController
@@ -107,6 +108,15 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: Robot,
             builder.ConnectInput(name, port)
 
     export_input("master.position_measured", master_kinematics.get_input_port())
+    master_pose = master_kinematics.GetOutputPort("pose_BE")
+    if spec.motion.master_filter > 0:  # the motion mapping follows the filtered positions, the feedback the measured
+        master_filter = builder.AddNamedSystem("master_filter", MasterPositionFilter(spec.motion.master_filter,
+                                                                                      period))
+        filtered_kinematics = builder.AddNamedSystem("master_filtered_kinematics",
+                                                     MasterKinematics(MakeMasterPlant()))
+        builder.ConnectInput("master.position_measured", master_filter.get_input_port())
+        builder.Connect(master_filter.get_output_port(), filtered_kinematics.get_input_port())
+        master_pose = filtered_kinematics.GetOutputPort("pose_BE")
     export_input("master.velocity_estimated", passivity.GetInputPort("velocity"))
     export_input("hold", passivity.GetInputPort("hold"))
     export_input("slave.position_measured", slave_kinematics.GetInputPort("position"),
@@ -129,7 +139,7 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: Robot,
     export_input("rezero", offsets.GetInputPort("rezero"))
 
     connect = builder.Connect
-    connect(master_kinematics.GetOutputPort("pose_BE"), motion.GetInputPort("pose_BE"))
+    connect(master_pose, motion.GetInputPort("pose_BE"))
     connect(slave_kinematics.GetOutputPort("pose_RS"), motion.GetInputPort("pose_RT_measured"))
     connect(motion.GetOutputPort("pose_RT_desired"), ik.GetInputPort("pose_desired"))
     connect(slave_kinematics.GetOutputPort("omega_S"), force.GetInputPort("omega"))

@@ -127,5 +127,5 @@ def linear_model_params(scenario: Scenario, environment_stiffness: float | None 
         environment_damping=scenario.environment.damping, period=scenario.controller_period,
         setpoint_bandwidth=scenario.slave_setpoint_bandwidth, sigma=controller.force.sigma,
         gamma=controller.force.gamma, mount_notch=controller.force.mount_notch,
-        mount_notch_quality=controller.force.mount_notch_quality,
+        mount_notch_quality=controller.force.mount_notch_quality, master_filter=controller.motion.master_filter,
         communication_delay_ticks=round(controller.delay / scenario.controller_period)).validate()

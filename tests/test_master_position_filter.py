@@ -1,0 +1,57 @@
+"""The low-pass on the master's joint positions, against SciPy's filter of the same design."""
+
+import numpy as np
+import pytest
+from pydrake.systems.framework import DiagramBuilder
+from scipy.signal import butter, lfilter, lfilter_zi
+
+from heft.systems.controller.master_position_filter import MasterPositionFilter
+from heft.systems.tick_program import TickProgram
+
+PERIOD, CUTOFF = 0.0005, 60.0
+COUNT = 1.5e-4  # rad, one encoder count of the Phantom
+
+
+def run(positions):
+    """The block's output after each tick of ``positions`` (one row a tick), started on the first."""
+    builder = DiagramBuilder()
+    block = builder.AddSystem(MasterPositionFilter(CUTOFF, PERIOD))
+    builder.ExportInput(block.get_input_port(), "position")
+    builder.ExportOutput(block.get_output_port(), "position")
+    program = TickProgram(builder.Build())
+    program.input("position")[:] = positions[0]
+    program.reset()
+    program.initialize()
+    out = []
+    for row in positions:
+        program.input("position")[:] = row
+        program.tick()
+        out.append(program.output("position").copy())
+    return np.array(out)
+
+
+def test_counts_are_smoothed_as_scipy_filters_them():
+    t = np.arange(400) * PERIOD
+    positions = COUNT * np.round(0.01 * np.outer(np.sin(2 * np.pi * 3 * t), np.arange(1, 7)) / COUNT)
+    b, a = butter(2, CUTOFF, fs=1 / PERIOD)
+    expected = np.column_stack([lfilter(b, a, column, zi=lfilter_zi(b, a) * column[0])[0]
+                                for column in positions.T])
+    out = run(positions)
+    np.testing.assert_allclose(out, expected, rtol=0, atol=1e-12)
+    steps = np.abs(np.diff(out, 2, axis=0)).max()  # the counts' jumps are gone from the second difference
+    assert steps < 0.5 * np.abs(np.diff(positions, 2, axis=0)).max()
+
+
+def test_a_non_finite_sample_restarts_the_filter_at_the_next_position():
+    positions = np.zeros((20, 6))
+    positions[10] = np.nan
+    positions[11:] = 0.3
+    out = run(positions)
+    assert np.isnan(out[10]).all()
+    np.testing.assert_allclose(out[11:], 0.3, rtol=1e-15)  # steady at once: no step response from zero
+
+
+@pytest.mark.parametrize("cutoff", [0.0, -5.0, 1000.0, float("nan")])
+def test_a_cutoff_outside_the_band_is_refused_naming_the_setting(cutoff):
+    with pytest.raises(ValueError, match="controller.motion.master_filter"):
+        MasterPositionFilter(cutoff, PERIOD)
