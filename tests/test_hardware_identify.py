@@ -91,15 +91,18 @@ def run_in_process(scenario, trajectory, duration, faults=None):
 
 
 @pytest.mark.slow
-def test_identification_against_the_stand_in_recovers_the_load(tmp_path):
+@pytest.mark.parametrize("robot", ["rx90", "iiwa14"])
+def test_identification_against_the_stand_in_recovers_the_load(tmp_path, robot):
     """The full path over LCM: stand-in (noise, offsets, accelerometer) ↔ hardware station ↔
-    commander; estimates against the stand-in's own truth."""
-    scenario = resolve_scenario("fig6")
+    commander, on the RX90 and on the iiwa (its 7 joints on the channels); estimates against the stand-in's
+    own truth."""
+    scenario = resolve_scenario("fig6", f"{{robot: {robot}}}")
     settings = ExcitationSettings(base_frequency=0.5, harmonics=3, samples=40, constraint_samples=100,
                                   max_iterations=40)
     excitation = design_excitation(scenario, settings)
     stand_in, run = run_in_process(scenario, excitation.trajectory, 2.0)
     recording = run.recording(scenario.controller_period)
+    assert recording.q.shape[1] == len(scenario.slave_initial_q)
     metrics = identify(scenario, tmp_path, lambda trajectory, duration: (recording, {}), settings=settings)
     truth = stand_in.phi_true
     tls = metrics["estimates"]["tls"]
