@@ -43,14 +43,17 @@ class HardwareStationSystem(TickSystem):
         n = station.num_joints
         for name, size in zip(STATION_INPUTS_DRIVEN, (MASTER_JOINTS, n)):
             self.DeclareTickInput(name, size)
-        self._slices, end = [], 0
-        for width in (MASTER_JOINTS, MASTER_JOINTS, n, n, 6, 6):
-            self._slices.append(slice(end, end + width))
+        # Where each reading (the station's arrays, updated in place by its receive) goes in the state.
+        self._readings, end = [], 0
+        for width, reading in zip((MASTER_JOINTS, MASTER_JOINTS, n, n, 6, 6), (
+                station.master_position, station.master_velocity, station.slave_position, station.slave_velocity,
+                station.wrench, station.acceleration)):
+            self._readings.append((slice(end, end + width), reading))
             end += width
         size = end + 3
         self.DeclareTickState("readings", np.zeros(size))
         self.DeclareTickReceive(self.receive_into, "next:readings")
-        for name, at in zip(STATION_OUTPUTS_READ, self._slices):
+        for name, (at, _) in zip(STATION_OUTPUTS_READ, self._readings):
             self.DeclareTickOutput(name, "x:readings", at.start, at.stop)
         for name, at in ((CLUTCH, CLUTCH_AT), (INPUT_AGE, AGE_AT), ("healthy", HEALTHY_AT)):
             self.DeclareTickOutput(name, "x:readings", size + at, size + at + 1)
@@ -60,9 +63,7 @@ class HardwareStationSystem(TickSystem):
         """One pump of the lab's channels at ``now`` into ``readings`` (the station's state)."""
         station = self.station
         station.receive(self.now)
-        for at, reading in zip(self._slices, (station.master_position, station.master_velocity,
-                                              station.slave_position, station.slave_velocity, station.wrench,
-                                              station.acceleration)):
+        for at, reading in self._readings:
             readings[at] = reading
         readings[CLUTCH_AT] = 1.0 if station.clutch else 0.0
         readings[AGE_AT] = station.oldest_age
