@@ -48,6 +48,7 @@ def both_runs_scenario() -> Scenario:
     return layered(Scenario(), overrides_text({
         "controller.motion.translation_scale": 2.0,
         "controller.motion.R_RB": [0.0, 0.0, 0.4],  # the master's base turned: both map the feedback back through it
+        "controller.motion.master_filter": 60.0,  # the master's positions low-passed for the motion mapping
         "controller.force.sigma": 0.5,
         "controller.offsets.rezero_window": 40 * PERIOD,
         # The sequence's wrench is not a load at rest; wide gates let the re-zero and tracking run.

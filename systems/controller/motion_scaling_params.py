@@ -19,11 +19,11 @@ class MotionScalingParams:
     R_RB: list[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
     """The fixed rotation from the master base B to the slave base R as roll-pitch-yaw (rad)."""
 
-    master_filter: float = 60.0
+    master_filter: float = 0.0
     """Cut-off (Hz) of the low-pass on the master's measured joint positions (``master_position_filter``), below
-    the controller's Nyquist frequency; 0: none. At 60 Hz its group delay is 3.8 ms and the Phantom's encoder
-    counts no longer ring the tool on its mount (fig6, σ = 0: 0.71 % of the non-contact peak left, against
-    1.15 % without and 0.85 % at 100 Hz; docs/scenarios.md)."""
+    the controller's Nyquist frequency; 0: none. At 60 Hz (group delay 3.8 ms) the Phantom's encoder counts no
+    longer ring the tool on its mount: fig6, σ = 0, leaves 0.68 % of the non-contact peak, against 1.15 %
+    without (docs/scenarios.md)."""
 
     def validate(self) -> None:
         """Raises ValueError naming the first field out of range."""
