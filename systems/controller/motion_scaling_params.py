@@ -23,7 +23,7 @@ class MotionScalingParams:
     """Cut-off (Hz) of the low-pass on the master's measured joint positions (``master_position_filter``), below
     the controller's Nyquist frequency; 0: none. At 60 Hz (group delay 3.8 ms) the Phantom's encoder counts no
     longer ring the tool on its mount: fig6, σ = 0, leaves 0.68 % of the non-contact peak, against 1.15 %
-    without (docs/scenarios.md)."""
+    without; its delay costs the contact loop stability margin (docs/scenarios.md)."""
 
     def validate(self) -> None:
         """Raises ValueError naming the first field out of range."""
