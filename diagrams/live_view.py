@@ -28,8 +28,12 @@ import queue
 import tempfile
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from heft.diagrams.plants import Robot
 
 DEFAULT_PORT = 8765
 """The live view's TCP port (Foxglove's default), on localhost."""
@@ -61,7 +65,7 @@ class TickTap:
     """The shared ring and its worker process (``LiveView``, ``McapRecorder``). ``sink``: ("ws",
     host, port) or ("mcap", path); ``rate`` rows/s at most (0: every row); ``robot`` poses the scene."""
 
-    def __init__(self, sink: tuple, rate: float, robot: str):
+    def __init__(self, sink: tuple, rate: float, robot: Robot):
         self._sink, self._rate, self._robot = sink, rate, robot
         self._rows = RING_ROWS if rate == 0 else min(RING_ROWS, math.ceil(RING_SECONDS * rate))
         self._process = self._widths = None
@@ -197,7 +201,7 @@ class TickTap:
 class LiveView(TickTap):
     """The live view on ``ws://host:port``, at most ``rate`` rows a second; ``robot`` poses the scene."""
 
-    def __init__(self, port: int = DEFAULT_PORT, rate: float = DEFAULT_RATE, robot: str = "rx90",
+    def __init__(self, port: int = DEFAULT_PORT, rate: float = DEFAULT_RATE, robot: Robot = "rx90",
                  host: str = "127.0.0.1"):
         super().__init__(("ws", host, port), rate, robot)
 
@@ -205,7 +209,7 @@ class LiveView(TickTap):
 class McapRecorder(TickTap):
     """Every row written to the MCAP file at ``path`` (overwritten), as ``heft export`` writes a log."""
 
-    def __init__(self, path, robot: str = "rx90"):
+    def __init__(self, path, robot: Robot = "rx90"):
         super().__init__(("mcap", str(path)), 0.0, robot)
 
 
@@ -241,7 +245,7 @@ def _leave_the_loop() -> None:
         os.sched_setaffinity(0, every - mine)
 
 
-def _work(path, widths: dict, topics: tuple, rows: int, sink: tuple, robot: str, rate: float, events,
+def _work(path, widths: dict, topics: tuple, rows: int, sink: tuple, robot: Robot, rate: float, events,
           replies) -> None:
     """The worker process: serves or writes the ring's rows until told to stop."""
     _leave_the_loop()

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
+from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant, Robot
 from heft.systems.controller.master_kinematics import BASE_FRAME, STYLUS_FRAME
 from heft.systems.pose_vectors import POSE_SIZE, pose_into
 from heft.systems.serial_chain import SerialChain
@@ -15,12 +15,13 @@ from heft.systems.serial_chain import SerialChain
 
 class ScenePoses:
     """``update(slave_q, master_q)`` writes ``pose_RS`` and ``pose_BE`` (NaN where the angles are not
-    finite) for the arm ``robot`` (``rx90`` or ``rx60``) and the Phantom."""
+    finite) for the arm ``robot`` (``plants.Robot``: a bundled arm's name or a custom arm's ``ArmParams``) and
+    the Phantom."""
 
-    def __init__(self, robot: str):
+    def __init__(self, robot: Robot):
         arm, S = MakeArmPlant(robot)
         master = MakeMasterPlant()
-        self._slave = SerialChain(arm, arm.GetFrameByName(f"{robot}_base"), S)
+        self._slave = SerialChain(arm, arm.world_frame(), S)  # the arm's base R is welded at W
         self._master = SerialChain(master, master.GetFrameByName(BASE_FRAME), master.GetFrameByName(STYLUS_FRAME))
         self.pose_RS, self.pose_BE = np.full(POSE_SIZE, np.nan), np.full(POSE_SIZE, np.nan)
 
@@ -34,7 +35,7 @@ class ScenePoses:
                 pose[:] = np.nan
 
 
-def with_scene_poses(arrays: dict, robot: str) -> dict:
+def with_scene_poses(arrays: dict, robot: Robot) -> dict:
     """``arrays`` with ``pose_RS`` and ``pose_BE`` (N, 7) added, if it has ``slave_q`` and ``master_q``."""
     if "slave_q" not in arrays or "master_q" not in arrays:
         return arrays

@@ -14,10 +14,14 @@ from __future__ import annotations
 import heapq
 from collections import Counter
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from heft.diagrams.commands.console import logger
+
+if TYPE_CHECKING:
+    from heft.diagrams.plants import Robot
 
 say = logger(__name__)
 
@@ -48,7 +52,7 @@ def constants(arrays: dict) -> dict:
             for key, value in arrays.items() if np.ndim(value) == 0 or len(value) != n}
 
 
-def log_messages(path, robot: str):
+def log_messages(path, robot: Robot):
     """(messages (time (ns), topic, message) in time order, topic → schema, metadata) of the log at ``path``;
     ``robot`` poses the scene."""
     from heft.analysis.lcm_messages import RAW_SCHEMA, lcm_log_messages, lcm_topic_schemas
@@ -78,7 +82,7 @@ def log_messages(path, robot: str):
     return merged, schemas, metadata
 
 
-def export_log(path, to: str, out, robot: str = "rx90") -> tuple[list[Path], Counter]:
+def export_log(path, to: str, out, robot: Robot = "rx90") -> tuple[list[Path], Counter]:
     """Writes the log at ``path`` as ``to`` (``analysis.run_export.FORMATS``) into the folder ``out``:
     ``LOG.mcap``, or a folder ``LOG`` of one table per topic (but ``/scene/wrenches``). Returns (the files
     written, messages per topic)."""
@@ -122,9 +126,10 @@ def add_arguments(parser) -> None:
 
 def run(args) -> int:
     from heft.diagrams.scenario import resolve_scenario
+    from heft.diagrams.plants import slave_arm
 
     out = Path(args.out) if args.out else Path(args.log).parent
-    files, counts = export_log(args.log, args.to, out, resolve_scenario(args.scenario).robot)
+    files, counts = export_log(args.log, args.to, out, slave_arm(resolve_scenario(args.scenario)))
     where = files[0] if args.to == "mcap" else files[0].parent
     say.info(f"wrote {where}: {sum(counts.values())} messages on {len(counts)} topics")
     if args.to == "mcap":

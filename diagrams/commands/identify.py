@@ -57,6 +57,7 @@ def run(args) -> int:
     if not args.scenario:
         raise ValueError("identify needs --scenario (the excitation heft drives) or --recording (a lab's recording)")
     from heft.diagrams.identify import identify
+    from heft.diagrams.plants import slave_arm
     from heft.systems.identification.excitation import ExcitationSettings
 
     if args.hardware and args.station:
@@ -70,7 +71,7 @@ def run(args) -> int:
     if args.hardware:
         from heft.diagrams.running.hardware_identify import hardware_recorder, show_estimate
         say.info(f"identify: {scenario.accelerometer.convention()}")
-        view = view_from(args, scenario.robot)
+        view = view_from(args, slave_arm(scenario))
         if view is not None:
             say.info(f"identify: live view on ws://localhost:{args.view_port}; {VIEW_HOWTO}")
             shown = functools.partial(show_estimate, view)

@@ -48,6 +48,7 @@ def chosen_scenario(args) -> str:
 
 def run(args) -> int:
     from heft.diagrams.load_estimate import read_load_estimate
+    from heft.diagrams.plants import slave_arm
     from heft.diagrams.scenario import NOISE_OFF, layered, overrides_text
     from heft.diagrams.running.simulation import simulate
 
@@ -57,7 +58,7 @@ def run(args) -> int:
                               "controller.force.eta": args.eta, **noise, "duration": args.duration})
     scenario = scenario_from(args, options)
     sigmas = compared_sigmas(args, scenario)
-    view = view_from(args, scenario.robot)  # before identifying: a missing extra is said at once
+    view = view_from(args, slave_arm(scenario))  # before identifying: a missing extra is said at once
     out = Path(args.out or f"out/{Path(args.scenario).stem}")
     estimate = args.estimate or scenario.controller.load_estimate
     if estimate:

@@ -57,6 +57,7 @@ def run(args) -> int:
     from heft.diagrams.running.hardware_teleop import format_summary, run_hardware_teleop
     from heft.diagrams.running.realtime import check_busy_wait
     from heft.diagrams.load_estimate import LoadEstimate, read_load_estimate
+    from heft.diagrams.plants import slave_arm
     from heft.diagrams.scenario import overrides_text
     from heft.systems.accelerometer_reading import PLAUSIBLE_BIAS
 
@@ -84,7 +85,7 @@ def run(args) -> int:
     say.info(f"teleop: controller on {channels.lcm_url} (commands on {channels.command_lcm_url()}) at "
              f"{1.0 / scenario.controller_period:g} Hz for {args.duration:g} s of wall time; watchdog timeout "
              f"{scenario.lab.station.watchdog.timeout:g} s")
-    view = view_from(args, scenario.robot)
+    view = view_from(args, slave_arm(scenario))
     if args.record_mcap:
         from heft.analysis.run_export import foxglove_sdk
 

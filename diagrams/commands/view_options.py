@@ -14,8 +14,8 @@ def add_view(parser, port: int = DEFAULT_PORT, what: str = "the run") -> None:
                         help=f"the live view's port (default {port})")
 
 
-def view_from(args, robot: str) -> LiveView | None:
-    """The ``LiveView`` the options ask for (not yet open), or None; ``robot`` poses its scene. A
+def view_from(args, robot) -> LiveView | None:
+    """The ``LiveView`` the options ask for (not yet open), or None; ``robot`` (``plants.Robot``) poses its scene. A
     ValueError (one line: how to install it) without foxglove-sdk."""
     if not args.view:
         return None
