@@ -31,6 +31,7 @@ from pydrake.multibody.tree import JacobianWrtVariable
 from heft.analysis.passivity_analysis import (CHANNELS, passivity_controller_summary, passivity_figure,
                                               port_energy, port_power, sample_periods)
 from heft.analysis.run_log import KINDS, RunLog, complete_rows, longest_start, read_run_log
+from heft.diagrams.arm_params import BUNDLED_ARMS
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
 from heft.systems.controller.master_kinematics import BASE_FRAME, STYLUS_FRAME
 from heft.systems.serial_chain import SerialChain
@@ -71,10 +72,10 @@ def stylus_twists(master_q, master_v) -> np.ndarray:
 
 def sensor_twists(robot: str, t, slave_q) -> np.ndarray:
     """[v_S; ω_S] (N, 6; m/s, rad/s, in S) of the sensor frame, from the slave's joint angles
-    (N, 6; rad) differentiated by central differences (one-sided at the ends)."""
+    (N, n; rad) differentiated by central differences (one-sided at the ends)."""
     plant, S = MakeArmPlant(robot)
     context = plant.CreateDefaultContext()
-    R = plant.GetFrameByName(f"{robot}_base")
+    R = plant.world_frame()  # the arm's base, welded at W
     slave_q = np.asarray(slave_q, dtype=float)
     rates = np.gradient(slave_q, np.asarray(t, dtype=float), axis=0)
     twists = []
@@ -150,7 +151,7 @@ def add_arguments(parser) -> None:
                                     "--record`)")
     parser.add_argument("--kind", choices=KINDS, default=None,
                         help="the log's kind (default: told by the file's first bytes)")
-    parser.add_argument("--robot", default="rx90", choices=("rx90", "rx60"),
+    parser.add_argument("--robot", default="rx90", choices=tuple(BUNDLED_ARMS),
                         help="the slave of the run, for the environment port (default rx90)")
     add_out(parser, "passivity.png, passivity.json", shown="the log's folder")
 
