@@ -18,14 +18,13 @@ from pydrake.multibody.tree import (FixedOffsetFrame, LinearBushingRollPitchYaw,
 
 from heft.diagrams import mount
 from heft.diagrams.arm_params import BUNDLED_ARMS, ArmParams
+from heft.diagrams.master_params import BUNDLED_MASTERS, DEFAULT_MASTER
 from heft.diagrams.models import model_path
 from heft.diagrams.scenario import LoadSpec, MountSpec, Scenario
 from heft.diagrams.tool_check import check_inertia
 from heft.diagrams.urdf_arm import AddArmFromUrdf, ArmChain
 from heft.systems.load_dynamics import GRAVITY_W, InertialParameters, inertia_entries, inertia_matrix
 from heft.systems.controller.master_kinematics import BASE_FRAME, STYLUS_FRAME
-
-MASTER_URDF = "phantom_premium_6dof.urdf"
 
 
 @dataclasses.dataclass
@@ -194,22 +193,33 @@ def phi_about_S(plant: MultibodyPlant, S, bodies, context=None) -> np.ndarray:
                            inertia_entries(M.CalcRotationalInertia().CopyToFullMatrix3())))
 
 
-def AddMaster(plant: MultibodyPlant, X_WB: RigidTransform | None = None):
-    """Adds the master, the Phantom Premium 1.5 6DoF, with its base B welded at ``X_WB`` (default:
-    B = W); returns (its model instance, B, the stylus frame E)."""
-    (master,) = Parser(plant).AddModels(model_path(MASTER_URDF))
-    B = plant.GetFrameByName(BASE_FRAME, master)
+def AddMaster(plant: MultibodyPlant, X_WB: RigidTransform | None = None, master: str = DEFAULT_MASTER):
+    """Adds the bundled master ``master`` (``BUNDLED_MASTERS``; default the Phantom Premium 1.5 6DoF) with its
+    base B welded at ``X_WB`` (default: B = W); returns (its model instance, B, the stylus frame E)."""
+    if master not in BUNDLED_MASTERS:
+        raise ValueError(f"no bundled master {master!r}; bundled: {', '.join(BUNDLED_MASTERS)}")
+    (instance,) = Parser(plant).AddModels(model_path(f"{master}.urdf"))
+    B = plant.GetFrameByName(BASE_FRAME, instance)
     plant.WeldFrames(plant.world_frame(), B, X_WB or RigidTransform())
-    return master, B, plant.GetFrameByName(STYLUS_FRAME, master)
+    return instance, B, plant.GetFrameByName(STYLUS_FRAME, instance)
 
 
-def MakeMasterPlant() -> MultibodyPlant:
-    """The master (``AddMaster``) alone, as a finalized continuous plant: the kinematic model of
+def MakeMasterPlant(master: str = DEFAULT_MASTER) -> MultibodyPlant:
+    """The master ``master`` (``AddMaster``) alone, as a finalized continuous plant: the kinematic model of
     the controller and the analyses."""
     plant = MultibodyPlant(time_step=0.0)
-    AddMaster(plant)
+    AddMaster(plant, master=master)
     plant.Finalize()
     return plant
+
+
+def master_actuated(plant: MultibodyPlant) -> np.ndarray:
+    """1.0 for each of the master's joints (in ``plant``'s position order: a master plant alone,
+    ``MakeMasterPlant``) that an actuator drives (its URDF's ``<transmission>``), else 0.0."""
+    actuated = np.zeros(plant.num_positions())
+    for index in plant.GetJointActuatorIndices():
+        actuated[plant.get_joint_actuator(index).joint().position_start()] = 1.0
+    return actuated
 
 
 def MakeArmPlant(robot: Robot) -> tuple[MultibodyPlant, object]:

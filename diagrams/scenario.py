@@ -22,6 +22,7 @@ from pydrake.systems.analysis import SimulatorConfig
 
 from heft.analysis.yaml_tree import yaml_tree
 from heft.diagrams.arm_params import BUNDLED_ARMS, ROBOTS, ArmParams
+from heft.diagrams.master_params import BUNDLED_MASTERS, DEFAULT_MASTER
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station_params import HardwareStationParams
 from heft.hardware_interface.netft_params import NetFtParams
@@ -192,6 +193,7 @@ class Scenario:
     # The slave's start posture (rad, one angle per joint). A robot stated without it (in a file, or laid over
     # one) starts in its own (``BundledArm.start``; ``with_arm_defaults``); a custom arm needs it stated.
     slave_initial_q: list[float] = dataclasses.field(default_factory=lambda: list(BUNDLED_ARMS["rx90"].start))
+    master: str = DEFAULT_MASTER            # the haptic master: a bundled one (``BUNDLED_MASTERS``)
     master_initial_q: list[float] = dataclasses.field(default_factory=lambda: [0.0] * 6)  # rad
     load: LoadSpec = dataclasses.field(default_factory=LoadSpec)
     environment: EnvironmentSpec = dataclasses.field(default_factory=EnvironmentSpec)
@@ -235,6 +237,7 @@ class Scenario:
              "split; give controller.force.phi_gripper (the gripper's φ, Eq. 6), use a load with a grasp "
              "(load.grasp_at: the gripper is identified alone), learn the load online "
              "(controller.estimator.mode: online; on hardware a grasp over LCM splits it) or leave η at 1")
+        need(self.master in BUNDLED_MASTERS, "master", f"must be one of {', '.join(BUNDLED_MASTERS)}, not {self.master!r}")
         need(self.robot in ROBOTS, "robot", f"must be one of {', '.join(ROBOTS)}, not {self.robot!r}")
         if self.robot == "custom":
             try:
@@ -318,6 +321,19 @@ def with_arm_defaults(scenario: Scenario, stated: dict, robot_before: str) -> Sc
     return scenario
 
 
+def with_master_defaults(scenario: Scenario, stated: dict, master_before: str) -> Scenario:
+    """``scenario`` (changed in place) with its master's force limit (``BundledMaster.max_force``) as
+    ``controller.feedback.max_force`` where ``stated`` names a master other than ``master_before`` and not
+    that limit."""
+    if stated.get("master", master_before) == master_before:
+        return scenario
+    feedback = (stated.get("controller") or {}).get("feedback") or {}
+    master = BUNDLED_MASTERS.get(scenario.master)
+    if master and master.max_force is not None and "max_force" not in feedback:
+        scenario.controller.feedback.max_force = master.max_force
+    return scenario
+
+
 def _check_fields(data, schema, path=""):
     """Checks raw YAML ``data`` against dataclass ``schema`` so that every error
     names its field (dotted path) and what was expected."""
@@ -376,12 +392,13 @@ def layered(scenario: Scenario, text: str) -> Scenario:
     """A copy of ``scenario`` with the YAML ``text`` laid over it: any subset of a scenario
     file's fields, nested as there (``"{controller: {force: {gamma: 0.5}}, duration: 3}"``);
     the fields it leaves out keep ``scenario``'s values, but for a new ``robot``'s start posture, servo
-    gains and motion scale (``with_arm_defaults``). Validated; errors name the field."""
+    gains and motion scale (``with_arm_defaults``) and a new ``master``'s force limit (``with_master_defaults``). Validated; errors name the field."""
     try:
         stated = yaml_tree(text)
         _check_fields(stated, Scenario)
-        return with_arm_defaults(yaml_load_typed(schema=Scenario, data=text, defaults=scenario), stated,
-                                 scenario.robot).validate()
+        laid = with_arm_defaults(yaml_load_typed(schema=Scenario, data=text, defaults=scenario), stated,
+                                 scenario.robot)
+        return with_master_defaults(laid, stated, scenario.master).validate()
     except yaml.YAMLError as error:
         raise ValueError(f"scenario override {text!r} is not valid YAML: {error}") from None
     except ValueError as error:
@@ -424,7 +441,8 @@ def load_scenario(path) -> Scenario:
     try:
         stated = yaml_tree(text)
         _check_fields(stated, Scenario)
-        scenario = with_arm_defaults(yaml_load_typed(schema=Scenario, data=text), stated, Scenario().robot)
+        scenario = with_master_defaults(with_arm_defaults(yaml_load_typed(schema=Scenario, data=text), stated,
+                                                          Scenario().robot), stated, DEFAULT_MASTER)
         if scenario.arm.urdf:  # a relative path is taken from the file's folder
             scenario.arm.urdf = str(scenario.arm.urdf_path(path.parent))
         return scenario.validate()

@@ -17,7 +17,8 @@ from pydrake.systems.primitives import Adder, ConstantVectorSource, DiscreteTime
 
 from heft.diagrams.load_estimate import LoadEstimate
 from heft.diagrams.online_estimation import AddOnlineLoadEstimator
-from heft.diagrams.plants import AddArmWithSensor, MakeMasterPlant, Robot
+from heft.diagrams.master_params import DEFAULT_MASTER
+from heft.diagrams.plants import AddArmWithSensor, MakeMasterPlant, Robot, master_actuated
 from heft.diagrams.scenario import ControllerSpec
 from heft.systems.accelerometer_reading import AccelerometerConvention
 from heft.systems.controller.chain_inverse_kinematics import ChainIk, ChainInverseKinematics
@@ -65,7 +66,8 @@ def _slave_model(robot: Robot, period: float, slave_initial_q) -> tuple[Multibod
 
 
 def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: Robot, period: float, slave_initial_q, *,
-                         accelerometer: AccelerometerConvention, feedback_blocks: Sequence[FeedbackBlock] = ()):
+                         accelerometer: AccelerometerConvention, feedback_blocks: Sequence[FeedbackBlock] = (),
+                         master: str = DEFAULT_MASTER):
     """The hardware-agnostic controller Diagram of Fig. 4 (docs/design.md §3), ticking every ``period`` s.
     ``accelerometer``: the convention of ``ft.acceleration_measured`` (``accelerometer_reading``;
     the scenario's ``accelerometer.convention()``).
@@ -80,7 +82,9 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: Robot,
     ``load.phi`` (``FixedLoad``) or, online, the load estimator's (``AddOnlineLoadEstimator``).
     ``feedback_blocks``: blocks of a lab's own between force scaling's f′ and the feedback mapping, in order
     (each made by ``make(period)``: a TickSystem with an input and an output ``wrench``, 6, at S in S).
-    ``robot``: the slave arm (``plants.Robot``), ``slave_initial_q`` its start posture (rad).
+    ``robot``: the slave arm (``plants.Robot``), ``slave_initial_q`` its start posture (rad); ``master``: the
+    bundled master (``BUNDLED_MASTERS``), whose unactuated joints get no torque (a three-axis device renders
+    the force only: ``PassivityController``).
     Outputs: ``master.torque_commanded`` (6, N·m), ``slave.position_commanded`` (n, rad: the arm's joints),
     the ``CONTROLLER_LOG`` signals, ``slave.gravity_S`` (3, g in S at the measured joints), ``slave.pose_RS`` and
     ``master.pose_BE`` (7 each, X_RS and X_BE measured: [p (m); w, x, y, z]) and, online,
@@ -88,7 +92,8 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: Robot,
     """
     builder = DiagramBuilder()
     slave, base, slave_ik = _slave_model(robot, period, slave_initial_q)
-    master_kinematics = builder.AddNamedSystem("master_kinematics", MasterKinematics(MakeMasterPlant()))
+    master_plant = MakeMasterPlant(master)
+    master_kinematics = builder.AddNamedSystem("master_kinematics", MasterKinematics(master_plant))
     slave_kinematics = builder.AddNamedSystem(
         "slave_kinematics", SlaveKinematics(slave, base_frame=base, sensor_frame="S"))
     motion = builder.AddNamedSystem("motion_scaling", MotionScaling(spec.motion, period))
@@ -97,7 +102,7 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: Robot,
         spec.force, period, accelerometer))
     feedback = builder.AddNamedSystem("feedback_mapping", FeedbackMapping(spec.feedback, spec.motion.R_RB))
     passivity = builder.AddNamedSystem("passivity", PassivityController(
-        spec.passivity, spec.feedback.max_force, spec.feedback.max_torque, period))
+        spec.passivity, spec.feedback.max_force, spec.feedback.max_torque, period, master_actuated(master_plant)))
     spec.estimator.validate()
     offsets = builder.AddNamedSystem("offsets_hat", OffsetTracker(load.offsets, spec.offsets, spec.contact, period,
                                                                     slave.num_positions()))
@@ -113,7 +118,7 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: Robot,
         master_filter = builder.AddNamedSystem("master_filter", MasterPositionFilter(spec.motion.master_filter,
                                                                                       period))
         filtered_kinematics = builder.AddNamedSystem("master_filtered_kinematics",
-                                                     MasterKinematics(MakeMasterPlant()))
+                                                     MasterKinematics(master_plant))
         builder.ConnectInput("master.position_measured", master_filter.get_input_port())
         builder.Connect(master_filter.get_output_port(), filtered_kinematics.get_input_port())
         master_pose = filtered_kinematics.GetOutputPort("pose_BE")

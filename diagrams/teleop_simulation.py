@@ -55,7 +55,7 @@ def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, meshcat=None,
     station = builder.AddNamedSystem("station", MakeSimStation(scenario, meshcat))
     controller = builder.AddNamedSystem("controller", TickProgramSystem(MakeTeleopController(
         spec, load, slave_arm(scenario), scenario.controller_period, scenario.slave_initial_q,
-        accelerometer=scenario.accelerometer.convention(), feedback_blocks=feedback_blocks)))
+        accelerometer=scenario.accelerometer.convention(), feedback_blocks=feedback_blocks, master=scenario.master)))
     period = scenario.controller_period
     ConnectControllerToStation(builder, controller, station, round(spec.delay / period), period,
                                {"master.position_measured": scenario.master_initial_q,
@@ -68,6 +68,7 @@ def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, meshcat=None,
                         controller.GetInputPort("estimator_reset"))
     ports = {key: station.GetOutputPort(name) for name, key in STATION_LOG.items()}
     ports.update({name.removeprefix("log."): controller.GetOutputPort(name) for name in CONTROLLER_LOG})
+    ports["master_torque"] = controller.GetOutputPort("master.torque_commanded")
     sizes = [port.size() for port in ports.values()]
     signals = builder.AddSystem(Multiplexer(sizes))
     columns, start = {}, 0

@@ -16,6 +16,7 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
 from heft.analysis.experiment_metrics import experiment_metrics, grasp_metrics
 from heft.analysis.figures import paper_figure
+from heft.diagrams.plants import MakeMasterPlant, master_actuated
 from heft.diagrams.progress import ProgressBar
 from heft.diagrams.scenario import Scenario, layered, overrides_text
 from heft.diagrams.stations.sim_station import MakeSimStation, set_holding
@@ -103,10 +104,17 @@ def run_teleop(scenario: Scenario, load: LoadEstimate, label: str = "", meshcat=
     return data
 
 
+def unrendered_torque_peak(run: dict) -> float:
+    """The largest torque (N·m, at E in B) of the wrench meant for the hand (``master_force``) that a
+    force-only master leaves unrendered."""
+    return float(np.max(np.linalg.norm(run["master_force"][:, 3:], axis=1), initial=0.0))
+
+
 def simulate(scenario: Scenario, load: LoadEstimate, out_dir, sigmas, name: str, meshcat=None, view=None) -> dict:
     """Runs ``scenario`` once per σ of ``sigmas`` (the study's axis, laid over ``controller.force.sigma``
     by ``with_sigma``: the one override path), writes log.npz (the first σ) and log_sigma<σ>.npz
-    (each), metrics.json and figure.png into ``out_dir``; returns the metrics. A ``meshcat`` or a ``view``
+    (each), metrics.json and figure.png into ``out_dir``; returns the metrics (with a force-only master, the
+    peak torque it left unrendered, ``unrendered_torque_peak``). A ``meshcat`` or a ``view``
     (``diagrams.live_view.LiveView``) shows each run live."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -119,6 +127,9 @@ def simulate(scenario: Scenario, load: LoadEstimate, out_dir, sigmas, name: str,
     metrics = experiment_metrics(scenario.experiment, runs, scenario.controller.feedback.force_scale,
                                  stroke_windows(operator.start_time, operator.frequency, scenario.duration))
     metrics["realtime_factor"] = float(min(run["realtime_factor"] for run in runs.values()))
+    if master_actuated(MakeMasterPlant(scenario.master)).min() < 1.0:  # a force-only master
+        metrics["master_torque_unrendered_peak_Nm"] = {
+            f"sigma{sigma:g}": unrendered_torque_peak(run) for sigma, run in runs.items()}
     if math.isfinite(scenario.load.grasp_at):
         metrics["grasp"] = {f"sigma{sigma:g}": grasp_metrics(run, scenario.load.grasp_at)
                             for sigma, run in runs.items()}

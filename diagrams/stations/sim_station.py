@@ -16,7 +16,7 @@ from pydrake.multibody.tree import (FixedOffsetFrame, MultibodyForces, PdControl
                                     PrismaticJoint, PrismaticSpring, SpatialInertia)
 from pydrake.geometry import AddContactMaterial, Box, MeshcatVisualizer, ProximityProperties
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, Saturation
+from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, MatrixGain, Saturation
 
 from heft.diagrams.plants import (AddMaster, AddSlave, SlaveParts, arm_name, load_phi, payload_max, phi_about_S,
                                    slave_arm)
@@ -203,11 +203,12 @@ def settle_mount(plant: MultibodyPlant, context, joint, iterations: int = 4) -> 
 
 
 def _add_master(builder: DiagramBuilder, scenario: Scenario):
-    """The Phantom (its own discrete plant, without gravity: the Premium is
-    counterbalanced) with the operator's hand mass on the stylus and its impedance."""
+    """The scenario's master (its own discrete plant, without gravity: the Premium and the Touch are
+    counterbalanced) with the operator's hand mass on the stylus and its impedance. Its amplifiers take the
+    six joint torques commanded and drive the actuated joints' motors, each within its effort."""
     master = builder.AddSystem(MultibodyPlant(time_step=scenario.plant.time_step))
     master.set_name("master_plant")
-    phantom, _, E = AddMaster(master)
+    phantom, _, E = AddMaster(master, master=scenario.master)
     stylus = E.body()
     hand = master.AddRigidBody("operator_hand", phantom,
                                SpatialInertia.SolidSphereWithMass(max(scenario.operator.hand_mass, 1e-6), 0.04))
@@ -220,7 +221,15 @@ def _add_master(builder: DiagramBuilder, scenario: Scenario):
     amplifiers = builder.AddSystem(Saturation(-limits, limits))
     amplifiers.set_name("master_amplifiers")
     builder.Connect(amplifiers.get_output_port(), master.get_actuation_input_port(phantom))
-    builder.ExportInput(amplifiers.get_input_port(), "master.torque_commanded")
+    if len(limits) == master.num_positions(phantom):
+        builder.ExportInput(amplifiers.get_input_port(), "master.torque_commanded")
+    else:  # the actuated joints' torques of the six commanded
+        motors = np.zeros((len(limits), master.num_positions(phantom)))
+        for row, index in enumerate(master.GetJointActuatorIndices(phantom)):
+            motors[row, master.get_joint_actuator(index).joint().position_start()] = 1.0
+        select = builder.AddNamedSystem("master_motors", MatrixGain(motors))
+        builder.Connect(select.get_output_port(), amplifiers.get_input_port())
+        builder.ExportInput(select.get_input_port(), "master.torque_commanded")
 
     context = master.CreateDefaultContext()
     operator = builder.AddSystem(OperatorHand(stylus.index(), master.EvalBodyPoseInWorld(context, stylus),

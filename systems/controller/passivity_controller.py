@@ -43,6 +43,9 @@ from heft.systems.controller.passivity_params import PassivityParams
 from heft.systems.sample_period import DEFAULT_PERIOD, require_period
 from heft.systems.tick_system import Reshaped, TickSystem
 
+ALL_ACTUATED = (1.0,) * 6
+"""Every joint of a six-joint master actuated (the Phantom Premium 1.5 6DoF): force and torque rendered."""
+
 
 # --- pure numpy core ----------------------------------------------------------
 
@@ -95,23 +98,28 @@ def passivity_step_into(wrench, twist, energy, period, max_damping, applied, dam
 
 
 def master_torque(wrench, velocity, jacobian, energy, period: float, max_damping, max_force: float,
-                  max_torque: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                  max_torque: float, actuated=ALL_ACTUATED) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                                                     np.ndarray]:
     """One sample of the block (``master_torque_into``): (τ_M (6, N·m), the wrench applied on the hand
     (6, [f; τ] at E in B, N and N·m), energy (2, J), α (2), energy dissipated (2, J)), new arrays."""
     torque, applied, damping, dissipated = np.empty(6), np.empty(6), np.empty(2), np.empty(2)
     energy = np.array(energy, dtype=float)
     master_torque_into(float_array(wrench), float_array(velocity), float_array(np.reshape(jacobian, (6, 6))),
-                       energy, period, float_array(max_damping), max_force, max_torque, torque, applied, damping,
-                       dissipated, np.empty(6))
+                       energy, period, float_array(max_damping), max_force, max_torque, float_array(actuated), torque,
+                       applied, damping, dissipated, np.empty(12))
     return torque, applied, energy, damping, dissipated
 
 
 @compiled("void(float64[:], float64[:], float64[:, :], float64[:], float64, float64[:], float64, float64, "
-          "float64[:], float64[:], float64[:], float64[:], float64[:])")
-def master_torque_into(wrench, velocity, jacobian, energy, period, max_damping, max_force, max_torque, torque,
-                       applied, damping, dissipated, twist) -> None:
+          "float64[:], float64[:], float64[:], float64[:], float64[:], float64[:])")
+def master_torque_into(wrench, velocity, jacobian, energy, period, max_damping, max_force, max_torque, actuated,
+                       torque, applied, damping, dissipated, scratch) -> None:
     """One sample of the block into ``torque`` (6, τ_M), ``applied`` (6), ``damping`` (2) and
-    ``dissipated`` (2); ``energy`` (2) advanced in place; ``twist`` (6) is scratch.
+    ``dissipated`` (2); ``energy`` (2) advanced in place; ``scratch`` (12).
+
+    ``actuated`` (6): 1.0 for a joint an actuator drives, else 0.0. A device with an unactuated joint renders
+    the force only: the desired torque τ is taken as zero (the observer's rotational channel sees no power),
+    and an unactuated joint's torque is zero, so the actuated joints' torques are J_vᵀ·f.
 
     ``wrench`` (6) desired [f; τ] on the hand, ``velocity`` q̇_M (6, rad/s), ``jacobian``
     J_M (6×6, rows [v_E; ω_E]), ``energy`` [E_t, E_r] before, ``period`` the hold T (s),
@@ -129,11 +137,17 @@ def master_torque_into(wrench, velocity, jacobian, energy, period, max_damping, 
         damping[:] = 0.0
         dissipated[:] = 0.0
         return
+    twist, desired = scratch[:6], scratch[6:]
+    force_only = False
+    for j in range(6):
+        force_only = force_only or actuated[j] < 0.5
+    for i in range(6):
+        desired[i] = 0.0 if force_only and i >= 3 else wrench[i]
     for i in range(6):
         twist[i] = 0.0
         for j in range(6):
             twist[i] += jacobian[i, j] * velocity[j]
-    passivity_step_into(wrench, twist, energy, period, max_damping, applied, damping, dissipated)
+    passivity_step_into(desired, twist, energy, period, max_damping, applied, damping, dissipated)
     for channel, limit in ((0, max_force), (1, max_torque)):
         k = 3 * channel
         factor = clamp_factor(applied[k], applied[k + 1], applied[k + 2], limit)
@@ -146,20 +160,21 @@ def master_torque_into(wrench, velocity, jacobian, energy, period, max_damping, 
             energy[channel] += withheld * period
     for j in range(6):
         torque[j] = 0.0
-        for i in range(6):
-            torque[j] += jacobian[i, j] * applied[i]
+        if actuated[j] > 0.5:
+            for i in range(6):
+                torque[j] += jacobian[i, j] * applied[i]
 
 
 # --- Drake system -------------------------------------------------------------
 
 @compiled("void(float64[:], float64[:], float64[:, :], float64[:], float64[:], float64[:], float64[:], float64[:], "
-          "float64[:], float64[:], float64[:])")
-def passivity_update(wrench, velocity, jacobian, hold, limits, energy, torque, applied, damping, dissipated,
+          "float64[:], float64[:], float64[:], float64[:])")
+def passivity_update(wrench, velocity, jacobian, hold, limits, actuated, energy, torque, applied, damping, dissipated,
                      scratch):
     """``master_torque_into`` on the block's arrays: ``hold`` (1, s) the sample's, ``limits`` [α_t max, α_r max,
-    max force (N), max torque (N·m)]; ``dissipated`` (2) adds up; ``scratch`` (8)."""
-    master_torque_into(wrench, velocity, jacobian, energy, hold[0], limits[0:2], limits[2], limits[3], torque,
-                       applied, damping, scratch[:2], scratch[2:])
+    max force (N), max torque (N·m)], ``actuated`` (6); ``dissipated`` (2) adds up; ``scratch`` (14)."""
+    master_torque_into(wrench, velocity, jacobian, energy, hold[0], limits[0:2], limits[2], limits[3], actuated,
+                       torque, applied, damping, scratch[:2], scratch[2:])
     dissipated[0] += scratch[0]
     dissipated[1] += scratch[1]
 
@@ -191,7 +206,9 @@ class PassivityController(TickSystem):
     """
 
     def __init__(self, params: PassivityParams | None = None, max_force: float = math.inf,
-                 max_torque: float = math.inf, period: float = DEFAULT_PERIOD):
+                 max_torque: float = math.inf, period: float = DEFAULT_PERIOD, actuated=ALL_ACTUATED):
+        """``actuated`` (6): 1.0 for each master joint an actuator drives (``plants.master_actuated``), else 0.0;
+        one unactuated joint makes the device force only (``master_torque_into``)."""
         params = params or PassivityParams()
         params.validate()
         super().__init__(require_period(period))
@@ -200,6 +217,9 @@ class PassivityController(TickSystem):
         max_damping = ((params.max_translational_damping, params.max_rotational_damping) if params.enabled
                        else (0.0, 0.0))
         self.limits = np.array((*max_damping, max_force, max_torque))
+        self.actuated = np.array(actuated, dtype=float)
+        if self.actuated.shape != (6,) or not np.isin(self.actuated, (0.0, 1.0)).all():
+            raise ValueError(f"actuated must be six values of 1 (actuated) or 0; got {actuated}")
         self.DeclareTickInput("wrench", 6)
         self.DeclareTickInput("velocity", 6)
         self.DeclareTickInput("jacobian", 36)
@@ -207,8 +227,8 @@ class PassivityController(TickSystem):
         for name, size in (("torque", 6), ("energy", 2), ("damping", 2), ("dissipated", 2), ("applied", 6)):
             self.DeclareTickState(name, np.zeros(size))
         self.DeclareTickUpdate(passivity_update, "in:wrench", "in:velocity", Reshaped("in:jacobian", (6, 6)),
-                               "in:hold", self.limits, "next:energy", "next:torque", "next:applied", "next:damping",
-                               "next:dissipated", np.empty(8))
+                               "in:hold", self.limits, self.actuated, "next:energy", "next:torque", "next:applied",
+                               "next:damping", "next:dissipated", np.empty(14))
         for port, state in (("torque", "torque"), ("energy_observed", "energy"), ("damping", "damping"),
                             ("energy_dissipated", "dissipated"), ("applied_wrench", "applied")):
             self.DeclareTickOutput(port, f"x:{state}")
