@@ -102,3 +102,16 @@ def test_rendered_mass_follows_sigma_and_eta(fig6, tmp_path):
     assert eta1["measured_kg"]["hand"] == pytest.approx(hand_mass(1.0, m_gripper + m_object, k_f, s), rel=0.05)
     png, document = write_study(study, tmp_path)
     assert png.stat().st_size > 0 and document.stat().st_size > 0
+
+
+@pytest.mark.parametrize("robot", ["rx60", "ur5e", "iiwa14"])
+def test_the_sensors_orientation_is_drakes_on_every_bundled_arm(robot):
+    from heft.diagrams.plants import MakeArmPlant
+    from heft.diagrams.studies.apparent_mass import sensor_rotations
+
+    plant, S = MakeArmPlant(robot)
+    q = np.random.default_rng(2).uniform(-1, 1, (3, plant.num_positions()))
+    context = plant.CreateDefaultContext()
+    for q_k, R_RS in zip(q, sensor_rotations(robot, q), strict=True):
+        plant.SetPositions(context, q_k)
+        np.testing.assert_allclose(R_RS, S.CalcPoseInWorld(context).rotation().matrix(), atol=1e-14)

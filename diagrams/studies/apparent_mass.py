@@ -29,7 +29,7 @@ from pydrake.math import RollPitchYaw, RotationMatrix
 
 from heft.analysis.apparent_mass import estimate_apparent_mass, fit_apparent_mass, hand_mass
 from heft.diagrams.scenario import Scenario, layered, overrides_text
-from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
+from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant, Robot, slave_arm
 from heft.diagrams.running.sim_identification import identify_in_simulation
 from heft.diagrams.running.simulation import run_teleop, true_load, with_sigma
 from heft.diagrams.load_estimate import LoadEstimate
@@ -52,11 +52,11 @@ def stylus_positions(master_q) -> np.ndarray:
     return np.array(positions)
 
 
-def sensor_rotations(robot: str, slave_q) -> np.ndarray:
-    """R_RS (N, 3, 3): the sensor frame's orientation in the slave base at the joint angles (N, 6; rad)."""
+def sensor_rotations(robot: Robot, slave_q) -> np.ndarray:
+    """R_RS (N, 3, 3): the sensor frame's orientation in the slave base at the joint angles (N, n; rad)."""
     plant, S = MakeArmPlant(robot)
     context = plant.CreateDefaultContext()
-    R = plant.GetFrameByName(f"{robot}_base")
+    R = plant.world_frame()  # the arm's base, welded at W
     rotations = []
     for q in np.asarray(slave_q, dtype=float):
         plant.SetPositions(context, q)
@@ -82,7 +82,7 @@ def fit_run(scenario: Scenario, log: dict, smoothing: float = 0.01) -> dict:
     force = np.asarray(log["master_force"])[:, :3] @ u
     hand = estimate_apparent_mass(t, force, stylus_positions(log["master_q"]) @ u, smoothing, window)
     R_BR = RotationMatrix(RollPitchYaw(scenario.controller.motion.R_RB)).inverse().matrix()
-    R_BS = np.einsum("ij,njk->nik", R_BR, sensor_rotations(scenario.robot, log["slave_q"]))
+    R_BS = np.einsum("ij,njk->nik", R_BR, sensor_rotations(slave_arm(scenario), log["slave_q"]))
     a_B = np.einsum("nij,nj->ni", R_BS, np.asarray(log["accel_true"])[:, :3])
     keep = (t >= window[0]) & (t <= window[1])
     slave = fit_apparent_mass(force[keep], (a_B @ u)[keep] / scenario.controller.motion.translation_scale)
