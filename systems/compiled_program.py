@@ -1,14 +1,15 @@
 """A ``TickProgram``'s calculations and updates as two compiled functions, generated from its order.
 
-``compile_program(calls, constants_of)`` writes the source of ``calculate(signals, state, next, bounds, *constants)``
-and ``update(…)``: each calls the kernels of the program's calculations (in the program's order) or of its updates
-(in the blocks' order, between copying ``state`` into ``next`` and ``next`` back), on slices of the three flat
-arrays whose bounds are read from ``bounds`` (so Diagrams of the same blocks wired alike share one compiled function),
-and with the blocks' other arguments (records, parameters, scratch arrays) passed through. numba compiles the two for
-the types of the arguments given, before any tick, and caches the machine code on disk beside a source file named
-by a digest of the source and of every kernel (its name, signature and module's text), so that a changed kernel is
-never linked stale; a kernel no file defines (a script's) has its program compiled anew in each process. A tick is then two calls from
-Python instead of one per kernel, each with its arguments to type.
+``compile_program(calls, constants)`` writes the source of ``calculate(signals, state, next_state, bounds,
+*constants)`` and ``update(…)``: each calls the kernels of the program's calculations (in the program's order) or
+of its updates (in the blocks' order, between copying ``state`` into ``next_state`` and back), on slices of the
+three flat arrays whose bounds are read from ``bounds`` (so Diagrams of the same blocks wired alike share one
+compiled function), and with the blocks' other arguments (records, parameters, scratch arrays) passed through.
+numba compiles the two for the types of the arguments given, before any tick, and caches the machine code on disk
+beside a source file named by a digest of the source and of every kernel (its name, signature and module's text),
+so that a changed kernel is never linked stale; a kernel no file defines (a script's) has its program compiled
+anew in each process. A tick is then two calls from Python instead of one per kernel, each with its arguments to
+type.
 """
 
 from __future__ import annotations
