@@ -30,7 +30,8 @@ WRENCHES = {"/wrench/measured": "wrench_measured", "/wrench/contact": "wrench_co
             "/wrench/noncontact": "wrench_noncontact", "/hand/mapped": "master_force",
             "/hand/applied": "master_force_applied"}
 SIMULATION_TOPICS = {*WRENCHES, "/wrench/feedback", "/truth/contact", "/truth/noncontact", "/estimate/phi",
-                     "/estimate/offsets", "/truth/phi", "/passivity", "/master/joint_state", "/slave/joint_state",
+                     "/estimate/offsets", "/truth/phi", "/passivity", "/master/joint_state", "/master/command",
+                     "/slave/joint_state",
                      "/slave/pose_desired", "/controller/status", "/scene/frames", "/scene/wrenches"}
 HARDWARE_TOPICS = {*WRENCHES, "/passivity", "/master/joint_state", "/master/command", "/slave/joint_state",
                    "/slave/command", "/loop", "/scene/frames", "/scene/wrenches"}
@@ -90,6 +91,7 @@ def test_a_simulation_log_as_mcap_holds_every_row_on_every_topic(simulation_log,
     phi = topics["/estimate/phi"]
     np.testing.assert_array_equal([m["mass"] for _, m in phi], log["phi_hat"][:, 0])
     np.testing.assert_array_equal([m["inertia"]["zz"] for _, m in phi], log["phi_hat"][:, 9])
+    np.testing.assert_array_equal([m["torque"] for _, m in topics["/master/command"]], log["master_torque"])
     np.testing.assert_array_equal([[m["energy"]["translational"], m["damping"]["rotational"]]
                                    for _, m in topics["/passivity"]],
                                   np.c_[log["passivity_energy"][:, 0], log["passivity_damping"][:, 1]])
