@@ -19,7 +19,7 @@ from heft.diagrams.plants import MakeArmPlant
 from heft.diagrams.running.simulation import true_load
 from heft.diagrams.scenario import Scenario, layered, overrides_text
 from heft.diagrams.teleop import MakeTeleopController
-from heft.systems.controller.rls_load_estimator import RESTS
+from heft.systems.controller.rls_load_estimator import AT_REST, RESTS
 from heft.systems.load_dynamics import GRAVITY_W, regressor
 from heft.systems.tick_program import TickProgram
 
@@ -56,9 +56,9 @@ def scenario() -> Scenario:
 
 
 def readings(spec: Scenario, phi_gripper, offsets, object_weighs: bool = True, release_tick: int | None = None,
-             ticks: int = TICKS, seed: int = 5) -> list[dict]:
+             ticks: int = TICKS, seed: int = 5, phi_object=PHI_OBJECT) -> list[dict]:
     """Station readings (module docstring): the gripper's event ``holding`` from ``GRASP_TICK`` (until
-    ``release_tick``), the block's weight on the sensor with it if ``object_weighs``."""
+    ``release_tick``), the block's (``phi_object``'s) weight on the sensor with it if ``object_weighs``."""
     plant, _ = MakeArmPlant(spec.robot)
     context = plant.CreateDefaultContext()
     R, S = plant.GetFrameByName(f"{spec.robot}_base"), plant.GetFrameByName("S")
@@ -87,7 +87,7 @@ def readings(spec: Scenario, phi_gripper, offsets, object_weighs: bool = True, r
         a, alpha, omega = R_SR @ rates[:3], R_SR @ rates[3:], R_SR @ velocity[3:]
         g = R_SR @ np.array(GRAVITY_W)
         held = GRASP_TICK <= k - 1 and (release_tick is None or k - 1 < release_tick)
-        phi = phi_gripper + (PHI_OBJECT if held and object_weighs else 0.0)
+        phi = phi_gripper + (phi_object if held and object_weighs else 0.0)
         wrench = offsets + regressor(a, alpha, omega, g) @ phi + rng.normal(0, [0.1] * 3 + [0.005] * 3)
         a_A = a + np.cross(alpha, p_SA) + np.cross(omega, np.cross(omega, p_SA))
         reading = np.concatenate((a_A - g, alpha)) + rng.normal(0, [0.05] * 3 + [0.5] * 3)
@@ -199,6 +199,19 @@ def test_no_settled_step_teaches_nothing(gripper, case):
                         release_tick=GRASP_TICK + 40 if case != "nothing grasped" else None, ticks=SWING_FROM)
     ticks = run(spec, phi_gripper, offsets, sequence)
     assert ticks[-1]["rests"] == 0
+    np.testing.assert_array_equal(ticks[-1]["log.phi_hat"], phi_gripper)
+
+
+def test_an_object_pressed_on_a_surface_is_not_weighed_below_nothing(gripper):
+    """The gripper closing on an object that a surface pushes up harder than the gripper weighs: the step at rest
+    would leave a negative mass, so no static sample is taken, and φ̂ stays the gripper's."""
+    spec, phi_gripper, offsets = gripper
+    pushed = block(-(phi_gripper[0] + 0.5), [0.0, 0.0, 0.05], 0.04)  # an upward force, as of a mass below nothing
+    sequence = readings(spec, phi_gripper, offsets, ticks=SWING_FROM, phi_object=pushed)
+    program = TickProgram(controller(spec, phi_gripper, offsets))
+    ticks = program_run(program, inputs(sequence))
+    assert rests_taken(program) > 0  # a sample was offered
+    assert program.block_state("phi_hat", "counters")[AT_REST] == 0
     np.testing.assert_array_equal(ticks[-1]["log.phi_hat"], phi_gripper)
 
 

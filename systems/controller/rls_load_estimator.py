@@ -37,15 +37,16 @@ _ROOT = P + 2 + 6 * 12 * 12
 """Where the square-root information [S z; 0 ρ] starts in the state (``recursive_estimation``'s layout)."""
 
 
-@compiled("void(float64[::1], float64[:], RLS[:])", RLS=RLS)
-def take_rest_sample(state, rest, rls) -> None:
+@compiled("boolean(float64[::1], float64[:], RLS[:])", RLS=RLS)
+def take_rest_sample(state, rest, rls) -> bool:
     """A new load's static sample ``rest`` (``rest_learner.SAMPLE_SIZE``: [counter, n, w̄, [ā; ᾱ], ω̄, ḡ], the
     means of n ticks at rest) into the estimator's ``state``. At rest f = m·s and τ = m·c × s (s = ā − ḡ), so
     the residual r = w̄ − V·φ̂ sets the mass, Δm = r_f·s/|s|², and the moment perpendicular to s,
     Δ(m·c) = s × r_τ/|s|²; the rest of φ̂ is kept. φ̂ moves there with the information it has (z ← z + S·Δ,
     so that S·φ̂ = z still), then the sample's rows, consistent with the new φ̂ and weighted as n samples,
     join the information: what the arm's motion teaches next moves the mass and that moment only as n
-    samples at rest allow."""
+    samples at rest allow. A sample that would leave no positive mass (the object pressed on a surface, not
+    hanging) or without gravity to weigh by is not taken; returns whether it was."""
     r = rls[0]
     theta, V, weighted = state[:P], r["V"], r["weighted"]
     a, alpha, omega, g = rest[8:11], rest[11:14], rest[14:17], rest[17:20]
@@ -53,7 +54,7 @@ def take_rest_sample(state, rest, rls) -> None:
     s0, s1, s2 = a[0] - g[0], a[1] - g[1], a[2] - g[2]
     norm2 = s0 * s0 + s1 * s1 + s2 * s2
     if not norm2 > 0.0:
-        return
+        return False
     residual = r["row"][:6]
     for k in range(6):
         explained = 0.0
@@ -63,6 +64,8 @@ def take_rest_sample(state, rest, rls) -> None:
     delta = r["theta"]
     delta[:] = 0.0
     delta[0] = (residual[0] * s0 + residual[1] * s1 + residual[2] * s2) / norm2
+    if not theta[0] + delta[0] > 0.0:
+        return False
     delta[1] = (s1 * residual[5] - s2 * residual[4]) / norm2
     delta[2] = (s2 * residual[3] - s0 * residual[5]) / norm2
     delta[3] = (s0 * residual[4] - s1 * residual[3]) / norm2
@@ -84,6 +87,7 @@ def take_rest_sample(state, rest, rls) -> None:
         weighted[k, P] = total * scale
     information_update(root, theta, weighted, 1.0, 0.0, r["row"])
     state[P] += rest[1]
+    return True
 
 
 @compiled("void(float64[::1], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], "
@@ -105,8 +109,9 @@ def rls_update(state, counters, wrench, acceleration, omega, gravity, enable, re
             theta[i] = state[i]
         least_squares_start_from(state, P, r["sqrt_prior"], theta)
     if rest[0] > counters[RESTS]:
-        counters[RESTS], counters[AT_REST] = rest[0], counters[AT_REST] + rest[1]
-        take_rest_sample(state, rest, rls)
+        counters[RESTS] = rest[0]
+        if take_rest_sample(state, rest, rls):
+            counters[AT_REST] += rest[1]
     if not enable[0] > 0.5:
         return
     total = 0.0
