@@ -525,3 +525,13 @@ def test_a_recorded_run_publishes_its_state_every_healthy_tick():
     peaks = np.array(lab.stylus_wrenches)
     assert np.linalg.norm(peaks[:, :3], axis=1).max() <= MAX_FORCE + 1e-9
     assert np.isfinite(np.array(lab.torques)).all()
+
+
+def test_a_master_the_lab_channels_do_not_carry_is_refused_in_one_line():
+    """The lab's haptic channels carry the Phantom's six actuated joints: a Touch-type master (three actuated, a
+    passive wrist) runs in simulation only, and the controller and the stand-in say so before any tick."""
+    scenario = resolve_scenario("fig6", "{master: touch}")
+    with pytest.raises(ValueError, match=r"^master: touch runs in simulation only: .*set master: phantom_premium_6dof"):
+        HardwareTeleop(scenario, true_load(scenario)[0], lcm.LCM("memq://"), LcmChannels())
+    with pytest.raises(ValueError, match=r"^master: touch runs in simulation only"):
+        StandIn(scenario, lcm.LCM("memq://"), LcmChannels())

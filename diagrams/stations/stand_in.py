@@ -86,6 +86,7 @@ import lcm
 import numpy as np
 from drake import lcmt_iiwa_command, lcmt_iiwa_status
 
+from heft.diagrams.master_params import require_lab_master
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant, slave_arm
 from heft.diagrams.stations.sim_station import MASTER_ENCODER_COUNTS_PER_REV
@@ -371,6 +372,7 @@ class StandIn:
                  clutch_release_at: float = math.inf, command_bus: lcm.LCM | None = None,
                  grasp: GraspTimes | None = None, record_truth: bool = False, ft_outlet=None):
         scenario.validate()
+        require_lab_master(scenario.master)
         self._faults = faults = faults or FaultInjection()
         faults.validate()
         gripper = scenario.load.kind == "gripper_object"
