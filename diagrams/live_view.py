@@ -32,6 +32,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from heft.diagrams.master_params import DEFAULT_MASTER
+
 if TYPE_CHECKING:
     from heft.diagrams.plants import Robot
 
@@ -63,10 +65,10 @@ _HEADER = 3  # [rows written, stop, the messages' time origin (ns, int64 bits)]
 
 class TickTap:
     """The shared ring and its worker process (``LiveView``, ``McapRecorder``). ``sink``: ("ws",
-    host, port) or ("mcap", path); ``rate`` rows/s at most (0: every row); ``robot`` poses the scene."""
+    host, port) or ("mcap", path); ``rate`` rows/s at most (0: every row); ``robot`` and ``master`` pose the scene."""
 
-    def __init__(self, sink: tuple, rate: float, robot: Robot):
-        self._sink, self._rate, self._robot = sink, rate, robot
+    def __init__(self, sink: tuple, rate: float, robot: Robot, master: str):
+        self._sink, self._rate, self._robot, self._master = sink, rate, robot, master
         self._rows = RING_ROWS if rate == 0 else min(RING_ROWS, math.ceil(RING_SECONDS * rate))
         self._process = self._widths = None
         self._topics, self._event_topics = (), set()
@@ -126,7 +128,8 @@ class TickTap:
         self._events, replies = spawn.Queue(), spawn.Queue()
         self._replies = replies
         self._process = spawn.Process(target=_work, args=(self._path, self._widths, self._topics, self._rows,
-                                                          self._sink, self._robot, self._rate, self._events, replies),
+                                                          self._sink, self._robot, self._master, self._rate,
+                                                          self._events, replies),
                                       daemon=True)
         self._process.start()
         error = self._started(replies)
@@ -199,18 +202,19 @@ class TickTap:
 
 
 class LiveView(TickTap):
-    """The live view on ``ws://host:port``, at most ``rate`` rows a second; ``robot`` poses the scene."""
+    """The live view on ``ws://host:port``, at most ``rate`` rows a second; ``robot`` and ``master`` pose the
+    scene."""
 
     def __init__(self, port: int = DEFAULT_PORT, rate: float = DEFAULT_RATE, robot: Robot = "rx90",
-                 host: str = "127.0.0.1"):
-        super().__init__(("ws", host, port), rate, robot)
+                 host: str = "127.0.0.1", master: str = DEFAULT_MASTER):
+        super().__init__(("ws", host, port), rate, robot, master)
 
 
 class McapRecorder(TickTap):
     """Every row written to the MCAP file at ``path`` (overwritten), as ``heft export`` writes a log."""
 
-    def __init__(self, path, robot: Robot = "rx90"):
-        super().__init__(("mcap", str(path)), 0.0, robot)
+    def __init__(self, path, robot: Robot = "rx90", master: str = DEFAULT_MASTER):
+        super().__init__(("mcap", str(path)), 0.0, robot, master)
 
 
 def simulation_monitor(view: TickTap, log, names: dict):
@@ -245,8 +249,8 @@ def _leave_the_loop() -> None:
         os.sched_setaffinity(0, every - mine)
 
 
-def _work(path, widths: dict, topics: tuple, rows: int, sink: tuple, robot: Robot, rate: float, events,
-          replies) -> None:
+def _work(path, widths: dict, topics: tuple, rows: int, sink: tuple, robot: Robot, master: str, rate: float,
+          events, replies) -> None:
     """The worker process: serves or writes the ring's rows until told to stop."""
     _leave_the_loop()
     try:
@@ -259,7 +263,7 @@ def _work(path, widths: dict, topics: tuple, rows: int, sink: tuple, robot: Robo
         scene = None
         if "slave_q" in widths and "master_q" in widths:
             from heft.diagrams.scene_poses import ScenePoses
-            scene = ScenePoses(robot)
+            scene = ScenePoses(robot, master)
         names = row_topics([*widths, *(SCENE_KEYS if scene else ())])
         channels = {name: foxglove_channel(foxglove, context, name, schema_of(name))
                     for name in dict.fromkeys([*names, *topics, *(topic.name for topic in EVENT_TOPICS)])}

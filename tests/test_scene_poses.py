@@ -1,5 +1,5 @@
-"""The 3-D scene's poses (live view, MCAP, export) on any arm: S in the arm's base and E in the Phantom's, as
-Drake's own plants put them, for bundled arms and a custom arm from its URDF."""
+"""The 3-D scene's poses (live view, MCAP, export) on any arm and master: S in the arm's base and E in the master's,
+as Drake's own plants put them, for bundled arms, a custom arm from its URDF and each bundled master."""
 
 import numpy as np
 import pytest
@@ -49,3 +49,15 @@ def test_the_scene_poses_s_and_e_as_drakes_plants_do(arm, tmp_path):
         master_context, master.GetFrameByName(BASE_FRAME))))
     scene.update(np.full(plant.num_positions(), np.nan), q_M)
     assert np.isnan(scene.pose_RS).all() and np.isfinite(scene.pose_BE).all()
+
+
+@pytest.mark.parametrize("master", ["phantom_premium_6dof", "touch"])
+def test_the_scene_poses_the_stylus_of_the_scenarios_master(master):
+    plant = MakeMasterPlant(master)
+    q_M = np.random.default_rng(6).uniform(-0.3, 0.3, plant.num_positions())
+    scene = ScenePoses("rx90", master)
+    scene.update(np.zeros(6), q_M)
+    context = plant.CreateDefaultContext()
+    plant.SetPositions(context, q_M)
+    E, B = plant.GetFrameByName(STYLUS_FRAME), plant.GetFrameByName(BASE_FRAME)
+    same_pose(scene.pose_BE, pose(E.CalcPose(context, B)))

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from heft.diagrams.commands.console import logger
+from heft.diagrams.master_params import DEFAULT_MASTER
 
 if TYPE_CHECKING:
     from heft.diagrams.plants import Robot
@@ -52,9 +53,9 @@ def constants(arrays: dict) -> dict:
             for key, value in arrays.items() if np.ndim(value) == 0 or len(value) != n}
 
 
-def log_messages(path, robot: Robot):
+def log_messages(path, robot: Robot, master: str = DEFAULT_MASTER):
     """(messages (time (ns), topic, message) in time order, topic → schema, metadata) of the log at ``path``;
-    ``robot`` poses the scene."""
+    ``robot`` and ``master`` pose the scene."""
     from heft.analysis.lcm_messages import RAW_SCHEMA, lcm_log_messages, lcm_topic_schemas
     from heft.analysis.run_log import LCM, read_run_log
     from heft.analysis.topics import run_messages, schema_of
@@ -62,7 +63,7 @@ def log_messages(path, robot: Robot):
     from heft.hardware_interface.channels import LcmChannels
 
     run = read_run_log(path)
-    arrays = with_scene_poses(run.arrays, robot)
+    arrays = with_scene_poses(run.arrays, robot, master)
     metadata = {**constants(arrays), "kind": run.kind, "notes": "; ".join(run.notes)}
     if run.kind != LCM:
         return run_messages(arrays), schema_of, metadata
@@ -82,7 +83,8 @@ def log_messages(path, robot: Robot):
     return merged, schemas, metadata
 
 
-def export_log(path, to: str, out, robot: Robot = "rx90") -> tuple[list[Path], Counter]:
+def export_log(path, to: str, out, robot: Robot = "rx90",
+               master: str = DEFAULT_MASTER) -> tuple[list[Path], Counter]:
     """Writes the log at ``path`` as ``to`` (``analysis.run_export.FORMATS``) into the folder ``out``:
     ``LOG.mcap``, or a folder ``LOG`` of one table per topic (but ``/scene/wrenches``). Returns (the files
     written, messages per topic)."""
@@ -90,7 +92,7 @@ def export_log(path, to: str, out, robot: Robot = "rx90") -> tuple[list[Path], C
     from heft.analysis.topics import SCENE_WRENCHES
 
     out = Path(out)
-    messages, schemas, metadata = log_messages(path, robot)
+    messages, schemas, metadata = log_messages(path, robot, master)
     stem = Path(path).stem
     out.mkdir(parents=True, exist_ok=True)
     if to == MCAP:
@@ -129,7 +131,8 @@ def run(args) -> int:
     from heft.diagrams.plants import slave_arm
 
     out = Path(args.out) if args.out else Path(args.log).parent
-    files, counts = export_log(args.log, args.to, out, slave_arm(resolve_scenario(args.scenario)))
+    scenario = resolve_scenario(args.scenario)
+    files, counts = export_log(args.log, args.to, out, slave_arm(scenario), scenario.master)
     where = files[0] if args.to == "mcap" else files[0].parent
     say.info(f"wrote {where}: {sum(counts.values())} messages on {len(counts)} topics")
     if args.to == "mcap":

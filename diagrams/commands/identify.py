@@ -71,7 +71,7 @@ def run(args) -> int:
     if args.hardware:
         from heft.diagrams.running.hardware_identify import hardware_recorder, show_estimate
         say.info(f"identify: {scenario.accelerometer.convention()}")
-        view = view_from(args, slave_arm(scenario))
+        view = view_from(args, slave_arm(scenario), scenario.master)
         if view is not None:
             say.info(f"identify: live view on ws://localhost:{args.view_port}; {VIEW_HOWTO}")
             shown = functools.partial(show_estimate, view)

@@ -58,7 +58,7 @@ def run(args) -> int:
                               "controller.force.eta": args.eta, **noise, "duration": args.duration})
     scenario = scenario_from(args, options)
     sigmas = compared_sigmas(args, scenario)
-    view = view_from(args, slave_arm(scenario))  # before identifying: a missing extra is said at once
+    view = view_from(args, slave_arm(scenario), scenario.master)  # before identifying: a missing extra is said at once
     out = Path(args.out or f"out/{Path(args.scenario).stem}")
     estimate = args.estimate or scenario.controller.load_estimate
     if estimate:

@@ -75,7 +75,7 @@ def run(args) -> int:
                             nan_rate=args.nan_rate, saturate_at_s=args.saturate_at, die_at_s=args.die_at,
                             seed=args.seed, reorder_rate=args.reorder_rate)
     channels = scenario.lab.lcm
-    view = view_from(args, slave_arm(scenario))
+    view = view_from(args, slave_arm(scenario), scenario.master)
     netft = None
     if args.netft is not None:
         from heft.diagrams.stations.stand_in_netft import NetFtInjection, NetFtResponder

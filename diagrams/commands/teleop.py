@@ -85,7 +85,7 @@ def run(args) -> int:
     say.info(f"teleop: controller on {channels.lcm_url} (commands on {channels.command_lcm_url()}) at "
              f"{1.0 / scenario.controller_period:g} Hz for {args.duration:g} s of wall time; watchdog timeout "
              f"{scenario.lab.station.watchdog.timeout:g} s")
-    view = view_from(args, slave_arm(scenario))
+    view = view_from(args, slave_arm(scenario), scenario.master)
     if args.record_mcap:
         from heft.analysis.run_export import foxglove_sdk
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from heft.diagrams.live_view import DEFAULT_PORT, LiveView
+from heft.diagrams.master_params import DEFAULT_MASTER
 
 VIEW_HOWTO = "open it in Foxglove or Lichtblick: Open connection → Foxglove WebSocket (docs/live_view.md)"
 
@@ -14,12 +15,13 @@ def add_view(parser, port: int = DEFAULT_PORT, what: str = "the run") -> None:
                         help=f"the live view's port (default {port})")
 
 
-def view_from(args, robot) -> LiveView | None:
-    """The ``LiveView`` the options ask for (not yet open), or None; ``robot`` (``plants.Robot``) poses its scene. A
+def view_from(args, robot, master: str = DEFAULT_MASTER) -> LiveView | None:
+    """The ``LiveView`` the options ask for (not yet open), or None; ``robot`` (``plants.Robot``) and ``master`` pose
+    its scene. A
     ValueError (one line: how to install it) without foxglove-sdk."""
     if not args.view:
         return None
     from heft.analysis.run_export import foxglove_sdk
 
     foxglove_sdk()
-    return LiveView(args.view_port, robot=robot)
+    return LiveView(args.view_port, robot=robot, master=master)

@@ -415,7 +415,7 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float,
         scheduling = claim_realtime(priority)
         say.info(f"teleop: {scheduling}")
         bus, command_bus = open_buses(channels)
-        recorder = None if record_mcap is None else McapRecorder(record_mcap, slave_arm(scenario))
+        recorder = None if record_mcap is None else McapRecorder(record_mcap, slave_arm(scenario), scenario.master)
         taps = [tap for tap in (view, recorder) if tap is not None]
         teleop = HardwareTeleop(scenario, load, bus, channels, scenario.lab.station, command_bus, taps=taps,
                                 state_every_tick=record is not None)
