@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from heft.systems.compiled import PURE_PYTHON, kernel_cache_dir, numba
+from heft.systems.compiled import PURE_PYTHON, numba
 
 ARRAYS = ("signals", "state", "next_state")
 """The flat arrays a kernel's named arguments are slices of, as the generated functions name them."""
@@ -99,7 +99,7 @@ def compile_program(calls: dict[str, list], constants: list):
             digest.update(f"{names[key]} {function.__module__}.{function.__qualname__} {kernel.signatures}".encode())
             digest.update(path.read_bytes())
         name = f"heft_program_{digest.hexdigest()[:20]}"
-        path = kernel_cache_dir(Path(__file__).resolve().parent.parent) / "programs" / f"{name}.py"
+        path = Path(numba.config.CACHE_DIR) / "programs" / f"{name}.py"  # the kernels' (systems.compiled)
         if not path.exists():
             path.parent.mkdir(parents=True, exist_ok=True)
             partial = path.with_suffix(f".{os.getpid()}.part")
