@@ -20,10 +20,11 @@ from heft.diagrams.running.simulation import true_load
 from heft.diagrams.scenario import Scenario, layered, overrides_text
 from heft.diagrams.teleop import MakeTeleopController
 from heft.systems.controller.rls_load_estimator import AT_REST, RESTS
-from heft.systems.load_dynamics import GRAVITY_W, regressor
+from heft.systems.load_dynamics import regressor
 from heft.systems.tick_program import TickProgram
 
 from controller_inputs import PERIOD, drake_run, program_run
+from drake_reference import SensorMotion
 
 Q_REST = np.array([0.3, 0.4, 1.7, 0.6, 0.9, 0.4])
 """rad: the slave's pose at rest, gravity in S along no axis of S."""
@@ -59,9 +60,8 @@ def readings(spec: Scenario, phi_gripper, offsets, object_weighs: bool = True, r
              ticks: int = TICKS, seed: int = 5, phi_object=PHI_OBJECT) -> list[dict]:
     """Station readings (module docstring): the gripper's event ``holding`` from ``GRASP_TICK`` (until
     ``release_tick``), the block's (``phi_object``'s) weight on the sensor with it if ``object_weighs``."""
-    plant, _ = MakeArmPlant(spec.robot)
-    context = plant.CreateDefaultContext()
-    R, S = plant.GetFrameByName(f"{spec.robot}_base"), plant.GetFrameByName("S")
+    plant, S = MakeArmPlant(spec.robot)
+    motion = SensorMotion(plant, plant.world_frame(), S, PERIOD)
     p_SA = np.array(spec.accelerometer.position)
     amplitude, w = np.array([0.15, 0.1, 0.12, 0.3, 0.25, 0.4]), 2 * np.pi * np.array([0.9, 1.3, 1.1, 1.7, 1.5, 2.1])
     rng = np.random.default_rng(seed)
@@ -71,21 +71,14 @@ def readings(spec: Scenario, phi_gripper, offsets, object_weighs: bool = True, r
         s = min(max((t - SWING_FROM * PERIOD) / 0.2, 0.0), 1.0)
         return Q_REST + s * s * (3 - 2 * s) * amplitude * np.sin(w * (t - SWING_FROM * PERIOD))
 
-    sequence, previous = [], None
+    sequence = []
     for k in range(ticks + 1):
         t, h = k * PERIOD, 1e-6
         q, v = pose(t), (pose(t + h) - pose(t - h)) / (2 * h)
-        plant.SetPositions(context, q)
-        plant.SetVelocities(context, v)
-        R_SR = plant.CalcRelativeTransform(context, R, S).rotation().inverse()
-        V_RS = S.CalcSpatialVelocity(context, R, R)
-        velocity = np.concatenate((V_RS.translational(), V_RS.rotational()))
-        rates = np.zeros(6) if previous is None else (velocity - previous) / PERIOD
-        previous = velocity
-        if k == 0:
+        sample = motion.at(q, v)
+        if sample is None:
             continue
-        a, alpha, omega = R_SR @ rates[:3], R_SR @ rates[3:], R_SR @ velocity[3:]
-        g = R_SR @ np.array(GRAVITY_W)
+        a, alpha, omega, g = sample
         held = GRASP_TICK <= k - 1 and (release_tick is None or k - 1 < release_tick)
         phi = phi_gripper + (phi_object if held and object_weighs else 0.0)
         wrench = offsets + regressor(a, alpha, omega, g) @ phi + rng.normal(0, [0.1] * 3 + [0.005] * 3)

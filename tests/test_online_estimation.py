@@ -24,6 +24,7 @@ from heft.systems.controller.offset_tracking import COLLECTING, DONE, ESTIMATE_S
 from heft.systems.tick_program import TickProgram
 
 from controller_inputs import PERIOD, drake_run, program_run
+from drake_reference import SensorMotion
 
 TICKS = 1700
 CONTACT = range(520, 620)   # 6 N on the load, judged: the learning window has closed
@@ -51,31 +52,23 @@ def load_sequence(scenario: Scenario, phi_true, offsets) -> list[dict]:
     """Station readings: the slave swinging, its wrench ``offsets`` + V·``phi_true`` (+ contact) from
     S's motion in Drake's arm model (a and α by backward differences of its spatial velocity in R,
     then in S), the accelerometer's reading a − g at ``accelerometer.position``."""
-    plant, _ = MakeArmPlant(scenario.robot)
-    context = plant.CreateDefaultContext()
-    R, S = plant.GetFrameByName(f"{scenario.robot}_base"), plant.GetFrameByName("S")
+    plant, S = MakeArmPlant(scenario.robot)
+    motion = SensorMotion(plant, plant.world_frame(), S, PERIOD)
     p_SA = np.array(scenario.accelerometer.position)
     q0, qM = np.array(scenario.slave_initial_q), np.array(scenario.master_initial_q)
     amplitude = np.array([0.1, 0.08, 0.1, 0.15, 0.1, 0.2])
     w = 2 * np.pi * np.array([1.1, 1.7, 1.3, 2.3, 1.9, 2.9])
-    sequence, previous, rng = [], None, np.random.default_rng(3)
+    sequence, rng = [], np.random.default_rng(3)
     new_estimate = np.concatenate(([1.0], 1.002 * phi_true, offsets + 0.01))  # a new tool's, at ESTIMATE_TICK
     for k in range(TICKS + 1):
         t = k * PERIOD
         envelope = 0.0 if k in REST else 1.0
         q = q0 + envelope * amplitude * np.sin(w * t)
         v = envelope * amplitude * w * np.cos(w * t)
-        plant.SetPositions(context, q)
-        plant.SetVelocities(context, v)
-        R_SR = plant.CalcRelativeTransform(context, R, S).rotation().inverse()
-        V_RS = S.CalcSpatialVelocity(context, R, R)
-        velocity = np.concatenate((V_RS.translational(), V_RS.rotational()))  # of S in R, in R
-        rates = np.zeros(6) if previous is None else (velocity - previous) / PERIOD
-        previous = velocity
-        if k == 0:
+        sample = motion.at(q, v)
+        if sample is None:
             continue
-        a, alpha, omega = R_SR @ rates[:3], R_SR @ rates[3:], R_SR @ velocity[3:]
-        g = R_SR @ np.array(GRAVITY_W)
+        a, alpha, omega, g = sample
         a_A = a + np.cross(alpha, p_SA) + np.cross(omega, np.cross(omega, p_SA))
         noise = rng.normal(0, [0.1, 0.1, 0.1, 0.005, 0.005, 0.005])  # the default sensor model's
         wrench = offsets + regressor(a, alpha, omega, g) @ phi_true + noise
