@@ -9,9 +9,9 @@ from heft.hardware_interface.message_checks import DeviceLimits
 
 
 def device_limits(scenario: Scenario) -> DeviceLimits:
-    """The ``DeviceLimits`` of ``scenario``'s arm (``slave_arm``: one limit per joint), the Phantom and its sensor
-    parameters."""
-    master = MakeMasterPlant()
+    """The ``DeviceLimits`` of ``scenario``'s arm (``slave_arm``: one limit per joint), its master (``master``: a
+    bundled one's URDF, every measured joint, actuated or not) and its sensor parameters."""
+    master = MakeMasterPlant(scenario.master)
     slave, _ = MakeArmPlant(slave_arm(scenario))
     return DeviceLimits(
         master_lower=master.GetPositionLowerLimits(), master_upper=master.GetPositionUpperLimits(),

@@ -23,10 +23,3 @@ BUNDLED_MASTERS = {master.name: master for master in (
 """The bundled masters by name: the paper's Phantom Premium 1.5 6DoF (six actuated joints: force and torque)
 and the 3D Systems Touch (three actuated joints and a passive, measured wrist: the force only)."""
 
-
-def require_lab_master(master: str) -> None:
-    """Raises ValueError (one line) unless ``master`` is one the lab's channels carry: ``heft_haptic_state`` and
-    ``heft_haptic_command`` are the Phantom Premium 1.5 6DoF's six actuated joints."""
-    if master != DEFAULT_MASTER:
-        raise ValueError(f"master: {master} runs in simulation only: on the lab's channels the master is the "
-                         f"{DEFAULT_MASTER} (six actuated joints); set master: {DEFAULT_MASTER} for the lab")

@@ -52,7 +52,7 @@ class LcmChannels:
     ``lcm_url`` (``derived_command_url``: one port up)."""
     master_state: LcmChannel = dataclasses.field(
         default_factory=lambda: LcmChannel("HEFT_MASTER_STATE", 2000.0))
-    """heft_haptic_state from the Phantom driver (haptic loop above 2 kHz)."""
+    """heft_haptic_state from the haptic master's driver (six measured joints; haptic loop above 2 kHz)."""
     master_command: LcmChannel = dataclasses.field(
         default_factory=lambda: LcmChannel("HEFT_MASTER_COMMAND", 2000.0))
     """heft_haptic_command from the controller (controller rate)."""

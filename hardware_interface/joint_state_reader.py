@@ -1,9 +1,9 @@
-"""A joint-state driver's LCM messages (the Phantom's ``heft_haptic_state``, the arm's
+"""A joint-state driver's LCM messages (the haptic master's ``heft_haptic_state``, the arm's
 ``lcmt_iiwa_status``) → the newest state the controller may use.
 
 Every message is checked (``message_checks``): its structure, then whether it comes
 from the channel's one source (``message_order``), then its values; what fails is
-counted, never raised. A message of the device's joint count (the Phantom's six, the
+counted, never raised. A message of the device's joint count (the master's six, the
 arm's six or seven) is read in place by one kernel (``joint_state_rejection``); anything
 else by the generated decoder, which tells a wrong joint count from garbage.
 """

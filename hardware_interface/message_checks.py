@@ -91,18 +91,19 @@ def joints_continuous(previous, position, speed, dt) -> bool:
 
 
 class Rejections:
-    """Rejected messages of one channel, per reason (``REASONS``): ``counts[reason]``, kept as
-    ``by_code`` (per code, for the readers' kernels)."""
+    """Rejected messages of one channel, per reason (``reasons``, default ``REASONS``): ``counts[reason]``, kept
+    as ``by_code`` (per code, for the readers' kernels)."""
 
-    def __init__(self):
-        self.by_code = np.zeros(len(REASONS), dtype=np.int64)
+    def __init__(self, reasons: tuple[str, ...] = REASONS):
+        self.reasons = reasons
+        self.by_code = np.zeros(len(reasons), dtype=np.int64)
 
     def add(self, reason: str) -> None:
-        self.by_code[REASONS.index(reason)] += 1
+        self.by_code[self.reasons.index(reason)] += 1
 
     @property
     def counts(self) -> dict[str, int]:
-        return dict(zip(REASONS, self.by_code.tolist()))
+        return dict(zip(self.reasons, self.by_code.tolist()))
 
     @property
     def total(self) -> int:

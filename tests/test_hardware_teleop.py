@@ -527,11 +527,13 @@ def test_a_recorded_run_publishes_its_state_every_healthy_tick():
     assert np.isfinite(np.array(lab.torques)).all()
 
 
-def test_a_master_the_lab_channels_do_not_carry_is_refused_in_one_line():
-    """The lab's haptic channels carry the Phantom's six actuated joints: a Touch-type master (three actuated, a
-    passive wrist) runs in simulation only, and the controller and the stand-in say so before any tick."""
+def test_the_hardware_controller_refuses_a_master_other_than_the_phantom_in_one_line():
+    """The hardware controller (``TeleopController``) computes the Phantom's kinematics and torques: a Touch-type
+    master is refused in one line before any tick, saying what to set; the stand-in plays it (its six measured
+    joints on the lab's channels)."""
     scenario = resolve_scenario("fig6", "{master: touch}")
-    with pytest.raises(ValueError, match=r"^master: touch runs in simulation only: .*set master: phantom_premium_6dof"):
+    with pytest.raises(ValueError, match=r"^master: touch: the hardware controller .*set master: "
+                                         r"phantom_premium_6dof for heft teleop --hardware") as refused:
         HardwareTeleop(scenario, true_load(scenario)[0], lcm.LCM("memq://"), LcmChannels())
-    with pytest.raises(ValueError, match=r"^master: touch runs in simulation only"):
-        StandIn(scenario, lcm.LCM("memq://"), LcmChannels())
+    assert "\n" not in str(refused.value)
+    assert StandIn(scenario, lcm.LCM("memq://"), LcmChannels()).master_position.shape == (6,)

@@ -440,6 +440,95 @@ def test_haptic_driver_applies_only_valid_commands_and_times_out():
     assert lab.stand_in.refused[CHANNELS.master_command.name] == {"joint_count": 1, "non_finite": 1}
 
 
+
+def touch_scenario(overrides: dict | None = None) -> Scenario:
+    """``Scenario()`` with the Touch-type master (``master: touch``), then ``overrides``."""
+    touch = resolve_scenario("fig6", "{master: touch}")
+    return layered(touch, overrides_text(overrides)) if overrides else touch
+
+
+def test_a_touch_driver_drives_its_three_motors_and_refuses_torque_on_its_wrist():
+    """The Touch's driver applies torque on its three motors, clipped to their 0.88 N·m (its URDF's efforts), and
+    refuses a command with torque on a wrist joint (no motor there) as "unactuated", its force off at once."""
+    lab = Lab(touch_scenario())
+    lab.step(0.1)
+    torque = [0.1, -0.2, 0.3, 0.0, 0.0, 0.0]
+    lab.command_master(torque)
+    lab.step(lab.stand_in.next_due)
+    np.testing.assert_array_equal(lab.stand_in.master_torque, torque)
+    for wrist in (3, 4, 5):
+        lab.command_master(torque)
+        lab.step(lab.stand_in.next_due)
+        np.testing.assert_array_equal(lab.stand_in.master_torque, torque)
+        bad = list(torque)
+        bad[wrist] = 1e-6
+        lab.command_master(bad)
+        lab.step(lab.stand_in.next_due)
+        np.testing.assert_array_equal(lab.stand_in.master_torque, np.zeros(6))
+    lab.command_master([2.0, -2.0, 0.5, 0.0, -0.0, 0.0])  # beyond the motors' limits; -0.0 is no torque
+    lab.step(lab.stand_in.next_due)
+    np.testing.assert_allclose(lab.stand_in.master_torque, [0.88, -0.88, 0.5, 0.0, 0.0, 0.0])
+    lab.command_master([0.0, 0.0, 0.0, 0.3, 0.0, 0.0], enable=False)  # disabled, but torque on the wrist
+    lab.step(lab.stand_in.next_due)
+    np.testing.assert_array_equal(lab.stand_in.master_torque, np.zeros(6))
+    assert lab.stand_in.refused[CHANNELS.master_command.name] == {"unactuated": 4}
+
+
+def test_the_phantom_driver_takes_torque_on_its_wrist():
+    """The Phantom Premium's six joints all have motors: a wrist torque is applied, nothing refused."""
+    lab = Lab()
+    lab.step(0.1)
+    lab.command_master([0.0, 0.0, 0.0, 0.1, -0.1, 0.05])
+    lab.step(lab.stand_in.next_due)
+    np.testing.assert_array_equal(lab.stand_in.master_torque, [0.0, 0.0, 0.0, 0.1, -0.1, 0.05])
+    assert lab.stand_in.refused[CHANNELS.master_command.name] == {}
+
+
+def test_the_touch_driver_judges_the_force_by_the_touchs_own_jacobian():
+    """A command rendering 3.3 N at the stylus of the Touch by Drake's Jacobian of the Touch (its wrist rows
+    zero: the wrist's axes meet at E) is judged 3.3 N by the Touch's driver; the same torque on the Phantom's
+    driver renders another force (another arm)."""
+    plant = MakeMasterPlant("touch")
+    context = plant.CreateDefaultContext()
+    B, E = plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME)
+
+    def peak(scenario) -> tuple[float, np.ndarray]:
+        lab = Lab(scenario)
+        start = lab.scenario.operator.start_time
+        lab.run(start + 0.1)
+        state = lab.messages(CHANNELS.master_state.name)[-1]
+        plant.SetPositions(context, np.asarray(state.position))
+        J = plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV, E, np.zeros(3), B, B)  # [ω; v]
+        torque = J.T @ np.array([0.0, 0.0, 0.0, 1.9, 0.0, -2.7])  # 3.3 N
+        np.testing.assert_allclose(torque[3:], 0.0, atol=1e-12)
+        torque[3:] = 0.0
+        lab.command_master(torque, master_utime=state.utime)
+        lab.step(start + 0.1)
+        assert lab.stand_in.refused[CHANNELS.master_command.name] == {}
+        return lab.stand_in.stylus_force_peak, torque
+
+    touch, torque = peak(touch_scenario())
+    assert touch == pytest.approx(np.hypot(1.9, 2.7), rel=1e-9) and np.abs(torque).max() < 0.88
+    phantom, _ = peak(Scenario())
+    assert abs(phantom - touch) > 0.1, (phantom, touch)
+
+
+def test_the_device_limits_are_the_scenarios_masters(monkeypatch):
+    """The station checks the master's states against the scenario's master's URDF (the Touch's limits happen to
+    equal the Phantom's: the plant asked for is what tells)."""
+    import heft.diagrams.device_limits as module
+
+    asked = []
+    monkeypatch.setattr(module, "MakeMasterPlant", lambda master: asked.append(master) or MakeMasterPlant(master))
+    limits = module.device_limits(touch_scenario())
+    touch = MakeMasterPlant("touch")
+    assert asked == ["touch"]
+    np.testing.assert_array_equal(limits.master_lower, touch.GetPositionLowerLimits())
+    np.testing.assert_array_equal(limits.master_upper, touch.GetPositionUpperLimits())
+    np.testing.assert_array_equal(limits.master_velocity, touch.GetVelocityUpperLimits())
+
+
+
 def test_clutch_button_is_held_in_its_interval():
     lab = Lab(clutch_at=0.05, clutch_release_at=0.1)
     lab.run(0.15)

@@ -85,7 +85,8 @@ def run(args) -> int:
                  f"not on {channels.ft_sample.name}")
     say.info(f"stand-in: {args.scenario} on {channels.lcm_url} (commands on {channels.command_lcm_url()}) for "
              f"{args.duration:g} s at real time; the arm: {arm_name(slave_arm(scenario))}, "
-             f"{len(scenario.slave_initial_q)} joints; {claim_lab_realtime(args.rt_priority)}")
+             f"{len(scenario.slave_initial_q)} joints; the master: {scenario.master}; "
+             f"{claim_lab_realtime(args.rt_priority)}")
     if view is not None:
         say.info(f"stand-in: live view on ws://localhost:{args.view_port}; {VIEW_HOWTO}")
     with StopOnSignal() as stop:

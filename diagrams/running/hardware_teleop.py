@@ -44,7 +44,7 @@ from heft.diagrams.running.realtime import (LOOP_PRIORITY, StopOnSignal, claim_r
                                             keep_cpu_for_loop, run_realtime, timing_summary)
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.load_estimate import LoadEstimate
-from heft.diagrams.master_params import require_lab_master
+from heft.diagrams.master_params import DEFAULT_MASTER
 from heft.diagrams.plants import arm_name, slave_arm
 from heft.diagrams.teleop import FeedbackBlock
 from heft.diagrams.teleop_controller import TeleopController
@@ -83,7 +83,10 @@ class HardwareTeleop:
     def __init__(self, scenario: Scenario, load: LoadEstimate, bus: lcm.LCM, channels: LcmChannels,
                  params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None,
                  feedback_blocks: Sequence[FeedbackBlock] = (), taps: Sequence = (), state_every_tick: bool = False):
-        require_lab_master(scenario.master)
+        if scenario.master != DEFAULT_MASTER:
+            raise ValueError(f"master: {scenario.master}: the hardware controller (TeleopController) computes the "
+                             f"{DEFAULT_MASTER}'s kinematics and torques; set master: {DEFAULT_MASTER} for heft "
+                             f"teleop --hardware (heft simulate and heft stand-in take master: {scenario.master})")
         estimator = scenario.controller.estimator
         slowest = max(WATCHED_CHANNELS, key=lambda name: 1.0 / getattr(channels, name).rate)
         period = 1.0 / getattr(channels, slowest).rate

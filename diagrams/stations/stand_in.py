@@ -1,4 +1,4 @@
-"""The lab stand-in: the Phantom, arm, JR3 and gripper drivers on LCM, modelled cheaply
+"""The lab stand-in: the haptic master's, arm, JR3 and gripper drivers on LCM, modelled cheaply
 enough to keep real time on one core.
 
 ``StandIn`` publishes ``heft_haptic_state``, ``lcmt_iiwa_status`` (the scenario's arm's 6 or 7 joints),
@@ -44,16 +44,18 @@ Models (frames as docs/design.md §4: W world = R slave base, B master base, S w
   kinematics are held (zero-order) between the slave's steps: each FT sample
   uses those of the latest slave step at or before its sample time.
   Published with the sensor's sign (the wrench the load exerts on the sensor).
-* Master (Phantom driver): the joints move by J_M(q₀)⁻¹ times the operator's
+* Master (the scenario's ``master``: the Phantom Premium 1.5 6DoF's driver, or a Touch's: six measured
+  joints, the three of its wrist without motors): the joints move by J_M(q₀)⁻¹ times the operator's
   reference offset of the stylus (``smooth_sine_offset`` with the scenario's
   ``OperatorSpec``; translation, then roll-pitch-yaw, in B), so the stylus
   follows the reference to first order and the published velocity is the exact
   derivative of the position (published encoder-quantised). The driver
-  applies the last command's torque, clipped to the amplifiers' limits, only if
-  it is enabled, 6 joints and finite, and drops it to zero ``HAPTIC_WATCHDOG_S``
-  after the last valid command. Button bit 0 (the clutch) is held in [``clutch_at``,
-  ``clutch_release_at``). Either driver refuses a command of another joint count, one that
-  does not decode or is not finite, and counts it by its reason (``StandIn.refused``).
+  applies the last command's torque, clipped to the amplifiers' limits (the URDF's efforts), only if
+  it is enabled, 6 joints, finite and zero on every joint without a motor (else refused as
+  "unactuated"), and drops it to zero ``HAPTIC_WATCHDOG_S`` after the last valid command.
+  Button bit 0 (the clutch) is held in [``clutch_at``, ``clutch_release_at``). Either driver refuses a
+  command of another joint count, one that does not decode or is not finite, and counts it by its reason
+  (``StandIn.refused``).
 
 Left out against ``MakeSimStation``: contact and the environment (no sheet
 spring: the wrench is the load's own only), the arm's link dynamics but its inertia
@@ -86,35 +88,34 @@ import lcm
 import numpy as np
 from drake import lcmt_iiwa_command, lcmt_iiwa_status
 
-from heft.diagrams.master_params import require_lab_master
 from heft.diagrams.scenario import Scenario
-from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant, slave_arm
+from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant, master_actuated, slave_arm
 from heft.diagrams.stations.sim_station import MASTER_ENCODER_COUNTS_PER_REV
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.hardware_station import CLUTCH_BUTTON
 from heft.hardware_interface.fixed_layout import FixedLayout, put_wire_double, put_wire_int
 from heft.hardware_interface.ft_messages import FIELDS, OFFSETS, SAMPLE_BYTES, pack_samples
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, open_buses, pump
-from heft.hardware_interface.message_checks import Rejections
+from heft.hardware_interface.message_checks import REASONS, Rejections
 from heft.diagrams.stations.slave_servo import SERVO_ROWS, servo_step, servo_step_matrices, slave_servo_gains
 from heft.diagrams.stations.stand_in_wrist import GraspTimes, SixAxisSampler, TruthRecord, Wrist
 from heft.hardware_interface.lcmtypes import heft_gripper_state, heft_haptic_command, heft_haptic_state
 from heft.systems.compiled import compiled, float_array
 from heft.systems.station.encoders import EncoderVelocityEstimator
 from heft.systems.controller.master_kinematics import BASE_FRAME, STYLUS_FRAME
-from heft.systems.controller.master_kinematics import NUM_JOINTS as MASTER_JOINTS  # the Phantom's
+from heft.systems.controller.master_kinematics import NUM_JOINTS as MASTER_JOINTS  # the haptic channels' joints
 from heft.systems.station.operator_hand import smooth_sine_offset
 from heft.systems.serial_chain import SerialChain, chain_dtype, chain_kinematics
 from heft.systems.station.sensor_models import ACCELEROMETER_STREAM, FORCE_TORQUE_STREAM, NUM_AXES, quantize
 
 HAPTIC_WATCHDOG_S = 0.02
-"""The Phantom driver zeroes its torque this long (s) after the last valid command."""
+"""The haptic driver zeroes its torque this long (s) after the last valid command."""
 _PUBLISHED_KEEP = 8192
-"""Master states (utime, joint positions) the Phantom driver keeps, in a ring: 4 s at 2 kHz, more than
+"""Master states (utime, joint positions) the haptic driver keeps, in a ring: 4 s at 2 kHz, more than
 a stalled lab publishes between a command's state and the command's arrival."""
 _NO_TORQUE = np.zeros(MASTER_JOINTS)
 _NO_TORQUE.flags.writeable = False
-"""The Phantom's torque while its driver applies none."""
+"""The master's torque while its driver applies none."""
 _WRENCH_SATURATED = 0x3F
 """The flag bits of the six wrench axes (``heft_ft_sample.saturated``)."""
 _UTIME, _COUNTER, _WRENCH, _ACCELERATION, _SATURATED, _ERROR = range(1, 1 + len(FIELDS))
@@ -124,6 +125,10 @@ _TIME_BYTES, _COUNTER_BYTES, _VECTOR_BYTES, _FLAG_BYTES = (int(SAMPLE_BYTES[colu
 """Bytes a sample's utime, counter, wrench (or acceleration) and flags take (``ft_messages.SAMPLE_BYTES``)."""
 _NAMED_KEEP = 64
 """Master commands whose named state the lab keeps, to date the slave command of the same tick (32 ms at 2 kHz)."""
+UNACTUATED = "unactuated"
+"""Why the haptic driver refuses a command with torque on a joint without a motor (a Touch's wrist)."""
+MASTER_COMMAND_REASONS = REASONS + (UNACTUATED,)
+"""What the haptic driver counts a command it refuses by: the message checks' reasons and ``UNACTUATED``."""
 _MASK64 = (1 << 64) - 1
 _MASTER, _SLAVE, _FT, _GRIPPER = range(4)
 """Channel indices; channel i loses messages on random stream i and reorders them on 4 + i, but the
@@ -266,13 +271,22 @@ def ring_slot(utimes, newest, filled, utime) -> int:
 
 
 class _Master:
-    """The Phantom's joints moved by the operator's reference motion through the master's
-    Jacobian at its start pose: q = q₀ + J_M(q₀)⁻¹·[Δp; Δrpy](t), q̇ = its derivative."""
+    """The scenario's master's joints moved by the operator's reference motion through the master's
+    Jacobian at its start pose: q = q₀ + J_M(q₀)⁻¹·[Δp; Δrpy](t), q̇ = its derivative.
+
+    ``actuated`` (6): 1.0 for a joint with a motor, else 0.0 (``master_actuated``); ``effort_limits`` (6, N·m):
+    each motor's limit (its URDF's effort), 0 on a joint without one."""
 
     def __init__(self, scenario: Scenario):
-        plant = MakeMasterPlant()
-        self.effort_limits = np.array([plant.get_joint_actuator(i).effort_limit()
-                                       for i in plant.GetJointActuatorIndices()])
+        plant = MakeMasterPlant(scenario.master)
+        if plant.num_positions() != MASTER_JOINTS:
+            raise ValueError(f"master: {scenario.master} has {plant.num_positions()} joints; the haptic channels "
+                             f"carry {MASTER_JOINTS}: give the master six measured joints")
+        self.actuated = master_actuated(plant)
+        self.effort_limits = np.zeros(MASTER_JOINTS)
+        for i in plant.GetJointActuatorIndices():
+            actuator = plant.get_joint_actuator(i)
+            self.effort_limits[actuator.joint().position_start()] = actuator.effort_limit()
         self._initial = np.array(scenario.master_initial_q, dtype=float)
         self._chain = SerialChain(plant, plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME))
         self._chain.update(self._initial)
@@ -354,7 +368,7 @@ class StandIn:
     or more new commands, as many steps before them having taken none: the setpoint stalled, then
     jumped),
     ``published`` / ``received`` (channel name → messages), ``refused`` (the commands' channel name → reason
-    (``message_checks.REASONS``) → commands refused),
+    (``message_checks.REASONS``; for the master's also ``UNACTUATED``) → commands refused),
     ``phi_true`` (10, φ about S in S of what the sensor carries now, Eq. 6), ``offsets`` (6, N, N·m: the FT
     offsets in the latest sample, heft's sign), ``wrench_measured`` (6, N, N·m: the latest sample as measured,
     heft's sign, before the delivery faults), ``next_due`` (s, the nominal time of the next message),
@@ -372,7 +386,6 @@ class StandIn:
                  clutch_release_at: float = math.inf, command_bus: lcm.LCM | None = None,
                  grasp: GraspTimes | None = None, record_truth: bool = False, ft_outlet=None):
         scenario.validate()
-        require_lab_master(scenario.master)
         self._faults = faults = faults or FaultInjection()
         faults.validate()
         gripper = scenario.load.kind == "gripper_object"
@@ -398,7 +411,8 @@ class StandIn:
         self._haptic_commands = LcmMailbox(command_bus, channels.master_command.name, keep=64)
         self._slave_commands = LcmMailbox(command_bus, channels.slave_command.name, keep=64)
 
-        self._refused = (Rejections(), Rejections())  # the master's and the slave's commands refused, per reason
+        # The master's and the slave's commands refused, per reason.
+        self._refused = (Rejections(MASTER_COMMAND_REASONS), Rejections())
 
         # Slave: the setpoint filter and the joint servo on the (4, n) state [q_f; q̇_f; q; q̇], and S's motion.
         slave_period = 1.0 / channels.slave_status.rate
@@ -493,7 +507,7 @@ class StandIn:
 
     def view_row(self) -> dict:
         """What the lab is now, by ``analysis.run_log``'s names, for a live view (``diagrams.live_view``): the
-        arm's true joints and its setpoint received (rad, rad/s), the Phantom's joints and the torque its
+        arm's true joints and its setpoint received (rad, rad/s), the master's joints and the torque its
         driver applies (N·m), the load's true non-contact wrench and the latest sample measured (at S in S,
         heft's sign; no contact here) and φ of what the sensor carries (Eq. 6)."""
         return {"slave_q": self._q, "slave_v": self._qd, "slave_q_commanded": self.slave_command,
@@ -548,14 +562,20 @@ class StandIn:
         for payload in self._haptic_commands.take():
             values = _command_values(self._command_layouts[_MASTER], heft_haptic_command, payload, MASTER_JOINTS,
                                      master_refused, "torque", "enable", "master_utime", "utime")
-            if values is not None and not math.isfinite(sum(values[0])):
+            valid = values is not None
+            if valid and not math.isfinite(sum(values[0])):
                 master_refused.add("non_finite")
+                valid = False
+            elif valid and any(torque != 0.0 and not actuated
+                               for torque, actuated in zip(values[0], self._master.actuated)):
+                master_refused.add(UNACTUATED)
+                valid = False
             if values is not None and values[2] > 0:  # 0: the controller had heard no master state
                 named = self._states_named
                 named[values[3]] = values[2] * 1e-6
                 if len(named) > _NAMED_KEEP:
                     del named[next(iter(named))]
-            if values is not None and values[1] and math.isfinite(sum(values[0])):
+            if valid and values[1]:
                 limits = self._master.effort_limits
                 self._torque_commanded = np.minimum(np.maximum(values[0], -limits), limits)
                 self._torque_until = now + HAPTIC_WATCHDOG_S
