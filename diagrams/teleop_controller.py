@@ -24,6 +24,7 @@ from pydrake.systems.framework import DiagramBuilder
 
 from heft.diagrams.arm_params import BUNDLED_ARMS
 from heft.diagrams.load_estimate import LoadEstimate
+from heft.diagrams.master_params import DEFAULT_MASTER
 from heft.diagrams.plants import Robot, arm_name
 from heft.diagrams.scenario import ControllerSpec
 from heft.diagrams.teleop import ConnectControllerToStation, FeedbackBlock, MakeTeleopController
@@ -88,6 +89,8 @@ class TeleopController:
 
     ``robot``: the slave arm (``plants.Robot``), ``slave_initial_q`` its start posture (rad; default a bundled
     arm's own, ``BundledArm.start``), which the inverse kinematics of a 7-joint arm draws its null space to.
+    ``master``: the bundled haptic master (``BUNDLED_MASTERS``) whose kinematics and actuated joints the controller
+    computes with (``MakeTeleopController``'s).
     ``start(slave_position)`` begins (again); ``step(dt, …)`` takes one tick's readings. After a step:
     ``torque`` τ_M (6, N·m) and ``position`` q̄_S (n, rad: the arm's joints) to send, the state the update left
     (``applied_wrench``, ``energy``, ``damping``, ``scales``, ``offsets``, ``phi``, ``pose_RS_desired``) and
@@ -97,7 +100,7 @@ class TeleopController:
     def __init__(self, spec: ControllerSpec, load: LoadEstimate, robot: Robot, period: float, *,
                  accelerometer: AccelerometerConvention, slave_initial_q=None,
                  feedback_blocks: Sequence[FeedbackBlock] = (), station: Callable[[], HardwareStation] | None = None,
-                 compile: bool = True):
+                 compile: bool = True, master: str = DEFAULT_MASTER):
         phi, offsets = checked_load(load.phi, load.offsets)
         self.period = period
         if slave_initial_q is None:
@@ -106,7 +109,7 @@ class TeleopController:
                                  "(slave_initial_q, one angle per joint, rad)")
             slave_initial_q = BUNDLED_ARMS[robot].start
         controller = MakeTeleopController(spec, LoadEstimate(phi, offsets), robot, period, slave_initial_q,
-                                          accelerometer=accelerometer, feedback_blocks=feedback_blocks)
+                                          accelerometer=accelerometer, feedback_blocks=feedback_blocks, master=master)
         self.num_joints = len(slave_initial_q)
         """The arm's joints."""
         # The station's subscriptions open after the controller's models are built (about a second), when the

@@ -527,13 +527,16 @@ def test_a_recorded_run_publishes_its_state_every_healthy_tick():
     assert np.isfinite(np.array(lab.torques)).all()
 
 
-def test_the_hardware_controller_refuses_a_master_other_than_the_phantom_in_one_line():
-    """The hardware controller (``TeleopController``) computes the Phantom's kinematics and torques: a Touch-type
-    master is refused in one line before any tick, saying what to set; the stand-in plays it (its six measured
-    joints on the lab's channels)."""
-    scenario = resolve_scenario("fig6", "{master: touch}")
-    with pytest.raises(ValueError, match=r"^master: touch: the hardware controller .*set master: "
-                                         r"phantom_premium_6dof for heft teleop --hardware") as refused:
-        HardwareTeleop(scenario, true_load(scenario)[0], lcm.LCM("memq://"), LcmChannels())
-    assert "\n" not in str(refused.value)
-    assert StandIn(scenario, lcm.LCM("memq://"), LcmChannels()).master_position.shape == (6,)
+def test_the_hardware_controller_drives_a_touchs_motors_only_within_its_force():
+    """With ``master: touch`` the hardware controller computes the Touch's kinematics and torques: against the
+    stand-in's Touch, the load's whole weight fed back (force scale 1), it sends no torque to the wrist (the
+    driver refuses none), drives the motors, and the force on the hand reaches the Touch's 3.3 N and no more."""
+    scenario = resolve_scenario("fig6", overrides_text({"master": "touch", "controller.feedback.force_scale": 1.0}))
+    lab = Lab(scenario, clutch_at=0.2)
+    lab.run(1.0)
+    torques = np.array(lab.torques)
+    assert lab.teleop.first_healthy is not None and not lab.teleop.faults
+    assert not torques[:, 3:].any() and np.abs(torques[:, :3]).max() > 0.1
+    assert lab.stand_in.refused[LcmChannels().master_command.name] == {}
+    forces = np.linalg.norm(np.array(lab.stylus_wrenches)[:, :3], axis=1)
+    assert forces.max() == pytest.approx(3.3) and lab.stand_in.stylus_force_peak <= 3.3 * (1 + 1e-9)

@@ -44,7 +44,6 @@ from heft.diagrams.running.realtime import (LOOP_PRIORITY, StopOnSignal, claim_r
                                             keep_cpu_for_loop, run_realtime, timing_summary)
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.load_estimate import LoadEstimate
-from heft.diagrams.master_params import DEFAULT_MASTER
 from heft.diagrams.plants import arm_name, slave_arm
 from heft.diagrams.teleop import FeedbackBlock
 from heft.diagrams.teleop_controller import TeleopController
@@ -83,10 +82,6 @@ class HardwareTeleop:
     def __init__(self, scenario: Scenario, load: LoadEstimate, bus: lcm.LCM, channels: LcmChannels,
                  params: HardwareStationParams | None = None, command_bus: lcm.LCM | None = None,
                  feedback_blocks: Sequence[FeedbackBlock] = (), taps: Sequence = (), state_every_tick: bool = False):
-        if scenario.master != DEFAULT_MASTER:
-            raise ValueError(f"master: {scenario.master}: the hardware controller (TeleopController) computes the "
-                             f"{DEFAULT_MASTER}'s kinematics and torques; set master: {DEFAULT_MASTER} for heft "
-                             f"teleop --hardware (heft simulate and heft stand-in take master: {scenario.master})")
         estimator = scenario.controller.estimator
         slowest = max(WATCHED_CHANNELS, key=lambda name: 1.0 / getattr(channels, name).rate)
         period = 1.0 / getattr(channels, slowest).rate
@@ -101,7 +96,7 @@ class HardwareTeleop:
         self.controller = TeleopController(
             scenario.controller, load, slave_arm(scenario), scenario.controller_period,
             accelerometer=scenario.accelerometer.convention(), slave_initial_q=scenario.slave_initial_q,
-            feedback_blocks=feedback_blocks,
+            feedback_blocks=feedback_blocks, master=scenario.master,
             station=lambda: HardwareStation(bus, channels, limits, params, command_bus))
         self.station = self.controller.station.station
         self.load_commands = LoadCommandServer(bus, channels, self.controller, limits.wrench_full_scale, command_bus)
@@ -425,7 +420,7 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float,
         teleop.status = lambda line: print(line, file=sys.stderr, flush=True)
         say.info(f"teleop: the slave is the {arm_name(slave_arm(scenario))}, {teleop.station.num_joints} joints on "
                  f"{channels.slave_status.name} and {channels.slave_command.name} (a status of another joint count "
-                 "is rejected)")
+                 f"is rejected); the master is the {scenario.master}")
         if priority:
             placement = keep_cpu_for_loop()
             scheduling += f"; {placement}"
