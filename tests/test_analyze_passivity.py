@@ -121,3 +121,29 @@ def test_the_sensors_twist_is_drakes_on_every_bundled_arm(robot):
         V_WS = S.CalcSpatialVelocityInWorld(context)
         np.testing.assert_allclose(twists[k], np.concatenate((R_SW @ V_WS.translational(), R_SW @ V_WS.rotational())),
                                    atol=1e-6)
+
+
+@pytest.mark.parametrize("master", ["phantom_premium_6dof", "touch"])
+def test_the_stylus_twist_is_the_runs_masters(master):
+    """The stylus twist of each bundled master is Drake's spatial velocity of its stylus frame E in B
+    (``CalcJacobianSpatialVelocity`` of that master's plant, [ω; v] reordered to [v; ω]); the Touch's differs from
+    the Phantom's at the same joints."""
+    from pydrake.multibody.tree import JacobianWrtVariable
+
+    from heft.diagrams.plants import MakeMasterPlant
+    from heft.systems.controller.master_kinematics import BASE_FRAME, STYLUS_FRAME
+
+    rng = np.random.default_rng(4)
+    q, v = rng.uniform(-0.4, 0.4, (5, 6)), rng.normal(0, 1.0, (5, 6))
+    plant = MakeMasterPlant(master)
+    context = plant.CreateDefaultContext()
+    B, E = plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME)
+    expected = []
+    for q_k, v_k in zip(q, v):
+        plant.SetPositions(context, q_k)
+        J = plant.CalcJacobianSpatialVelocity(context, JacobianWrtVariable.kV, E, np.zeros(3), B, B)
+        expected.append(np.concatenate((J[3:] @ v_k, J[:3] @ v_k)))
+    twist = analyze_passivity.stylus_twists(q, v, master)
+    np.testing.assert_allclose(twist, expected, atol=1e-12)
+    other = "touch" if master == "phantom_premium_6dof" else "phantom_premium_6dof"
+    assert np.abs(analyze_passivity.stylus_twists(q, v, other) - twist).max() > 1e-3

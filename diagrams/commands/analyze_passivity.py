@@ -32,6 +32,7 @@ from heft.analysis.passivity_analysis import (CHANNELS, passivity_controller_sum
                                               port_energy, port_power, sample_periods)
 from heft.analysis.run_log import KINDS, RunLog, complete_rows, longest_start, read_run_log
 from heft.diagrams.arm_params import BUNDLED_ARMS
+from heft.diagrams.master_params import BUNDLED_MASTERS, DEFAULT_MASTER
 from heft.diagrams.plants import MakeArmPlant, MakeMasterPlant
 from heft.systems.controller.master_kinematics import BASE_FRAME, STYLUS_FRAME
 from heft.systems.serial_chain import SerialChain
@@ -59,9 +60,9 @@ def read_log(path, kind: str | None = None) -> RunLog:
     return longest_start(with_master)
 
 
-def stylus_twists(master_q, master_v) -> np.ndarray:
-    """[v_E; ω_E] (N, 6; m/s, rad/s, in B) = J_M(q)·q̇ of the master at each logged sample."""
-    plant = MakeMasterPlant()
+def stylus_twists(master_q, master_v, master: str = DEFAULT_MASTER) -> np.ndarray:
+    """[v_E; ω_E] (N, 6; m/s, rad/s, in B) = J_M(q)·q̇ of the bundled ``master`` at each logged sample."""
+    plant = MakeMasterPlant(master)
     chain = SerialChain(plant, plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME))
     twists = []
     for q, v in zip(np.asarray(master_q, dtype=float), np.asarray(master_v, dtype=float), strict=True):
@@ -99,7 +100,7 @@ def _flows(power_into_network, holds) -> tuple[float, float]:
     return float(energy[energy > 0].sum()), 0.0 - float(energy[energy < 0].sum())
 
 
-def analyze_log(log: dict, robot: str = "rx90", twist=None, wrench_lag: int = 1) -> dict:
+def analyze_log(log: dict, robot: str = "rx90", twist=None, wrench_lag: int = 1, master: str = DEFAULT_MASTER) -> dict:
     """The passivity report of a log (keys as `heft simulate` writes them; ``hold`` if the log
     has one): per channel the master port's energy in/out and final value, the PC's summary,
     and the largest gap between the observer's energy and the port energy plus what the PC
@@ -108,10 +109,11 @@ def analyze_log(log: dict, robot: str = "rx90", twist=None, wrench_lag: int = 1)
     withheld from the hand, Σ (f_PC − f_applied)·v·T (J, ``passivity_controller`` key
     ``c_clamp_withheld_J``), which the observer counts back; with the environment keys, the
     environment port's energies too. ``twist``: `stylus_twists` of the
-    log, if already computed; ``wrench_lag``: as `paired_wrench`'s ``lag`` (module docstring)."""
+    log, if already computed; ``wrench_lag``: as `paired_wrench`'s ``lag`` (module docstring); ``master``: the run's
+    bundled master."""
     t = np.asarray(log["t"], dtype=float)
     holds = sample_periods(t, log.get("hold"))
-    twist = stylus_twists(log["master_q"], log["master_v"]) if twist is None else np.asarray(twist, dtype=float)
+    twist = stylus_twists(log["master_q"], log["master_v"], master) if twist is None else np.asarray(twist, dtype=float)
     wrench = paired_wrench(log["master_force"], wrench_lag)
     damping = np.asarray(log["passivity_damping"], dtype=float)
     observed = np.asarray(log["passivity_energy"], dtype=float)
@@ -153,6 +155,8 @@ def add_arguments(parser) -> None:
                         help="the log's kind (default: told by the file's first bytes)")
     parser.add_argument("--robot", default="rx90", choices=tuple(BUNDLED_ARMS),
                         help="the slave of the run, for the environment port (default rx90)")
+    parser.add_argument("--master", default=DEFAULT_MASTER, choices=tuple(BUNDLED_MASTERS),
+                        help=f"the haptic master of the run, for the stylus twist (default {DEFAULT_MASTER})")
     add_out(parser, "passivity.png, passivity.json", shown="the log's folder")
 
 
@@ -162,7 +166,7 @@ def run(args) -> int:
     log = run_log.arrays
     out = Path(args.out) if args.out else Path(args.log).parent
     out.mkdir(parents=True, exist_ok=True)
-    twist = stylus_twists(log["master_q"], log["master_v"])
+    twist = stylus_twists(log["master_q"], log["master_v"], args.master)
     report = analyze_log(log, args.robot, twist, run_log.wrench_lag)
     report["log"] = {"path": str(args.log), "kind": run_log.kind, "notes": run_log.notes}
     paired = {**log, "master_force": paired_wrench(log["master_force"], run_log.wrench_lag)}

@@ -40,9 +40,9 @@ SETTLE_TIME = 0.25
 """Time (s) after the operator starts moving that the fits leave out (the start transient)."""
 
 
-def stylus_positions(master_q) -> np.ndarray:
-    """p_BE (N, 3; m): the stylus origin in the master base at the joint angles (N, 6; rad)."""
-    plant = MakeMasterPlant()
+def stylus_positions(master_q, master: str) -> np.ndarray:
+    """p_BE (N, 3; m): the stylus origin in the base of the bundled ``master`` at the joint angles (N, 6; rad)."""
+    plant = MakeMasterPlant(master)
     context = plant.CreateDefaultContext()
     B, E = plant.GetFrameByName(BASE_FRAME), plant.GetFrameByName(STYLUS_FRAME)
     positions = []
@@ -80,7 +80,7 @@ def fit_run(scenario: Scenario, log: dict, smoothing: float = 0.01) -> dict:
     t = np.asarray(log["t"])
     window = (scenario.operator.start_time + SETTLE_TIME, t[-1])
     force = np.asarray(log["master_force"])[:, :3] @ u
-    hand = estimate_apparent_mass(t, force, stylus_positions(log["master_q"]) @ u, smoothing, window)
+    hand = estimate_apparent_mass(t, force, stylus_positions(log["master_q"], scenario.master) @ u, smoothing, window)
     R_BR = RotationMatrix(RollPitchYaw(scenario.controller.motion.R_RB)).inverse().matrix()
     R_BS = np.einsum("ij,njk->nik", R_BR, sensor_rotations(slave_arm(scenario), log["slave_q"]))
     a_B = np.einsum("nij,nj->ni", R_BS, np.asarray(log["accel_true"])[:, :3])
