@@ -16,7 +16,7 @@ Physics (continuous):
 Controller (discrete, period T, each block a Drake discrete system):
 
     x_c = k_t F(x_m) delayed by d_fwd + n ticks, F the master filter of
-    `heft.systems.controller.master_position_filter` (identity without one) → setpoint filter
+    `heft.systems.controller.master_position_filter` (its low-pass, then its notch; identity without them) → setpoint filter
     (critically damped, exact ZOH discretisation of `heft.systems.station.setpoint_filter`) → [x_f, ẋ_f]
     f_a = −k_f (γ N(c) + σ n) delayed by d_fb + n ticks, N the mount notch of
     `heft.systems.controller.force_scaling` (identity without one)
@@ -50,6 +50,7 @@ from heft.analysis.plotting import plt
 import numpy as np
 from heft.analysis.stability import llewellyn_absolutely_stable
 from heft.systems.controller.force_scaling import notch_coefficients
+from heft.systems.controller.master_position_filter import notch_stage
 from heft.systems.station.sensor_models import lowpass_coefficients
 from heft.systems.station.setpoint_filter import critically_damped_step_matrices
 from pydrake.autodiffutils import ExtractGradient, InitializeAutoDiff
@@ -97,11 +98,13 @@ class LinearTeleoperatorParams:
     mount_notch: float = 0.0            # Hz, the notch the contact is fed back through (0: none)
     mount_notch_quality: float = 0.7    # its Q
     master_filter: float = 0.0          # Hz, the low-pass on the master's positions (0: none)
+    master_notch: float = 0.0           # Hz, the notch on the master's positions, after the low-pass (0: none)
+    master_notch_quality: float = 0.7   # its Q
 
     def validate(self) -> LinearTeleoperatorParams:
         """Raises ValueError naming the first field out of range; returns self."""
         positive = ("master_mass", "slave_mass", "slave_stiffness", "period", "setpoint_bandwidth",
-                    "mount_notch_quality")
+                    "mount_notch_quality", "master_notch_quality")
         for name in positive:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
@@ -113,9 +116,10 @@ class LinearTeleoperatorParams:
         for name in ("forward_delay_ticks", "feedback_delay_ticks", "communication_delay_ticks"):
             if int(getattr(self, name)) != getattr(self, name):
                 raise ValueError(f"{name} must be a whole number of ticks; got {getattr(self, name)}")
-        if self.master_filter >= 0.5 / self.period:
-            raise ValueError(f"master_filter must lie below the Nyquist frequency {0.5 / self.period:g} Hz; got "
-                             f"{self.master_filter}")
+        for name in ("master_filter", "master_notch"):
+            if getattr(self, name) >= 0.5 / self.period:
+                raise ValueError(f"{name} must lie below the Nyquist frequency {0.5 / self.period:g} Hz; got "
+                                 f"{getattr(self, name)}")
         if self.feedback_delay_ticks < 1:
             raise ValueError("feedback_delay_ticks must be >= 1: a sampled force reaches the actuator "
                              f"one tick after it was measured at the earliest; got {self.feedback_delay_ticks}")
@@ -236,6 +240,9 @@ def MakeController(params: LinearTeleoperatorParams):
     motion = builder.AddNamedSystem("motion_scaling", MatrixGain(np.array([[p.translation_scale, 0, 0]])))
     master_filter = builder.AddNamedSystem("master_filter", _biquad_on(
         lowpass_coefficients(p.master_filter, p.period), 0, 1, p.period))
+    master_notch = builder.AddNamedSystem("master_notch", _biquad_on(
+        notch_stage(p.master_notch, p.master_notch_quality, p.period) if p.master_notch > 0 else None, 0, 1,
+        p.period))
     forward = _delay(builder, int(p.forward_delay_ticks) + n, p.period)
     A, B = critically_damped_step_matrices(p.setpoint_bandwidth, p.period)
     setpoint_filter = builder.AddNamedSystem("setpoint_filter", LinearSystem(
@@ -246,7 +253,8 @@ def MakeController(params: LinearTeleoperatorParams):
         [0, -p.force_scale * p.gamma, -p.force_scale * p.sigma]])))
     feedback = _delay(builder, int(p.feedback_delay_ticks) + n, p.period)
     command = builder.AddNamedSystem("command", Multiplexer([1, 2]))
-    chain = ((measured, motion), (motion, master_filter), (master_filter, forward), (forward, setpoint_filter),
+    chain = ((measured, motion), (motion, master_filter), (master_filter, master_notch),
+             (master_notch, forward), (forward, setpoint_filter),
              (measured, notch),
              (notch, force), (force, feedback))
     for source, sink in chain:

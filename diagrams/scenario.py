@@ -285,6 +285,9 @@ class Scenario:
         need(self.controller.motion.master_filter < 0.5 / self.controller_period, "controller.motion.master_filter",
              f"must lie below the controller's Nyquist frequency {0.5 / self.controller_period:g} Hz (0: no filter); "
              f"got {self.controller.motion.master_filter}")
+        need(self.controller.motion.master_notch < 0.5 / self.controller_period, "controller.motion.master_notch",
+             f"must lie below the controller's Nyquist frequency {0.5 / self.controller_period:g} Hz (0: no notch); "
+             f"got {self.controller.motion.master_notch}")
         steps = self.controller.delay / self.controller_period
         need(math.isfinite(steps) and steps >= 0 and abs(steps - round(steps)) < 1e-6, "controller.delay",
              f"must be >= 0 and a whole number of controller periods ({self.controller_period:g} s); "

@@ -114,9 +114,10 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: Robot,
 
     export_input("master.position_measured", master_kinematics.get_input_port())
     master_pose = master_kinematics.GetOutputPort("pose_BE")
-    if spec.motion.master_filter > 0:  # the motion mapping follows the filtered positions, the feedback the measured
-        master_filter = builder.AddNamedSystem("master_filter", MasterPositionFilter(spec.motion.master_filter,
-                                                                                      period))
+    if spec.motion.master_filter > 0 or spec.motion.master_notch > 0:
+        # the motion mapping follows the filtered positions, the feedback the measured
+        master_filter = builder.AddNamedSystem("master_filter", MasterPositionFilter(
+            spec.motion.master_filter, period, spec.motion.master_notch, spec.motion.master_notch_quality))
         filtered_kinematics = builder.AddNamedSystem("master_filtered_kinematics",
                                                      MasterKinematics(master_plant))
         builder.ConnectInput("master.position_measured", master_filter.get_input_port())

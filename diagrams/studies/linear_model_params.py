@@ -128,4 +128,5 @@ def linear_model_params(scenario: Scenario, environment_stiffness: float | None 
         setpoint_bandwidth=scenario.slave_setpoint_bandwidth, sigma=controller.force.sigma,
         gamma=controller.force.gamma, mount_notch=controller.force.mount_notch,
         mount_notch_quality=controller.force.mount_notch_quality, master_filter=controller.motion.master_filter,
+        master_notch=controller.motion.master_notch, master_notch_quality=controller.motion.master_notch_quality,
         communication_delay_ticks=round(controller.delay / scenario.controller_period)).validate()
