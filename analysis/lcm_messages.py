@@ -79,6 +79,22 @@ def station_status_message(msg) -> dict:
                          for i, channel in enumerate(msg.channels)}}
 
 
+def event_message(topic: str, msg) -> dict:
+    """The message on the event topic ``topic`` (``analysis.topics.EVENT_TOPICS``) of the decoded LCM message
+    ``msg``: ``station_status_message``'s on ``/faults``, else its fields."""
+    return station_status_message(msg) if topic == "/faults" else as_dict(msg)
+
+
+def event_from_lcm(topic: str, data: bytes) -> dict:
+    """``event_message`` of the LCM message ``data`` of the event topic's type; its size alone if it is not one."""
+    from heft.hardware_interface.lcmtypes import heft_load_command, heft_load_status, heft_station_status
+
+    message_type = {"/faults": heft_station_status, "/load/command": heft_load_command,
+                    "/load/status": heft_load_status}[topic]
+    msg = decode((message_type,), data)
+    return {"bytes": len(data)} if msg is None else event_message(topic, msg)
+
+
 def event_topic(channel: str, channels) -> str | None:
     """The ``analysis.topics.EVENT_TOPICS`` name a channel's messages also go to, or None."""
     names = {channels.station_status.name: "/faults", channels.load_command.name: "/load/command",
@@ -102,10 +118,8 @@ def lcm_log_messages(path, channels):
             continue
         yield t, LCM_PREFIX + event.channel, as_dict(msg)
         topic = event_topic(event.channel, channels)
-        if topic == "/faults":
-            yield t, topic, station_status_message(msg)
-        elif topic is not None:
-            yield t, topic, as_dict(msg)
+        if topic is not None:
+            yield t, topic, event_message(topic, msg)
 
 
 def lcm_topic_schemas(channels) -> dict:

@@ -4,7 +4,8 @@ file (``McapRecorder``), by a process of their own.
 
 The loop's side of either is a hand-off into shared memory: ``publish(t, arrays)`` copies the
 declared arrays into a ring of preallocated rows and moves a counter; no encoding, no lock, no
-system call, so it never waits for the viewer. ``LiveView`` takes at most ``rate`` rows a second
+system call, so it never waits for the viewer. A rare message (``event``) is one datagram, sent without
+waiting, to a socket the worker reads: the loop's process runs no thread of the view's. ``LiveView`` takes at most ``rate`` rows a second
 (on the loop's clock ``t``), ``McapRecorder`` every row (the scene at ``SCENE_RATE``). The worker
 process (niced, off a real-time loop's CPU) reads the ring, adds the scene's poses
 (``diagrams.scene_poses``), encodes the messages and serves or writes them. The recorder's worker
@@ -15,16 +16,19 @@ counted.
     view = LiveView(port=8765)                      # or McapRecorder("run.mcap")
     view.open({"wrench_measured": 6, "slave_q": 6, ...})  # once: starts the worker, waits for it
     view.publish(t, arrays)                         # each tick: key → array of the declared width
-    view.event("/faults", message, t)               # rare messages (EVENT_TOPICS; row topics named at open)
+    view.event("/faults", payload, t)               # rare messages (EVENT_TOPICS; row topics named at open)
     view.close()                                    # {"rows": …, "dropped": …}
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 import multiprocessing
 import os
+import pickle
 import queue
+import socket
 import tempfile
 import time
 from pathlib import Path
@@ -60,6 +64,9 @@ LINGER = 0.5
 """s the server stays up after the last row, for its messages to reach the clients."""
 START_TIMEOUT = 120.0
 """s the worker may take to start (imports, the scene's plants, the server's socket)."""
+EVENT_BUFFER = 1 << 20
+"""Bytes of events the worker's socket holds unread (a second of a 10 Hz status many times over)."""
+_ADDRESSES = itertools.count()
 _HEADER = 3  # [rows written, stop, the messages' time origin (ns, int64 bits)]
 
 
@@ -72,6 +79,8 @@ class TickTap:
         self._rows = RING_ROWS if rate == 0 else min(RING_ROWS, math.ceil(RING_SECONDS * rate))
         self._process = self._widths = None
         self._topics, self._event_topics = (), set()
+        self.events_dropped = 0
+        """Events not sent because the worker's socket was full (``EVENT_BUFFER``)."""
 
     @property
     def every_row(self) -> bool:
@@ -125,11 +134,13 @@ class TickTap:
         self._slots = [(ring[i, :1], [(key, ring[i, a:b]) for key, a, b in spans]) for i in range(self._rows)]
         self._written = 0
         spawn = multiprocessing.get_context("spawn")
-        self._events, replies = spawn.Queue(), spawn.Queue()
-        self._replies = replies
+        self._events = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+        self._events.setblocking(False)
+        self._event_address = f"\0heft-view-{os.getpid()}-{next(_ADDRESSES)}"  # Linux's abstract namespace
+        self._replies = replies = spawn.Queue()
         self._process = spawn.Process(target=_work, args=(self._path, self._widths, self._topics, self._rows,
                                                           self._sink, self._robot, self._master, self._rate,
-                                                          self._events, replies),
+                                                          self._event_address, replies),
                                       daemon=True)
         self._process.start()
         error = self._started(replies)
@@ -172,20 +183,24 @@ class TickTap:
         self._head[0] = self._written  # after the row: the worker reads rows below the count
         return True
 
-    def event(self, topic: str, message: dict, t: float) -> None:
-        """A rare message at ``t`` (s, the loop's clock): on an event topic (``analysis.topics.EVENT_TOPICS``),
-        or on a row topic named at ``open`` (``Topic.message``'s)."""
+    def event(self, topic: str, message: dict | bytes, t: float) -> None:
+        """A rare message at ``t`` (s, the loop's clock): on an event topic (``analysis.topics.EVENT_TOPICS``;
+        ``message`` the LCM message's bytes, converted by the worker as ``heft export`` converts them, or a dict),
+        or on a row topic named at ``open`` (``Topic.message``'s dict). Never waits: with the worker's socket
+        full it is dropped, and counted (``events_dropped``)."""
         if topic not in self._event_topics:
             raise ValueError(f"{topic} takes no events here: an event topic, or a row topic named by open(topics=…)")
-        self._events.put((topic, t, message))
+        try:
+            self._events.sendto(pickle.dumps((topic, t, message), pickle.HIGHEST_PROTOCOL), self._event_address)
+        except BlockingIOError:
+            self.events_dropped += 1
 
     def close(self) -> dict:
         """Stops the worker after it has handled every row (the recorder: encoded every row it
         spooled, however long that takes); {"rows": handled, "dropped": lost} ({} if not open)."""
         if self._process is None:
             return {}
-        self._events.close()
-        self._events.join_thread()  # every event in the pipe before the worker is told to stop
+        self._events.close()  # every event sent is in the worker's socket before it is told to stop
         self._head[1] = 1.0
         self._process.join(timeout=None if self._rate == 0 else CLOSE_TIMEOUT)
         if self._process.is_alive():
@@ -250,10 +265,16 @@ def _leave_the_loop() -> None:
 
 
 def _work(path, widths: dict, topics: tuple, rows: int, sink: tuple, robot: Robot, master: str, rate: float,
-          events, replies) -> None:
-    """The worker process: serves or writes the ring's rows until told to stop."""
+          event_address: str, replies) -> None:
+    """The worker process: serves or writes the ring's rows and the events sent to ``event_address`` until told
+    to stop."""
     _leave_the_loop()
+    events = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    events.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, EVENT_BUFFER)
+    events.bind(event_address)
+    events.setblocking(False)
     try:
+        from heft.analysis.lcm_messages import event_from_lcm
         from heft.analysis.run_export import foxglove_channel, foxglove_sdk
         from heft.analysis.topics import (EVENT_TOPICS, SCENE_FRAMES, SCENE_KEYS, SCENE_WRENCHES, encode, row_messages,
                                           row_topics, schema_of)
@@ -314,9 +335,11 @@ def _work(path, widths: dict, topics: tuple, rows: int, sink: tuple, robot: Robo
             written, t0 = int(head[0]), int(origin[0])
             while True:
                 try:
-                    topic, t, message = events.get_nowait()
-                except queue.Empty:
+                    topic, t, message = pickle.loads(events.recv(EVENT_BUFFER))
+                except BlockingIOError:
                     break
+                if isinstance(message, bytes):
+                    message = event_from_lcm(topic, message)
                 channels[topic].log(encode(message), log_time=t0 + round(t * 1e9))
             if written - read > rows:
                 dropped += written - read - rows
@@ -342,6 +365,7 @@ def _work(path, widths: dict, topics: tuple, rows: int, sink: tuple, robot: Robo
                 time.sleep(POLL if rate == 0 else min(POLL, 0.5 / rate))
     finally:
         stop()
+        events.close()
         if spool is not None:
             spool.close()
         replies.put({"rows": sent, "dropped": dropped})

@@ -336,10 +336,10 @@ class HardwareStation:
             now, spacing, self.gain, watchdog.timeout, watchdog.ramp_time, master.clock.state, slave.clock.state,
             ft.clock.state, self.ages)
 
-    def publish_status(self, now: float, force: bool = False) -> heft_station_status | None:
+    def publish_status(self, now: float, force: bool = False) -> bytes | None:
         """Publishes ``heft_station_status`` (health, per channel the messages received, unread,
         rejected per reason, restarts, second publishers) at ``now`` (s) if its channel's period
-        has passed since the last, or if ``force``; returns the message published, or None."""
+        has passed since the last, or if ``force``; returns the payload published, or None."""
         if not (force or now >= self._next_status):
             return None
         self._next_status = now + 1.0 / self._channels.station_status.rate
@@ -352,8 +352,9 @@ class HardwareStation:
         msg.restarts = [reader.clock.restarts for reader in self._readers]
         msg.second_publisher = [bool(self.conflicts & (1 << i)) for i in range(len(WATCHED_CHANNELS))] + [
             self._gripper.clock.conflict(now)]
-        self._command_bus.publish(self._channels.station_status.name, msg.encode())
-        return msg
+        payload = msg.encode()
+        self._command_bus.publish(self._channels.station_status.name, payload)
+        return payload
 
     def stop(self, now: float) -> None:
         """The run's last commands at ``now`` (s): forces off, and the slave command one

@@ -155,3 +155,37 @@ def test_a_client_sees_the_rows_a_loop_hands_over_at_the_views_rate():
                                   [row["master_v"] for row in taken])
     assert len(by_topic["/scene/frames"]) == len(taken) and by_topic["/faults"] == [{"healthy": True}]
     assert [m["t"] for m in received] == [k * 0.0005 for k in steps]
+
+
+def test_events_reach_the_file_converted_as_export_does_and_start_no_thread(tmp_path):
+    """The loop's events (a station status and a load command as their LCM bytes, a dict) reach the MCAP on their
+    topics, the LCM ones as ``heft export`` converts them (the fields set here; the status per channel), and sending
+    them starts no thread in the loop's process."""
+    from heft.hardware_interface.lcmtypes import heft_load_command, heft_station_status
+
+    status = heft_station_status()
+    status.utime, status.healthy, status.fault, status.gain = 7, True, 2, 0.5
+    status.num_channels, status.num_reasons, status.channels, status.reasons = 1, 2, ["ft_sample"], ["nan", "range"]
+    status.received, status.unread, status.rejected, status.restarts = [40], [1], [[3, 0]], [0]
+    status.second_publisher = [True]
+    command = heft_load_command()
+    command.utime, command.action, command.phi, command.offsets = 9, 3, [0.5] + [0.0] * 9, [0.25] * 6
+    path = tmp_path / "events.mcap"
+    recorder = McapRecorder(path)
+    recorder.open({"wrench_measured": 6})
+    threads = threading.active_count()
+    recorder.publish(0.0, {"wrench_measured": np.zeros(6)})
+    recorder.event("/faults", status.encode(), 0.01)
+    recorder.event("/load/command", command.encode(), 0.02)
+    recorder.event("/faults", {"healthy": False}, 0.03)
+    assert threading.active_count() == threads
+    recorder.close()
+    with open(path, "rb") as file:
+        events = [(channel.topic, json.loads(message.data)) for _, channel, message in make_reader(file).iter_messages()
+                  if channel.topic in ("/faults", "/load/command")]
+    assert events == [
+        ("/faults", {"utime": 7, "healthy": True, "fault": 2, "gain": 0.5,
+                     "channels": {"ft_sample": {"received": 40, "unread": 1, "rejected": {"nan": 3, "range": 0},
+                                                "restarts": 0, "second_publisher": True}}}),
+        ("/load/command", {"utime": 9, "action": 3, "phi": [0.5] + [0.0] * 9, "offsets": [0.25] * 6}),
+        ("/faults", {"healthy": False})]

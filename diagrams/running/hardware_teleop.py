@@ -35,7 +35,6 @@ from collections.abc import Sequence
 import lcm
 import numpy as np
 
-from heft.analysis.lcm_messages import as_dict, station_status_message
 from heft.analysis.topics import ESTIMATOR_PRIOR, ESTIMATOR_STATE
 from heft.diagrams.device_limits import device_limits
 from heft.diagrams.live_view import McapRecorder
@@ -108,7 +107,7 @@ class HardwareTeleop:
             tap.open({key: width for key, width in widths.items()
                       if not (tap.every_row and key in (ESTIMATOR_STATE, ESTIMATOR_PRIOR))})
         if self.taps:
-            self.load_commands.on_message = lambda topic, message: self._event(topic, as_dict(message))
+            self.load_commands.on_message = lambda topic, message: self._event(topic, message.encode())
         self.starts = 0
         """Controller starts so far (the first healthy tick and each recovery)."""
         self._channel_names = [getattr(channels, name).name for name in WATCHED_CHANNELS]
@@ -154,16 +153,17 @@ class HardwareTeleop:
         self.load_commands.serve(utime, healthy, station.acceleration)
         status = station.publish_status(now)
         if status is not None and self.taps:
-            self._event("/faults", station_status_message(status))
+            self._event("/faults", status)
         self._observe(now, healthy)
         self._was_healthy = healthy
         if self.status is not None and now >= self._next_status:
             self._status(now)
 
-    def _event(self, topic: str, message: dict) -> None:
-        """``message`` on the event topic ``topic`` (``analysis.topics.EVENT_TOPICS``) to every tap, at this tick."""
+    def _event(self, topic: str, payload: bytes) -> None:
+        """The LCM message ``payload`` on the event topic ``topic`` (``analysis.topics.EVENT_TOPICS``) to every tap,
+        at this tick."""
         for tap in self.taps:
-            tap.event(topic, message, self.now)
+            tap.event(topic, payload, self.now)
 
     def _observe(self, now: float, healthy: bool) -> None:
         station = self.station
