@@ -17,7 +17,7 @@ counted.
     view.open({"wrench_measured": 6, "slave_q": 6, ...})  # once: starts the worker, waits for it
     view.publish(t, arrays)                         # each tick: key → array of the declared width
     view.event("/faults", payload, t)               # rare messages (EVENT_TOPICS; row topics named at open)
-    view.close()                                    # {"rows": …, "dropped": …}
+    view.close()                                    # {"rows": …, "dropped": …, "events_dropped": …}
 """
 
 from __future__ import annotations
@@ -197,7 +197,8 @@ class TickTap:
 
     def close(self) -> dict:
         """Stops the worker after it has handled every row (the recorder: encoded every row it
-        spooled, however long that takes); {"rows": handled, "dropped": lost} ({} if not open)."""
+        spooled, however long that takes); {"rows": handled, "dropped": rows lost, "events_dropped": events lost}
+        ({} if not open)."""
         if self._process is None:
             return {}
         self._events.close()  # every event sent is in the worker's socket before it is told to stop
@@ -213,7 +214,8 @@ class TickTap:
         self._process = self._widths = None
         self._slots, self._head = [], None
         Path(self._path).unlink(missing_ok=True)
-        return stats if isinstance(stats, dict) else {}
+        stats = stats if isinstance(stats, dict) else {}
+        return {**stats, "events_dropped": self.events_dropped} if stats else stats
 
 
 class LiveView(TickTap):

@@ -53,6 +53,7 @@ def test_the_hardware_loop_feeds_the_view_and_the_recorder(tmp_path):
     stats = [tap.close() for tap in teleop.taps]
     listening.join()
     assert teleop.healthy_ticks > 500 and stats[1]["rows"] == 1000 and not stats[1]["dropped"]
+    assert [tap["events_dropped"] for tap in stats] == [0, 0]
     seen = [(message["t"], message) for topic, _, message in client.messages if topic == "/wrench/contact"]
     assert 5 <= len(seen) <= 1000 * period * 100 + 1  # at most 100 a second of the loop's clock
     for t, message in seen:
