@@ -91,7 +91,7 @@ def test_the_recorder_writes_every_row_handed_to_it(tmp_path):
             while time.perf_counter() < start + 1e-4:
                 pass
         stats = recorder.close()
-    assert stats == {"rows": len(data), "dropped": 0}
+    assert stats == {"rows": len(data), "dropped": 0, "events_dropped": 0}
     with open(tmp_path / "run.mcap", "rb") as file:
         messages = [(channel.topic, message.log_time, json.loads(message.data))
                     for _, channel, message in make_reader(file).iter_messages(
