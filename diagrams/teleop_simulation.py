@@ -53,9 +53,11 @@ def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, meshcat=None,
     spec = scenario.controller
     builder = DiagramBuilder()
     station = builder.AddNamedSystem("station", MakeSimStation(scenario, meshcat))
+    logged = {**{name.removeprefix("log."): name for name in CONTROLLER_LOG}, "master_torque": "master.torque_commanded"}
     controller = builder.AddNamedSystem("controller", TickProgramSystem(MakeTeleopController(
         spec, load, slave_arm(scenario), scenario.controller_period, scenario.slave_initial_q,
-        accelerometer=scenario.accelerometer.convention(), feedback_blocks=feedback_blocks, master=scenario.master)))
+        accelerometer=scenario.accelerometer.convention(), feedback_blocks=feedback_blocks, master=scenario.master),
+        gathered={"log": list(logged.values())}))
     period = scenario.controller_period
     ConnectControllerToStation(builder, controller, station, round(spec.delay / period), period,
                                {"master.position_measured": scenario.master_initial_q,
@@ -66,15 +68,16 @@ def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, meshcat=None,
         step = PiecewisePolynomial.ZeroOrderHold([0.0, grasp_at, grasp_at + 1.0], [[0.0, 1.0, 1.0]])
         builder.Connect(builder.AddNamedSystem("grasp_event", TrajectorySource(step)).get_output_port(),
                         controller.GetInputPort("estimator_reset"))
-    ports = {key: station.GetOutputPort(name) for name, key in STATION_LOG.items()}
-    ports.update({name.removeprefix("log."): controller.GetOutputPort(name) for name in CONTROLLER_LOG})
-    ports["master_torque"] = controller.GetOutputPort("master.torque_commanded")
-    sizes = [port.size() for port in ports.values()]
-    signals = builder.AddSystem(Multiplexer(sizes))
-    columns, start = {}, 0
-    for i, (key, port) in enumerate(ports.items()):
+    ports = [station.GetOutputPort(name) for name in STATION_LOG] + [controller.GetOutputPort("log")]
+    keys = list(STATION_LOG.values()) + list(logged)  # the controller's in one port
+    sizes = [station.GetOutputPort(name).size() for name in STATION_LOG] + [
+        controller.GetOutputPort(name).size() for name in logged.values()]
+    signals = builder.AddSystem(Multiplexer([port.size() for port in ports]))
+    for i, port in enumerate(ports):
         builder.Connect(port, signals.get_input_port(i))
-        columns[key], start = slice(start, start + sizes[i]), start + sizes[i]
+    columns, start = {}, 0
+    for key, size in zip(keys, sizes, strict=True):
+        columns[key], start = slice(start, start + size), start + size
     log = SimulationLog(LogVectorOutput(signals.get_output_port(), builder, period), columns)
     diagram = builder.Build()
     diagram.set_name("teleop_simulation")

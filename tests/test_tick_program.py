@@ -43,9 +43,12 @@ def test_the_program_steps_the_diagram_exactly(recorded, compile):
 
 
 def test_the_program_as_one_system_steps_the_diagram_exactly(recorded):
+    """And an output port gathering others (state and calculated ones, interleaved) is theirs end to end."""
     sequence, expected = recorded
     diagram, _ = make_controller()
-    system = TickProgramSystem(diagram)
+    held = ("master.torque_commanded", "slave.position_commanded", "log.offsets", "log.passivity_energy")
+    gathered = [name for pair in zip(held, FEEDTHROUGH) for name in pair]
+    system = TickProgramSystem(diagram, gathered={"gathered": gathered})
     simulator = Simulator(system)
     context = simulator.get_mutable_context()
     for k, inputs in enumerate(sequence):
@@ -56,8 +59,12 @@ def test_the_program_as_one_system_steps_the_diagram_exactly(recorded):
         for name in FEEDTHROUGH:
             np.testing.assert_array_equal(system.GetOutputPort(name).Eval(context), expected[k][f"computed {name}"],
                                           err_msg=f"{name} at tick {k}")
+        if k > 0:  # the state the last tick left, what this tick's inputs calculate
+            np.testing.assert_array_equal(system.GetOutputPort("gathered").Eval(context), np.concatenate(
+                [expected[k - 1][name] if name in held else expected[k][f"computed {name}"] for name in gathered]),
+                err_msg=f"gathered at tick {k}")
         simulator.AdvanceTo((k + 1) * PERIOD)
-        for name in ("master.torque_commanded", "slave.position_commanded", "log.offsets", "log.passivity_energy"):
+        for name in held:
             np.testing.assert_array_equal(system.GetOutputPort(name).Eval(context), expected[k][name],
                                           err_msg=f"{name} at tick {k}")
 

@@ -15,6 +15,7 @@ from pydrake.multibody.plant import AddMultibodyPlant, CoulombFriction, Multibod
 from pydrake.multibody.tree import (FixedOffsetFrame, MultibodyForces, PdControllerGains,
                                     PrismaticJoint, PrismaticSpring, SpatialInertia)
 from pydrake.geometry import AddContactMaterial, Box, MeshcatVisualizer, ProximityProperties
+from pydrake.systems.controllers import InverseDynamics
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Demultiplexer, MatrixGain, Saturation
 
@@ -24,7 +25,6 @@ from heft.diagrams.tool_check import check_carried
 from heft.diagrams.scenario import Scenario
 from heft.diagrams.stations.slave_servo import slave_servo_gains
 from heft.systems.station.encoders import AddEncoderVelocityEstimate, EncoderQuantizer
-from heft.systems.station.gravity_compensation import GravityCompensation
 from heft.systems.load_dynamics import GRAVITY_W
 from heft.systems.station.operator_hand import OperatorHand
 from heft.systems.station.setpoint_filter import SetpointFilter
@@ -93,10 +93,11 @@ def _add_slave(builder: DiagramBuilder, scenario: Scenario):
     n = parts.chain.num_joints
     state = builder.AddSystem(Demultiplexer([n, n]))
     builder.Connect(plant.get_state_output_port(parts.arm), state.get_input_port())
-    gravity = builder.AddSystem(GravityCompensation(control_plant))
+    gravity = builder.AddSystem(InverseDynamics(control_plant, InverseDynamics.InverseDynamicsMode.kGravityCompensation))
     gravity.set_name("slave_gravity_feedforward")
-    builder.Connect(state.get_output_port(0), gravity.get_input_port())
-    builder.Connect(gravity.get_output_port(), plant.get_actuation_input_port(parts.arm))
+    gravity.control_plant = control_plant  # the system refers to it, without keeping it alive
+    builder.Connect(plant.get_state_output_port(parts.arm), gravity.get_input_port_estimated_state())
+    builder.Connect(gravity.get_output_port_generalized_force(), plant.get_actuation_input_port(parts.arm))
     setpoints = builder.AddSystem(SetpointFilter(
         scenario.slave_initial_q, scenario.slave_setpoint_bandwidth, scenario.plant.time_step))
     setpoints.set_name("slave_setpoint_filter")
