@@ -41,7 +41,7 @@ _V = np.empty((6, 10))
 
 
 @compiled("float64(float64[:], float64[:], float64[:], float64[:, :])")
-def _regressor_norm(acceleration, omega, g, V) -> float:
+def regressor_norm(acceleration, omega, g, V) -> float:
     """‖V(a, α, ω, g)‖ (Frobenius) of [a; α] (6), ω and g (3), V (6, 10) the scratch."""
     regressor_into(acceleration[:3], acceleration[3:], omega, g, V)
     total = 0.0
@@ -53,7 +53,7 @@ def _regressor_norm(acceleration, omega, g, V) -> float:
 
 def excitation(acceleration, omega) -> float:
     """‖V(a, α, ω, 0)‖ of the kinematic [a; α] (6) and ω (3), in S."""
-    return _regressor_norm(float_array(acceleration), float_array(omega), _ZERO, _V)
+    return regressor_norm(float_array(acceleration), float_array(omega), _ZERO, _V)
 
 
 LEARNING_WINDOW, HOLD, NEW_LOAD_WAIT, MIN_EXCITATION, CONTACT_FORCE, CONTACT_TORQUE = range(6)
@@ -90,7 +90,7 @@ def gate_open(settings, acceleration, omega, contact, fault, since_reset, since_
     sample) in s; ``no_gravity`` (3) zeros and V (6, 10) scratch for the excitation."""
     return (not spoiled(settings, contact, fault, since_reset) and since_spoiled >= settings[HOLD]
             and since_reset >= settings[NEW_LOAD_WAIT]
-            and _regressor_norm(acceleration, omega, no_gravity, V) >= settings[MIN_EXCITATION])
+            and regressor_norm(acceleration, omega, no_gravity, V) >= settings[MIN_EXCITATION])
 
 
 CLOCKS_START = (0.0, 0.0, math.inf)

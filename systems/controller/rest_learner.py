@@ -25,7 +25,7 @@ import math
 import numpy as np
 
 from heft.systems.compiled import compiled
-from heft.systems.controller.estimator_gate import _regressor_norm
+from heft.systems.controller.estimator_gate import regressor_norm
 from heft.systems.controller.load_estimation_params import LoadEstimationParams
 from heft.systems.identification.regression_noise import NoiseLevels
 from heft.systems.load_dynamics import regressor_into
@@ -92,7 +92,7 @@ def rest_update(clocks, blocks, sample, wrench, acceleration, omega, gravity, ph
         total += wrench[i] + acceleration[i]
     for i in range(3):
         total += omega[i] + gravity[i]
-    if not math.isfinite(total) or _regressor_norm(acceleration, omega, zeros, V) >= \
+    if not math.isfinite(total) or regressor_norm(acceleration, omega, zeros, V) >= \
             settings[MIN_EXCITATION]:
         blocks[VALID] = 0.0
     elif blocks[VALID] > 0.5:

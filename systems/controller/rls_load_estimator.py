@@ -19,8 +19,9 @@ from heft.systems.compiled import compiled, record_views
 from heft.systems.controller.load_estimation_params import LoadEstimationParams
 from heft.systems.controller.offset_tracking import ESTIMATE_SIZE
 from heft.systems.controller.rest_learner import SAMPLE_SIZE
-from heft.systems.identification.recursive_estimation import (RecursiveLeastSquares, information_update,
-                                                              least_squares_start_from, least_squares_update)
+from heft.systems.identification.recursive_estimation import (RecursiveLeastSquares, information_start,
+                                                              information_update, least_squares_start_from,
+                                                              least_squares_update)
 from heft.systems.load_dynamics import regressor_into
 from heft.systems.tick_system import TickSystem
 
@@ -33,8 +34,8 @@ RLS = np.dtype([("weighted", float, (6, P + 1)), ("row", float, P + 1), ("V", fl
 SKIPPED, RESETS, RESTARTS, RESTS, AT_REST = range(5)
 """The block's counters: enabled ticks whose sample held a NaN or inf, the reset and restart requests seen, the
 static samples seen, and the ticks at rest they averaged since the last reset or restart."""
-_ROOT = P + 2 + 6 * 12 * 12
-"""Where the square-root information [S z; 0 ρ] starts in the state (``recursive_estimation``'s layout)."""
+_ROOT = information_start(P)
+"""Where the square-root information [S z; 0 ρ] starts in the state."""
 
 
 @compiled("boolean(float64[::1], float64[:], RLS[:])", RLS=RLS)

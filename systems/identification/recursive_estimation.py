@@ -99,6 +99,12 @@ _MOMENTS = 6 * 12 * 12
 """Entries of the per-axis second moments (``accumulate_moments``) in the state vector."""
 
 
+def information_start(p: int) -> int:
+    """Where the square-root information [S z; 0 ρ] starts in the state of an estimator of ``p`` unknowns (θ,
+    the count, the weight, the moments before it)."""
+    return p + 2 + _MOMENTS
+
+
 @compiled("void(float64[::1], int64, float64[:, :], float64[:], float64)")
 def track_residual(state, p, V, wrench, forgetting):
     """Adds one sample (V (6, 10), ``wrench`` (6,)) to the per-axis second moments of ``state`` (the
