@@ -111,24 +111,22 @@ class OperatorHand(LeafSystem):
         self._R_ref, self._error = np.empty((2, 3, 3))
         self._p_ref, self._w_ref, self._v_ref = np.empty((3, 3))
         self._quaternion, self._wrench = np.empty(7), np.empty(6)
+        self._gains = (float(spec.stiffness), float(spec.damping), float(spec.rotational_stiffness),
+                       float(spec.rotational_damping))
         self._poses = self.DeclareAbstractInputPort("body_poses", Value[List[RigidTransform]]())
         self._velocities = self.DeclareAbstractInputPort("body_spatial_velocities", Value[List[SpatialVelocity]]())
-        self._stylus_index = stylus_body_index
+        # The force's body and point, set once; each calculation sets its wrench (the output holds a copy).
+        self._force = ExternallyAppliedSpatialForce()
+        self._force.body_index, self._force.p_BoBq_B = stylus_body_index, np.zeros(3)
         self.DeclareAbstractOutputPort("spatial_force", lambda: Value[List[ExternallyAppliedSpatialForce]](),
                                        self._calc_force)
 
     def _calc_force(self, context, output):
-        s = self._spec
-        X_WE = self._poses.Eval(context)[self._stylus]
-        V = self._velocities.Eval(context)[self._stylus]
+        X_WE = self._poses.Eval(context)[self._stylus].GetAsMatrix34()  # [R_WE p_WE]
+        V = self._velocities.Eval(context)[self._stylus].get_coeffs()  # [ω; v] in W
         reference_into(context.get_time(), *self._timing, self._R_WE0, self._p_WE0, self._R_ref, self._p_ref,
                        self._w_ref, self._v_ref)
-        wrench = self._wrench
-        hand_wrench_into(X_WE.rotation().matrix(), float_array(X_WE.translation()), float_array(V.rotational()),
-                         float_array(V.translational()), self._R_ref, self._p_ref, self._w_ref, self._v_ref,
-                         s.stiffness, s.damping, s.rotational_stiffness, s.rotational_damping, self._error,
-                         self._quaternion, wrench)
-        force = ExternallyAppliedSpatialForce()
-        force.body_index, force.p_BoBq_B = self._stylus_index, np.zeros(3)
-        force.F_Bq_W = SpatialForce(tau=wrench[:3], f=wrench[3:])
-        output.set_value([force])
+        hand_wrench_into(X_WE[:, :3], X_WE[:, 3], V[:3], V[3:], self._R_ref, self._p_ref, self._w_ref, self._v_ref,
+                         *self._gains, self._error, self._quaternion, self._wrench)
+        self._force.F_Bq_W = SpatialForce(self._wrench)  # [τ; f]
+        output.set_value([self._force])

@@ -18,7 +18,7 @@ from pydrake.multibody.plant import ContactResults
 from pydrake.systems.framework import LeafSystem, ValueProducer
 
 from heft.systems.accelerometer_reading import AT_S, AccelerometerConvention, reading_from_motion
-from heft.systems.drake_conventions import wrench_from_spatial_force
+from heft.systems.drake_conventions import swap_halves
 from heft.systems.compiled import compiled, float_array
 from heft.systems.load_dynamics import regressor_into
 
@@ -34,7 +34,7 @@ class ReactionWrench(LeafSystem):
         self.DeclareVectorOutputPort("wrench", 6, self._calc)
 
     def _calc(self, context, output):
-        output.SetFromVector(wrench_from_spatial_force(self._reactions.Eval(context)[self._joint]))
+        output.SetFromVector(swap_halves(self._reactions.Eval(context)[self._joint].get_coeffs()))  # [τ; f] → [f; τ]
 
 
 def declare_body_motion_inputs(system: LeafSystem):
@@ -69,8 +69,8 @@ def frame_motion_into(R_WB, w_WB_W, alpha_WB_W, a_WBo_W, p_BF, g_W, motion) -> N
 
 def frame_motion(X_WB: RigidTransform, V_WB: SpatialVelocity, A_WB: SpatialAcceleration, p_BF, g_W, motion) -> None:
     """``frame_motion_into`` from B's pose, spatial velocity and acceleration in W (Drake's values)."""
-    frame_motion_into(X_WB.rotation().matrix(), float_array(V_WB.rotational()), float_array(A_WB.rotational()),
-                      float_array(A_WB.translational()), p_BF, g_W, motion)
+    A = A_WB.get_coeffs()  # [α; a]
+    frame_motion_into(X_WB.GetAsMatrix34()[:, :3], V_WB.get_coeffs()[:3], A[:3], A[3:], p_BF, g_W, motion)
 
 
 class ContactWrenchAtSensor(LeafSystem):
@@ -160,9 +160,9 @@ class SensorAndLoadMotion(LeafSystem):
         out, sensor, load = value.get_mutable_value(), self._sensor, self._load
         frame_motion(poses[sensor], velocities[sensor], accelerations[sensor], self._p_BS, self._g_W, out[:12])
         frame_motion(poses[load], velocities[load], accelerations[load], _ORIGIN, self._g_W, self._load_motion)
-        X_SL = (poses[sensor] @ self._X_BS).InvertAndCompose(poses[load])
+        X_SL = poses[sensor].multiply(self._X_BS).InvertAndCompose(poses[load]).GetAsMatrix34()  # [R_SL p_SL]
         wrenches_at_S_into(self._load_motion, self._phi.Eval(context), self._phi_gripper.Eval(context),
-                           X_SL.rotation().matrix(), float_array(X_SL.translation()), self._V, out[12:])
+                           X_SL[:, :3], X_SL[:, 3], self._V, out[12:])
 
     def _calc_reading(self, context, output):
         motion = self._values.Eval(context)
