@@ -53,7 +53,8 @@ def MakeTeleopSimulation(scenario: Scenario, load: LoadEstimate, meshcat=None,
     spec = scenario.controller
     builder = DiagramBuilder()
     station = builder.AddNamedSystem("station", MakeSimStation(scenario, meshcat))
-    logged = {**{name.removeprefix("log."): name for name in CONTROLLER_LOG}, "master_torque": "master.torque_commanded"}
+    logged = {**{name.removeprefix("log."): name for name in CONTROLLER_LOG},
+              "master_torque": "master.torque_commanded"}  # log key → the controller's output
     controller = builder.AddNamedSystem("controller", TickProgramSystem(MakeTeleopController(
         spec, load, slave_arm(scenario), scenario.controller_period, scenario.slave_initial_q,
         accelerometer=scenario.accelerometer.convention(), feedback_blocks=feedback_blocks, master=scenario.master),

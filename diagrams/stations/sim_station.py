@@ -93,7 +93,8 @@ def _add_slave(builder: DiagramBuilder, scenario: Scenario):
     n = parts.chain.num_joints
     state = builder.AddSystem(Demultiplexer([n, n]))
     builder.Connect(plant.get_state_output_port(parts.arm), state.get_input_port())
-    gravity = builder.AddSystem(InverseDynamics(control_plant, InverseDynamics.InverseDynamicsMode.kGravityCompensation))
+    gravity = builder.AddSystem(InverseDynamics(control_plant,
+                                                InverseDynamics.InverseDynamicsMode.kGravityCompensation))
     gravity.set_name("slave_gravity_feedforward")
     gravity.control_plant = control_plant  # the system refers to it, without keeping it alive
     builder.Connect(plant.get_state_output_port(parts.arm), gravity.get_input_port_estimated_state())
