@@ -140,11 +140,11 @@ def estimate_clock_offsets(source: RecordingSource, phi, streams=None, window: t
     stride = max(1, rows // max_samples)
     t, wrench, data = source.snapshot((lo, hi), offsets, margin=search + 0.01, stride=stride)
     diff = source.recording.differentiation
-    wrench = like_derived(wrench, source.period("wrench") * stride, diff.window, diff.order)
+    wrench = like_derived(wrench, source.period("wrench") * stride, diff.seconds, diff.order)
     t_a, acc = data.rows["accelerometer"]
     data = StreamData({**data.rows, "accelerometer": (t_a, like_derived(acc, source.period("accelerometer"),
-                                                                       diff.window, diff.order))}, data.periods)
-    independent = (t[-1] - t[0]) / diff.window
+                                                                       diff.seconds, diff.order))}, data.periods)
+    independent = (t[-1] - t[0]) / diff.seconds
     fits, keep, rotations = {}, None, {}
     for round_ in range(1 + (ROUNDS if len(streams) > 1 else 1)):
         for name in streams:
@@ -157,7 +157,7 @@ def estimate_clock_offsets(source: RecordingSource, phi, streams=None, window: t
             if keep.sum() < MIN_FREE * len(t):
                 keep = None
             else:
-                independent = keep.sum() / len(t) * (t[-1] - t[0]) / diff.window
+                independent = keep.sum() / len(t) * (t[-1] - t[0]) / diff.seconds
     return fits
 
 

@@ -22,7 +22,7 @@ from heft.systems.accelerometer_calibration import AccelerometerCalibration
 from heft.systems.identification.rotation_sampling import ROTATION_TOLERANCE, rotation_defects
 
 ESTIMATE = "estimate"
-"""The value of R_SA, bias or a clock's offset that asks heft to estimate it."""
+"""The value of R_SA, bias, a clock's offset or the differentiation window that asks heft to estimate it."""
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 """A time column's unit → s."""
@@ -111,13 +111,24 @@ class AngularVelocityStream(StreamFile):
     columns: list[str] = dataclasses.field(default_factory=lambda: ["wx", "wy", "wz"])
 
 
+DEFAULT_DIFFERENTIATION_WINDOW = 0.05
+"""s: the differentiation window where it is left to estimate and nothing estimates it (identification, which has
+no φ̂ yet to judge it by), and while `heft compensate` looks for it."""
+
+
 @dataclasses.dataclass
 class Differentiation:
     """The filter through which ω comes from the orientation and α from ω, when not recorded: a
     Savitzky–Golay polynomial of ``order`` over ``window`` seconds centred on each sample
-    (zero-phase; at least order + 2 samples)."""
-    window: float = 0.05
+    (zero-phase; at least order + 2 samples). ``window`` ``estimate`` (the default): `heft compensate` finds
+    it (``analysis.differentiation_window``); elsewhere ``DEFAULT_DIFFERENTIATION_WINDOW``."""
+    window: float | str = ESTIMATE
     order: int = 2
+
+    @property
+    def seconds(self) -> float:
+        """The window in use (s): the stated one, else ``DEFAULT_DIFFERENTIATION_WINDOW``."""
+        return DEFAULT_DIFFERENTIATION_WINDOW if self.window == ESTIMATE else float(self.window)
 
 
 @dataclasses.dataclass
@@ -293,8 +304,10 @@ def _first_problem(recording: Recording) -> str | None:
                        "static_poses", poses.orientation_kind, poses.orientation, poses.robot, recording.arm,
                        "orientation_kind", "orientation")]
     checks.append(_vector_problem("gravity_W", recording.gravity_W, estimable=False))
-    checks.append(None if recording.differentiation.window > 0 and recording.differentiation.order >= 1 else
-                  "differentiation needs a window > 0 (s) and an order >= 1")
+    window = recording.differentiation.window
+    checks.append(None if (window == ESTIMATE or (not isinstance(window, str) and np.isfinite(window) and window > 0))
+                  and recording.differentiation.order >= 1 else
+                  f"differentiation needs a window > 0 (s) or '{ESTIMATE}', and an order >= 1")
     return next((c for c in checks if c), None)
 
 
@@ -348,3 +361,9 @@ def with_clock_offsets(recording: Recording, offsets: dict) -> Recording:
         stream = getattr(recording, name)
         changes[name] = dataclasses.replace(stream, time=dataclasses.replace(stream.time, offset=float(offset)))
     return dataclasses.replace(recording, **changes)
+
+
+def with_differentiation_window(recording: Recording, window: float) -> Recording:
+    """A copy of ``recording`` with the differentiation ``window`` (s) stated."""
+    return dataclasses.replace(recording, differentiation=dataclasses.replace(recording.differentiation,
+                                                                              window=float(window)))

@@ -16,7 +16,7 @@ from collections.abc import Callable
 import numpy as np
 
 from heft.analysis.column_files import ColumnFile, RecordingError
-from heft.analysis.recording import ESTIMATE, Recording
+from heft.analysis.recording import ESTIMATE, Recording, with_differentiation_window
 from heft.systems.accelerometer_reading import AccelerometerConvention, motion_from_reading
 from heft.systems.load_dynamics import noncontact_wrench
 from heft.systems.identification.rotation_sampling import (
@@ -72,10 +72,10 @@ def rotation_terms(recording: Recording, t: np.ndarray, data: StreamData, offset
         omega = _interpolate(t, t_w, raw)
     else:
         (t_w, raw), period = body_angular_velocity(t_o, q_o), data.periods["orientation"]
-        omega = _interpolate(t, t_w, savitzky_golay(raw, period, diff.window, diff.order))
+        omega = _interpolate(t, t_w, savitzky_golay(raw, period, diff.seconds, diff.order))
     alpha = None
     if rows["accelerometer"][1].shape[1] == 3:
-        alpha = _interpolate(t, t_w, savitzky_golay(raw, period, diff.window, diff.order, deriv=1))
+        alpha = _interpolate(t, t_w, savitzky_golay(raw, period, diff.seconds, diff.order, deriv=1))
     return g, omega, alpha
 
 
@@ -207,11 +207,12 @@ class RecordingSource:
         else:
             derived.append("α")
         if derived:
-            n = window_samples(period if source == "ω stream" else period, window.window, window.order)
+            n = window_samples(period, window.seconds, window.order)
             text = (f"from the {source}: " + ("ω as the rotation between consecutive samples over their interval, "
                                               if "ω" in derived else "")
-                    + f"Savitzky–Golay order {window.order} over {n} samples ({n * period * 1e3:.4g} ms)"
-                    + (", α its derivative" if "α" in derived else ""))
+                    + f"Savitzky–Golay order {window.order} over {n} samples ({n * period * 1e3:.4g} ms"
+                    + (", the default while the window is left to estimate" if window.window == ESTIMATE else "")
+                    + ")" + (", α its derivative" if "α" in derived else ""))
             for what in derived:
                 choices["omega" if what == "ω" else "alpha"] = text
         choices["gravity"] = (f"g_S = R_WSᵀ·{rec.gravity_W} m/s² from the orientation ({rec.orientation.kind})"
@@ -220,6 +221,18 @@ class RecordingSource:
         choices["clock_offsets_s"] = {name: (offset if offset == ESTIMATE else float(offset))
                                       for name, offset in self.stated_offsets().items()}
         return choices
+
+    def differentiated(self) -> bool:
+        """Whether ω or α comes through the ``differentiation`` filter (not both recorded)."""
+        return "angular_velocity" not in self.files or len(self.recording.accelerometer.columns) == 3
+
+    def state_differentiation_window(self, window: float, how: str) -> None:
+        """Takes the differentiation ``window`` (s) from here on, ``how`` it was chosen said in ``choices``."""
+        self.recording = with_differentiation_window(self.recording, window)
+        described = self._describe()
+        for key in ("omega", "alpha"):
+            if described[key] != self.choices[key]:
+                self.choices[key] = f"{described[key]}; {how}"
 
     # --- overlap ---------------------------------------------------------------------
     def common_interval(self, offsets: dict) -> tuple[float, float]:
@@ -237,7 +250,7 @@ class RecordingSource:
         """Time kept clear of a stream's ends: the derivative filter's half window for a stream differentiated."""
         if name == "accelerometer":
             return 0.0
-        return 0.5 * window_samples(self.period(name), self.recording.differentiation.window,
+        return 0.5 * window_samples(self.period(name), self.recording.differentiation.seconds,
                                     self.recording.differentiation.order) * self.period(name)
 
     def _check_overlap(self, offsets: dict) -> None:

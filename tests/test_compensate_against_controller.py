@@ -11,8 +11,8 @@ sample, the wrench in µs on the sensor's sign, the accelerometer in g in axes o
 stamped 6 ms late, the arm's joint angles; the clock offset is left to estimate.
 
 The issue's short case: 2 s of the same run exported with the wrench at 700 Hz and the accelerometer at
-250 Hz (linear axes, α from the joint angles through the default filter): the clock offset within
-0.2 ms, the residual within 1.5× the controller's.
+250 Hz (linear axes, α from the joint angles through the differentiation window `heft compensate` finds,
+the recording stating none): the clock offset within 0.2 ms, the residual within 1.5× the controller's.
 """
 
 import json
@@ -29,8 +29,8 @@ from heft.diagrams.scenario import overrides_text, resolve_scenario
 
 AXES = ("fx", "fy", "fz", "tx", "ty", "tz")
 # The lab's accelerometer either reports the JR3's angular channels (α measured, as the controller
-# had it) or only its linear ones (α from the joint angles, differentiated over a 20 ms window, which
-# their 2 kHz allow; the default 50 ms window is for 100 Hz poses and smooths this swing's α).
+# had it) or only its linear ones (α from the joint angles, differentiated over a stated 20 ms window,
+# which their 2 kHz allow; 50 ms, for 100 Hz poses, would smooth this swing's α).
 VARIANTS = {"alpha_measured": {"angular": True}, "alpha_from_joints": {"angular": False, "window": 0.02}}
 
 

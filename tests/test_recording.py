@@ -13,7 +13,8 @@ from recording_layouts import EPOCH_US, LATE, write_recording
 
 from heft.analysis import column_files
 from heft.analysis.clock_offsets import estimate_clock_offsets
-from heft.analysis.recording import load_recording
+from heft.analysis.differentiation_window import estimate_differentiation_window
+from heft.analysis.recording import load_recording, with_differentiation_window
 from heft.analysis.recording_merge import RecordingSource
 from heft.systems.identification.rotation_sampling import (
     body_angular_velocity, continuous, rotate_into_body, savitzky_golay, slerp, window_samples)
@@ -65,6 +66,40 @@ def test_an_offset_the_recording_cannot_tell_is_not_observable(tmp_path):
     fit = estimate_clock_offsets(RecordingSource(load_recording(tmp_path / "rec.yaml")), PAPER_TOOL.to_phi())
     assert not fit["accelerometer"].observable
     assert fit["accelerometer"].summary()["observable"] is False
+
+
+def _shaken_poses(folder, sigma: float) -> None:
+    """pose.csv's rotations each turned by a random rotation of ``sigma`` rad RMS per axis (a coarse tracker)."""
+    lines = (folder / "pose.csv").read_text().splitlines()
+    values = np.array([[float(x) for x in line.split(",")[1:]] for line in lines[1:]])
+    turns = Rotation.from_rotvec(np.random.default_rng(3).normal(size=(len(values), 3)) * sigma).as_matrix()
+    shaken = (values.reshape(-1, 3, 3) @ turns).reshape(-1, 9)
+    (folder / "pose.csv").write_text("\n".join([lines[0]] + [",".join([line.split(",")[0]] + [f"{x:.8f}" for x in row])
+                                                              for line, row in zip(lines[1:], shaken)]) + "\n")
+
+
+@pytest.mark.parametrize("sigma", [0.0, 0.002])
+def test_the_differentiation_window_is_the_one_that_explains_the_wrench_best(tmp_path, sigma):
+    """Exact poses at 100 Hz: the shortest window (50 ms), which smooths the motion least; poses shaken by 2 mrad:
+    a longer one, whose α is nearer Drake's than the 50 ms window's (its derivative lifts the shaking)."""
+    t, truth = write_recording(tmp_path)
+    if sigma:
+        _shaken_poses(tmp_path, sigma)
+    recording = load_recording(tmp_path / "rec.yaml")
+    assert recording.differentiation.window == "estimate" and recording.differentiation.seconds == 0.05
+    source = RecordingSource(recording)
+    fit = estimate_differentiation_window(source, PAPER_TOOL.to_phi(), source.resolved_offsets({"accelerometer": LATE}))
+    assert fit.windows[0] == pytest.approx(0.05) and fit.windows[-1] <= 0.2 + 0.01
+    assert min(fit.costs) == fit.costs[fit.windows.index(fit.window)] <= fit.default_cost
+    if not sigma:
+        assert fit.window == pytest.approx(0.05)
+        return
+    assert fit.window > 0.1
+
+    def alpha_error(window):
+        merged = RecordingSource(with_differentiation_window(recording, window)).merged({"accelerometer": LATE})
+        return np.sqrt(((merged.alpha - _at_truth(merged, t, truth, "alpha")) ** 2).mean())
+    assert alpha_error(fit.window) < 0.3 * alpha_error(0.05)
 
 
 def test_chunked_reading_gives_what_whole_reading_gives(foreign, monkeypatch):

@@ -27,8 +27,8 @@ def add_arguments(parser) -> None:
                         help="contact force magnitude (N) above which a sample is in contact (default: from the "
                              "recording's quietest stretches, see metrics.json)")
     parser.add_argument("--offset-window", type=float, nargs=2, metavar=("START", "DURATION"),
-                        help="wrench time (s) over which clock offsets marked 'estimate' are found "
-                             "(default: the first 60 s the streams share)")
+                        help="wrench time (s) over which clock offsets marked 'estimate' and the differentiation "
+                             "window, unless stated, are found (default: the first 60 s the streams share)")
     parser.add_argument("--offset-search", type=float, default=0.05,
                         help="largest clock offset (s) searched either way (default 0.05)")
 
@@ -60,6 +60,7 @@ def _with_progress(chunks, rows: int):
 def run(args) -> int:
     from heft.analysis.clock_offsets import estimate_clock_offsets
     from heft.analysis.compensation import compensate, compensation_figure, contact_threshold, scan_stride
+    from heft.analysis.differentiation_window import estimate_differentiation_window
     from heft.analysis.recording import ESTIMATE
     from heft.diagrams.load_estimate import read_load_estimate
     from heft.diagrams.recordings import open_recording
@@ -82,6 +83,21 @@ def run(args) -> int:
             say.info(f"clock offset of {name}: {1e3 * fit.offset:.3f} ms (estimated: V·φ̂ against the wrench"
                      + ("" if fit.observable else f"; NOT observable: {fit.why_not()}") + ")")
     offsets = source.resolved_offsets(offsets)
+    window_fit = None
+    if recording.differentiation.window == ESTIMATE and source.differentiated():
+        window = tuple(args.offset_window) if args.offset_window else None
+        window_fit = estimate_differentiation_window(source, estimate.phi, offsets, window=window,
+                                                     sensor_offsets=estimate.offsets)
+        source.state_differentiation_window(window_fit.window, window_fit.how())
+        recording = source.recording
+        say.info(f"differentiation window: {1e3 * window_fit.window:.3g} ms ({window_fit.how()})")
+        if fits:  # the clock offsets again, their search's kernel that of the window found
+            fits = estimate_clock_offsets(source, estimate.phi, streams=list(fits), window=window,
+                                          search=args.offset_search, initial=offsets, sensor_offsets=estimate.offsets)
+            for name, fit in fits.items():
+                offsets[name] = fit.offset
+                say.info(f"clock offset of {name} with that window: {1e3 * fit.offset:.3f} ms"
+                         + ("" if fit.observable else f"; NOT observable: {fit.why_not()}"))
     sign = -1.0 if recording.wrench.exerted_on == "sensor" else 1.0
     rows = source.spans["wrench"][2]
     threshold = contact_threshold(source.chunks(offsets, stride=scan_stride(rows), every_row=True), estimate.phi,
@@ -97,7 +113,10 @@ def run(args) -> int:
     compensation_figure(result, out / "figure.png")
     choices = {**source.choices, "clock_offsets_s": {
         name: {"offset_s": value, "how": "estimated" if name in fits else "stated",
-               **(fits[name].summary() if name in fits else {})} for name, value in offsets.items()}}
+               **(fits[name].summary() if name in fits else {})} for name, value in offsets.items()},
+               "differentiation_window": window_fit.summary() if window_fit is not None else
+               {"window_s": recording.differentiation.seconds, "how": "stated" if recording.differentiation.window
+                != ESTIMATE else "not needed: ω and α recorded"}}
     metrics = {"recording": str(args.recording), "estimate": str(args.estimate), "output": str(path),
                "choices": choices, "wrench_rows_outside_the_other_streams": source.dropped,
                **result.metrics()}
