@@ -113,18 +113,19 @@ def MakeTeleopController(spec: ControllerSpec, load: LoadEstimate, robot: Robot,
             builder.ConnectInput(name, port)
 
     export_input("master.position_measured", master_kinematics.get_input_port())
-    master_pose = master_kinematics.GetOutputPort("pose_BE")
+    master_pose, master_filter = master_kinematics.GetOutputPort("pose_BE"), None
     if spec.motion.master_filter > 0 or spec.motion.master_notch > 0:
         # the motion mapping follows the filtered positions, the feedback the measured
         master_filter = builder.AddNamedSystem("master_filter", MasterPositionFilter(
             spec.motion.master_filter, period, spec.motion.master_notch, spec.motion.master_notch_quality))
         filtered_kinematics = builder.AddNamedSystem("master_filtered_kinematics",
                                                      MasterKinematics(master_plant))
-        builder.ConnectInput("master.position_measured", master_filter.get_input_port())
+        builder.ConnectInput("master.position_measured", master_filter.GetInputPort("position"))
         builder.Connect(master_filter.get_output_port(), filtered_kinematics.get_input_port())
         master_pose = filtered_kinematics.GetOutputPort("pose_BE")
     export_input("master.velocity_estimated", passivity.GetInputPort("velocity"))
-    export_input("hold", passivity.GetInputPort("hold"))
+    export_input("hold", passivity.GetInputPort("hold"), *([] if master_filter is None else
+                                                           [master_filter.GetInputPort("hold")]))
     export_input("slave.position_measured", slave_kinematics.GetInputPort("position"),
                  ik.GetInputPort("position_measured"))
     export_input("slave.velocity_estimated", slave_kinematics.GetInputPort("velocity"),

@@ -12,19 +12,22 @@ PERIOD, CUTOFF = 0.0005, 60.0
 COUNT = 1.5e-4  # rad, one encoder count of the Phantom
 
 
-def run(positions, cutoff=CUTOFF, notch=0.0, notch_quality=0.7):
-    """The block's output after each tick of ``positions`` (one row a tick), started on the first."""
+def run(positions, cutoff=CUTOFF, notch=0.0, notch_quality=0.7, holds=None):
+    """The block's output after each tick of ``positions`` (one row a tick), started on the first; ``holds``:
+    each tick's time since the last (s; default the period)."""
     builder = DiagramBuilder()
     block = builder.AddSystem(MasterPositionFilter(cutoff, PERIOD, notch, notch_quality))
-    builder.ExportInput(block.get_input_port(), "position")
+    builder.ExportInput(block.GetInputPort("position"), "position")
+    builder.ExportInput(block.GetInputPort("hold"), "hold")
     builder.ExportOutput(block.get_output_port(), "position")
     program = TickProgram(builder.Build())
     program.input("position")[:] = positions[0]
     program.reset()
     program.initialize()
     out = []
-    for row in positions:
+    for k, row in enumerate(positions):
         program.input("position")[:] = row
+        program.input("hold")[:] = PERIOD if holds is None else holds[k]
         program.tick()
         out.append(program.output("position").copy())
     return np.array(out)
@@ -90,3 +93,22 @@ def test_the_notch_takes_the_counts_out_at_the_mounts_modes_and_leaves_the_motio
 def test_no_filter_at_all_is_refused():
     with pytest.raises(ValueError, match="master_filter and master_notch are both 0"):
         MasterPositionFilter(0.0, PERIOD, 0.0)
+
+
+@pytest.mark.parametrize("cutoff", [0.0, CUTOFF])
+def test_a_tick_late_by_one_period_catches_the_filter_up(cutoff):
+    """A tick skipped in a steady motion (the next one 2 periods after the last): the stages step twice, the
+    first time on the position halfway, and the output goes on as if no tick had been skipped; stepped once,
+    the notch's output would dip by up to 65 % of the skipped tick's motion."""
+    velocity = 0.2 * np.arange(1, 7)  # rad/s
+    t = np.arange(400) * PERIOD
+    positions = np.outer(t, velocity)
+    every = run(positions, cutoff, 110.0)
+    ticks = np.delete(np.arange(400), 200)  # tick 200 skipped
+    holds = np.full(len(ticks), PERIOD)
+    holds[200] = 2 * PERIOD
+    late = run(positions[ticks], cutoff, 110.0, holds=holds)
+    np.testing.assert_allclose(late, every[ticks], rtol=0, atol=1e-12)
+    once = run(positions[ticks], cutoff, 110.0)
+    dip = np.abs(once - every[ticks]).max(axis=0) / (velocity * PERIOD)
+    assert dip.min() > 0.3

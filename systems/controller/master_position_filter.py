@@ -15,6 +15,13 @@ feedback's Jacobian stays the measured positions'):
 
 Each stage has unit gain at rest; it starts, and restarts after a non-finite sample, in the steady state of the
 position it gets.
+
+A tick that comes k periods after the last (``hold``, s: the loop paused, its ticks skipped) steps the stages k
+times, on the positions linearly between the last sample and this one, so that their clock keeps the time that
+passed. Stepped once, the stages would take the skipped time as not passed: a step of the position by the motion
+over the skipped ticks, which the notch answers with a dip of the output that takes back, in all, the motion over
+its DC group delay 1/(Q·2π·f₀) (2.1 ms at 110 Hz, Q 0.7) on top of the skipped ticks' own, and rings the mount.
+At most ``MAX_CATCH_UP`` periods are caught up.
 """
 
 import math
@@ -31,24 +38,51 @@ from heft.systems.tick_system import TickSystem
 
 STAGE_SIZE = 3 * NUM_JOINTS
 """One stage's state: its last output, then its two delay rows (``prefilter_step``)."""
+MAX_CATCH_UP = 40
+"""Periods a late tick catches up at most (20 ms at 2 kHz, the station's watchdog: longer, the controller restarts)."""
+
+
+@compiled("void(float64[:, :], float64[:], float64[:])")
+def stages_step(coefficients, state, sample) -> None:
+    """Stage i (``coefficients[i]``, (b0, b1, b2, a1, a2)) steps ``prefilter_step`` in place on its part of
+    ``state`` on the output of stage i − 1 (the first on ``sample``)."""
+    width = sample.shape[0]
+    prefilter_step(coefficients[0], state[0:3 * width], sample)
+    for i in range(1, coefficients.shape[0]):
+        prefilter_step(coefficients[i], state[3 * width * i:3 * width * (i + 1)],
+                       state[3 * width * (i - 1):3 * width * (i - 1) + width])
 
 
 @compiled("void(float64[:], float64[:, :], float64[:], float64[:])")
 def filter_step_into(out, coefficients, state, sample) -> None:
-    """The stages' state after ``sample`` into ``out``: stage i (``coefficients[i]``, (b0, b1, b2, a1, a2)) steps
-    ``prefilter_step`` from its part of ``state`` on the output of stage i − 1 (the first on ``sample``)."""
+    """The stages' state after ``sample`` into ``out`` (``stages_step`` from ``state``)."""
     out[:] = state
-    width = sample.shape[0]
-    prefilter_step(coefficients[0], out[0:3 * width], sample)
-    for i in range(1, coefficients.shape[0]):
-        prefilter_step(coefficients[i], out[3 * width * i:3 * width * (i + 1)],
-                       out[3 * width * (i - 1):3 * width * (i - 1) + width])
+    stages_step(coefficients, out, sample)
 
 
-@compiled("void(float64[:], float64[:])")
-def filter_commit(state, step) -> None:
-    """``state`` ← the tick's ``step``."""
+@compiled("void(float64[:], float64[:, :], float64[:], float64[:], float64[:], float64[:], float64, float64[:])")
+def filter_catch_up_into(out, coefficients, state, last, sample, hold, period, scratch) -> None:
+    """The stages' state after a tick ``hold[0]`` s after the last into ``out``: k = round(hold/period) steps
+    (1 to ``MAX_CATCH_UP``) from ``state``, the first k − 1 on the positions linearly between ``last`` (the
+    last tick's sample) and ``sample`` (one step if ``last`` is not finite), the last on ``sample``;
+    ``scratch`` (as ``sample``) for the positions between."""
+    out[:] = state
+    k = min(max(round(hold[0] / period), 1), MAX_CATCH_UP) if math.isfinite(hold[0]) else 1
+    for i in range(last.shape[0]):
+        if not math.isfinite(last[i]):
+            k = 1
+    for j in range(1, k):
+        for i in range(sample.shape[0]):
+            scratch[i] = last[i] + (sample[i] - last[i]) * j / k
+        stages_step(coefficients, out, scratch)
+    stages_step(coefficients, out, sample)
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64[:])")
+def filter_commit(state, last, step, sample) -> None:
+    """``state`` ← the tick's ``step``, ``last`` ← its ``sample``."""
     state[:] = step
+    last[:] = sample
 
 
 def notch_stage(frequency: float, quality: float, period: float) -> np.ndarray:
@@ -74,9 +108,11 @@ def filter_stages(cutoff: float, notch: float, notch_quality: float, period: flo
 
 
 class MasterPositionFilter(TickSystem):
-    """Input ``position`` q_M (6, rad) → output ``position`` (6, rad): q_M low-passed at ``cutoff`` (Hz), then
-    notched at ``notch`` (Hz, quality ``notch_quality``), each stage left out at 0 (at least one is needed),
-    stepped every ``period`` (s). State: per stage, its last output, then its two delay rows (``prefilter_step``)."""
+    """Inputs ``position`` q_M (6, rad) and ``hold`` (1, s since the last tick; default ``period``) → output
+    ``position`` (6, rad): q_M low-passed at ``cutoff`` (Hz), then notched at ``notch`` (Hz, quality
+    ``notch_quality``), each stage left out at 0 (at least one is needed), stepped every ``period`` (s), a late
+    tick catching up the periods it covers (module docstring). State ``filter``: per stage, its last output,
+    then its two delay rows (``prefilter_step``); ``last``: the last tick's q_M."""
 
     def __init__(self, cutoff: float, period: float, notch: float = 0.0, notch_quality: float = 0.7):
         stages = filter_stages(cutoff, notch, notch_quality, period)
@@ -85,7 +121,10 @@ class MasterPositionFilter(TickSystem):
         super().__init__(period)
         size = STAGE_SIZE * len(stages)
         self.DeclareTickInput("position", NUM_JOINTS)
+        self.DeclareTickInput("hold", 1, [period])
         self.DeclareTickState("filter", np.full(size, np.nan))
-        self.DeclareTickCalc("step", size, filter_step_into, "calc:step", stages, "x:filter", "in:position")
-        self.DeclareTickUpdate(filter_commit, "next:filter", "calc:step")
+        self.DeclareTickState("last", np.full(NUM_JOINTS, np.nan))
+        self.DeclareTickCalc("step", size, filter_catch_up_into, "calc:step", stages, "x:filter", "x:last",
+                             "in:position", "in:hold", float(period), np.zeros(NUM_JOINTS))
+        self.DeclareTickUpdate(filter_commit, "next:filter", "next:last", "calc:step", "in:position")
         self.DeclareTickOutput("position", "calc:step", size - STAGE_SIZE, size - STAGE_SIZE + NUM_JOINTS)
