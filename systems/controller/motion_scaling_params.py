@@ -25,13 +25,13 @@ class MotionScalingParams:
     longer ring the tool on its mount: fig6, σ = 0, leaves 0.68 % of the non-contact peak, against 1.15 %
     without; its delay costs the contact loop stability margin (docs/scenarios.md)."""
 
-    master_notch: float = 0.0
+    master_notch: float = 110.0
     """Centre (Hz) of a notch on the master's measured joint positions (``master_position_filter``), after the
-    low-pass if both are set, below the controller's Nyquist frequency; 0: none (the default). At the
-    translational modes of the tool on its compliant mount (a lab's from a tap test, as for
-    ``controller.force.mount_notch``), which the encoder counts ring: at 110 Hz in the default station fig6, σ = 0,
-    leaves 0.84 % of the non-contact peak, against 1.15 % without, for 5° of phase at 7 Hz, where the contact loop's
-    poles leave the unit circle; a one-tick hiccup of the loop then rings the mount more (docs/scenarios.md)."""
+    low-pass if both are set, below the controller's Nyquist frequency; 0: none. At the translational modes of the
+    tool on its compliant mount (a lab's from a tap test, as for ``controller.force.mount_notch``), which the
+    encoder counts ring: at 110 Hz (the default) in the default station fig6, σ = 0, leaves 0.84 % of the
+    non-contact peak, against 1.15 % without, for 5° of phase at 7 Hz, where the contact loop's poles leave the
+    unit circle (docs/scenarios.md)."""
 
     master_notch_quality: float = 0.7
     """Q of that notch, its centre over its −3 dB width: low, so that one notch covers the modes (60–220 Hz)."""
