@@ -114,10 +114,11 @@ def test_simulate_grasp_keeps_eta_of_the_objects_weight(tmp_path):
     2 %), and from then on the fed-back force, averaged over 10 ms, stays within 5 % of the
     object's weight of contact + η·(its non-contact wrench) (per sample the sensors' noise,
     ≈ 0.26 N, is about 5 % of it). In the realistic station this takes the default controller's
-    notch at the mount's rocking mode (and its estimator's prefilter): without the notch the
-    rocking, fed back as contact, sustains itself through the hand and the arm and the force is
-    off by about 15 % of the weight (README). When written: 3.6 % ideal; 3.7, 4.4 and 3.7 %
-    realistic at η = 0.5, 0 and 1; 26 % without the notch."""
+    notch at the mount's rocking mode (and its estimator's prefilter): without that notch the
+    rocking, fed back as contact, sustains itself through the hand and the arm and the force misses
+    the bound. Measured: 3.6 % ideal; 3.0, 3.9 and 3.2 % realistic at η = 0.5, 0 and 1; 7.5 % without
+    the notch (26 % before the notch on the master's positions kept the encoder counts from ringing
+    the mount)."""
     runs = [("ideal", 0.5, []), ("realistic", 0.5, []), ("realistic", 0.0, []), ("realistic", 1.0, []),
             ("realistic", 0.5, ["--set", "{controller: {force: {mount_notch: 0}}}"])]
     deviations = []
@@ -134,7 +135,7 @@ def test_simulate_grasp_keeps_eta_of_the_objects_weight(tmp_path):
         deviations.append(grasp["force_deviation_smoothed_peak_of_weight"])
     print("force deviation / object's weight:", ", ".join(f"{d:.3f}" for d in deviations))
     assert max(deviations[:-1]) < 0.05
-    assert deviations[-1] > 0.08  # the notch is what keeps the realistic station within 5 %
+    assert deviations[-1] > 0.05  # the notch is what keeps the realistic station within 5 %
 
 
 def test_station_ideal_lays_the_ideal_station_under_the_commands_options():
