@@ -22,12 +22,12 @@ counted.
 
 from __future__ import annotations
 
-import itertools
 import math
 import multiprocessing
 import os
 import pickle
 import queue
+import shutil
 import socket
 import tempfile
 import time
@@ -65,9 +65,9 @@ LINGER = 0.5
 """s the server stays up after the last row, for its messages to reach the clients."""
 START_TIMEOUT = 120.0
 """s the worker may take to start (imports, the scene's plants, the server's socket)."""
-EVENT_BUFFER = 1 << 20
-"""Bytes of events the worker's socket holds unread (a second of a 10 Hz status many times over)."""
-_ADDRESSES = itertools.count()
+EVENT_MAX = 1 << 16
+"""The largest event (bytes, pickled). The worker's socket holds ``net.unix.max_dgram_qlen`` of them unread (10 by
+default: a second of the 10 Hz station status); beyond, they are dropped and counted."""
 _HEADER = 3  # [rows written, stop, the messages' time origin (ns, int64 bits)]
 
 
@@ -79,9 +79,9 @@ class TickTap:
         self._sink, self._rate, self._robot, self._master = sink, rate, robot, master
         self._rows = RING_ROWS if rate == 0 else min(RING_ROWS, math.ceil(RING_SECONDS * rate))
         self._process = self._widths = None
-        self._topics, self._event_topics = (), set()
+        self._topics, self._event_topics, self._lcm_topics = (), set(), set()
         self.events_dropped = 0
-        """Events not sent because the worker's socket was full (``EVENT_BUFFER``)."""
+        """Events not sent: the worker's socket full (``EVENT_MAX``), or the worker gone."""
 
     @property
     def every_row(self) -> bool:
@@ -115,7 +115,8 @@ class TickTap:
             return
         self.close()
         self._widths, self._topics = dict(widths), tuple(topics)
-        self._event_topics = {*(topic.name for topic in EVENT_TOPICS), *self._topics}
+        self._lcm_topics = {topic.name for topic in EVENT_TOPICS}
+        self._event_topics = {*self._lcm_topics, *self._topics}
         columns = 1 + sum(self._widths.values())
         file = tempfile.NamedTemporaryFile(prefix="heft-view-", dir="/dev/shm" if os.path.isdir("/dev/shm") else None,
                                            delete=False)
@@ -137,7 +138,9 @@ class TickTap:
         spawn = multiprocessing.get_context("spawn")
         self._events = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
         self._events.setblocking(False)
-        self._event_address = f"\0heft-view-{os.getpid()}-{next(_ADDRESSES)}"  # Linux's abstract namespace
+        self._event_folder = tempfile.mkdtemp(prefix="heft-view-")  # the user's alone: no other sends to it
+        self._event_address = os.path.join(self._event_folder, "events")
+        self.events_dropped = 0
         self._replies = replies = spawn.Queue()
         self._process = spawn.Process(target=_work, args=(self._path, self._widths, self._topics, self._rows,
                                                           self._sink, self._robot, self._master, self._rate,
@@ -187,19 +190,21 @@ class TickTap:
     def event(self, topic: str, message: dict | bytes, t: float) -> None:
         """A rare message at ``t`` (s, the loop's clock): on an event topic (``analysis.topics.EVENT_TOPICS``;
         ``message`` the LCM message's bytes, converted by the worker as ``heft export`` converts them, or a dict),
-        or on a row topic named at ``open`` (``Topic.message``'s dict). Never waits: with the worker's socket
-        full it is dropped, and counted (``events_dropped``)."""
+        or on a row topic named at ``open`` (``Topic.message``'s dict). Never waits, and never fails the loop:
+        with the worker's socket full, or the worker gone, it is dropped and counted (``events_dropped``)."""
         if topic not in self._event_topics:
             raise ValueError(f"{topic} takes no events here: an event topic, or a row topic named by open(topics=…)")
+        if isinstance(message, bytes) and topic not in self._lcm_topics:
+            raise ValueError(f"{topic} is a row topic: its event is a dict (Topic.message), not an LCM message's bytes")
         try:
             self._events.sendto(pickle.dumps((topic, t, message), pickle.HIGHEST_PROTOCOL), self._event_address)
-        except BlockingIOError:
+        except OSError:  # full, the worker gone, or larger than EVENT_MAX
             self.events_dropped += 1
 
     def close(self) -> dict:
         """Stops the worker after it has handled every row (the recorder: encoded every row it
         spooled, however long that takes); {"rows": handled, "dropped": rows lost, "events_dropped": events lost}
-        ({} if not open)."""
+        ({} if not open; the rows' counts only if the worker gave them)."""
         if self._process is None:
             return {}
         self._events.close()  # every event sent is in the worker's socket before it is told to stop
@@ -215,8 +220,8 @@ class TickTap:
         self._process = self._widths = None
         self._slots, self._head = [], None
         Path(self._path).unlink(missing_ok=True)
-        stats = stats if isinstance(stats, dict) else {}
-        return {**stats, "events_dropped": self.events_dropped} if stats else stats
+        shutil.rmtree(self._event_folder, ignore_errors=True)
+        return {**(stats if isinstance(stats, dict) else {}), "events_dropped": self.events_dropped}
 
 
 class LiveView(TickTap):
@@ -277,9 +282,9 @@ def _work(path, widths: dict, topics: tuple, rows: int, sink: tuple, robot: Robo
     to stop."""
     _leave_the_loop(rate == 0)
     events = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
-    events.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, EVENT_BUFFER)
     events.bind(event_address)
     events.setblocking(False)
+    event_buffer = bytearray(EVENT_MAX)
     try:
         from heft.analysis.lcm_messages import event_from_lcm
         from heft.analysis.run_export import foxglove_channel, foxglove_sdk
@@ -342,9 +347,10 @@ def _work(path, widths: dict, topics: tuple, rows: int, sink: tuple, robot: Robo
             written, t0 = int(head[0]), int(origin[0])
             while True:
                 try:
-                    topic, t, message = pickle.loads(events.recv(EVENT_BUFFER))
+                    size = events.recv_into(event_buffer)
                 except BlockingIOError:
                     break
+                topic, t, message = pickle.loads(memoryview(event_buffer)[:size])
                 if isinstance(message, bytes):
                     message = event_from_lcm(topic, message)
                 channels[topic].log(encode(message), log_time=t0 + round(t * 1e9))

@@ -189,3 +189,18 @@ def test_events_reach_the_file_converted_as_export_does_and_start_no_thread(tmp_
                                                 "restarts": 0, "second_publisher": True}}}),
         ("/load/command", {"utime": 9, "action": 3, "phi": [0.5] + [0.0] * 9, "offsets": [0.25] * 6}),
         ("/faults", {"healthy": False})]
+
+
+def test_an_event_to_a_worker_gone_is_counted_not_raised(tmp_path):
+    """The loop never fails for its view: with the worker killed, an event is dropped and counted; an LCM message's
+    bytes on a row topic, which the worker could not convert, are refused at the call."""
+    recorder = McapRecorder(tmp_path / "gone.mcap")
+    recorder.open({"wrench_measured": 6}, topics=("/estimate/phi",))
+    with pytest.raises(ValueError, match="/estimate/phi is a row topic"):
+        recorder.event("/estimate/phi", b"\x00" * 8, 0.0)
+    recorder._process.kill()
+    recorder._process.join()
+    recorder.event("/faults", {"healthy": True}, 0.1)
+    recorder.event("/faults", b"\x00" * 8, 0.2)
+    assert recorder.events_dropped == 2
+    assert recorder.close()["events_dropped"] == 2
