@@ -52,8 +52,7 @@ RING_ROWS = 4096
 RING_SECONDS = 2.0
 """A rate-limited tap's ring holds this long of its rows (s at its rate; at most ``RING_ROWS``)."""
 WORKER_NICENESS = 10
-"""The recorder's worker's nice value, below the loop's and the drivers' (``_leave_the_loop``); the live view's
-worker runs only on a CPU nothing else wants (``SCHED_IDLE``): a client that sees fewer rows loses nothing."""
+"""The worker's nice value: below the loop's priority (``_leave_the_loop``)."""
 POLL = 0.005
 """s between the worker's looks at the ring."""
 SCENE_RATE = DEFAULT_RATE
@@ -261,16 +260,12 @@ def simulation_monitor(view: TickTap, log, names: dict):
     return monitor
 
 
-def _leave_the_loop(every_row: bool) -> None:
-    """Gives up what the worker inherited from a real-time loop that started it: ``SCHED_FIFO`` (normal
-    scheduling niced by ``WORKER_NICENESS`` for a recorder, which takes ``every_row``; ``SCHED_IDLE`` for the live
-    view, so that drivers sharing its CPU are never kept waiting), and a CPU of its own (the others, if any)."""
-    if every_row:
-        if os.sched_getscheduler(0) != os.SCHED_OTHER:
-            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
-        os.nice(WORKER_NICENESS)
-    else:
-        os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
+def _leave_the_loop() -> None:
+    """Gives up what the worker inherited from a real-time loop that started it: ``SCHED_FIFO``
+    (normal scheduling, niced by ``WORKER_NICENESS``), and a CPU of its own (the others, if any)."""
+    if os.sched_getscheduler(0) != os.SCHED_OTHER:
+        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    os.nice(WORKER_NICENESS)
     mine, every = os.sched_getaffinity(0), set(range(os.cpu_count() or 1))
     if len(mine) == 1 and every - mine:
         os.sched_setaffinity(0, every - mine)
@@ -280,7 +275,7 @@ def _work(path, widths: dict, topics: tuple, rows: int, sink: tuple, robot: Robo
           event_address: str, replies) -> None:
     """The worker process: serves or writes the ring's rows and the events sent to ``event_address`` until told
     to stop."""
-    _leave_the_loop(rate == 0)
+    _leave_the_loop()
     events = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
     events.bind(event_address)
     events.setblocking(False)
