@@ -50,7 +50,6 @@ from heft.analysis.plotting import plt
 import numpy as np
 from heft.analysis.stability import llewellyn_absolutely_stable
 from heft.systems.controller.force_scaling import notch_coefficients
-from heft.systems.controller.master_position_filter import notch_stage
 from heft.systems.station.sensor_models import lowpass_coefficients
 from heft.systems.station.setpoint_filter import critically_damped_step_matrices
 from pydrake.autodiffutils import ExtractGradient, InitializeAutoDiff
@@ -241,7 +240,7 @@ def MakeController(params: LinearTeleoperatorParams):
     master_filter = builder.AddNamedSystem("master_filter", _biquad_on(
         lowpass_coefficients(p.master_filter, p.period), 0, 1, p.period))
     master_notch = builder.AddNamedSystem("master_notch", _biquad_on(
-        notch_stage(p.master_notch, p.master_notch_quality, p.period) if p.master_notch > 0 else None, 0, 1,
+        notch_coefficients(p.master_notch, p.master_notch_quality, p.period, "master_notch"), 0, 1,
         p.period))
     forward = _delay(builder, int(p.forward_delay_ticks) + n, p.period)
     A, B = critically_damped_step_matrices(p.setpoint_bandwidth, p.period)

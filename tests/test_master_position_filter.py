@@ -112,3 +112,12 @@ def test_a_tick_late_by_one_period_catches_the_filter_up(cutoff):
     once = run(positions[ticks], cutoff, 110.0)
     dip = np.abs(once - every[ticks]).max(axis=0) / (velocity * PERIOD)
     assert dip.min() > 0.3
+
+
+def test_the_loops_jitter_steps_the_filter_once_a_tick():
+    """Ticks 1.7 and then 0.3 periods apart, within what the loop tolerates without skipping one
+    (``CATCH_UP_FROM``), step the stages once each, as ticks on time do."""
+    positions = np.outer(np.arange(400) * PERIOD, 0.2 * np.arange(1, 7))
+    holds = np.full(400, PERIOD)
+    holds[100::50], holds[101::50] = 1.7 * PERIOD, 0.3 * PERIOD
+    np.testing.assert_array_equal(run(positions, CUTOFF, 110.0, holds=holds), run(positions, CUTOFF, 110.0))

@@ -100,14 +100,16 @@ def decay_factor(dt: float, fault_decay_time: float) -> float:
     return math.exp(-dt / fault_decay_time) if fault_decay_time > 0 else 0.0
 
 
-def notch_coefficients(frequency: float, quality: float, period: float) -> np.ndarray | None:
+def notch_coefficients(frequency: float, quality: float, period: float,
+                       setting: str = "controller.force.mount_notch") -> np.ndarray | None:
     """(b0, b1, b2, a1, a2, z1, z2) of the second-order notch at ``frequency`` (Hz) of quality
     ``quality`` at sample ``period`` (s) (``scipy.signal.iirnotch``; a0 = 1), with its state
-    (z1, z2) per unit input in the steady state; None for frequency 0."""
+    (z1, z2) per unit input in the steady state; None for frequency 0. A frequency at or above Nyquist's
+    raises ValueError naming ``setting``."""
     if frequency == 0:
         return None
     if not frequency < 0.5 / period:
-        raise ValueError(f"controller.force.mount_notch ({frequency:g} Hz) must lie below the controller's "
+        raise ValueError(f"{setting} ({frequency:g} Hz) must lie below the controller's "
                          f"Nyquist frequency {0.5 / period:g} Hz; lower it or set it to 0 (none)")
     b, a = iirnotch(frequency, quality, fs=1.0 / period)
     return np.concatenate((b, a[1:], lfilter_zi(b, a)))

@@ -9,15 +9,15 @@ feedback's Jacobian stays the measured positions'):
 
 - a Butterworth low-pass at ``controller.motion.master_filter`` Hz (off by default: its delay in the motion's band
   costs the contact loop margin);
-- a notch at ``controller.motion.master_notch`` Hz of quality ``master_notch_quality`` (off by default; at the
+- a notch at ``controller.motion.master_notch`` Hz of quality ``master_notch_quality`` (on by default, at the
   mount's translational modes): it takes the counts out where they ring the tool and leaves the motion's band,
   where the contact loop lives (its unstable mode is near 7 Hz), all but untouched (5° there).
 
 Each stage has unit gain at rest; it starts, and restarts after a non-finite sample, in the steady state of the
 position it gets.
 
-A tick that comes k periods after the last (``hold``, s: the loop paused, its ticks skipped) steps the stages k
-times, on the positions linearly between the last sample and this one, so that their clock keeps the time that
+A tick that comes k periods after the last (``hold``, s: the loop paused, its ticks skipped; ``CATCH_UP_FROM``
+tells a skipped tick from the loop's jitter) steps the stages k times, on the positions linearly between the last sample and this one, so that their clock keeps the time that
 passed. Stepped once, the stages would take the skipped time as not passed: a step of the position by the motion
 over the skipped ticks, which the notch answers with a dip of the output that takes back, in all, the motion over
 its DC group delay 1/(Q·2π·f₀) (2.1 ms at 110 Hz, Q 0.7) on top of the skipped ticks' own, and rings the mount.
@@ -28,10 +28,9 @@ import math
 
 import numpy as np
 
-from scipy.signal import iirnotch
-
 from heft.systems.compiled import compiled
 from heft.systems.controller.estimator_prefilter import prefilter_step
+from heft.systems.controller.force_scaling import notch_coefficients
 from heft.systems.controller.master_kinematics import NUM_JOINTS
 from heft.systems.station.sensor_models import lowpass_coefficients
 from heft.systems.tick_system import TickSystem
@@ -39,7 +38,10 @@ from heft.systems.tick_system import TickSystem
 STAGE_SIZE = 3 * NUM_JOINTS
 """One stage's state: its last output, then its two delay rows (``prefilter_step``)."""
 MAX_CATCH_UP = 40
-"""Periods a late tick catches up at most (20 ms at 2 kHz, the station's watchdog: longer, the controller restarts)."""
+"""Periods a late tick catches up at most (20 ms at 2 kHz with the station's default watchdog)."""
+CATCH_UP_FROM = 1.75
+"""Periods a tick must come after the last for the filter to step twice: the real-time loop starts a tick up to half
+a period late and a quarter early without skipping one (``diagrams.running.realtime``), so closer is jitter."""
 
 
 @compiled("void(float64[:, :], float64[:], float64[:])")
@@ -62,12 +64,12 @@ def filter_step_into(out, coefficients, state, sample) -> None:
 
 @compiled("void(float64[:], float64[:, :], float64[:], float64[:], float64[:], float64[:], float64, float64[:])")
 def filter_catch_up_into(out, coefficients, state, last, sample, hold, period, scratch) -> None:
-    """The stages' state after a tick ``hold[0]`` s after the last into ``out``: k = round(hold/period) steps
-    (1 to ``MAX_CATCH_UP``) from ``state``, the first k − 1 on the positions linearly between ``last`` (the
+    """The stages' state after a tick ``hold[0]`` s after the last into ``out``: k = ⌊hold/period + 2 −
+    ``CATCH_UP_FROM``⌋ steps (1 to ``MAX_CATCH_UP``) from ``state``, the first k − 1 on the positions linearly between ``last`` (the
     last tick's sample) and ``sample`` (one step if ``last`` is not finite), the last on ``sample``;
     ``scratch`` (as ``sample``) for the positions between."""
     out[:] = state
-    k = min(max(round(hold[0] / period), 1), MAX_CATCH_UP) if math.isfinite(hold[0]) else 1
+    k = min(max(math.floor(hold[0] / period + 2.0 - CATCH_UP_FROM), 1), MAX_CATCH_UP) if math.isfinite(hold[0]) else 1
     for i in range(last.shape[0]):
         if not math.isfinite(last[i]):
             k = 1
@@ -85,13 +87,6 @@ def filter_commit(state, last, step, sample) -> None:
     last[:] = sample
 
 
-def notch_stage(frequency: float, quality: float, period: float) -> np.ndarray:
-    """(b0, b1, b2, a1, a2) of the second-order notch at ``frequency`` (Hz) of ``quality`` (``scipy.signal.iirnotch``;
-    a0 = 1) at sample ``period`` (s)."""
-    b, a = iirnotch(frequency, quality, fs=1.0 / period)
-    return np.concatenate((b, a[1:]))
-
-
 def filter_stages(cutoff: float, notch: float, notch_quality: float, period: float) -> np.ndarray:
     """The stages' coefficients, (count, 5): the low-pass at ``cutoff`` Hz, then the notch at ``notch`` Hz, each
     left out at 0 (none: (0, 5))."""
@@ -103,7 +98,8 @@ def filter_stages(cutoff: float, notch: float, notch_quality: float, period: flo
     if notch > 0 and not (math.isfinite(notch_quality) and notch_quality > 0):
         raise ValueError(f"controller.motion.master_notch_quality must be finite and > 0; got {notch_quality}")
     stages = [lowpass_coefficients(cutoff, period)] if cutoff > 0 else []
-    stages += [notch_stage(notch, notch_quality, period)] if notch > 0 else []
+    stages += [notch_coefficients(notch, notch_quality, period, "controller.motion.master_notch")[:5]] if notch > 0 \
+        else []
     return np.array(stages, dtype=float).reshape(-1, 5)
 
 
