@@ -118,6 +118,21 @@ def contact_free(t: np.ndarray, residual: np.ndarray, guard: float, sensor_offse
     return right <= left
 
 
+def wrench_snapshot(source: RecordingSource, lo: float, hi: float, window: tuple[float, float] | None, offsets: dict,
+                    margin: float, max_samples: int, purpose: str):
+    """(t, wrench, data, stride) of the wrench rows in ``window`` ((start, duration) s of wrench time; default the
+    first 60 s from ``lo``) within [``lo``, ``hi``], at most ``max_samples`` of them (every ``stride``-th), the
+    other streams at ``offsets`` and ``margin`` s beyond; a ValueError, naming ``purpose``, if none is left."""
+    start, duration = window if window is not None else (lo, 60.0)
+    lo, hi = max(lo, start), min(hi, start + duration)
+    if hi <= lo:
+        raise ValueError(f"no wrench time is left to {purpose} in (window {start}–{start + duration} s, streams "
+                         f"shared within ±{margin:g} s)")
+    rows = max(1, int(round((hi - lo) / source.period("wrench"))))
+    stride = max(1, rows // max_samples)
+    return (*source.snapshot((lo, hi), offsets, margin=margin + 0.01, stride=stride), stride)
+
+
 def estimate_clock_offsets(source: RecordingSource, phi, streams=None, window: tuple[float, float] | None = None,
                            search: float = 0.05, max_samples: int = 20000, initial: dict | None = None,
                            sensor_offsets=None) -> dict:
@@ -130,15 +145,8 @@ def estimate_clock_offsets(source: RecordingSource, phi, streams=None, window: t
     offsets = {name: 0.0 if value == "estimate" else float(value) for name, value in stated.items()}
     offsets.update(initial or {})
     lo, hi = source.common_interval({n: offsets[n] for n in offsets if n not in streams})
-    lo, hi = lo + search, hi - search
-    start, duration = window if window is not None else (lo, 60.0)
-    lo, hi = max(lo, start), min(hi, start + duration)
-    if hi <= lo:
-        raise ValueError(f"no wrench time is left to estimate clock offsets in (window {start}–{start + duration} s, "
-                         f"streams shared within ±{search} s)")
-    rows = max(1, int(round((hi - lo) / source.period("wrench"))))
-    stride = max(1, rows // max_samples)
-    t, wrench, data = source.snapshot((lo, hi), offsets, margin=search + 0.01, stride=stride)
+    t, wrench, data, stride = wrench_snapshot(source, lo + search, hi - search, window, offsets, search, max_samples,
+                                              "estimate clock offsets")
     diff = source.recording.differentiation
     wrench = like_derived(wrench, source.period("wrench") * stride, diff.seconds, diff.order)
     t_a, acc = data.rows["accelerometer"]

@@ -17,7 +17,7 @@ import dataclasses
 
 import numpy as np
 
-from heft.analysis.clock_offsets import MIN_FREE, contact_free, residual_cost, residuals
+from heft.analysis.clock_offsets import MIN_FREE, contact_free, residual_cost, residuals, wrench_snapshot
 from heft.analysis.recording import with_differentiation_window
 from heft.analysis.recording_merge import RecordingSource
 from heft.systems.identification.rotation_sampling import window_samples
@@ -67,14 +67,8 @@ def estimate_differentiation_window(source: RecordingSource, phi, offsets: dict,
     counts = sorted({window_samples(period, w, order) for w in np.geomspace(shortest, longest, GRID_POINTS)})
     windows = [n * period for n in counts]
     half = 0.5 * windows[-1]
-    start, duration = window if window is not None else (lo + half, 60.0)
-    lo, hi = max(lo + half, start), min(hi - half, start + duration)
-    if hi <= lo:
-        raise ValueError(f"no wrench time is left to estimate the differentiation window in (window {start}–"
-                         f"{start + duration} s, streams shared within ±{half:g} s)")
-    rows = max(1, int(round((hi - lo) / source.period("wrench"))))
-    stride = max(1, rows // max_samples)
-    t, wrench, data = source.snapshot((lo, hi), offsets, margin=half + 0.01, stride=stride)
+    t, wrench, data, _ = wrench_snapshot(source, lo + half, hi - half, window, offsets, half, max_samples,
+                                         "estimate the differentiation window")
     keep = contact_free(t, residuals(recording, t, wrench, data, offsets, phi), windows[-1], sensor_offsets)
     if keep.sum() < MIN_FREE * len(t):
         keep = None
