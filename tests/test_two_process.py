@@ -110,6 +110,19 @@ def _with_arm(robot: str, settings: str = STAND_IN_SENSOR) -> str:
     return yaml.safe_dump(layered_dict(yaml.safe_load(settings), {"robot": robot}), default_flow_style=True)
 
 
+def forces_went_off(summary: dict) -> float:
+    """Asserts that a controller whose lab died went healthy first, then faulted for good with every channel stale,
+    its forces off within ``FORCES_OFF_MS`` of the last message it accepted, every torque it sent finite; returns
+    that time (ms)."""
+    assert summary["first_healthy"] is not None, "the watchdog never became healthy"
+    assert summary["faults"] and summary["faults"][-1]["recovered"] is None, summary["faults"]
+    assert summary["final_fault_bits"] == 0b111, "every channel of the dead lab should be stale"
+    off = max(summary["faults"][-1]["ages_ms"])
+    assert off <= FORCES_OFF_MS, off
+    assert not summary["final_healthy"] and summary["master_torque_finite"]
+    return off
+
+
 def _summary(teleop, folder, label="teleop") -> dict:
     """Stops the controller and returns its summary."""
     assert teleop.finish() == 0, teleop.text()
@@ -199,15 +212,9 @@ def test_controller_goes_safe_when_the_stand_in_dies(netns, tmp_path, robot):
     finally:
         _stop_all(teleop, stand_in)
     assert summary["slave_joints"] == len(BUNDLED_ARMS[robot].start)
-    assert summary["first_healthy"] is not None, "the watchdog never became healthy"
-    assert summary["faults"] and summary["faults"][-1]["recovered"] is None, summary["faults"]
-    assert summary["final_fault_bits"] == 0b111, "every channel of the dead lab should be stale"
-    off = max(summary["faults"][-1]["ages_ms"])
+    off = forces_went_off(summary)
     print(f"{robot}: forces off {off:.1f} ms after the lab's last message; largest stylus force "
           f"{summary['stylus_force_peak']:.3f} N, torque {summary['stylus_torque_peak']:.4f} N·m")
-    assert off <= FORCES_OFF_MS
-    assert not summary["final_healthy"]
-    assert summary["master_torque_finite"]
     assert summary["stylus_force_peak"] <= 8.5 + 1e-9 and summary["stylus_torque_peak"] <= 0.188 + 1e-9
 
 

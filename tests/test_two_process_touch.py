@@ -18,8 +18,8 @@ from heft.diagrams.scenario import overrides_text
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.lcmtypes import heft_haptic_command
 
-from test_two_process import (FOREVER, FORCES_OFF_MS, LCM_URL, RUN_TIMEOUT, STAND_IN_SENSOR, _largest_rendered_force,
-                              _Process, _stop_all, _summary, _teleop, layered_dict)
+from test_two_process import (FOREVER, LCM_URL, RUN_TIMEOUT, STAND_IN_SENSOR, _largest_rendered_force,
+                              _Process, _stop_all, _summary, _teleop, forces_went_off, layered_dict)
 
 pytestmark = pytest.mark.slow
 
@@ -101,14 +101,9 @@ def test_the_touchs_forces_go_off_when_the_stand_in_dies(netns, tmp_path):
     finally:
         _stop_all(teleop, stand_in)
     lab = json.loads((tmp_path / "stand_in.json").read_text())
-    assert summary["first_healthy"] is not None, "the watchdog never became healthy"
-    assert summary["faults"] and summary["faults"][-1]["recovered"] is None, summary["faults"]
-    assert summary["final_fault_bits"] == 0b111, "every channel of the dead lab should be stale"
-    off = max(summary["faults"][-1]["ages_ms"])
+    off = forces_went_off(summary)
     print(f"touch: forces off {off:.1f} ms after the lab's last message; largest stylus force "
           f"{summary['stylus_force_peak']:.3f} N sent, {lab['stylus_force_peak']:.3f} N at the driver's joints")
-    assert off <= FORCES_OFF_MS
-    assert not summary["final_healthy"] and summary["master_torque_finite"]
     assert not lab["refused"].get(LcmChannels().master_command.name), lab["refused"]
     torques = _master_commands(log)
     assert len(torques) > 1000 and not torques[:, WRIST].any()
