@@ -111,7 +111,8 @@ def test_a_client_watches_the_controller_against_the_stand_in(netns, tmp_path):
     learned = [message for message in estimates if message["std"][0] is not None]
     assert learned, summary["estimator"]
     first, last = learned[0]["std"][0], learned[-1]["std"][0]
-    assert 0.0 < last <= first < 1.0  # within the prior's 1 kg, and shrinking as the data come
+    # Far below the prior's 1 kg once the data come; with forgetting it may grow again as the strokes excite less.
+    assert all(0.0 < message["std"][0] < 0.1 for message in learned)
     mass = true_load(resolve_scenario("fig6"))[0].phi[0]
     assert abs(learned[-1]["mass"] - mass) < 0.3  # learned from 0; the sensor's offsets are not zeroed here
     print(f"φ̂ mass {learned[-1]['mass']:.4f} ± {last:.2g} kg (σ first {first:.2g}; the load's {mass:g} kg); "
