@@ -35,8 +35,9 @@ wrench_noncontact     6      its non-contact wrench (Eq. 5), the same frame
 A hardware log holds no truth: ``wrench_contact_true`` (the simulation's contact force, for
 the environment port of the passivity analysis) is missing, and said so in ``RunLog.notes``.
 Timing differs from a simulation's in two respects: the simulated controller's passivity
-observer pairs row k's stylus twist with the wrench of row k − 1 (its blocks are sampled at
-once), the hardware's with row k's (one computation per tick): ``RunLog.wrench_lag`` 1 or 0;
+observer's energy logged at row k comes from the stylus twist and the wrench of row k − 1 (a logger
+publishes before the discrete updates of its instant), the hardware's from row k's (the tick's state
+is sent after its update): ``RunLog.observer_lag`` 1 or 0;
 and a hardware row holds for the tick's measured ``hold``, a simulated one for the period.
 """
 
@@ -56,12 +57,12 @@ WRITERS = "a log.npz of `heft simulate` or an LCM log of `heft teleop --hardware
 @dataclasses.dataclass
 class RunLog:
     """The arrays of a run (``arrays``, keys as ``heft simulate`` writes them), its ``kind``,
-    ``wrench_lag`` (rows between the wrench and the twist the observer paired it with) and
+    ``observer_lag`` (rows between the stylus twist and wrench the passivity observer met and its energy) and
     ``notes``: what was left out, missing or chosen, one sentence each."""
 
     arrays: dict
     kind: str
-    wrench_lag: int
+    observer_lag: int
     notes: list
 
 
@@ -212,7 +213,7 @@ def complete_rows(run: RunLog, keys, why: str) -> RunLog:
         raise ValueError(f"the log has {keep.sum()} rows with {', '.join(keys)}; an analysis needs 3 or more")
     arrays = {key: value[keep] for key, value in run.arrays.items()}
     note = f"{(~keep).sum()} of {len(keep)} rows left out: {why}"
-    return RunLog(arrays, run.kind, run.wrench_lag, [*run.notes, note])
+    return RunLog(arrays, run.kind, run.observer_lag, [*run.notes, note])
 
 
 def longest_start(run: RunLog) -> RunLog:
@@ -228,4 +229,4 @@ def longest_start(run: RunLog) -> RunLog:
     arrays = {key: value[keep] for key, value in run.arrays.items()}
     note = (f"the controller started {len(values)} times (after faults); analysed its longest stretch, "
             f"{t[keep][0]:.3f}–{t[keep][-1]:.3f} s ({keep.sum()} of {len(t)} ticks)")
-    return RunLog(arrays, run.kind, run.wrench_lag, [*run.notes, note])
+    return RunLog(arrays, run.kind, run.observer_lag, [*run.notes, note])

@@ -202,7 +202,8 @@ class Scenario:
     operator: OperatorSpec = dataclasses.field(default_factory=OperatorSpec)
     controller: ControllerSpec = dataclasses.field(default_factory=ControllerSpec)
     lab: LabSpec = dataclasses.field(default_factory=LabSpec)
-    # The slave's discrete MultibodyPlant (Drake's config; its time_step is the master plant's too):
+    # The slave's discrete MultibodyPlant (Drake's config; its time_step and output port sampling are the master
+    # plant's too):
     # SAP with the lagged approximation, point contact (ContactWrenchAtSensor sums point contacts).
     plant: MultibodyPlantConfig = dataclasses.field(default_factory=lambda: MultibodyPlantConfig(
         time_step=0.0005, contact_model="point", discrete_contact_approximation="lagged",

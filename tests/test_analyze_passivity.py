@@ -90,7 +90,7 @@ def test_what_the_clamp_withheld_is_counted_where_the_log_has_the_applied_wrench
     log = {"t": np.arange(ticks) * period, "hold": np.full(ticks, period), "master_q": q, "master_v": v,
            "master_force": desired, "master_force_applied": applied, "passivity_damping": damping,
            "passivity_energy": np.cumsum(delivered * period, axis=0)}
-    report = analyze_passivity.analyze_log(log, wrench_lag=0)
+    report = analyze_passivity.analyze_log(log, observer_lag=0)
     for i, channel in enumerate(("translational", "rotational")):
         pc = report["passivity_controller"]
         withheld = pc[f"{channel}_clamp_withheld_J"]

@@ -93,7 +93,7 @@ def test_passivity_on_the_hardware_log_agrees_with_the_raw_messages(recording, t
     report = json.loads((tmp_path / "passivity.json").read_text())
     assert report["log"]["kind"] == "lcm" and "environment_port" not in report
     run = read_log(recording)
-    assert report["master_port"] == json.loads(json.dumps(analyze_log(run.arrays, wrench_lag=0)["master_port"]))
+    assert report["master_port"] == json.loads(json.dumps(analyze_log(run.arrays, observer_lag=0)["master_port"]))
 
     # The energy from the hand into the network over the ticks of the analysed stretch whose
     # command and master state the log holds: raw, in joint space, and by the analysis.
@@ -108,7 +108,7 @@ def test_passivity_on_the_hardware_log_agrees_with_the_raw_messages(recording, t
     complete = complete_rows(run, ("master_torque",), "no command in the log")
     np.testing.assert_allclose(complete.arrays["t"], [(state.utime - states[0].utime) * 1e-6 for state, _, _ in ticks],
                                atol=1e-9)
-    analysed_report = analyze_log(complete.arrays, wrench_lag=0)
+    analysed_report = analyze_log(complete.arrays, observer_lag=0)
     ports, pc = analysed_report["master_port"], analysed_report["passivity_controller"]
     throughput = sum(port["energy_in_J"] + port["energy_out_J"] for port in ports.values())
     analysed = sum(ports[c]["final_J"] + pc[f"{c}_dissipated_J"] + pc[f"{c}_clamp_withheld_J"]

@@ -68,7 +68,7 @@ def test_every_tick_reads_back_as_the_station_and_controller_held_it(lab_run, tm
     recorder, held = lab_run
     run = read_run_log(recorder.write(tmp_path / "run.lcmlog"))
     arrays = run.arrays
-    assert run.kind == "lcm" and run.wrench_lag == 0 and len(arrays["t"]) == len(held["energy"])
+    assert run.kind == "lcm" and run.observer_lag == 0 and len(arrays["t"]) == len(held["energy"])
     np.testing.assert_allclose(np.diff(arrays["t"]), PERIOD, atol=1.5e-6)  # µs stamps
     np.testing.assert_allclose(arrays["hold"], PERIOD)
     for key, held_key in (("master_q", "master_q"), ("master_v", "master_v"), ("slave_q", "slave_q"),
@@ -80,7 +80,7 @@ def test_every_tick_reads_back_as_the_station_and_controller_held_it(lab_run, tm
     assert run.notes == ["no wrench_contact_true: a hardware log holds no true contact force (environment port "
                          "not computed)"]
     # Nothing lost: the observer's energy is the port energy plus what the PC dissipated, to rounding.
-    report = analyze_passivity.analyze_log(arrays, wrench_lag=0)
+    report = analyze_passivity.analyze_log(arrays, observer_lag=0)
     translational = report["master_port"]["translational"]
     assert translational["energy_in_J"] + translational["energy_out_J"] > 1e-6  # energy flowed
     for port in report["master_port"].values():

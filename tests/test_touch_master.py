@@ -75,8 +75,9 @@ def test_fig6_on_the_touch():
     run = run_teleop(with_sigma(scenario, 1.0), true_load(scenario), quiet=True)
     torque, q = run["master_torque"], run["master_q"]
     assert np.all(torque[:, 3:] == 0.0)
-    # Each row pairs the torque with the encoder positions its Jacobian was taken at.
-    forces = np.array([np.linalg.solve(drake_jacobian(q[k])[:3, :3].T, torque[k, :3]) for k in range(1, len(q))])
+    # The torque logged at row k was taken with the Jacobian at the encoder positions of row k − 1 (a logger
+    # publishes before the update of its instant).
+    forces = np.array([np.linalg.solve(drake_jacobian(q[k - 1])[:3, :3].T, torque[k, :3]) for k in range(1, len(q))])
     assert np.max(np.linalg.norm(forces, axis=1)) <= TOUCH_FORCE * (1 + 1e-9)
     assert np.max(np.linalg.norm(forces, axis=1)) > 1.0  # the load's weight and swing were felt
     np.testing.assert_allclose(forces, run["master_force_applied"][1:, :3], atol=1e-9)

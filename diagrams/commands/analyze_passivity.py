@@ -10,9 +10,9 @@ from the slave's angles differentiated in time; positive energy flows from the s
 tool into the environment.
 
 Sample alignment: in a simulation's log the observer's energy and damping logged at row k
-come from the update that paired the stylus twist of row k (master angles and velocities)
-with the wrench logged at row k−1; on hardware with the wrench of row k (``RunLog.wrench_lag``);
-`paired_wrench` shifts the wrench so that every row holds one update's inputs. Each row is
+come from the update that paired the stylus twist (master angles and velocities) and the wrench
+logged at row k−1; on hardware from those of row k (``RunLog.observer_lag``, 1 or 0);
+`paired_rows` shifts the twist and the wrench so that every row holds one update's inputs. Each row is
 held for the log's ``hold`` where it has one (a hardware controller's measured ticks), else
 until the next row. The report checks the pairing: the observer's energy must equal the port
 energy plus what the PC dissipated (``observer_identity_gap_J``, zero up to rounding on an
@@ -87,11 +87,11 @@ def sensor_twists(robot: str, t, slave_q) -> np.ndarray:
     return np.array(twists)
 
 
-def paired_wrench(master_force, lag: int = 1) -> np.ndarray:
-    """The logged wrench (N, 6) moved down ``lag`` rows (zeros first), so that row k holds the
-    wrench the observer met with row k's twist (module docstring)."""
-    master_force = np.asarray(master_force, dtype=float)
-    return np.concatenate((np.zeros((lag, master_force.shape[1])), master_force[:len(master_force) - lag]))
+def paired_rows(values, lag: int = 1) -> np.ndarray:
+    """Logged rows (N, k) moved down ``lag`` rows (zeros first), so that row k holds what the observer's
+    update logged at row k met (module docstring)."""
+    values = np.asarray(values, dtype=float)
+    return np.concatenate((np.zeros((lag, values.shape[1])), values[:len(values) - lag]))
 
 
 def _flows(power_into_network, holds) -> tuple[float, float]:
@@ -100,7 +100,8 @@ def _flows(power_into_network, holds) -> tuple[float, float]:
     return float(energy[energy > 0].sum()), 0.0 - float(energy[energy < 0].sum())
 
 
-def analyze_log(log: dict, robot: str = "rx90", twist=None, wrench_lag: int = 1, master: str = DEFAULT_MASTER) -> dict:
+def analyze_log(log: dict, robot: str = "rx90", twist=None, observer_lag: int = 1,
+                master: str = DEFAULT_MASTER) -> dict:
     """The passivity report of a log (keys as `heft simulate` writes them; ``hold`` if the log
     has one): per channel the master port's energy in/out and final value, the PC's summary,
     and the largest gap between the observer's energy and the port energy plus what the PC
@@ -109,12 +110,13 @@ def analyze_log(log: dict, robot: str = "rx90", twist=None, wrench_lag: int = 1,
     withheld from the hand, Σ (f_PC − f_applied)·v·T (J, ``passivity_controller`` key
     ``c_clamp_withheld_J``), which the observer counts back; with the environment keys, the
     environment port's energies too. ``twist``: `stylus_twists` of the
-    log, if already computed; ``wrench_lag``: as `paired_wrench`'s ``lag`` (module docstring); ``master``: the run's
+    log, if already computed (not yet paired); ``observer_lag``: as `paired_rows`'s ``lag`` (module docstring); ``master``: the run's
     bundled master."""
     t = np.asarray(log["t"], dtype=float)
     holds = sample_periods(t, log.get("hold"))
-    twist = stylus_twists(log["master_q"], log["master_v"], master) if twist is None else np.asarray(twist, dtype=float)
-    wrench = paired_wrench(log["master_force"], wrench_lag)
+    twist = paired_rows(stylus_twists(log["master_q"], log["master_v"], master) if twist is None else twist,
+                        observer_lag)
+    wrench = paired_rows(log["master_force"], observer_lag)
     damping = np.asarray(log["passivity_damping"], dtype=float)
     observed = np.asarray(log["passivity_energy"], dtype=float)
     summary = passivity_controller_summary(t, damping, observed, twist, period=holds)
@@ -123,7 +125,7 @@ def analyze_log(log: dict, robot: str = "rx90", twist=None, wrench_lag: int = 1,
     dissipated = np.cumsum(damping * speed_squared * holds[:, None], axis=0)
     withheld = np.zeros_like(dissipated)
     if "master_force_applied" in log:  # the PC's wrench f − α·v, less what reached the hand
-        # The PC's output: in either log, on the row of the twist the observer paired it with.
+        # The PC's output: in either log, on the row of the energy the observer kept with it.
         unclamped = wrench - np.repeat(damping, 3, axis=1) * twist
         cut = (unclamped - np.asarray(log["master_force_applied"], dtype=float)) * twist
         withheld = np.cumsum(np.stack((cut[:, :3].sum(1), cut[:, 3:].sum(1)), axis=1) * holds[:, None], axis=0)
@@ -167,10 +169,11 @@ def run(args) -> int:
     out = Path(args.out) if args.out else Path(args.log).parent
     out.mkdir(parents=True, exist_ok=True)
     twist = stylus_twists(log["master_q"], log["master_v"], args.master)
-    report = analyze_log(log, args.robot, twist, run_log.wrench_lag)
+    report = analyze_log(log, args.robot, twist, run_log.observer_lag)
     report["log"] = {"path": str(args.log), "kind": run_log.kind, "notes": run_log.notes}
-    paired = {**log, "master_force": paired_wrench(log["master_force"], run_log.wrench_lag)}
-    passivity_figure(paired, out / "passivity.png", twist=twist, period=log.get("hold"), title=Path(args.log).name)
+    paired = {**log, "master_force": paired_rows(log["master_force"], run_log.observer_lag)}
+    passivity_figure(paired, out / "passivity.png", twist=paired_rows(twist, run_log.observer_lag),
+                     period=log.get("hold"), title=Path(args.log).name)
     (out / "passivity.json").write_text(json.dumps(report, indent=2) + "\n")
     pc = report["passivity_controller"]
     ports = "; ".join(f"master {name}: in {p['energy_in_J']:.4g} J, out {p['energy_out_J']:.4g} J"

@@ -210,6 +210,7 @@ def _add_master(builder: DiagramBuilder, scenario: Scenario):
     six joint torques commanded and drive the actuated joints' motors, each within its effort."""
     master = builder.AddSystem(MultibodyPlant(time_step=scenario.plant.time_step))
     master.set_name("master_plant")
+    master.SetUseSampledOutputPorts(scenario.plant.use_sampled_output_ports)
     phantom, _, E = AddMaster(master, master=scenario.master)
     stylus = E.body()
     hand = master.AddRigidBody("operator_hand", phantom,
