@@ -5,7 +5,8 @@ the LCM URL, the controller's on the command URL): ``heft teleop --hardware``
 (the controller at the rate under test) and a *probe*
 playing the three drivers at their nominal rates (master and slave state at
 2 kHz, wrist sensor at 8 kHz, buffered as the stand-in's: its samples since the
-last arm state in one ``heft_ft_samples``) with fixed joint positions. Every
+last arm state in one ``heft_ft_samples``) with fixed joint positions, real-time as
+``heft stand-in`` runs them (``claim_lab_realtime``). Every
 ``STEP_PERIOD`` s the probe steps the sensor's force by ``STEP_FORCE``, sends the
 samples so far at once, and stamps the wall-clock time right after publishing
 them (on loopback the kernel has delivered them by then); the kernel stamps the arrival of
@@ -64,11 +65,11 @@ def run_probe(channels, duration: float, out: Path, master_q, slave_q) -> None:
     import lcm
     from drake import lcmt_iiwa_status
 
-    from heft.diagrams.running.realtime import leave_loop_cpu
+    from heft.diagrams.running.realtime import LAB_PRIORITY, claim_lab_realtime
     from heft.hardware_interface.ft_messages import pack_samples
     from heft.hardware_interface.lcmtypes import heft_ft_sample, heft_haptic_command, heft_haptic_state
 
-    leave_loop_cpu()  # the drivers' computers, not the controller's CPU
+    claim_lab_realtime(LAB_PRIORITY)  # as the drivers' computers run: off the controller's CPU, real-time
     bus = lcm.LCM(channels.lcm_url)
     commands = _TimestampedReceiver(channels.command_lcm_url(), channels.master_command.name)
     receipts, torques = [], []
