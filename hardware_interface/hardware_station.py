@@ -316,6 +316,12 @@ class HardwareStation:
                           f"{status.name})")
         return self.wait_for_slave_status, f"ticks as the arm's status arrives ({status.name}, {status.rate:g} Hz)"
 
+    def drain(self) -> int:
+        """Handles every message waiting on the bus into the mailboxes (each keeps its newest), unchecked;
+        returns how many. Called as a loop starts, so that its first tick does not handle all that arrived
+        while the run was set up (a live view's worker starting, a recorder)."""
+        return pump(self._bus)
+
     def receive(self, now: float) -> None:
         """Pumps LCM, checks every new message, updates the readings, ages and watchdog at ``now`` (s)."""
         pump(self._bus)

@@ -229,6 +229,20 @@ def test_every_ft_sample_since_the_last_tick_is_read_and_the_newest_kept():
     assert rig.station.received["ft_sample"] == 20 + 4 and not any(rig.station.rejections.values())
 
 
+def test_what_arrived_before_the_loop_is_drained_and_its_newest_read_at_the_first_tick():
+    rig = Rig()
+    for k in range(50):  # the drivers publish while the run is set up
+        rig.now += PERIOD
+        rig.publish(wrench=RAW * (1.0 + 0.01 * k))
+    assert rig.station.drain() == 150
+    assert pump(rig.bus) == 0  # the first tick's pump finds no backlog
+    rig.tick()
+    assert rig.station.received == {"master_state": 50, "slave_status": 50, "ft_sample": 50, "gripper_state": 0}
+    np.testing.assert_array_equal(rig.station.wrench, -RAW * 1.49)
+    np.testing.assert_array_equal(rig.station.slave_position, Q_SLAVE)
+    assert rig.station.healthy and not any(rig.station.rejections.values())
+
+
 def test_published_utime_is_wall_clock_and_names_the_master_state():
     """A command's utime is wall-clock time; its master_utime the stamp (the driver's clock) of the
     master state it was computed at: the newest accepted, not a later or a rejected one."""

@@ -170,6 +170,7 @@ def record_on_hardware(scenario: Scenario, trajectory, duration: float, channels
             say.info(f"identify: {keep_cpu_for_loop()}")
         anchor, ticking = run.station.loop_anchor(1.0 / period, 0.0)
         say.info(f"identify: {ticking}")
+        say.debug(f"identify: {run.station.drain()} messages arrived before the loop starts")
         run.start()
         with StopOnSignal() as stop:
             try:

@@ -430,6 +430,7 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float,
         anchor, ticking = teleop.station.loop_anchor(rate, busy_wait)
         scheduling += f"; {ticking}"
         say.info(f"teleop: {ticking}")
+        say.debug(f"teleop: {teleop.station.drain()} messages arrived before the loop starts")
         teleop.station.epoch = time.time()
         with StopOnSignal() as stop:
             say.info("teleop: running (Ctrl-C stops with forces off and the slave held)")
