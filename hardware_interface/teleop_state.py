@@ -5,7 +5,7 @@ the controller computed (the passivity observer's energy and damping, the wrench
 hand before and after it, the contact and non-contact wrench) and the stamps of the driver
 messages it read, so that a recording of the traffic holds everything the analyses of a
 simulated run read (``heft.analysis.run_log``). Packed by its ``FixedLayout`` in one call;
-``heft teleop --hardware`` spends it only when it records.
+``heft teleop --hardware`` sends it each tick when it records, else at its ``STATE_RATE``.
 """
 
 from __future__ import annotations

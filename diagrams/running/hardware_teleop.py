@@ -14,8 +14,8 @@ the clutch button, anchored on the slave's measured pose at the press. Load
 commands (``heft load``: re-zero, offset tracking, a new tool's estimate, a grasp
 or release) and the gripper driver's grasps and releases are served after each
 tick's send (``hardware_interface.load_commands``), through the Diagram's inputs.
-When the run is recorded, what the controller computed goes out beside the commands each tick it steps
-(``hardware_interface.teleop_state``; about 45 µs a tick, so only then).
+What the controller computed goes out beside the commands while it steps (``hardware_interface.teleop_state``):
+each tick when the run is recorded, else at ``STATE_RATE``.
 
 ``run_hardware_teleop`` runs it for a while (``diagrams.running.realtime``) and returns
 what the run saw: faults and recoveries, the master command's largest stylus
