@@ -30,7 +30,7 @@ from heft.systems.station.operator_hand import OperatorHand
 from heft.systems.station.setpoint_filter import SetpointFilter
 from heft.systems.station.sensor_models import AccelerometerModel, ForceTorqueSensorModel
 from heft.systems.station_ports import CLUTCH
-from heft.systems.station.station_truth import ContactWrenchAtSensor, ReactionWrench, SensorAndLoadMotion
+from heft.systems.station.station_truth import MOTION_PARTS, ContactWrenchAtSensor, ReactionWrench, SensorAndLoadMotion
 
 # Point-contact stiffness of the ball tip on the plate (N/m): steel on steel is far stiffer than the
 # sheet spring, which then sets the felt stiffness; stiffer would only shrink the stable time step.
@@ -145,21 +145,24 @@ def _add_wrist_sensor(builder: DiagramBuilder, scenario: Scenario, plant: Multib
     _connect_body_motion(builder, plant, motion)
     builder.Connect(truth_phi.get_output_port(), motion.GetInputPort("phi"))
     builder.Connect(truth_phi_gripper.get_output_port(), motion.GetInputPort("phi_gripper"))
+    motion_parts = builder.AddSystem(Demultiplexer([size for _, size in MOTION_PARTS]))
+    builder.Connect(motion.get_output_port(), motion_parts.get_input_port())
+    truth = {name: motion_parts.get_output_port(i) for i, (name, _) in enumerate(MOTION_PARTS)}
 
     ft = builder.AddSystem(ForceTorqueSensorModel(scenario.ft_sensor))
     builder.Connect(reaction.get_output_port(), ft.GetInputPort("wrench_true"))
     accelerometer = builder.AddSystem(AccelerometerModel(scenario.accelerometer))
-    builder.Connect(motion.GetOutputPort("accelerometer_reading"), accelerometer.GetInputPort("acceleration_true"))
+    builder.Connect(truth["accelerometer_reading"], accelerometer.GetInputPort("acceleration_true"))
     builder.ExportOutput(ft.GetOutputPort("wrench_measured"), "ft.wrench_measured")
     builder.ExportOutput(accelerometer.GetOutputPort("acceleration_measured"), "ft.acceleration_measured")
 
     for port, name in ((reaction.get_output_port(), "truth.wrench_sensor"),
                        (contact.get_output_port(), "truth.wrench_contact"),
-                       (motion.GetOutputPort("wrench"), "truth.wrench_noncontact"),
-                       (motion.GetOutputPort("wrench_object"), "truth.wrench_noncontact_object"),
-                       (motion.GetOutputPort("acceleration"), "truth.acceleration"),
-                       (motion.GetOutputPort("omega"), "truth.omega"),
-                       (motion.GetOutputPort("gravity"), "truth.gravity_S"),
+                       (truth["wrench"], "truth.wrench_noncontact"),
+                       (truth["wrench_object"], "truth.wrench_noncontact_object"),
+                       (truth["acceleration"], "truth.acceleration"),
+                       (truth["omega"], "truth.omega"),
+                       (truth["gravity"], "truth.gravity_S"),
                        (ft.GetOutputPort("offsets_true"), "truth.ft_offsets"),
                        (ft.GetOutputPort("saturated"), "truth.ft_saturated"),
                        (accelerometer.GetOutputPort("saturated"), "truth.accelerometer_saturated"),

@@ -15,9 +15,10 @@ from pydrake.common.value import AbstractValue, Value
 from pydrake.math import RigidTransform
 from pydrake.multibody.math import SpatialAcceleration, SpatialForce, SpatialVelocity
 from pydrake.multibody.plant import ContactResults
-from pydrake.systems.framework import LeafSystem, ValueProducer
+from pydrake.systems.framework import LeafSystem
 
-from heft.systems.accelerometer_reading import AT_S, AccelerometerConvention, reading_from_motion
+from heft.systems.accelerometer_reading import (AT_S, AccelerometerConvention, kernel_convention, reading_from_motion,
+                                                unmounted_reading_into)
 from heft.systems.drake_conventions import swap_halves
 from heft.systems.compiled import compiled, float_array
 from heft.systems.load_dynamics import regressor_into
@@ -67,12 +68,6 @@ def frame_motion_into(R_WB, w_WB_W, alpha_WB_W, a_WBo_W, p_BF, g_W, motion) -> N
         motion[9 + i] = R_WB[0, i] * g_W[0] + R_WB[1, i] * g_W[1] + R_WB[2, i] * g_W[2]
 
 
-def frame_motion(X_WB: RigidTransform, V_WB: SpatialVelocity, A_WB: SpatialAcceleration, p_BF, g_W, motion) -> None:
-    """``frame_motion_into`` from B's pose, spatial velocity and acceleration in W (Drake's values)."""
-    A = A_WB.get_coeffs()  # [α; a]
-    frame_motion_into(X_WB.GetAsMatrix34()[:, :3], V_WB.get_coeffs()[:3], A[:3], A[3:], p_BF, g_W, motion)
-
-
 class ContactWrenchAtSensor(LeafSystem):
     """The contact part of the sensor's wrench (Eq. 11): minus the sum of the
     environment's contact forces on the load bodies, moved to S and expressed in S.
@@ -113,6 +108,11 @@ class ContactWrenchAtSensor(LeafSystem):
         output.SetFromVector(-np.concatenate((R_SW @ f_W, R_SW @ tau_W)))
 
 
+MOTION_PARTS = (("acceleration", 6), ("omega", 3), ("gravity", 3), ("wrench", 6), ("wrench_object", 6),
+                ("accelerometer_reading", 6))
+"""The parts of ``SensorAndLoadMotion``'s output ``motion``, in its order: (name, size)."""
+
+
 class SensorAndLoadMotion(LeafSystem):
     """Motion of the sensor frame S, fixed at p_BS (m) in body B's frame, and the load's non-contact
     wrench at S: V(a, α, ω, g)·φ (Eq. 12) of the true φ with the true motion of the load's own frame L
@@ -122,17 +122,20 @@ class SensorAndLoadMotion(LeafSystem):
 
     Inputs: the plant's ``body_poses``, ``body_spatial_velocities``, ``body_spatial_accelerations``;
     ``phi`` (10, the load's true φ about L's origin in L) and ``phi_gripper`` (10, the gripper's share,
-    Eq. 14). Outputs: ``acceleration`` [a; α] of S in S (m/s², rad/s²), ``omega`` ω_WS in S (rad/s),
-    ``gravity`` g in S (m/s²), ``accelerometer_reading``, what an ideal accelerometer in the sensor
-    reports (``accelerometer_reading`` with the ``accelerometer`` convention: at p_SA, in S's axes);
-    ``wrench`` (6, for φ) and ``wrench_object`` (6, for the gripped object's share φ − φ_gripper; zero
-    without a split).
+    Eq. 14). Output ``motion`` (30): the parts ``MOTION_PARTS`` names end to end, ``acceleration`` [a; α]
+    of S in S (m/s², rad/s²), ``omega`` ω_WS in S (rad/s), ``gravity`` g in S (m/s²), ``wrench`` (6, for
+    φ) and ``wrench_object`` (6, for the gripped object's share φ − φ_gripper; zero without a split),
+    ``accelerometer_reading``, what an ideal accelerometer in the sensor reports (``accelerometer_reading``
+    with the ``accelerometer`` convention: at p_SA, in S's axes). One port, so that a step calls into
+    Python once for all of them (a ``Demultiplexer`` parts them).
     """
 
     def __init__(self, sensor_body_index, p_BS, load_body_index, gravity_W,
                  accelerometer: AccelerometerConvention = AT_S):
         super().__init__()
         self._accelerometer = accelerometer
+        # (includes_gravity, p_SA) of an accelerometer that is not ``mounted``: its reading in one kernel.
+        self._unmounted = None if accelerometer.mounted else kernel_convention(accelerometer)[:2]
         self._sensor, self._load = int(sensor_body_index), int(load_body_index)
         self._p_BS = float_array(p_BS)
         self._g_W = float_array(gravity_W)
@@ -141,32 +144,22 @@ class SensorAndLoadMotion(LeafSystem):
         self._phi = self.DeclareVectorInputPort("phi", 10)
         self._phi_gripper = self.DeclareVectorInputPort("phi_gripper", 10)
         self._load_motion, self._V = np.empty(12), np.empty((6, 10))  # scratch of ``_calc``
-        # [S's a, α, ω, g; the wrenches] (24), once per context change.
-        self._values = self.DeclareCacheEntry(
-            "values", ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(24)), calc=self._calc),
-            prerequisites_of_calc={self.all_input_ports_ticket()})
-        for name, part in (("acceleration", slice(0, 6)), ("omega", slice(6, 9)), ("gravity", slice(9, 12)),
-                           ("wrench", slice(12, 18)), ("wrench_object", slice(18, 24))):
-            self.DeclareVectorOutputPort(name, part.stop - part.start,
-                                         lambda context, output, part=part: output.SetFromVector(
-                                             self._values.Eval(context)[part]),
-                                         prerequisites_of_calc={self._values.ticket()})
-        self.DeclareVectorOutputPort("accelerometer_reading", 6, self._calc_reading,
-                                     prerequisites_of_calc={self._values.ticket()})
+        self.DeclareVectorOutputPort("motion", sum(size for _, size in MOTION_PARTS), self._calc,
+                                     prerequisites_of_calc={self.all_input_ports_ticket()})
 
-    def _calc(self, context, value):
-        poses, velocities, accelerations = (port.Eval(context) for port in
-                                            (self._poses, self._velocities, self._accelerations))
-        out, sensor, load = value.get_mutable_value(), self._sensor, self._load
-        frame_motion(poses[sensor], velocities[sensor], accelerations[sensor], self._p_BS, self._g_W, out[:12])
-        frame_motion(poses[load], velocities[load], accelerations[load], _ORIGIN, self._g_W, self._load_motion)
-        X_SL = poses[sensor].multiply(self._X_BS).InvertAndCompose(poses[load]).GetAsMatrix34()  # [R_SL p_SL]
-        wrenches_at_S_into(self._load_motion, self._phi.Eval(context), self._phi_gripper.Eval(context),
-                           X_SL[:, :3], X_SL[:, 3], self._V, out[12:])
-
-    def _calc_reading(self, context, output):
-        motion = self._values.Eval(context)
-        output.SetFromVector(reading_from_motion(motion[:6], motion[9:12], motion[6:9], self._accelerometer))
+    def _calc(self, context, output):
+        poses, velocities = self._poses.Eval(context), self._velocities.Eval(context)
+        accelerations, out = self._accelerations.Eval(context), output.get_mutable_value()
+        B, L = self._sensor, self._load
+        X_SL = poses[B].multiply(self._X_BS).InvertAndCompose(poses[L]).GetAsMatrix34()  # [R_SL p_SL]
+        motion_and_wrenches_into(poses[B].GetAsMatrix34(), velocities[B].get_coeffs(), accelerations[B].get_coeffs(),
+                                 poses[L].GetAsMatrix34(), velocities[L].get_coeffs(), accelerations[L].get_coeffs(),
+                                 X_SL, self._p_BS, _ORIGIN, self._g_W, self._phi.Eval(context),
+                                 self._phi_gripper.Eval(context), self._load_motion, self._V, out)
+        if self._unmounted is None:
+            out[24:] = reading_from_motion(out[:6], out[9:12], out[6:9], self._accelerometer)
+        else:
+            unmounted_reading_into(out[24:], out[:6], out[9:12], out[6:9], *self._unmounted)
 
 
 _ORIGIN = np.zeros(3)
@@ -194,3 +187,17 @@ def wrenches_at_S_into(motion, phi, phi_gripper, R_SL, p_SL, V, out) -> None:
         out[start + 3] += p_SL[1] * fz - p_SL[2] * fy
         out[start + 4] += p_SL[2] * fx - p_SL[0] * fz
         out[start + 5] += p_SL[0] * fy - p_SL[1] * fx
+
+
+@compiled("void(float64[:, :], float64[:], float64[:], float64[:, :], float64[:], float64[:], float64[:, :], "
+          "float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:, :], float64[:])")
+def motion_and_wrenches_into(X_WB, V_WB, A_WB, X_WL, V_WL, A_WL, X_SL, p_BS, p_LL, g_W, phi, phi_gripper, load_motion,
+                             V, out) -> None:
+    """``SensorAndLoadMotion``'s arithmetic into ``out``: S's [a; α; ω; g] (``frame_motion_into`` of S at ``p_BS``
+    in the sensor body B) into out[:12] and the load's wrenches (``wrenches_at_S_into`` of the motion of L, at
+    ``p_LL`` = 0 in the load body) into out[12:24], from Drake's values in W of B and of the load body: poses
+    [R p] (3×4), spatial velocities [ω; v] and accelerations [α; a] (6), and X_SL = [R_SL p_SL] (3×4).
+    ``load_motion`` (12) and ``V`` (6, 10) are scratch."""
+    frame_motion_into(X_WB[:, :3], V_WB[:3], A_WB[:3], A_WB[3:], p_BS, g_W, out[:12])
+    frame_motion_into(X_WL[:, :3], V_WL[:3], A_WL[:3], A_WL[3:], p_LL, g_W, load_motion)
+    wrenches_at_S_into(load_motion, phi, phi_gripper, X_SL[:, :3], X_SL[:, 3], V, out[12:24])
