@@ -76,11 +76,11 @@ class TickProgramSystem(LeafSystem):
             def calc(context, value):
                 out = value.get_mutable_value()
                 if len(from_state):
-                    np.take(context.get_discrete_state(self._state).get_value(), from_state, out=taken_state)
-                    np.put(out, to_state, taken_state)
+                    context.get_discrete_state(self._state).get_value().take(from_state, out=taken_state)
+                    out.put(to_state, taken_state)
                 if len(from_signals):
-                    np.take(self._signals.Eval(context), from_signals, out=taken_signals)
-                    np.put(out, to_signals, taken_signals)
+                    self._signals.Eval(context).take(from_signals, out=taken_signals)
+                    out.put(to_signals, taken_signals)
         prerequisites = ({self.xd_ticket()} if len(from_state) else set()) | (
             {self._signals.ticket()} if len(from_signals) else set())
         self.DeclareVectorOutputPort(name, start, calc, prerequisites_of_calc=prerequisites)

@@ -90,6 +90,22 @@ def hand_wrench_into(R_WE, p_WE, w_WE, v_WE, R_ref, p_ref, w_ref, v_ref, k, d, k
         out[3 + i] = k * (p_ref[i] - p_WE[i]) + d * (v_ref[i] - v_WE[i])
 
 
+@compiled("void(float64, float64[:, :], float64[:], float64, float64, float64[:], float64[:], float64[:], "
+          "float64[:, :], float64[:], float64, float64, float64, float64, float64[:, :, :], float64[:, :], float64[:], "
+          "float64[:])")
+def hand_force_into(t, X_WE, V_WE, start_time, frequency, stroke_scales, amplitude, rotation_amplitude, R_WE0, p_WE0,
+                    k, d, k_rot, d_rot, rotations, rates, quaternion, out) -> None:
+    """``hand_wrench_into`` of the stylus at pose X_WE = [R_WE p_WE] (3×4) with twist V_WE = [ω; v] (6, in W)
+    toward ``reference_into``'s reference at time ``t`` (s), into ``out`` = [τ; f] (6). ``rotations`` (2, 3, 3):
+    the reference's rotation and the error's, ``rates`` (3, 3): the reference's p, ω, v, ``quaternion`` (7):
+    scratch."""
+    R_ref, p_ref, w_ref, v_ref = rotations[0], rates[0], rates[1], rates[2]
+    reference_into(t, start_time, frequency, stroke_scales, amplitude, rotation_amplitude, R_WE0, p_WE0, R_ref, p_ref,
+                   w_ref, v_ref)
+    hand_wrench_into(X_WE[:, :3], X_WE[:, 3], V_WE[:3], V_WE[3:], R_ref, p_ref, w_ref, v_ref, k, d, k_rot, d_rot,
+                     rotations[1], quaternion, out)
+
+
 class OperatorHand(LeafSystem):
     """Hand impedance on the stylus body of a master MultibodyPlant.
 
@@ -104,15 +120,13 @@ class OperatorHand(LeafSystem):
         super().__init__()
         self._stylus = int(stylus_body_index)
         self._spec = spec
-        self._R_WE0, self._p_WE0 = X_WE0.rotation().matrix(), float_array(X_WE0.translation())
-        self._timing = (float(spec.start_time), float(spec.frequency), float_array(spec.stroke_scales),
-                        float_array(spec.amplitude), float_array(spec.rotation_amplitude))
-        # Scratch of ``_calc_force``: the reference (R, p, ω, v), the error rotation, its quaternion, [τ; f].
-        self._R_ref, self._error = np.empty((2, 3, 3))
-        self._p_ref, self._w_ref, self._v_ref = np.empty((3, 3))
-        self._quaternion, self._wrench = np.empty(7), np.empty(6)
-        self._gains = (float(spec.stiffness), float(spec.damping), float(spec.rotational_stiffness),
-                       float(spec.rotational_damping))
+        # ``hand_force_into``'s arguments after the stylus's motion: the reference, the gains, its scratch, [τ; f].
+        self._wrench = np.empty(6)
+        self._settings = (float(spec.start_time), float(spec.frequency), float_array(spec.stroke_scales),
+                          float_array(spec.amplitude), float_array(spec.rotation_amplitude), X_WE0.rotation().matrix(),
+                          float_array(X_WE0.translation()), float(spec.stiffness), float(spec.damping),
+                          float(spec.rotational_stiffness), float(spec.rotational_damping), np.empty((2, 3, 3)),
+                          np.empty((3, 3)), np.empty(7), self._wrench)
         self._poses = self.DeclareAbstractInputPort("body_poses", Value[List[RigidTransform]]())
         self._velocities = self.DeclareAbstractInputPort("body_spatial_velocities", Value[List[SpatialVelocity]]())
         # The force's body and point, set once; each calculation sets its wrench (the output holds a copy).
@@ -122,11 +136,7 @@ class OperatorHand(LeafSystem):
                                        self._calc_force)
 
     def _calc_force(self, context, output):
-        X_WE = self._poses.Eval(context)[self._stylus].GetAsMatrix34()  # [R_WE p_WE]
-        V = self._velocities.Eval(context)[self._stylus].get_coeffs()  # [ω; v] in W
-        reference_into(context.get_time(), *self._timing, self._R_WE0, self._p_WE0, self._R_ref, self._p_ref,
-                       self._w_ref, self._v_ref)
-        hand_wrench_into(X_WE[:, :3], X_WE[:, 3], V[:3], V[3:], self._R_ref, self._p_ref, self._w_ref, self._v_ref,
-                         *self._gains, self._error, self._quaternion, self._wrench)
+        hand_force_into(context.get_time(), self._poses.Eval(context)[self._stylus].GetAsMatrix34(),
+                        self._velocities.Eval(context)[self._stylus].get_coeffs(), *self._settings)
         self._force.F_Bq_W = SpatialForce(self._wrench)  # [τ; f]
         output.set_value([self._force])

@@ -375,14 +375,16 @@ class _SampledSixAxisSensor(LeafSystem):
         self.DeclareStateOutputPort("saturated", self._saturated)
 
     def _take_first_sample(self, context, discrete_state):
-        self._take_sample(context, discrete_state, advance_walk=False)
+        self._take_sample(context, discrete_state, discrete_state.get_mutable_value(self._walk_and_index),
+                          advance_walk=False)
 
     def _take_next_sample(self, context, discrete_state):
-        # The periodic event also fires at the start time, already sampled at initialization:
-        # one sample per instant, so the discrete state (pre-filled with the current one) stays.
-        if context.get_time() == context.get_discrete_state(self._walk_and_index).get_value()[-1]:
+        # discrete_state holds the current values: each group is updated in place. The periodic event also
+        # fires at the start time, already sampled at initialization: one sample per instant, so it stays.
+        walk_and_index = discrete_state.get_mutable_value(self._walk_and_index)
+        if context.get_time() == walk_and_index[-1]:
             return
-        self._take_sample(context, discrete_state, advance_walk=True)
+        self._take_sample(context, discrete_state, walk_and_index, advance_walk=True)
 
     def _normals(self, index: int) -> np.ndarray | None:
         """The draws of sample ``index`` (1, 12), from a memo of ``_NOISE_BLOCK`` samples."""
@@ -395,9 +397,7 @@ class _SampledSixAxisSensor(LeafSystem):
             self._noise_block = (start, block)
         return block[index - start:index - start + 1]
 
-    def _take_sample(self, context, discrete_state, advance_walk: bool):
-        # discrete_state holds the current values: each group is updated in place.
-        walk_and_index = discrete_state.get_mutable_value(self._walk_and_index)
+    def _take_sample(self, context, discrete_state, walk_and_index: np.ndarray, advance_walk: bool):
         index, t = int(walk_and_index[NUM_AXES]), context.get_time()
         value = self._input.Eval(context)[np.newaxis]
         lowpass_state = discrete_state.get_mutable_value(self._lowpass_state).reshape(2, NUM_AXES)

@@ -19,7 +19,6 @@ from pydrake.systems.framework import LeafSystem
 
 from heft.systems.accelerometer_reading import (AT_S, AccelerometerConvention, kernel_convention, reading_from_motion,
                                                 unmounted_reading_into)
-from heft.systems.drake_conventions import swap_halves
 from heft.systems.compiled import compiled, float_array
 from heft.systems.load_dynamics import regressor_into
 
@@ -35,7 +34,8 @@ class ReactionWrench(LeafSystem):
         self.DeclareVectorOutputPort("wrench", 6, self._calc)
 
     def _calc(self, context, output):
-        output.SetFromVector(swap_halves(self._reactions.Eval(context)[self._joint].get_coeffs()))  # [τ; f] → [f; τ]
+        coeffs, out = self._reactions.Eval(context)[self._joint].get_coeffs(), output.get_mutable_value()
+        out[:3], out[3:] = coeffs[3:], coeffs[:3]  # [τ; f] → [f; τ], in place
 
 
 def declare_body_motion_inputs(system: LeafSystem):
