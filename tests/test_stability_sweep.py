@@ -118,8 +118,8 @@ def test_a_wall_far_stiffer_than_the_device_renders_makes_the_tool_bounce_with_o
 def test_a_long_delay_destabilises_the_loop_through_the_fed_back_inertial_wrench():
     """At the default 2 kN/m wall, with σ = 1 (the tool's non-contact wrench fed back), 20 ms
     of delay each way turns a steady sideways chatter (1.9 N peak) into an oscillation of the master that
-    grows toward the force limit, past twice the chatter's peak (5.4 of 8.5 N within 1.5 s, growth ratio 1.86;
-    7.3 N and 2.09 without the notch on the master's positions); eliminating the non-contact wrench (σ = 0)
+    grows toward the force limit, past twice the chatter's peak (5.0 of 8.5 N within 1.5 s, growth ratio 1.82;
+    6.9 N and 2.05 without the notch on the master's positions); eliminating the non-contact wrench (σ = 0)
     keeps it small."""
     prompt = run_point({"delay": 0.0, "sigma": 1.0, "passivity": 0.0}, duration=1.5)
     late = run_point({"delay": 0.02, "sigma": 1.0, "passivity": 0.0}, duration=1.5)
@@ -132,11 +132,11 @@ def test_a_long_delay_destabilises_the_loop_through_the_fed_back_inertial_wrench
 
 @pytest.mark.slow
 def test_near_the_limit_the_pc_keeps_contact_where_the_loop_without_it_bounces():
-    """At 16 kN/m (rendered ≈ 1.8 kN/m at the hand; 1.27 times the linear model's limit with the
-    default mount notch) the loop without the passivity controller bounces; its 5 N·s/m of
-    damping on the master holds the tool on the plate."""
-    without = run_point({"stiffness": 1.6e4, "passivity": 0.0}, duration=1.5)
-    with_pc = run_point({"stiffness": 1.6e4, "passivity": 1.0}, duration=1.5)
+    """At 14 kN/m (rendered ≈ 1.6 kN/m at the hand; 1.16 times the linear model's 12.1 kN/m limit with the
+    default notches) the loop without the passivity controller bounces; its 5 N·s/m of damping on the
+    master holds the tool on the plate."""
+    without = run_point({"stiffness": 1.4e4, "passivity": 0.0}, duration=1.5)
+    with_pc = run_point({"stiffness": 1.4e4, "passivity": 1.0}, duration=1.5)
     assert without["bouncing"] and without["out_of_contact"] > 0.1
     assert not with_pc["bouncing"] and with_pc["out_of_contact"] == 0.0 and with_pc["stable"]
 
