@@ -87,19 +87,6 @@ def reading_from_motion(acceleration, gravity, omega=None,
     return reading
 
 
-@compiled("void(float64[:], float64[:], float64[:], float64[:], boolean, float64[:])")
-def unmounted_reading_into(out, acceleration, gravity, omega, includes_gravity, p_SA) -> None:
-    """``reading_from_motion`` of one sample into ``out`` (6) for a convention that is not ``mounted`` (S's axes
-    and m/s², no bias), given as ``kernel_convention``'s includes_gravity and p_SA, in scalar arithmetic."""
-    for i in range(6):
-        out[i] = acceleration[i]
-    if p_SA[0] != 0.0 or p_SA[1] != 0.0 or p_SA[2] != 0.0:
-        transport_one(out[:3], out[3:], omega, p_SA, 1.0)
-    if includes_gravity:
-        for i in range(3):
-            out[i] -= gravity[i]
-
-
 PLAUSIBLE_BIAS = 0.25 * 9.80665
 """The largest bias (m/s², each linear axis) taken for one: MEMS IMUs and the JR3's accelerometer stay
 within a few tenths of a g (0.05–0.1 g class); a larger "bias" at rest is a mounting stated wrong (an axis

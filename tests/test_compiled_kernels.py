@@ -209,8 +209,7 @@ for k in range(20):
     wrenches_at_S_into(motion, phi, phi_gripper if k % 2 else np.zeros(10), chain.R, rng.normal(0, 0.1, 3), V_scratch,
                        wrenches)
     out["truth"].append(np.concatenate((motion, wrenches)))
-# The same in one call from Drake's poses and coefficients, and the reading of a displaced accelerometer.
-from heft.systems.accelerometer_reading import unmounted_reading_into
+# The same in one call from Drake's poses and coefficients.
 from heft.systems.station.station_truth import motion_and_wrenches_into
 
 out["truth_one_call"], X = [], np.empty((3, 3, 4))
@@ -218,12 +217,10 @@ for k in range(20):
     for pose in X:
         chain.update(rng.uniform(-3, 3, 6))
         pose[:, :3], pose[:, 3] = chain.R, chain.p
-    sensor = np.empty(30)
+    sensor = np.empty(24)
     motion_and_wrenches_into(X[0], *rng.normal(0, 3, (2, 6)), X[1], *rng.normal(0, 3, (2, 6)), X[2],
                              rng.normal(0, 0.1, 3), np.zeros(3), np.array(GRAVITY_W), phi,
                              phi_gripper if k % 2 else np.zeros(10), motion, V_scratch, sensor)
-    unmounted_reading_into(sensor[24:], sensor[:6], sensor[9:12], sensor[6:9], k % 3 > 0,
-                           rng.normal(0, 0.02, 3) if k % 2 else np.zeros(3))
     out["truth_one_call"].append(sensor)
 # The encoders' counts, half-counts included.
 from heft.systems.station.encoders import quantize_into

@@ -17,8 +17,7 @@ from pydrake.multibody.math import SpatialAcceleration, SpatialForce, SpatialVel
 from pydrake.multibody.plant import ContactResults
 from pydrake.systems.framework import LeafSystem
 
-from heft.systems.accelerometer_reading import (AT_S, AccelerometerConvention, kernel_convention, reading_from_motion,
-                                                unmounted_reading_into)
+from heft.systems.accelerometer_reading import AT_S, AccelerometerConvention, reading_from_motion
 from heft.systems.compiled import compiled, float_array
 from heft.systems.load_dynamics import regressor_into
 
@@ -134,8 +133,6 @@ class SensorAndLoadMotion(LeafSystem):
                  accelerometer: AccelerometerConvention = AT_S):
         super().__init__()
         self._accelerometer = accelerometer
-        # (includes_gravity, p_SA) of an accelerometer that is not ``mounted``: its reading in one kernel.
-        self._unmounted = None if accelerometer.mounted else kernel_convention(accelerometer)[:2]
         self._sensor, self._load = int(sensor_body_index), int(load_body_index)
         self._p_BS = float_array(p_BS)
         self._g_W = float_array(gravity_W)
@@ -156,10 +153,7 @@ class SensorAndLoadMotion(LeafSystem):
                                  poses[L].GetAsMatrix34(), velocities[L].get_coeffs(), accelerations[L].get_coeffs(),
                                  X_SL, self._p_BS, _ORIGIN, self._g_W, self._phi.Eval(context),
                                  self._phi_gripper.Eval(context), self._load_motion, self._V, out)
-        if self._unmounted is None:
-            out[24:] = reading_from_motion(out[:6], out[9:12], out[6:9], self._accelerometer)
-        else:
-            unmounted_reading_into(out[24:], out[:6], out[9:12], out[6:9], *self._unmounted)
+        out[24:] = reading_from_motion(out[:6], out[9:12], out[6:9], self._accelerometer)
 
 
 _ORIGIN = np.zeros(3)
