@@ -19,6 +19,7 @@ from pydrake.systems.framework import LeafSystem
 
 from heft.systems.accelerometer_reading import AT_S, AccelerometerConvention, reading_from_motion
 from heft.systems.compiled import compiled, float_array
+from heft.systems.drake_conventions import swap_halves
 from heft.systems.load_dynamics import regressor_into
 
 
@@ -33,8 +34,7 @@ class ReactionWrench(LeafSystem):
         self.DeclareVectorOutputPort("wrench", 6, self._calc)
 
     def _calc(self, context, output):
-        coeffs, out = self._reactions.Eval(context)[self._joint].get_coeffs(), output.get_mutable_value()
-        out[:3], out[3:] = coeffs[3:], coeffs[:3]  # [τ; f] → [f; τ], in place
+        output.SetFromVector(swap_halves(self._reactions.Eval(context)[self._joint].get_coeffs()))  # [τ; f] → [f; τ]
 
 
 def declare_body_motion_inputs(system: LeafSystem):
