@@ -232,6 +232,42 @@ def test_a_drivers_process_runs_real_time_off_the_loops_cpu_and_its_threads_inhe
         assert ("ulimit -r" in result["said"]) == (priority != 0), result
 
 
+LOOP_CLAIM = """
+import json, os, sys
+from heft.diagrams.running.realtime import CPU_LATENCY_DEVICE, claim_realtime
+said = claim_realtime(int(sys.argv[1]))
+print(json.dumps({"said": said, "latency": int.from_bytes(open(CPU_LATENCY_DEVICE, "rb").read(4), sys.byteorder,
+                                                          signed=True)}))
+"""
+
+
+@pytest.mark.parametrize("priority", [50, 0])
+def test_a_loop_keeps_the_cpus_awake_while_its_process_runs(priority):
+    """``claim_realtime`` holds a CPU wake-up latency of ``CPU_WAKE_LATENCY`` (the kernel's PM QoS, read back
+    from ``CPU_LATENCY_DEVICE``) until its process ends, or says why it could not; 0 leaves it alone."""
+    from heft.diagrams.running.realtime import CPU_LATENCY_DEVICE, CPU_WAKE_LATENCY
+
+    if not os.path.exists(CPU_LATENCY_DEVICE):
+        pytest.skip(f"this kernel has no {CPU_LATENCY_DEVICE}")
+
+    def latency() -> int:
+        with open(CPU_LATENCY_DEVICE, "rb") as device:
+            return int.from_bytes(device.read(4), sys.byteorder, signed=True)
+
+    before = latency()
+    run = subprocess.run([sys.executable, "-c", LOOP_CLAIM, str(priority)], capture_output=True, text=True,
+                         check=True)
+    result = json.loads(run.stdout)
+    if priority == 0:
+        assert result == {"said": "normal scheduling (real-time priority 0)", "latency": before}, result
+    elif "refused a wake-up latency" in result["said"]:
+        assert "run as root" in result["said"] and result["latency"] == before, result
+    else:
+        assert result["said"].endswith(f"CPUs kept awake between ticks (wake-up latency {CPU_WAKE_LATENCY} µs)")
+        assert result["latency"] == CPU_WAKE_LATENCY < before, result
+    assert latency() == before  # released with the process
+
+
 def test_a_real_time_priority_outside_1_to_99_is_refused_before_anything_changes():
     from heft.diagrams.running.realtime import claim_lab_realtime, claim_realtime
 

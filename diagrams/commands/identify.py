@@ -46,8 +46,9 @@ def add_arguments(parser) -> None:
                           help="with --hardware: stale-channel timeout (s; default: the scenario's "
                                "lab.station.watchdog.timeout, 0.02)")
     parser.add_argument("--rt-priority", type=int, default=LOOP_PRIORITY,
-                          help="with --hardware: SCHED_FIFO priority of the loop, pinned to the last CPU "
-                               f"(default {LOOP_PRIORITY}; 0: normal)")
+                          help="with --hardware: SCHED_FIFO priority of the loop, pinned to the last CPU, with the "
+                               f"CPUs kept awake while it runs (default {LOOP_PRIORITY}; 0: normal scheduling, "
+                               "neither)")
     add_view(parser, what="with --hardware: the excitation (the measured wrench, its progress, the estimate)")
 
 

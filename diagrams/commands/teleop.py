@@ -41,8 +41,8 @@ def add_arguments(parser) -> None:
                              "extra; docs/live_view.md)")
     add_view(parser)
     parser.add_argument("--rt-priority", type=int, default=LOOP_PRIORITY,
-                        help=f"SCHED_FIFO priority of the control loop, pinned to the last CPU (default "
-                             f"{LOOP_PRIORITY}; 0: normal)")
+                        help=f"SCHED_FIFO priority of the control loop, pinned to the last CPU, with the CPUs kept "
+                             f"awake while it runs (default {LOOP_PRIORITY}; 0: normal scheduling, neither)")
     parser.add_argument("--busy-wait", type=float, default=0.0,
                         help="share of each period before a tick that the control loop waits busy instead of "
                              "asleep (0 to 0.8, default 0): a shorter tick tail where a sleeping CPU wakes late, "

@@ -9,7 +9,7 @@ overran by more are skipped, never replayed, so after a stall the loop resumes a
 the next grid point with one tick whose ``dt`` says how long the stall was.
 ``timing_summary`` turns the measurements into what a lab needs at exit: achieved
 rate, skipped ticks, lateness and the tick cost p50/p99. ``claim_realtime`` asks
-the OS for real-time scheduling of the loop's process, ``claim_lab_realtime`` of a process that
+the OS for real-time scheduling of the loop's process and awake CPUs, ``claim_lab_realtime`` of a process that
 plays the lab's drivers beside it.
 """
 
@@ -20,6 +20,7 @@ import gc
 import math
 import os
 import signal
+import sys
 import threading
 import time
 
@@ -48,6 +49,16 @@ MAX_DUTY = 0.8
 this share of a period: a ``SCHED_FIFO`` loop busy beyond Linux's real-time budget (95 % of each
 second) is stopped by the kernel for tens of milliseconds (a 4 kHz loop of 190 µs ticks with a
 100 µs busy wait: 47 ms stalls and 1–6 watchdog faults in 5 s)."""
+
+
+CPU_LATENCY_DEVICE = "/dev/cpu_dma_latency"
+"""Linux's PM QoS device for the CPUs' wake-up latency: a request holds while its file stays open."""
+CPU_WAKE_LATENCY = 0
+"""µs a CPU may take to wake while a real-time loop runs (``claim_realtime``): 0 keeps idle CPUs polling,
+so that neither the loop's CPU nor the one that receives its commands halts between ticks. On this
+2-core virtual machine, halting cost the 2 kHz tick about 40 µs at the median (docs/benchmarks.md)."""
+_cpu_latency_request: int | None = None
+"""The open file that holds ``CPU_WAKE_LATENCY`` (None until ``claim_realtime`` opens it)."""
 
 
 class HardwareRunFailed(RuntimeError):
@@ -211,11 +222,30 @@ def _claim_fifo(priority: int) -> str | None:
     return None
 
 
+def _hold_cpus_awake() -> str:
+    """Asks the kernel to keep every CPU out of the idle states that take time to leave, for as long as this
+    process runs (a PM QoS request of ``CPU_WAKE_LATENCY`` µs on ``CPU_LATENCY_DEVICE``, as ``cyclictest``
+    makes; the kernel drops it when the process ends). Returns what was granted, or why not and how to grant it."""
+    global _cpu_latency_request
+    if _cpu_latency_request is None:
+        try:
+            _cpu_latency_request = os.open(CPU_LATENCY_DEVICE, os.O_WRONLY)
+            os.write(_cpu_latency_request, CPU_WAKE_LATENCY.to_bytes(4, sys.byteorder, signed=True))
+        except OSError as error:
+            if _cpu_latency_request is not None:
+                os.close(_cpu_latency_request)
+                _cpu_latency_request = None
+            return (f"idle CPUs may sleep deeply: {CPU_LATENCY_DEVICE} refused a wake-up latency of "
+                    f"{CPU_WAKE_LATENCY} µs ({error.strerror}; run as root, or let the user write it)")
+    return f"CPUs kept awake between ticks (wake-up latency {CPU_WAKE_LATENCY} µs)"
+
+
 def claim_realtime(priority: int) -> str:
     """Asks the OS to run the calling thread as a real-time one: ``SCHED_FIFO`` at ``priority``
     (1–99; 0 leaves the scheduling alone), pinned to the last CPU so that other processes
-    (the drivers, a stand-in) neither preempt it nor move it between caches. Threads and
-    processes started afterwards inherit both: claim it before opening an LCM bus, whose
+    (the drivers, a stand-in) neither preempt it nor move it between caches, with the CPUs kept
+    out of deep idle states while the process runs (``CPU_WAKE_LATENCY``). Threads and
+    processes started afterwards inherit the first two: claim it before opening an LCM bus, whose
     receive thread then runs at the loop's priority instead of waiting behind every other
     process for a CPU (``keep_cpu_for_loop`` then moves it to another CPU). Returns what was
     granted, or why not and how to grant it; never raises for a refusal."""
@@ -224,10 +254,10 @@ def claim_realtime(priority: int) -> str:
         return "normal scheduling (real-time priority 0)"
     cpu = loop_cpu(os.sched_getaffinity(0))
     os.sched_setaffinity(0, {cpu})
-    refused = _claim_fifo(priority)
+    refused, awake = _claim_fifo(priority), _hold_cpus_awake()
     if refused is not None:
-        return refused + "; ticks may be preempted"
-    return f"SCHED_FIFO priority {priority} on CPU {cpu}"
+        return f"{refused}; ticks may be preempted; {awake}"
+    return f"SCHED_FIFO priority {priority} on CPU {cpu}; {awake}"
 
 
 def claim_lab_realtime(priority: int) -> str:
