@@ -202,8 +202,9 @@ class TickTap:
 
     def close(self) -> dict:
         """Stops the worker after it has handled every row (the recorder: encoded every row it
-        spooled, however long that takes); {"rows": handled, "dropped": rows lost, "events_dropped": events lost}
-        ({} if not open; the rows' counts only if the worker gave them)."""
+        spooled, however long that takes); {"rows": handled, "dropped": rows lost, "messages": messages logged
+        (on the topics somebody took), "events_dropped": events lost} ({} if not open; the worker's counts only if
+        it gave them)."""
         if self._process is None:
             return {}
         self._events.close()  # every event sent is in the worker's socket before it is told to stop
@@ -320,22 +321,28 @@ def _work(path, widths: dict, topics: tuple, rows: int, sink: tuple, robot: Robo
     next_scene = -math.inf
 
     def send(log_time: int, row) -> None:
-        nonlocal next_scene
+        """The row's messages on the topics somebody takes (a client subscribed, the MCAP file): a view
+        nobody watches encodes nothing."""
+        nonlocal next_scene, logged
         t = float(row[0])
         arrays = {key: row[part] for key, part in spans.items()}
         drawn = scene is not None and t >= next_scene - 1e-9
         if drawn:  # the scene at most SCENE_RATE, on its grid (as ``publish`` takes rows: late ones do not drift it)
             step = 1.0 / SCENE_RATE
             next_scene = next_scene + step if t < next_scene + step else t + step
-            scene.update(arrays["slave_q"], arrays["master_q"])
-            arrays.update(pose_RS=scene.pose_RS, pose_BE=scene.pose_BE)
-        for name, message in row_messages(t, arrays, names if drawn else plain):
+            drawn = channels[SCENE_FRAMES].has_sinks() or channels[SCENE_WRENCHES].has_sinks()
+            if drawn:
+                scene.update(arrays["slave_q"], arrays["master_q"])
+                arrays.update(pose_RS=scene.pose_RS, pose_BE=scene.pose_BE)
+        taken = [name for name in (names if drawn else plain) if channels[name].has_sinks()]
+        for name, message in row_messages(t, arrays, taken) if taken else ():
             channels[name].log(encode(message), log_time=log_time)
+            logged += 1
 
     # The recorder spools every row to a file first (a copy), then encodes from it as it can: a
     # loop faster than the encoding loses nothing, and the file is finished at close.
     spool = _Spool(ring.shape[1]) if rate == 0 else None
-    read, sent, dropped = 0, 0, 0
+    read, sent, dropped, logged = 0, 0, 0, 0
     try:
         while True:
             stopping = head[1] != 0.0
@@ -346,9 +353,12 @@ def _work(path, widths: dict, topics: tuple, rows: int, sink: tuple, robot: Robo
                 except BlockingIOError:
                     break
                 topic, t, message = pickle.loads(memoryview(event_buffer)[:size])
+                if not channels[topic].has_sinks():
+                    continue
                 if isinstance(message, bytes):
                     message = event_from_lcm(topic, message)
                 channels[topic].log(encode(message), log_time=t0 + round(t * 1e9))
+                logged += 1
             if written - read > rows:
                 dropped += written - read - rows
                 read = written - rows
@@ -376,7 +386,7 @@ def _work(path, widths: dict, topics: tuple, rows: int, sink: tuple, robot: Robo
         events.close()
         if spool is not None:
             spool.close()
-        replies.put({"rows": sent, "dropped": dropped})
+        replies.put({"rows": sent, "dropped": dropped, "messages": logged})
 
 
 class _Spool:

@@ -91,7 +91,9 @@ def test_the_recorder_writes_every_row_handed_to_it(tmp_path):
             while time.perf_counter() < start + 1e-4:
                 pass
         stats = recorder.close()
-    assert stats == {"rows": len(data), "dropped": 0, "events_dropped": 0}
+    with open(tmp_path / "run.mcap", "rb") as file:
+        written = sum(1 for _ in make_reader(file).iter_messages())
+    assert stats == {"rows": len(data), "dropped": 0, "messages": written, "events_dropped": 0}
     with open(tmp_path / "run.mcap", "rb") as file:
         messages = [(channel.topic, message.log_time, json.loads(message.data))
                     for _, channel, message in make_reader(file).iter_messages(
@@ -109,7 +111,7 @@ def test_the_recorder_writes_every_row_handed_to_it(tmp_path):
 
 def test_the_loop_hands_rows_over_at_the_views_rate(tmp_path):
     """`publish` at 2 kHz with the view's worker running: taken at the view's rate (what a call costs is printed;
-    `heft bench lcm --view` measures the tick with it)."""
+    `heft bench lcm --view` measures the tick with it); with no client, the worker encodes none of them."""
     data = rows(2000)
     with LiveView(free_port()) as view:
         view.open(WIDTHS)
@@ -118,7 +120,10 @@ def test_the_loop_hands_rows_over_at_the_views_rate(tmp_path):
             start = time.perf_counter()
             taken += view.publish(k * 0.0005, row)
             costs.append(time.perf_counter() - start)
+        view.event("/faults", {"healthy": True}, 0.1)
+        stats = view.close()
     assert taken == pytest.approx(len(data) * 0.0005 * DEFAULT_RATE, abs=1)
+    assert stats == {"rows": taken, "dropped": 0, "messages": 0, "events_dropped": 0}
     print(f"hand-off: median {1e6 * np.median(costs):.1f} µs, p99 {1e6 * np.percentile(costs, 99):.1f} µs")
 
 
@@ -140,8 +145,9 @@ def test_a_client_sees_the_rows_a_loop_hands_over_at_the_views_rate():
             while time.perf_counter() < start + 0.0005:
                 pass
         view.event("/faults", {"healthy": True}, 0.1)
-        view.close()
+        stats = view.close()
     listening.join()
+    assert 0 < len(client.messages) <= stats["messages"]
     by_topic = {}
     for topic, _, message in client.messages:
         by_topic.setdefault(topic, []).append(message)
