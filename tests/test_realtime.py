@@ -268,6 +268,23 @@ def test_a_loop_keeps_the_cpus_awake_while_its_process_runs(priority):
     assert latency() == before  # released with the process
 
 
+@pytest.mark.parametrize("device, how", [("/sys/devices/system/cpu/online", "run as root, or let the user write it"),
+                                         (None, "a kernel without PM QoS")])
+def test_a_loop_that_may_not_keep_the_cpus_awake_says_why_and_runs_on(monkeypatch, tmp_path, device, how):
+    """A device the process may not write (a read-only sysfs file: refused even to root) or none at all: the
+    claim says which, and how to grant it, and holds nothing."""
+    from heft.diagrams.running import realtime
+
+    device = device or str(tmp_path / "cpu_dma_latency")
+    if device.startswith("/sys") and not os.path.exists(device):
+        pytest.skip(f"no {device} here")
+    monkeypatch.setattr(realtime, "CPU_LATENCY_DEVICE", device)
+    monkeypatch.setattr(realtime, "_cpu_latency_request", None)  # none held in this process
+    said = realtime._hold_cpus_awake()
+    assert said.startswith(f"idle CPUs may sleep deeply: {device} refused a wake-up latency of 0 µs") and how in said
+    assert realtime._cpu_latency_request is None
+
+
 def test_a_real_time_priority_outside_1_to_99_is_refused_before_anything_changes():
     from heft.diagrams.running.realtime import claim_lab_realtime, claim_realtime
 

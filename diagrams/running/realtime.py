@@ -235,8 +235,10 @@ def _hold_cpus_awake() -> str:
             if _cpu_latency_request is not None:
                 os.close(_cpu_latency_request)
                 _cpu_latency_request = None
+            how = ("run as root, or let the user write it (a udev rule)" if isinstance(error, PermissionError)
+                   else "a kernel without PM QoS: ticks may start late after the CPU idles")
             return (f"idle CPUs may sleep deeply: {CPU_LATENCY_DEVICE} refused a wake-up latency of "
-                    f"{CPU_WAKE_LATENCY} µs ({error.strerror}; run as root, or let the user write it)")
+                    f"{CPU_WAKE_LATENCY} µs ({error.strerror}; {how})")
     return f"CPUs kept awake between ticks (wake-up latency {CPU_WAKE_LATENCY} µs)"
 
 
