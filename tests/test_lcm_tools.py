@@ -1,4 +1,4 @@
-"""Recording LCM traffic with lcm-logger, and the latency rule of `heft bench lcm`."""
+"""Recording LCM traffic with lcm-logger, and the latency rule and the steal reading of `heft bench lcm`."""
 
 import subprocess
 import sys
@@ -113,3 +113,20 @@ def test_the_bench_waits_for_a_line_and_leaves_the_rest_to_communicate():
         _wait_for_line(silent, "ready:", 30.0)
 
 
+
+
+def test_the_bench_reads_each_cpus_steal_from_proc_stat_as_the_kernel_lays_it_out():
+    """proc(5): per CPU, user nice system idle iowait irq softirq steal … in clock ticks; the machine's total line
+    and the other lines are not CPUs, and a kernel that counts no steal gives none."""
+    import os
+
+    from heft.diagrams.commands.bench_lcm import cpu_steal_ms
+
+    tick_ms = 1e3 / os.sysconf("SC_CLK_TCK")
+    stat = ("cpu  3310789 632564 605096 3366585 26987 0 37678 7288 0 0\n"
+            "cpu0 1472708 294739 359697 1817569 7385 0 20521 4042 0 0\n"
+            "cpu1 1838080 337824 245399 1549016 19602 0 17156 3246 0 0\n"
+            "intr 9139233 0 9 0 0 0 0 0\n"
+            "ctxt 512883211\n")
+    assert cpu_steal_ms(stat) == {"cpu0": 4042 * tick_ms, "cpu1": 3246 * tick_ms}
+    assert cpu_steal_ms("cpu  1 2 3 4\ncpu0 1 2 3 4\n") == {}

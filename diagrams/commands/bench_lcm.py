@@ -20,7 +20,9 @@ loop rate it sustained and its tick cost. Each rate runs twice, the load estimat
 learned online (``ONLINE``): the probe's accelerometer swings (``PROBE_ACCELERATION``) so that
 the estimator's gate opens, and its learning window outlasts the run so that the sensor's steps
 never close it: the estimator updates on every tick, its worst case. Where it may (root, ``ip``),
-the bench runs both processes in a private network namespace so no packet leaves the machine.
+the bench runs both processes in a private network namespace so no packet leaves the machine. On a
+virtual machine, each row says how long the hypervisor took each CPU away meanwhile (``cpu_steal_ms``),
+which a tick or a message then waited out.
 """
 
 from __future__ import annotations
@@ -55,6 +57,25 @@ rate (Hz) to its reading at rest, so that the online estimator's gate (``min_exc
 ESTIMATORS = ("fixed", "online")
 ONLINE = {"controller.estimator.mode": "online", "controller.estimator.learning_window": 1e9}
 """The online estimator as benched: contact never judged, so that every excited tick updates it."""
+
+
+def cpu_steal_ms(stat: str) -> dict[str, float]:
+    """Per CPU (``cpu0``, ``cpu1``, …), the time (ms) the hypervisor ran something else while the CPU had work, since
+    boot: the eighth number of its line in ``/proc/stat`` (``stat``: that file's text), in clock ticks
+    (``SC_CLK_TCK``); empty where the kernel counts no steal (fewer fields)."""
+    tick_ms = 1e3 / os.sysconf("SC_CLK_TCK")
+    steal = {}
+    for line in stat.splitlines():
+        fields = line.split()
+        if fields and fields[0].startswith("cpu") and fields[0] != "cpu" and len(fields) > 8:
+            steal[fields[0]] = int(fields[8]) * tick_ms
+    return steal
+
+
+def _steal_since(before: dict[str, float]) -> dict[str, float]:
+    """The steal (ms per CPU, ``cpu_steal_ms``) since ``before`` (the same, read earlier)."""
+    now = cpu_steal_ms(Path("/proc/stat").read_text())
+    return {cpu: now[cpu] - before[cpu] for cpu in before if cpu in now}
 
 
 def run_probe(channels, duration: float, out: Path, master_q, slave_q) -> None:
@@ -272,6 +293,7 @@ def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder:
     probe_path = folder / f"probe_{rate_hz:g}_{estimator}.json"
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONUNBUFFERED="1")
     python = [*prefix, sys.executable]
+    steal = cpu_steal_ms(Path("/proc/stat").read_text())
     teleop = subprocess.Popen(
         [*python, "-m", "heft.diagrams.cli", "teleop", "--hardware", *_url_arguments(channels), "--scenario", scenario,
          "--set", yaml.safe_dump(settings, default_flow_style=True), "--rate", str(rate_hz),
@@ -285,6 +307,7 @@ def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder:
          json.dumps(loaded.master_initial_q), json.dumps(loaded.slave_initial_q)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
     _finish({"teleop": (teleop, 20 * (duration + SETTLE) + 120), "probe": (probe, 30)})
+    steal = _steal_since(steal)
     measured = json.loads(probe_path.read_text())
     # A step stamped more than PROBE_LATE after it was due had the probe preempted around its
     # publish: the stamp may then be later than the delivery, so its latency is left out, and counted.
@@ -310,6 +333,7 @@ def bench_rate(rate_hz: float, duration: float, channels, scenario: str, folder:
         "commands_received_hz": float((receipts.size - 1) / (receipts[-1] - receipts[0])) if receipts.size > 1
         else 0.0,
         "controller": timing,
+        "steal_ms": steal,
     }
 
 
@@ -399,6 +423,9 @@ def run(rates, duration: float, scenario: str, channels, busy_wait: float = 0.0,
         for fault in r["controller_faults"]:  # a stale channel or a stalled loop, with the ages then
             print(f"{'':10s}fault at {fault['onset']:.4f} s: bits {fault['fault_bits']}, ages {fault['ages_ms']} ms, "
                   f"recovered {fault['recovered']}")
+        if any(r["steal_ms"].values()):  # a virtual machine's CPUs taken away meanwhile: outliers to expect
+            print(f"{'':10s}the hypervisor took " + ", ".join(f"{ms:.0f} ms of {cpu}" for cpu, ms in r["steal_ms"].items())
+                  + " during this row's run")
     for fixed, online in zip(results[::2], results[1::2]):
         costs = "; ".join(f"{name} {online['controller'][key]:.0f} against {fixed['controller'][key]:.0f} µs "
                           f"(× {online['controller'][key] / fixed['controller'][key]:.2f})"
