@@ -113,6 +113,21 @@ def test_the_bench_waits_for_a_line_and_leaves_the_rest_to_communicate():
         _wait_for_line(silent, "ready:", 30.0)
 
 
+def test_a_bench_process_that_fails_or_hangs_is_reported_with_everything_each_wrote():
+    """The controller fails at once while the probe would wait on for it: the probe is killed after its timeout,
+    not waited for, and the error shows both outputs."""
+    import subprocess
+    import sys
+
+    from heft.diagrams.commands.bench_lcm import _finish
+
+    failed = subprocess.Popen([sys.executable, "-c", "print('teleop: refused'); raise SystemExit(2)"],
+                              stdout=subprocess.PIPE, text=True)
+    waiting = subprocess.Popen([sys.executable, "-c", "import time; print('probe: waiting', flush=True); "
+                                "time.sleep(60)"], stdout=subprocess.PIPE, text=True)
+    with pytest.raises(RuntimeError, match="(?s)teleop: refused.*probe: waiting.*killed: still running 1 s"):
+        _finish({"teleop": (failed, 30), "probe": (waiting, 1)})
+    assert waiting.returncode is not None and waiting.returncode < 0
 
 
 def test_the_bench_reads_each_cpus_steal_from_proc_stat_as_the_kernel_lays_it_out():

@@ -54,6 +54,10 @@ PROBE_LATE = 0.001
 PROBE_ACCELERATION = (3.0, 2.0)
 """The probe's accelerometer adds a horizontal acceleration of this magnitude (m/s²) turning at this
 rate (Hz) to its reading at rest, so that the online estimator's gate (``min_excitation``) opens."""
+CONTROLLER_START = 120.0
+"""Seconds the probe, publishing, waits for the controller's first command: the controller's start, with its
+kernels compiled afresh on a first run (about a minute on a slow 2-core machine; the probe waited 30 s, and a
+first run after an install or a change had it give up before the controller ticked)."""
 ESTIMATORS = ("fixed", "online")
 ONLINE = {"controller.estimator.mode": "online", "controller.estimator.learning_window": 1e9}
 """The online estimator as benched: contact never judged, so that every excited tick updates it."""
@@ -80,8 +84,8 @@ def _steal_since(before: dict[str, float]) -> dict[str, float]:
 
 def run_probe(channels, duration: float, out: Path, master_q, slave_q) -> None:
     """Plays the drivers on ``channels`` (``LcmChannels``: publishing on ``lcm_url``, hearing the
-    commands on the command URL) from when the first master command arrives (at most 30 s of
-    waiting) until the commands stop for 1 s or ``duration`` s have passed, and writes {step
+    commands on the command URL) from when the first master command arrives (at most ``CONTROLLER_START`` s
+    of waiting) until the commands stop for 1 s or ``duration`` s have passed, and writes {step
     publish times, command receipt times and torques} to ``out``."""
     import lcm
     from drake import lcmt_iiwa_status
@@ -115,8 +119,9 @@ def run_probe(channels, duration: float, out: Path, master_q, slave_q) -> None:
         now = time.time()
         if first_command is None and receipts:
             first_command = receipts[0]
-        if first_command is None and now - start > 30.0:
-            raise SystemExit("probe: no master command within 30 s: is `heft teleop --hardware` running?")
+        if first_command is None and now - start > CONTROLLER_START:
+            raise SystemExit(f"probe: no master command within {CONTROLLER_START:g} s: is `heft teleop --hardware` "
+                             "running?")
         if first_command is not None and (now - first_command > duration or now - receipts[-1] > 1.0):
             break
         for i, ((channel, msg), period) in enumerate(zip(streams, periods)):
@@ -253,12 +258,16 @@ def _wait_for_line(process: subprocess.Popen, start: str, timeout: float) -> str
 
 
 def _finish(processes: dict, already: dict | None = None) -> None:
-    """Waits for each {label: (Popen, timeout s)} in turn; kills what is left; raises with
-    every process's output (after what ``already`` {label: text} holds of it) if one failed."""
+    """Waits for each {label: (Popen, timeout s)} in turn, killing one still running after its timeout; raises
+    with every process's output (after what ``already`` {label: text} holds of it) if one failed or was killed."""
     outputs = dict(already or {})
     try:
         for label, (process, timeout) in processes.items():
-            rest, _ = process.communicate(timeout=timeout)
+            try:
+                rest, _ = process.communicate(timeout=timeout)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                rest = process.communicate()[0] + f"\n(killed: still running {timeout:g} s after the ones before it)"
             outputs[label] = outputs.get(label, "") + rest
     finally:
         for process, _ in processes.values():
