@@ -5,10 +5,11 @@ file (``McapRecorder``), by a process of their own.
 The loop's side of either is a hand-off into shared memory: ``publish(t, arrays)`` copies the
 declared arrays into a ring of preallocated rows and moves a counter; no encoding, no lock, no
 system call, so it never waits for the viewer. A rare message (``event``) is one datagram, sent without
-waiting, to a socket the worker reads: the loop's process runs no thread of the view's. ``LiveView`` takes at most ``rate`` rows a second
-(on the loop's clock ``t``), ``McapRecorder`` every row (the scene at ``SCENE_RATE``). The worker
-process (niced, off a real-time loop's CPU) reads the ring, adds the scene's poses
-(``diagrams.scene_poses``), encodes the messages and serves or writes them. The recorder's worker
+waiting, to a socket the worker reads: the loop's process runs no thread of the view's. ``LiveView`` takes at
+most ``rate`` rows a second (on the loop's clock ``t``), ``McapRecorder`` every row (the scene at
+``SCENE_RATE``). The worker process (niced, off a real-time loop's CPU) reads the ring, adds the scene's poses
+(``diagrams.scene_poses``), encodes the messages of the topics somebody takes (a client subscribed; the file
+takes all) and serves or writes them. The recorder's worker
 first spools each row to a temporary file, so that an encoding slower than the loop loses nothing
 (it catches up after ``close``); rows a worker falls more than its ring (``RING_SECONDS``) behind on are lost,
 counted.
@@ -17,7 +18,7 @@ counted.
     view.open({"wrench_measured": 6, "slave_q": 6, ...})  # once: starts the worker, waits for it
     view.publish(t, arrays)                         # each tick: key → array of the declared width
     view.event("/faults", payload, t)               # rare messages (EVENT_TOPICS; row topics named at open)
-    view.close()                                    # {"rows": …, "dropped": …, "events_dropped": …}
+    view.close()                                    # {"rows": …, "dropped": …, "messages": …, "events_dropped": …}
 """
 
 from __future__ import annotations

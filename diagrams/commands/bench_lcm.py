@@ -55,9 +55,8 @@ PROBE_ACCELERATION = (3.0, 2.0)
 """The probe's accelerometer adds a horizontal acceleration of this magnitude (m/s²) turning at this
 rate (Hz) to its reading at rest, so that the online estimator's gate (``min_excitation``) opens."""
 CONTROLLER_START = 120.0
-"""Seconds the probe, publishing, waits for the controller's first command: the controller's start, with its
-kernels compiled afresh on a first run (about a minute on a slow 2-core machine; the probe waited 30 s, and a
-first run after an install or a change had it give up before the controller ticked)."""
+"""Seconds the probe, publishing, waits for the controller's first command: the controller's start, which on a
+first run after an install or a change compiles its kernels (about a minute on a slow 2-core machine)."""
 ESTIMATORS = ("fixed", "online")
 ONLINE = {"controller.estimator.mode": "online", "controller.estimator.learning_window": 1e9}
 """The online estimator as benched: contact never judged, so that every excited tick updates it."""
@@ -433,8 +432,8 @@ def run(rates, duration: float, scenario: str, channels, busy_wait: float = 0.0,
             print(f"{'':10s}fault at {fault['onset']:.4f} s: bits {fault['fault_bits']}, ages {fault['ages_ms']} ms, "
                   f"recovered {fault['recovered']}")
         if any(r["steal_ms"].values()):  # a virtual machine's CPUs taken away meanwhile: outliers to expect
-            print(f"{'':10s}the hypervisor took " + ", ".join(f"{ms:.0f} ms of {cpu}" for cpu, ms in r["steal_ms"].items())
-                  + " during this row's run")
+            stolen = ", ".join(f"{ms:.0f} ms of {cpu}" for cpu, ms in r["steal_ms"].items())
+            print(f"{'':10s}the hypervisor took {stolen} during this row's run")
     for fixed, online in zip(results[::2], results[1::2]):
         costs = "; ".join(f"{name} {online['controller'][key]:.0f} against {fixed['controller'][key]:.0f} µs "
                           f"(× {online['controller'][key] / fixed['controller'][key]:.2f})"

@@ -55,8 +55,8 @@ CPU_LATENCY_DEVICE = "/dev/cpu_dma_latency"
 """Linux's PM QoS device for the CPUs' wake-up latency: a request holds while its file stays open."""
 CPU_WAKE_LATENCY = 0
 """µs a CPU may take to wake while a real-time loop runs (``claim_realtime``): 0 keeps idle CPUs polling,
-so that neither the loop's CPU nor the one that receives its commands halts between ticks. On this
-2-core virtual machine, halting cost the 2 kHz tick about 40 µs at the median (docs/benchmarks.md)."""
+so that neither the loop's CPU nor the one that receives its commands halts between ticks: a halted virtual
+CPU wakes late and cold (docs/benchmarks.md)."""
 _cpu_latency_request: int | None = None
 """The open file that holds ``CPU_WAKE_LATENCY`` (None until ``claim_realtime`` opens it)."""
 
