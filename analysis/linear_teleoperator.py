@@ -16,7 +16,8 @@ Physics (continuous):
 Controller (discrete, period T, each block a Drake discrete system):
 
     x_c = k_t F(x_m) delayed by d_fwd + n ticks, F the master filter of
-    `heft.systems.controller.master_position_filter` (its low-pass, then its notch; identity without them) → setpoint filter
+    `heft.systems.controller.master_position_filter` (its low-pass, then its notch; identity without them)
+    → setpoint filter
     (critically damped, exact ZOH discretisation of `heft.systems.station.setpoint_filter`) → [x_f, ẋ_f]
     f_a = −k_f (γ N(c) + σ n) delayed by d_fb + n ticks, N the mount notch of
     `heft.systems.controller.force_scaling` (identity without one)

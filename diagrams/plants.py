@@ -141,7 +141,8 @@ def AddSlave(plant: MultibodyPlant, scenario: Scenario, mount_compliance: bool =
     outside = [f"joint {j + 1} at {q:g} outside [{lo:g}, {hi:g}]" for j, (q, lo, hi) in
                enumerate(zip(scenario.slave_initial_q, chain.lower, chain.upper)) if not lo <= q <= hi]
     if outside:
-        raise ValueError(f"scenario field 'slave_initial_q' must lie within the joint limits (rad): {'; '.join(outside)}")
+        raise ValueError("scenario field 'slave_initial_q' must lie within the joint limits (rad): "
+                         + "; ".join(outside))
     load_bodies, gripper_bodies = _add_load(plant, scenario.load)
     if mount_compliance and not scenario.load.mount.rigid:
         weld, joint = _add_compliant_mount(plant, S, load_bodies[0], mount_constants or mount_for(scenario))

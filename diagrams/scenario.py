@@ -238,7 +238,8 @@ class Scenario:
              "split; give controller.force.phi_gripper (the gripper's φ, Eq. 6), use a load with a grasp "
              "(load.grasp_at: the gripper is identified alone), learn the load online "
              "(controller.estimator.mode: online; on hardware a grasp over LCM splits it) or leave η at 1")
-        need(self.master in BUNDLED_MASTERS, "master", f"must be one of {', '.join(BUNDLED_MASTERS)}, not {self.master!r}")
+        need(self.master in BUNDLED_MASTERS, "master",
+             f"must be one of {', '.join(BUNDLED_MASTERS)}, not {self.master!r}")
         need(self.robot in ROBOTS, "robot", f"must be one of {', '.join(ROBOTS)}, not {self.robot!r}")
         if self.robot == "custom":
             try:
@@ -399,7 +400,8 @@ def layered(scenario: Scenario, text: str) -> Scenario:
     """A copy of ``scenario`` with the YAML ``text`` laid over it: any subset of a scenario
     file's fields, nested as there (``"{controller: {force: {gamma: 0.5}}, duration: 3}"``);
     the fields it leaves out keep ``scenario``'s values, but for a new ``robot``'s start posture, servo
-    gains and motion scale (``with_arm_defaults``) and a new ``master``'s force limit (``with_master_defaults``). Validated; errors name the field."""
+    gains and motion scale (``with_arm_defaults``) and a new ``master``'s force limit (``with_master_defaults``).
+    Validated; errors name the field."""
     try:
         stated = yaml_tree(text)
         _check_fields(stated, Scenario)

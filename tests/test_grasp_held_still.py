@@ -9,7 +9,6 @@ spatial velocity) with the default sensor model's white noise on the wrench and 
 alone, then (from the grasp's tick) the gripper and a 0.5 kg block. The references are the block's φ and the
 closed forms of statics."""
 
-import math
 
 import numpy as np
 import pytest

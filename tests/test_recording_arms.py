@@ -60,8 +60,8 @@ def _write(folder: Path, t, orientation_columns: dict, orientation: dict, extra:
                delimiter=",", header=",".join(["us"] + names), comments="", fmt=["%d"] + ["%.15g"] * len(names))
     document = {"wrench": {"file": "ft.csv", "time": {"column": "us", "unit": "us"},
                            "columns": ["fx", "fy", "fz", "tx", "ty", "tz"]},
-                "accelerometer": {"file": "imu.csv", "time": {"column": "us", "unit": "us"}, "columns": ["ax", "ay", "az"],
-                                  "unit": "m/s^2"},
+                "accelerometer": {"file": "imu.csv", "time": {"column": "us", "unit": "us"},
+                                  "columns": ["ax", "ay", "az"], "unit": "m/s^2"},
                 "orientation": {"file": "pose.csv", "time": {"column": "us", "unit": "us"}, "columns": names,
                                 **orientation},
                 "gravity_W": GRAVITY_W.tolist()}

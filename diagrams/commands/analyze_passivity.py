@@ -110,8 +110,8 @@ def analyze_log(log: dict, robot: str = "rx90", twist=None, observer_lag: int = 
     withheld from the hand, Σ (f_PC − f_applied)·v·T (J, ``passivity_controller`` key
     ``c_clamp_withheld_J``), which the observer counts back; with the environment keys, the
     environment port's energies too. ``twist``: `stylus_twists` of the
-    log, if already computed (not yet paired); ``observer_lag``: as `paired_rows`'s ``lag`` (module docstring); ``master``: the run's
-    bundled master."""
+    log, if already computed (not yet paired); ``observer_lag``: as `paired_rows`'s ``lag`` (module docstring);
+    ``master``: the run's bundled master."""
     t = np.asarray(log["t"], dtype=float)
     holds = sample_periods(t, log.get("hold"))
     twist = paired_rows(stylus_twists(log["master_q"], log["master_v"], master) if twist is None else twist,

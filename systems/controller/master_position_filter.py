@@ -17,10 +17,11 @@ Each stage has unit gain at rest; it starts, and restarts after a non-finite sam
 position it gets.
 
 A tick that comes k periods after the last (``hold``, s: the loop paused, its ticks skipped; ``CATCH_UP_FROM``
-tells a skipped tick from the loop's jitter) steps the stages k times, on the positions linearly between the last sample and this one, so that their clock keeps the time that
-passed. Stepped once, the stages would take the skipped time as not passed: a step of the position by the motion
-over the skipped ticks, which the notch answers with a dip of the output that takes back, in all, the motion over
-its DC group delay 1/(Q·2π·f₀) (2.1 ms at 110 Hz, Q 0.7) on top of the skipped ticks' own, and rings the mount.
+tells a skipped tick from the loop's jitter) steps the stages k times, on the positions linearly between the last
+sample and this one, so that their clock keeps the time that passed. Stepped once, the stages would take the
+skipped time as not passed: a step of the position by the motion over the skipped ticks, which the notch
+answers with a dip of the output that takes back, in all, the motion over its DC group delay 1/(Q·2π·f₀)
+(2.1 ms at 110 Hz, Q 0.7) on top of the skipped ticks' own, and rings the mount.
 At most ``MAX_CATCH_UP`` periods are caught up.
 """
 
@@ -65,9 +66,9 @@ def filter_step_into(out, coefficients, state, sample) -> None:
 @compiled("void(float64[:], float64[:, :], float64[:], float64[:], float64[:], float64[:], float64, float64[:])")
 def filter_catch_up_into(out, coefficients, state, last, sample, hold, period, scratch) -> None:
     """The stages' state after a tick ``hold[0]`` s after the last into ``out``: k = ⌊hold/period + 2 −
-    ``CATCH_UP_FROM``⌋ steps (1 to ``MAX_CATCH_UP``) from ``state``, the first k − 1 on the positions linearly between ``last`` (the
-    last tick's sample) and ``sample`` (one step if ``last`` is not finite), the last on ``sample``;
-    ``scratch`` (as ``sample``) for the positions between."""
+    ``CATCH_UP_FROM``⌋ steps (1 to ``MAX_CATCH_UP``) from ``state``, the first k − 1 on the positions linearly
+    between ``last`` (the last tick's sample) and ``sample`` (one step if ``last`` is not finite), the last on
+    ``sample``; ``scratch`` (as ``sample``) for the positions between."""
     out[:] = state
     k = min(max(math.floor(hold[0] / period + 2.0 - CATCH_UP_FROM), 1), MAX_CATCH_UP) if math.isfinite(hold[0]) else 1
     for i in range(last.shape[0]):
