@@ -240,15 +240,21 @@ for k in range(20):
     hand_wrench_into(chain.R, chain.p, *rng.normal(0, 1, (2, 3)), *reference, 800.0, 15.0, 2.0, 0.05,
                      np.empty((3, 3)), np.empty(7), hand)
     out["hand"].append(np.concatenate((reference[0].ravel(), *reference[1:], hand)))
-from heft.systems.station.operator_hand import hand_force_into
+from heft.systems.compiled import record_views
+from heft.systems.station.operator_hand import HAND, hand_force_into
 
 out["hand_one_call"], X_WE = [], np.empty((3, 4))
+record, fields = record_views(HAND)
+for name, value in (("start_time", 0.1), ("frequency", 2.5), ("stiffness", 800.0), ("damping", 15.0),
+                    ("rotational_stiffness", 2.0), ("rotational_damping", 0.05)):
+    record[name] = value
 for k in range(20):
     chain.update(rng.uniform(-3, 3, 6))
     X_WE[:, :3], X_WE[:, 3] = chain.R, chain.p
     chain.update(rng.uniform(-3, 3, 6))
-    hand_force_into(0.05 * k, X_WE, rng.normal(0, 1, 6), 0.1, 2.5, np.array([1.0, 0.5]), *rng.normal(0, 0.2, (2, 3)),
-                    chain.R, chain.p, 800.0, 15.0, 2.0, 0.05, np.empty((2, 3, 3)), np.empty((3, 3)), np.empty(7), hand)
+    fields["amplitude"][:], fields["rotation_amplitude"][:] = rng.normal(0, 0.2, (2, 3))
+    fields["R_WE0"][:], fields["p_WE0"][:] = chain.R, chain.p
+    hand_force_into(0.05 * k, X_WE, rng.normal(0, 1, 6), np.array([1.0, 0.5]), record, hand)
     out["hand_one_call"].append(hand.copy())
 # The station's readers (every reason a message is refused for), its health and its command gate.
 import lcm

@@ -13,7 +13,7 @@ from pydrake.multibody.math import SpatialForce, SpatialVelocity
 from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 from pydrake.systems.framework import LeafSystem
 
-from heft.systems.compiled import compiled, float_array
+from heft.systems.compiled import compiled, float_array, record_views
 from heft.systems.pose_vectors import pose_into
 
 
@@ -90,20 +90,36 @@ def hand_wrench_into(R_WE, p_WE, w_WE, v_WE, R_ref, p_ref, w_ref, v_ref, k, d, k
         out[3 + i] = k * (p_ref[i] - p_WE[i]) + d * (v_ref[i] - v_WE[i])
 
 
-@compiled("void(float64, float64[:, :], float64[:], float64, float64, float64[:], float64[:], float64[:], "
-          "float64[:, :], float64[:], float64, float64, float64, float64, float64[:, :, :], float64[:, :], float64[:], "
-          "float64[:])")
-def hand_force_into(t, X_WE, V_WE, start_time, frequency, stroke_scales, amplitude, rotation_amplitude, R_WE0, p_WE0,
-                    k, d, k_rot, d_rot, rotations, rates, quaternion, out) -> None:
+HAND = np.dtype([("start_time", float), ("frequency", float), ("amplitude", float, 3),
+                 ("rotation_amplitude", float, 3), ("R_WE0", float, (3, 3)), ("p_WE0", float, 3),
+                 ("stiffness", float), ("damping", float), ("rotational_stiffness", float),
+                 ("rotational_damping", float), ("R_ref", float, (3, 3)), ("error", float, (3, 3)),
+                 ("p_ref", float, 3), ("w_ref", float, 3), ("v_ref", float, 3), ("quaternion", float, 7)])
+"""The simulated hand as ``hand_force_into`` takes it: ``reference_into``'s timing, amplitudes and start pose,
+``hand_wrench_into``'s gains, and their scratch (the reference, the error rotation, its quaternion)."""
+
+
+def hand_record(spec, X_WE0: RigidTransform) -> np.ndarray:
+    """A ``HAND`` record of the hand ``spec`` (the scenario's ``operator``) starting at the stylus pose X_WE0."""
+    hand, arrays = record_views(HAND)
+    for name in ("start_time", "frequency", "stiffness", "damping", "rotational_stiffness", "rotational_damping"):
+        hand[name] = getattr(spec, name)
+    arrays["amplitude"][:], arrays["rotation_amplitude"][:] = spec.amplitude, spec.rotation_amplitude
+    arrays["R_WE0"][:], arrays["p_WE0"][:] = X_WE0.rotation().matrix(), X_WE0.translation()
+    return hand
+
+
+@compiled("void(float64, float64[:, :], float64[:], float64[:], HAND[:], float64[:])", HAND=HAND)
+def hand_force_into(t, X_WE, V_WE, stroke_scales, hand, out) -> None:
     """``hand_wrench_into`` of the stylus at pose X_WE = [R_WE p_WE] (3×4) with twist V_WE = [ω; v] (6, in W)
-    toward ``reference_into``'s reference at time ``t`` (s), into ``out`` = [τ; f] (6). ``rotations`` (2, 3, 3):
-    the reference's rotation and the error's, ``rates`` (3, 3): the reference's p, ω, v, ``quaternion`` (7):
-    scratch."""
-    R_ref, p_ref, w_ref, v_ref = rotations[0], rates[0], rates[1], rates[2]
-    reference_into(t, start_time, frequency, stroke_scales, amplitude, rotation_amplitude, R_WE0, p_WE0, R_ref, p_ref,
-                   w_ref, v_ref)
-    hand_wrench_into(X_WE[:, :3], X_WE[:, 3], V_WE[:3], V_WE[3:], R_ref, p_ref, w_ref, v_ref, k, d, k_rot, d_rot,
-                     rotations[1], quaternion, out)
+    toward ``reference_into``'s reference at time ``t`` (s), strokes scaled by ``stroke_scales``, into ``out`` =
+    [τ; f] (6); ``hand``: a ``HAND`` record."""
+    h = hand[0]
+    R_ref, p_ref, w_ref, v_ref = h["R_ref"], h["p_ref"], h["w_ref"], h["v_ref"]
+    reference_into(t, h["start_time"], h["frequency"], stroke_scales, h["amplitude"], h["rotation_amplitude"],
+                   h["R_WE0"], h["p_WE0"], R_ref, p_ref, w_ref, v_ref)
+    hand_wrench_into(X_WE[:, :3], X_WE[:, 3], V_WE[:3], V_WE[3:], R_ref, p_ref, w_ref, v_ref, h["stiffness"],
+                     h["damping"], h["rotational_stiffness"], h["rotational_damping"], h["error"], h["quaternion"], out)
 
 
 class OperatorHand(LeafSystem):
@@ -120,13 +136,9 @@ class OperatorHand(LeafSystem):
         super().__init__()
         self._stylus = int(stylus_body_index)
         self._spec = spec
-        # ``hand_force_into``'s arguments after the stylus's motion: the reference, the gains, its scratch, [τ; f].
+        # ``hand_force_into``'s arguments after the stylus's motion, and its [τ; f].
         self._wrench = np.empty(6)
-        self._settings = (float(spec.start_time), float(spec.frequency), float_array(spec.stroke_scales),
-                          float_array(spec.amplitude), float_array(spec.rotation_amplitude), X_WE0.rotation().matrix(),
-                          float_array(X_WE0.translation()), float(spec.stiffness), float(spec.damping),
-                          float(spec.rotational_stiffness), float(spec.rotational_damping), np.empty((2, 3, 3)),
-                          np.empty((3, 3)), np.empty(7), self._wrench)
+        self._settings = (float_array(spec.stroke_scales), hand_record(spec, X_WE0), self._wrench)
         self._poses = self.DeclareAbstractInputPort("body_poses", Value[List[RigidTransform]]())
         self._velocities = self.DeclareAbstractInputPort("body_spatial_velocities", Value[List[SpatialVelocity]]())
         # The force's body and point, set once; each calculation sets its wrench (the output holds a copy).
