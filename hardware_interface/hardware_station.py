@@ -157,18 +157,33 @@ def encode_slave_command(buffer, at, utime, position) -> None:
         put_wire_double(buffer, at[1] + 8 * j, position[j])
 
 
+# Per checked channel, the counts a status reports (``encode_station_status``'s ``counts``' columns).
+RECEIVED, UNREAD, RESTARTS = range(3)
+
+
+@compiled("void(uint8[:], int64[:], int64, boolean, int64, float64, int64, int64[:, :], int64[:, :])")
+def encode_station_status(buffer, at, utime, healthy, fault, gain, conflicts, counts, rejected) -> None:
+    """Writes a ``heft_station_status``'s values into ``buffer`` (its ``STATUS_FIELDS`` at ``at``): per checked
+    channel (rows of ``counts``, by ``RECEIVED``, ``UNREAD``, ``RESTARTS``; ``rejected`` per reason), a second
+    publisher where bit i of ``conflicts`` is set."""
+    put_wire_int(buffer, at[0], 8, utime)
+    put_wire_int(buffer, at[1], 1, 1 if healthy else 0)
+    put_wire_int(buffer, at[2], 4, fault)
+    put_wire_double(buffer, at[3], gain)
+    channels, reasons = rejected.shape
+    for i in range(channels):
+        put_wire_int(buffer, at[4] + 8 * i, 8, counts[i, RECEIVED])
+        put_wire_int(buffer, at[5] + 8 * i, 8, counts[i, UNREAD])
+        for k in range(reasons):
+            put_wire_int(buffer, at[6] + 8 * (i * reasons + k), 8, rejected[i, k])
+        put_wire_int(buffer, at[7] + 4 * i, 4, counts[i, RESTARTS])
+        put_wire_int(buffer, at[8] + i, 1, (conflicts >> i) & 1)
+
+
+STATUS_FIELDS = ("utime", "healthy", "fault", "gain", "received", "unread", "rejected", "restarts",
+                 "second_publisher")
 MASTER_COMMAND_FIELDS = ("utime", "master_utime", "torque", "enable")
 SLAVE_COMMAND_FIELDS = ("utime", "joint_position")
-
-
-def command_buffer(layout: FixedLayout, fields, **lengths: int) -> tuple[np.ndarray, np.ndarray]:
-    """(buffer, at): a message of ``layout`` with its length fields at ``lengths`` and every other value
-    zero, as bytes to encode into, and the byte offsets of ``fields`` in it."""
-    values = []
-    for name, count in layout.fields:
-        values += [lengths.get(name, 0)] * count
-    return (np.frombuffer(bytearray(layout.pack(*values)), dtype=np.uint8),
-            np.array([layout.offset(name) for name in fields], dtype=np.int64))
 
 
 class HardwareStation:
@@ -231,15 +246,17 @@ class HardwareStation:
         self._gate = np.zeros(3)
         self._position, self._hold = np.zeros(n), np.zeros(n)
         self._last_send = None
-        self._master_command, self._master_at = command_buffer(
-            FixedLayout(heft_haptic_command, num_joints=MASTER_JOINTS), MASTER_COMMAND_FIELDS,
-            num_joints=MASTER_JOINTS)
-        self._slave_command, self._slave_at = command_buffer(
-            FixedLayout(lcmt_iiwa_command, num_joints=n, num_torques=0), SLAVE_COMMAND_FIELDS, num_joints=n)
+        self._master_command, self._master_at = FixedLayout(heft_haptic_command, num_joints=MASTER_JOINTS).buffer(
+            MASTER_COMMAND_FIELDS)
+        self._slave_command, self._slave_at = FixedLayout(lcmt_iiwa_command, num_joints=n, num_torques=0).buffer(
+            SLAVE_COMMAND_FIELDS)
         self._no_position, self._no_torque = np.zeros(n), np.zeros(MASTER_JOINTS)
-        status = self._status_msg = heft_station_status()
-        status.num_channels, status.num_reasons = len(CHECKED_CHANNELS), len(REASONS)
-        status.channels, status.reasons = list(CHECKED_CHANNELS), list(REASONS)
+        checked = len(CHECKED_CHANNELS)
+        self._status, self._status_at = FixedLayout(
+            heft_station_status, strings={"channels": CHECKED_CHANNELS, "reasons": REASONS}, num_channels=checked,
+            num_reasons=len(REASONS)).buffer(STATUS_FIELDS)
+        self._status_counts = np.zeros((checked, 3), dtype=np.int64)
+        self._status_rejected = np.zeros((checked, len(REASONS)), dtype=np.int64)
         self._next_status = 0.0
         self.torque_sent = np.zeros(MASTER_JOINTS)
         """The master torque last published (N·m), zero while forces are off."""
@@ -349,16 +366,15 @@ class HardwareStation:
         if not (force or now >= self._next_status):
             return None
         self._next_status = now + 1.0 / self._channels.station_status.rate
-        msg = self._status_msg
-        msg.utime = round((self.epoch + now) * 1e6)
-        msg.healthy, msg.fault, msg.gain = self.healthy, self.fault, self.gain
-        msg.received = [mailbox.count for mailbox in self._mail]
-        msg.unread = [mailbox.pushed_out for mailbox in self._mail]
-        msg.rejected = [reader.rejections.by_code.tolist() for reader in self._readers]
-        msg.restarts = [reader.clock.restarts for reader in self._readers]
-        msg.second_publisher = [bool(self.conflicts & (1 << i)) for i in range(len(WATCHED_CHANNELS))] + [
-            self._gripper.clock.conflict(now)]
-        payload = msg.encode()
+        counts, rejected = self._status_counts, self._status_rejected
+        for i, (mailbox, reader) in enumerate(zip(self._mail, self._readers)):
+            counts[i, RECEIVED], counts[i, UNREAD], counts[i, RESTARTS] = (mailbox.count, mailbox.pushed_out,
+                                                                           reader.clock.restarts)
+            rejected[i] = reader.rejections.by_code
+        gripper_conflict = self._gripper.clock.conflict(now) << len(WATCHED_CHANNELS)
+        encode_station_status(self._status, self._status_at, round((self.epoch + now) * 1e6), self.healthy,
+                              self.fault, self.gain, self.conflicts | gripper_conflict, counts, rejected)
+        payload = self._status.tobytes()
         self._command_bus.publish(self._channels.station_status.name, payload)
         return payload
 
