@@ -177,6 +177,22 @@ def test_the_information_update_is_the_r_factor_of_the_stacked_rows(pull):
     np.testing.assert_allclose(theta, np.linalg.lstsq(stacked[:, :p], stacked[:, p], rcond=None)[0], atol=1e-12)
 
 
+@pytest.mark.parametrize("scale", [1e-170, 1e170])
+def test_the_information_update_holds_where_the_squares_leave_a_doubles_range(scale):
+    """Every row and the root scaled alike by ``scale``: the same θ̂ (S θ = z does not see a common factor), the
+    root scaled by it, where a² + b² under- or overflows (the rotations' hypot fallback)."""
+    rng = np.random.default_rng(8)
+    p = 10
+    root = np.triu(rng.normal(size=(p + 1, p + 1))) + 3 * np.eye(p + 1)
+    theta, rows = rng.normal(size=p), rng.normal(size=(6, p + 1))
+    expected_root, expected_theta = root.copy(), theta.copy()
+    information_update(expected_root, expected_theta, rows.copy(), 0.9995, 0.0, np.empty(p + 1))
+    scaled_root = scale * root
+    information_update(scaled_root, theta, scale * rows, 0.9995, 0.0, np.empty(p + 1))
+    np.testing.assert_allclose(theta, expected_theta, rtol=1e-12)
+    np.testing.assert_allclose(scaled_root / scale, expected_root, rtol=1e-12, atol=1e-12)
+
+
 def test_rls_equals_batch_wls_with_the_same_weights():
     rng = np.random.default_rng(15)
     phi, bias = random_load_and_offsets(rng)

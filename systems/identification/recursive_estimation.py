@@ -66,7 +66,9 @@ def information_update(root, theta, rows, sqrt_forgetting, pull, row):
             if b == 0.0:
                 continue
             a = root[c, c]
-            h = math.hypot(a, b)
+            h = math.sqrt(a * a + b * b)
+            if h == 0.0 or h == math.inf:  # the squares left a double's range: hypot, slower, does not
+                h = math.hypot(a, b)
             cosine, sine = a / h, b / h
             root[c, c] = h
             for j in range(c + 1, n):
