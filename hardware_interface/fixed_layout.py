@@ -4,15 +4,15 @@ lcm-gen's Python classes encode and decode field by field, through a ``BytesIO``
 call per field. Once its length fields are fixed (``lengths``), and its string fields are constants
 (``strings``: names that never change, such as the channels a status reports on), a message's wire
 format is one big-endian record: the type's 8-byte fingerprint, then every field in declaration order,
-arrays flattened row-major, a string as its length (with its terminating NUL) and its bytes. ``FixedLayout`` reads that record off the generated class itself
-(``__slots__``, ``__typenames__``, ``__dimensions__``), so the two cannot disagree, and packs a
-message from its values in one call, or unpacks one into them (docs/benchmarks.md, "Simulation and kernels": the
-arm's status in 1.8 and 0.9 µs against 6.0 and 4.8 µs), for the drivers and loops
-that send and read at kHz rates. A payload of another size or fingerprint is not of the layout:
-``unpack`` says so with None, and the generated decoder can tell what else it is. Kernels read a
-payload in place: ``of_layout`` (or ``of_type``), then ``wire_int`` and ``wire_double`` at a field's ``offset``;
-and write one into the layout's ``buffer`` with ``put_wire_int`` and ``put_wire_double``, which a loop then
-publishes without building a message object.
+arrays flattened row-major, a string as its length (with its terminating NUL) and its bytes.
+``FixedLayout`` reads that record off the generated class itself (``__slots__``, ``__typenames__``,
+``__dimensions__``), so the two cannot disagree, and packs a message from its values in one call, or unpacks
+one into them (docs/benchmarks.md, "Simulation and kernels": the arm's status in 1.8 and 0.9 µs against 6.0
+and 4.8 µs), for the drivers and loops that send and read at kHz rates. A payload of another size or
+fingerprint is not of the layout: ``unpack`` says so with None, and the generated decoder can tell what else
+it is. Kernels read a payload in place: ``of_layout`` (or ``of_type``), then ``wire_int`` and
+``wire_double`` at a field's ``offset``; and write one into the layout's ``buffer`` with ``put_wire_int`` and
+``put_wire_double``, which a loop then publishes without building a message object.
 """
 
 from __future__ import annotations

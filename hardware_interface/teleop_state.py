@@ -18,11 +18,13 @@ from heft.hardware_interface.fixed_layout import FixedLayout, put_wire_double, p
 from heft.hardware_interface.lcmtypes import heft_teleop_state
 from heft.systems.compiled import compiled
 
-STATE_FIELDS = ("utime", "dt", "starts", "master_utime", "slave_utime", "ft_utime", "master_wrench",
-                "applied_wrench", "gain", "energy", "damping", "wrench_contact", "wrench_noncontact")
-# ``encode_teleop_state``'s ``stamps`` (µs, and the starts) and ``scalars``.
+ARRAY_FIELDS = ("master_wrench", "applied_wrench", "energy", "damping", "wrench_contact", "wrench_noncontact")
+STATE_FIELDS = ("utime", "starts", "master_utime", "slave_utime", "ft_utime", "dt", "gain", *ARRAY_FIELDS)
+"""The fields ``encode_teleop_state`` writes, in the order of its ``at``: ``stamps``' (µs, and the starts), then
+``scalars``', then the arrays'."""
 UTIME, STARTS, MASTER_UTIME, SLAVE_UTIME, FT_UTIME = range(5)
 DT, GAIN = range(2)
+_STAMP_SIZES = (8, 4, 8, 8, 8)  # bytes: int64_t, but the starts' int32_t
 
 
 @compiled("void(uint8[:], int64[:], int64[:], float64[:], float64[:], float64[:], float64[:], float64[:], "
@@ -30,17 +32,14 @@ DT, GAIN = range(2)
 def encode_teleop_state(buffer, at, stamps, scalars, master_wrench, applied_wrench, energy, damping, contact,
                         noncontact) -> None:
     """Writes a ``heft_teleop_state``'s values into ``buffer`` (its ``STATE_FIELDS`` at ``at``): ``stamps``
-    by ``UTIME`` … ``FT_UTIME``, ``scalars`` by ``DT``, ``GAIN``, and the arrays."""
-    put_wire_int(buffer, at[0], 8, stamps[UTIME])
-    put_wire_double(buffer, at[1], scalars[DT])
-    put_wire_int(buffer, at[2], 4, stamps[STARTS])
-    for k, stamp in enumerate((MASTER_UTIME, SLAVE_UTIME, FT_UTIME)):
-        put_wire_int(buffer, at[3 + k], 8, stamps[stamp])
-    put_wire_double(buffer, at[8], scalars[GAIN])
-    for field, values in ((6, master_wrench), (7, applied_wrench), (9, energy), (10, damping), (11, contact),
-                          (12, noncontact)):
+    by ``UTIME`` … ``FT_UTIME``, ``scalars`` by ``DT``, ``GAIN``, and the arrays of ``ARRAY_FIELDS``."""
+    for k in range(len(_STAMP_SIZES)):
+        put_wire_int(buffer, at[k], _STAMP_SIZES[k], stamps[k])
+    for k in range(2):
+        put_wire_double(buffer, at[len(_STAMP_SIZES) + k], scalars[k])
+    for k, values in enumerate((master_wrench, applied_wrench, energy, damping, contact, noncontact)):
         for j in range(values.shape[0]):
-            put_wire_double(buffer, at[field] + 8 * j, values[j])
+            put_wire_double(buffer, at[len(_STAMP_SIZES) + 2 + k] + 8 * j, values[j])
 
 
 class TeleopStatePublisher:
