@@ -67,7 +67,7 @@ def information_update(root, theta, rows, sqrt_forgetting, pull, row):
                 continue
             a = root[c, c]
             h = math.sqrt(a * a + b * b)
-            if h == 0.0 or h == math.inf:  # the squares left a double's range: hypot, slower, does not
+            if not 1e-150 < h < 1e150:  # squares near or beyond a double's range: hypot, slower, is exact there
                 h = math.hypot(a, b)
             cosine, sine = a / h, b / h
             root[c, c] = h
