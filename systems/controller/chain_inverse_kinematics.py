@@ -34,7 +34,7 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import Frame
 
-from heft.systems.compiled import compiled, float_array
+from heft.systems.compiled import compiled, float_array, record_views
 from heft.systems.pose_vectors import POSE_SIZE, rotation_into
 from heft.systems.serial_chain import MOTION_SIZE, SerialChain, chain_kinematics
 from heft.systems.tick_system import TickSystem
@@ -219,9 +219,20 @@ def dls_ik_step(axes, points, M_R, M_p, lower, upper, velocity, settings, iterat
     return status
 
 
+def chain_ik_dtype(n: int) -> np.dtype:
+    """The record of ``ChainIk`` for a chain of ``n`` joints (``ChainIk.record``): ``dls_ik_step``'s arguments
+    besides the pose, the commands and dt, by name (``axes``, ``points``, ``M_R``, ``M_p``, ``lower``, ``upper``,
+    ``velocity``, ``settings``, ``iterations``, ``q_start``, ``work``)."""
+    return np.dtype([("axes", float, (n, 3)), ("points", float, (n, 3)), ("M_R", float, (3, 3)), ("M_p", float, 3),
+                     ("lower", float, n), ("upper", float, n), ("velocity", float, n), ("settings", float, 3),
+                     ("iterations", np.int64), ("q_start", float, n), ("work", float, work_shape(n))])
+
+
 class ChainIk:
     """``dls_ik_step`` for the revolute chain of ``plant`` from frame ``B`` to frame ``E`` (``SerialChain``),
-    or to a frame T at ``X_ET`` on E, its scratch preallocated: a call allocates nothing.
+    or to a frame T at ``X_ET`` on E, its scratch preallocated: a call allocates nothing. Its arguments besides
+    the pose, the commands and dt live in ``record`` (``chain_ik_dtype``), which a kernel that calls
+    ``dls_ik_step`` takes.
 
     Limits (n,): ``lower``, ``upper`` (rad) and ``velocity`` (rad/s), by default the joints' own in the
     plant. ``damping`` λ (m), ``null_rate`` (1/s: the share of the way to ``q_start`` per second, on a
@@ -236,28 +247,32 @@ class ChainIk:
             raise ValueError(f"the chain from {B.name()!r} to {E.name()!r} has {n} joints; the inverse kinematics "
                              f"takes {' or '.join(str(c) for c in CHAIN_JOINTS)}")
         self.joints = chain.joints
-        record = chain.record[0]
-        X_BE0 = RigidTransform(RotationMatrix(np.array(record["M_R"])), record["M_p"])
-        X_BT0 = X_BE0 @ (X_ET or RigidTransform())
-        self._axes, self._points = record["axes"].copy(), record["points"].copy()
-        self._M_R, self._M_p = X_BT0.rotation().matrix().copy(), X_BT0.translation().copy()
         own = [(j.position_lower_limits()[0], j.position_upper_limits()[0], j.velocity_upper_limits()[0])
                for j in self.joints]
-        self.lower = _limits(lower, [row[0] for row in own], n, "lower")
-        self.upper = _limits(upper, [row[1] for row in own], n, "upper")
-        self.velocity = _limits(velocity, [row[2] for row in own], n, "velocity")
-        if not (np.isfinite(self.lower).all() and np.isfinite(self.upper).all() and (self.lower < self.upper).all()):
+        lower = _limits(lower, [row[0] for row in own], n, "lower")
+        upper = _limits(upper, [row[1] for row in own], n, "upper")
+        velocity = _limits(velocity, [row[2] for row in own], n, "velocity")
+        if not (np.isfinite(lower).all() and np.isfinite(upper).all() and (lower < upper).all()):
             raise ValueError("the inverse kinematics needs finite joint limits, lower < upper; got "
-                             f"lower {self.lower}, upper {self.upper}")
-        if not (np.isfinite(self.velocity).all() and (self.velocity > 0).all()):
-            raise ValueError(f"the inverse kinematics needs finite speed limits > 0 (rad/s); got {self.velocity}")
+                             f"lower {lower}, upper {upper}")
+        if not (np.isfinite(velocity).all() and (velocity > 0).all()):
+            raise ValueError(f"the inverse kinematics needs finite speed limits > 0 (rad/s); got {velocity}")
         if not (damping > 0 and null_rate >= 0 and tolerance > 0 and iterations >= 1):
             raise ValueError("damping and tolerance must be > 0, null_rate >= 0 and iterations >= 1")
-        self.settings = np.array([damping, null_rate if n > 6 else 0.0, tolerance])
+        self.record, arrays = record_views(chain_ik_dtype(n))
+        chain_record = chain.record[0]
+        X_BE0 = RigidTransform(RotationMatrix(np.array(chain_record["M_R"])), chain_record["M_p"])
+        X_BT0 = X_BE0 @ (X_ET or RigidTransform())
+        arrays["axes"][:], arrays["points"][:] = chain_record["axes"], chain_record["points"]
+        arrays["M_R"][:], arrays["M_p"][:] = X_BT0.rotation().matrix(), X_BT0.translation()
+        arrays["lower"][:], arrays["upper"][:], arrays["velocity"][:] = lower, upper, velocity
+        arrays["settings"][:] = damping, null_rate if n > 6 else 0.0, tolerance
+        self.record["iterations"] = iterations
+        self._arrays = arrays
+        self.lower, self.upper, self.velocity = arrays["lower"], arrays["upper"], arrays["velocity"]
+        self.settings, self.q_start = arrays["settings"], arrays["q_start"]
         self.iterations = int(iterations)
-        self.q_start = np.empty(n)
         self.set_start(q_start)
-        self._work = np.zeros(work_shape(n))
 
     @property
     def num_joints(self) -> int:
@@ -270,18 +285,13 @@ class ChainIk:
             raise ValueError(f"q_start must be {self.num_joints} joint positions within the limits; got {q_start}")
         self.q_start[:] = q_start
 
-    def kernel_arguments(self) -> tuple:
-        """``chain_ik_update``'s arguments after the period: the chain, its limits, the settings, the iterations
-        (an array of one), ``q_start`` and the scratch (this object's own arrays)."""
-        return (self._axes, self._points, self._M_R, self._M_p, self.lower, self.upper, self.velocity, self.settings,
-                np.array([self.iterations], dtype=np.int64), self.q_start, self._work)
-
     def __call__(self, pose: np.ndarray, q_last: np.ndarray, dt: float, command: np.ndarray) -> int:
         """The status bits (module notes); ``command`` (n, rad) written, from ``q_last`` (n, rad, within
         the limits) toward the desired pose vector ``pose`` of T (7: [p (m); w, x, y, z] in B) in ``dt`` (s)."""
-        return dls_ik_step(self._axes, self._points, self._M_R, self._M_p, self.lower, self.upper, self.velocity,
+        a = self._arrays
+        return dls_ik_step(a["axes"], a["points"], a["M_R"], a["M_p"], self.lower, self.upper, self.velocity,
                            self.settings, self.iterations, float_array(pose), float_array(q_last), self.q_start,
-                           float(dt), command, self._work)
+                           float(dt), command, a["work"])
 
 
 def _limits(given, own, n: int, name: str) -> np.ndarray:
@@ -291,22 +301,24 @@ def _limits(given, own, n: int, name: str) -> np.ndarray:
     return values
 
 
-@compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:], float64[:, :], float64[:, :], "
-          "float64[:, :], float64[:], float64[:], float64[:], float64[:], float64[:], int64[:], float64[:], "
-          "float64[:, :])")
-def chain_ik_update(command, status, slewing, pose, period, axes, points, M_R, M_p, lower, upper, velocity,
-                    settings, iterations, q_start, work):
+def _chain_ik_update(command, status, slewing, pose, period, ik):
     """``dls_ik_step`` from the last ``command`` (n, rad) toward ``pose`` over ``period`` (1, s), in place;
-    ``status`` (2) [the pose reached this tick (1/0), ticks it was not so far], ``slewing`` (1). The chain,
-    limits, settings, ``iterations`` (1) and ``q_start``: ``ChainIk``'s."""
-    result = dls_ik_step(axes, points, M_R, M_p, lower, upper, velocity, settings, iterations[0], pose, command,
-                         q_start, period[0], command, work)
+    ``status`` (2) [the pose reached this tick (1/0), ticks it was not so far], ``slewing`` (1). ``ik``:
+    ``ChainIk.record``."""
+    k = ik[0]
+    result = dls_ik_step(k["axes"], k["points"], k["M_R"], k["M_p"], k["lower"], k["upper"], k["velocity"],
+                         k["settings"], k["iterations"], pose, command, k["q_start"], period[0], command, k["work"])
     if result & (NON_FINITE | NOT_CONVERGED):
         status[0] = 0.0
         status[1] += 1.0
     else:
         status[0] = 1.0
     slewing[0] = 1.0 if result & SLEWING else 0.0
+
+
+chain_ik_update = {n: compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:], IK[:])",
+                               IK=chain_ik_dtype(n))(_chain_ik_update) for n in CHAIN_JOINTS}
+"""``_chain_ik_update`` compiled for each chain's record (``chain_ik_dtype``), by its number of joints."""
 
 
 @compiled("void(float64[:], float64[:], float64[:], float64[:])")
@@ -348,8 +360,8 @@ class ChainInverseKinematics(TickSystem):
         self.DeclareTickState("slewing", [0.0])
         self.DeclareTickInitialization(chain_ik_initialize, "next:command", "in:position_measured", ik.lower,
                                        ik.upper)
-        self.DeclareTickUpdate(chain_ik_update, "next:command", "next:status", "next:slewing", "in:pose_desired",
-                               np.array([period]), *ik.kernel_arguments())
+        self.DeclareTickUpdate(chain_ik_update[n], "next:command", "next:status", "next:slewing", "in:pose_desired",
+                               np.array([period]), ik.record)
         self.DeclareTickOutput("position_commanded", "x:command")
         self.DeclareTickOutput("status", "x:status")
         self.DeclareTickOutput("slewing", "x:slewing")
