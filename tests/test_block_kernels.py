@@ -38,7 +38,7 @@ def test_no_blocks_kernel_takes_more_than_about_a_dozen_arguments(arm):
             function = getattr(kernel, "py_func", kernel)
             declared = len(inspect.signature(function).parameters)
             assert declared == len(args), (block.get_name(), what)
-            assert declared <= MAX_ARGUMENTS, (f"{block.get_name()}'s {what} kernel {function.__name__} takes {declared} "
-                                               "arguments: gather its settings into a record")
+            assert declared <= MAX_ARGUMENTS, (f"{block.get_name()}'s {what} kernel {function.__name__} takes "
+                                               f"{declared} arguments: gather its settings into a record")
             seen += 1
     assert seen >= 20  # every block's kernels were looked at

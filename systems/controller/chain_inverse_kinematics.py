@@ -271,7 +271,6 @@ class ChainIk:
         self._arrays = arrays
         self.lower, self.upper, self.velocity = arrays["lower"], arrays["upper"], arrays["velocity"]
         self.settings, self.q_start = arrays["settings"], arrays["q_start"]
-        self.iterations = int(iterations)
         self.set_start(q_start)
 
     @property
@@ -290,8 +289,8 @@ class ChainIk:
         the limits) toward the desired pose vector ``pose`` of T (7: [p (m); w, x, y, z] in B) in ``dt`` (s)."""
         a = self._arrays
         return dls_ik_step(a["axes"], a["points"], a["M_R"], a["M_p"], self.lower, self.upper, self.velocity,
-                           self.settings, self.iterations, float_array(pose), float_array(q_last), self.q_start,
-                           float(dt), command, a["work"])
+                           self.settings, int(self.record["iterations"][0]), float_array(pose), float_array(q_last),
+                           self.q_start, float(dt), command, a["work"])
 
 
 def _limits(given, own, n: int, name: str) -> np.ndarray:
