@@ -74,7 +74,13 @@ def reading_from_motion(acceleration, gravity, omega=None,
                         convention: AccelerometerConvention = AT_S) -> np.ndarray:
     """What the accelerometer reports, (6,) or (N, 6), for S's kinematic [a; α], gravity g and
     angular velocity ω ((3,) or (N, 3); only needed for a displaced accelerometer), all in S:
-    [a_A − g; α], or [a_A; α] when the driver removes gravity, in its own axes and unit with its bias."""
+    [a_A − g; α], or [a_A; α] when the driver removes gravity, in its own axes and unit with its bias.
+    One sample by ``reading_from_motion_into``."""
+    if np.ndim(acceleration) == 1 and (omega is not None or not convention.displaced):
+        reading = np.empty(6)
+        reading_from_motion_into(reading, float_array(acceleration), float_array(gravity),
+                                 _NO_ROTATION if omega is None else float_array(omega), *kernel_convention(convention))
+        return reading
     reading = np.array(acceleration, dtype=float)
     if convention.displaced:
         _transport(reading[..., :3], reading[..., 3:], omega, convention.p_SA, 1.0)
@@ -140,6 +146,33 @@ def motion_from_reading_into(out, reading, gravity, omega, includes_gravity, p_S
         transport_one(out[:3], out[3:], omega, p_SA, -1.0)
 
 
+@compiled("void(float64[:], float64[:], float64[:], float64[:], boolean, float64[:], float64[:, :], float64, "
+          "float64[:])")
+def reading_from_motion_into(out, acceleration, gravity, omega, includes_gravity, p_SA, R_SA, u, bias) -> None:
+    """``reading_from_motion`` of one sample into ``out`` (6), the convention as ``kernel_convention`` gives it:
+    ``motion_from_reading_into`` undone (the mounting, where there is one, as
+    ``AccelerometerCalibration.reading_of``, in scalar arithmetic)."""
+    for i in range(6):
+        out[i] = acceleration[i]
+    if p_SA[0] != 0.0 or p_SA[1] != 0.0 or p_SA[2] != 0.0:
+        transport_one(out[:3], acceleration[3:], omega, p_SA, 1.0)
+    if includes_gravity:
+        for i in range(3):
+            out[i] -= gravity[i]
+    mounted = u != 1.0
+    for i in range(3):
+        for k in range(3):
+            mounted = mounted or R_SA[i, k] != (1.0 if i == k else 0.0)
+    for i in range(6):
+        mounted = mounted or bias[i] != 0.0
+    if not mounted:
+        return
+    f0, f1, f2, a0, a1, a2 = out[0], out[1], out[2], out[3], out[4], out[5]
+    for j in range(3):  # r = R_SAᵀ·s / u + bias, α in A's axes + the angular channels' bias
+        out[j] = (f0 * R_SA[0, j] + f1 * R_SA[1, j] + f2 * R_SA[2, j]) / u + bias[j]
+        out[3 + j] = a0 * R_SA[0, j] + a1 * R_SA[1, j] + a2 * R_SA[2, j] + bias[3 + j]
+
+
 CONVENTION = np.dtype([("includes_gravity", float), ("p_SA", float, 3), ("R_SA", float, (3, 3)), ("u", float),
                        ("bias", float, 6)])
 """An accelerometer's convention as one record (``kernel_convention``'s fields)."""
@@ -160,6 +193,14 @@ def motion_into(out, reading, gravity, omega, convention) -> None:
     c = convention[0]
     motion_from_reading_into(out, reading, gravity, omega, c["includes_gravity"] > 0.5, c["p_SA"], c["R_SA"], c["u"],
                              c["bias"])
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64[:], CONVENTION[:])", CONVENTION=CONVENTION)
+def reading_into(out, acceleration, gravity, omega, convention) -> None:
+    """``reading_from_motion_into`` with the ``convention`` record."""
+    c = convention[0]
+    reading_from_motion_into(out, acceleration, gravity, omega, c["includes_gravity"] > 0.5, c["p_SA"], c["R_SA"],
+                             c["u"], c["bias"])
 
 
 class AccelerometerToMotion(TickSystem):

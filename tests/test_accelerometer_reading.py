@@ -1,6 +1,8 @@
 """The accelerometer convention: what a sensor hanging still reports, and the load's weight
 found from that reading once, even when the controller's idea of gravity in S is off."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -117,6 +119,23 @@ def test_a_mounted_accelerometer_reports_what_its_calibration_model_says():
     for k in range(50):
         np.testing.assert_allclose(motion_from_reading(np.empty(6), reading[k], gravity[k], omega[k], MOUNTED),
                                    motion[k], rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("convention", [AccelerometerConvention(), AccelerometerConvention(False),
+                                        AccelerometerConvention(True, P_SA), MOUNTED,
+                                        dataclasses.replace(MOUNTED, includes_gravity=False, p_SA=(0.0, 0.0, 0.0))],
+                         ids=["at S", "gravity-free", "displaced", "mounted", "mounted at S, gravity-free"])
+def test_one_sample_reads_as_its_row_of_a_batch(convention):
+    """One sample goes through the compiled kernel (``reading_from_motion_into``), a batch through numpy: they
+    agree, row by row, and the kernel's reading converts back to the motion."""
+    rng = np.random.default_rng(9)
+    motion, gravity, omega = rng.normal(0, 3, (20, 6)), rng.normal(0, 5, (20, 3)), rng.normal(0, 2, (20, 3))
+    batch = reading_from_motion(motion, gravity, omega, convention)
+    for k in range(20):
+        one = reading_from_motion(motion[k], gravity[k], omega[k], convention)
+        np.testing.assert_allclose(one, batch[k], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(motion_from_reading(np.empty(6), one, gravity[k], omega[k], convention), motion[k],
+                                   rtol=0, atol=1e-12)
 
 
 def test_a_mounting_that_is_not_one_is_refused():

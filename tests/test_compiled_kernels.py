@@ -209,18 +209,23 @@ for k in range(20):
     wrenches_at_S_into(motion, phi, phi_gripper if k % 2 else np.zeros(10), chain.R, rng.normal(0, 0.1, 3), V_scratch,
                        wrenches)
     out["truth"].append(np.concatenate((motion, wrenches)))
-# The same in one call from Drake's poses and coefficients.
-from heft.systems.station.station_truth import motion_and_wrenches_into
+# The same in one call from Drake's poses and coefficients, with a displaced, mounted accelerometer's reading.
+from heft.systems.accelerometer_reading import AccelerometerConvention, convention_record
+from heft.systems.compiled import record_views
+from heft.systems.station.station_truth import TRUTH, motion_and_wrenches_into
 
-out["truth_one_call"], X = [], np.empty((3, 3, 4))
+truth, arrays = record_views(TRUTH)
+arrays["p_BS"][:], arrays["g_W"][:] = rng.normal(0, 0.1, 3), GRAVITY_W
+accelerometer = convention_record(AccelerometerConvention(True, (0.02, 0.01, -0.008), chain.R.copy(), "g",
+                                                          (0.01, -0.08, 0.03), 1.02, (0.3, -0.2, 0.25)))
+out["truth_one_call"], X = [], np.empty((2, 3, 4))
 for k in range(20):
     for pose in X:
         chain.update(rng.uniform(-3, 3, 6))
         pose[:, :3], pose[:, 3] = chain.R, chain.p
-    sensor = np.empty(24)
-    motion_and_wrenches_into(X[0], *rng.normal(0, 3, (2, 6)), X[1], *rng.normal(0, 3, (2, 6)), X[2],
-                             rng.normal(0, 0.1, 3), np.zeros(3), np.array(GRAVITY_W), phi,
-                             phi_gripper if k % 2 else np.zeros(10), motion, V_scratch, sensor)
+    sensor = np.empty(30)
+    motion_and_wrenches_into(X[0], *rng.normal(0, 3, (2, 6)), X[1], *rng.normal(0, 3, (2, 6)), phi,
+                             phi_gripper if k % 2 else np.zeros(10), truth, accelerometer, sensor)
     out["truth_one_call"].append(sensor)
 # The encoders' counts, half-counts included.
 from heft.systems.station.encoders import quantize_into

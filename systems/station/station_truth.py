@@ -17,8 +17,9 @@ from pydrake.multibody.math import SpatialAcceleration, SpatialForce, SpatialVel
 from pydrake.multibody.plant import ContactResults
 from pydrake.systems.framework import LeafSystem
 
-from heft.systems.accelerometer_reading import AT_S, AccelerometerConvention, reading_from_motion
-from heft.systems.compiled import compiled, float_array
+from heft.systems.accelerometer_reading import (AT_S, CONVENTION, AccelerometerConvention, convention_record,
+                                               reading_into)
+from heft.systems.compiled import compiled, record_views
 from heft.systems.drake_conventions import swap_halves
 from heft.systems.load_dynamics import regressor_into
 
@@ -132,31 +133,29 @@ class SensorAndLoadMotion(LeafSystem):
     def __init__(self, sensor_body_index, p_BS, load_body_index, gravity_W,
                  accelerometer: AccelerometerConvention = AT_S):
         super().__init__()
-        self._accelerometer = accelerometer
         self._sensor, self._load = int(sensor_body_index), int(load_body_index)
-        self._p_BS = float_array(p_BS)
-        self._g_W = float_array(gravity_W)
-        self._X_BS = RigidTransform(self._p_BS)
+        self._truth, arrays = record_views(TRUTH)
+        arrays["p_BS"][:], arrays["g_W"][:] = p_BS, gravity_W
+        self._accelerometer = convention_record(accelerometer)
         self._poses, self._velocities, self._accelerations = declare_body_motion_inputs(self)
         self._phi = self.DeclareVectorInputPort("phi", 10)
         self._phi_gripper = self.DeclareVectorInputPort("phi_gripper", 10)
-        self._load_motion, self._V = np.empty(12), np.empty((6, 10))  # scratch of ``_calc``
         self.DeclareVectorOutputPort("motion", sum(size for _, size in MOTION_PARTS), self._calc,
                                      prerequisites_of_calc={self.all_input_ports_ticket()})
 
     def _calc(self, context, output):
         poses, velocities = self._poses.Eval(context), self._velocities.Eval(context)
-        accelerations, out = self._accelerations.Eval(context), output.get_mutable_value()
-        B, L = self._sensor, self._load
-        X_SL = poses[B].multiply(self._X_BS).InvertAndCompose(poses[L]).GetAsMatrix34()  # [R_SL p_SL]
+        accelerations, B, L = self._accelerations.Eval(context), self._sensor, self._load
         motion_and_wrenches_into(poses[B].GetAsMatrix34(), velocities[B].get_coeffs(), accelerations[B].get_coeffs(),
                                  poses[L].GetAsMatrix34(), velocities[L].get_coeffs(), accelerations[L].get_coeffs(),
-                                 X_SL, self._p_BS, _ORIGIN, self._g_W, self._phi.Eval(context),
-                                 self._phi_gripper.Eval(context), self._load_motion, self._V, out)
-        out[24:] = reading_from_motion(out[:6], out[9:12], out[6:9], self._accelerometer)
+                                 self._phi.Eval(context), self._phi_gripper.Eval(context), self._truth,
+                                 self._accelerometer, output.get_mutable_value())
 
 
-_ORIGIN = np.zeros(3)
+TRUTH = np.dtype([("p_BS", float, 3), ("g_W", float, 3), ("origin", float, 3), ("load_motion", float, 12),
+                  ("V", float, (6, 10)), ("X_SL", float, (3, 4))])
+"""``motion_and_wrenches_into``'s settings (S at ``p_BS`` (m) in the sensor body B, gravity ``g_W`` (m/s²) in W)
+and its scratch: ``origin`` (zeros), ``load_motion`` (12), ``V`` (6, 10) and ``X_SL`` = [R_SL p_SL] (3×4)."""
 
 
 @compiled("void(float64[:], float64[:], float64[:], float64[:, :], float64[:], float64[:, :], float64[:])")
@@ -183,15 +182,23 @@ def wrenches_at_S_into(motion, phi, phi_gripper, R_SL, p_SL, V, out) -> None:
         out[start + 5] += p_SL[0] * fy - p_SL[1] * fx
 
 
-@compiled("void(float64[:, :], float64[:], float64[:], float64[:, :], float64[:], float64[:], float64[:, :], "
-          "float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:, :], float64[:])")
-def motion_and_wrenches_into(X_WB, V_WB, A_WB, X_WL, V_WL, A_WL, X_SL, p_BS, p_LL, g_W, phi, phi_gripper, load_motion,
-                             V, out) -> None:
-    """``SensorAndLoadMotion``'s arithmetic into ``out``: S's [a; α; ω; g] (``frame_motion_into`` of S at ``p_BS``
-    in the sensor body B) into out[:12] and the load's wrenches (``wrenches_at_S_into`` of the motion of L, at
-    ``p_LL`` = 0 in the load body) into out[12:24], from Drake's values in W of B and of the load body: poses
-    [R p] (3×4), spatial velocities [ω; v] and accelerations [α; a] (6), and X_SL = [R_SL p_SL] (3×4).
-    ``load_motion`` (12) and ``V`` (6, 10) are scratch."""
-    frame_motion_into(X_WB[:, :3], V_WB[:3], A_WB[:3], A_WB[3:], p_BS, g_W, out[:12])
-    frame_motion_into(X_WL[:, :3], V_WL[:3], A_WL[:3], A_WL[3:], p_LL, g_W, load_motion)
-    wrenches_at_S_into(load_motion, phi, phi_gripper, X_SL[:, :3], X_SL[:, 3], V, out[12:24])
+@compiled("void(float64[:, :], float64[:], float64[:], float64[:, :], float64[:], float64[:], float64[:], float64[:], "
+          "TRUTH[:], CONVENTION[:], float64[:])", TRUTH=TRUTH, CONVENTION=CONVENTION)
+def motion_and_wrenches_into(X_WB, V_WB, A_WB, X_WL, V_WL, A_WL, phi, phi_gripper, truth, accelerometer, out) -> None:
+    """``SensorAndLoadMotion``'s arithmetic into ``out`` (``MOTION_PARTS``), from Drake's values in W of the sensor
+    body B and of the load body: poses [R p] (3×4), spatial velocities [ω; v] and accelerations [α; a] (6). S's
+    [a; α; ω; g] (``frame_motion_into`` of S at p_BS in B) into out[:12]; the load's wrenches
+    (``wrenches_at_S_into`` of the motion of L, the load body's frame) into out[12:24], with X_SL = X_SW·X_WL (S
+    has B's axes: R_SL = R_WBᵀ·R_WL, p_SL = R_WBᵀ·(p_WL − p_WB) − p_BS); the accelerometer's reading of S's motion
+    (``reading_into``, its ``CONVENTION`` record) into out[24:]. ``truth``: a ``TRUTH`` record."""
+    t = truth[0]
+    p_BS, X_SL = t["p_BS"], t["X_SL"]
+    for i in range(3):
+        for k in range(3):
+            X_SL[i, k] = X_WB[0, i] * X_WL[0, k] + X_WB[1, i] * X_WL[1, k] + X_WB[2, i] * X_WL[2, k]
+        X_SL[i, 3] = (X_WB[0, i] * (X_WL[0, 3] - X_WB[0, 3]) + X_WB[1, i] * (X_WL[1, 3] - X_WB[1, 3])
+                      + X_WB[2, i] * (X_WL[2, 3] - X_WB[2, 3]) - p_BS[i])
+    frame_motion_into(X_WB[:, :3], V_WB[:3], A_WB[:3], A_WB[3:], p_BS, t["g_W"], out[:12])
+    frame_motion_into(X_WL[:, :3], V_WL[:3], A_WL[:3], A_WL[3:], t["origin"], t["g_W"], t["load_motion"])
+    wrenches_at_S_into(t["load_motion"], phi, phi_gripper, X_SL[:, :3], X_SL[:, 3], t["V"], out[12:24])
+    reading_into(out[24:30], out[:6], out[9:12], out[6:9], accelerometer)
