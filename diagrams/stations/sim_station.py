@@ -30,7 +30,7 @@ from heft.systems.station.operator_hand import OperatorHand
 from heft.systems.station.setpoint_filter import SetpointFilter
 from heft.systems.station.sensor_models import AccelerometerModel, ForceTorqueSensorModel
 from heft.systems.station_ports import CLUTCH
-from heft.systems.station.station_truth import MOTION_PARTS, ContactWrenchAtSensor, ReactionWrench, SensorAndLoadMotion
+from heft.systems.station.station_truth import TRUTH_PARTS, WristTruth
 
 # Point-contact stiffness of the ball tip on the plate (N/m): steel on steel is far stiffer than the
 # sheet spring, which then sets the felt stiffness; stiffer would only shrink the stable time step.
@@ -118,46 +118,34 @@ def _add_slave(builder: DiagramBuilder, scenario: Scenario):
     return plant, parts
 
 
-def _connect_body_motion(builder: DiagramBuilder, plant: MultibodyPlant, system) -> None:
-    """``plant``'s body poses, spatial velocities and accelerations into ``system``'s inputs of those
-    names (``station_truth.declare_body_motion_inputs``)."""
-    for name in ("body_poses", "body_spatial_velocities", "body_spatial_accelerations"):
-        builder.Connect(plant.GetOutputPort(name), system.GetInputPort(name))
-
-
 def _add_wrist_sensor(builder: DiagramBuilder, scenario: Scenario, plant: MultibodyPlant, parts: SlaveParts):
     """JR3 force-torque + accelerometer models on the plant's truth, and the truth itself."""
     p_BS = parts.S.GetFixedPoseInBodyFrame().translation()
-    reaction = builder.AddSystem(ReactionWrench(parts.sensor_weld.index()))
-    builder.Connect(plant.get_reaction_forces_output_port(), reaction.get_input_port())
-    contact = builder.AddSystem(ContactWrenchAtSensor([b.index() for b in parts.load_bodies],
-                                                      parts.sensor_body.index(), p_BS))
-    builder.Connect(plant.get_contact_results_output_port(), contact.GetInputPort("contact_results"))
-    builder.Connect(plant.get_body_poses_output_port(), contact.GetInputPort("body_poses"))
-
     L, undeflected = parts.load_bodies[0].body_frame(), _undeflected(plant, parts)  # L: at S on the mount at rest
     phi = phi_about_S(plant, L, parts.load_bodies, undeflected)
     phi_gripper = phi_about_S(plant, L, parts.gripper_bodies, undeflected) if parts.gripper_bodies else np.zeros(10)
     truth_phi = builder.AddNamedSystem("truth_phi", ConstantVectorSource(phi))  # set_holding changes it
     truth_phi_gripper = builder.AddSystem(ConstantVectorSource(phi_gripper))
-    motion = builder.AddSystem(SensorAndLoadMotion(parts.sensor_body.index(), p_BS, parts.load_bodies[0].index(),
-                                                   GRAVITY_W, scenario.accelerometer.convention()))
-    _connect_body_motion(builder, plant, motion)
-    builder.Connect(truth_phi.get_output_port(), motion.GetInputPort("phi"))
-    builder.Connect(truth_phi_gripper.get_output_port(), motion.GetInputPort("phi_gripper"))
-    motion_parts = builder.AddSystem(Demultiplexer([size for _, size in MOTION_PARTS]))
-    builder.Connect(motion.get_output_port(), motion_parts.get_input_port())
-    truth = {name: motion_parts.get_output_port(i) for i, (name, _) in enumerate(MOTION_PARTS)}
+    wrist = builder.AddSystem(WristTruth(parts.sensor_body.index(), p_BS, [b.index() for b in parts.load_bodies],
+                                         parts.sensor_weld.index(), GRAVITY_W, scenario.accelerometer.convention()))
+    for name in ("reaction_forces", "contact_results", "body_poses", "body_spatial_velocities",
+                 "body_spatial_accelerations"):
+        builder.Connect(plant.GetOutputPort(name), wrist.GetInputPort(name))
+    builder.Connect(truth_phi.get_output_port(), wrist.GetInputPort("phi"))
+    builder.Connect(truth_phi_gripper.get_output_port(), wrist.GetInputPort("phi_gripper"))
+    wrist_parts = builder.AddSystem(Demultiplexer([size for _, size in TRUTH_PARTS]))
+    builder.Connect(wrist.get_output_port(), wrist_parts.get_input_port())
+    truth = {name: wrist_parts.get_output_port(i) for i, (name, _) in enumerate(TRUTH_PARTS)}
 
     ft = builder.AddSystem(ForceTorqueSensorModel(scenario.ft_sensor))
-    builder.Connect(reaction.get_output_port(), ft.GetInputPort("wrench_true"))
+    builder.Connect(truth["wrench_sensor"], ft.GetInputPort("wrench_true"))
     accelerometer = builder.AddSystem(AccelerometerModel(scenario.accelerometer))
     builder.Connect(truth["accelerometer_reading"], accelerometer.GetInputPort("acceleration_true"))
     builder.ExportOutput(ft.GetOutputPort("wrench_measured"), "ft.wrench_measured")
     builder.ExportOutput(accelerometer.GetOutputPort("acceleration_measured"), "ft.acceleration_measured")
 
-    for port, name in ((reaction.get_output_port(), "truth.wrench_sensor"),
-                       (contact.get_output_port(), "truth.wrench_contact"),
+    for port, name in ((truth["wrench_sensor"], "truth.wrench_sensor"),
+                       (truth["wrench_contact"], "truth.wrench_contact"),
                        (truth["wrench"], "truth.wrench_noncontact"),
                        (truth["wrench_object"], "truth.wrench_noncontact_object"),
                        (truth["acceleration"], "truth.acceleration"),

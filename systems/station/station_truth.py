@@ -1,6 +1,7 @@
 """Ground truth at the wrist sensor of a simulated slave, read off a
-MultibodyPlant's output ports: the weld's reaction wrench, the sensor frame's
-motion, and the contact wrench from the plant's contact results.
+MultibodyPlant's output ports by one system (``WristTruth``): the sensor frame's
+motion, the load's non-contact wrench, the accelerometer's ideal reading, the
+weld's reaction wrench, and the contact wrench from the plant's contact results.
 
 All outputs in docs/design.md §4 conventions: at S's origin, expressed in S (but the
 accelerometer's reading, taken at its own point); wrenches [f; τ] as the sensor
@@ -22,28 +23,6 @@ from heft.systems.accelerometer_reading import (AT_S, CONVENTION, AccelerometerC
 from heft.systems.compiled import compiled, record_views
 from heft.systems.drake_conventions import swap_halves
 from heft.systems.load_dynamics import regressor_into
-
-
-class ReactionWrench(LeafSystem):
-    """The reaction of one weld joint: input ``reaction_forces`` (the plant's port),
-    output ``wrench`` (6) = [f; τ] on the child body at the child's joint frame, in it."""
-
-    def __init__(self, joint_index):
-        super().__init__()
-        self._joint = int(joint_index)
-        self._reactions = self.DeclareAbstractInputPort("reaction_forces", Value[List[SpatialForce]]())
-        self.DeclareVectorOutputPort("wrench", 6, self._calc)
-
-    def _calc(self, context, output):
-        output.SetFromVector(swap_halves(self._reactions.Eval(context)[self._joint].get_coeffs()))  # [τ; f] → [f; τ]
-
-
-def declare_body_motion_inputs(system: LeafSystem):
-    """Declares on ``system`` the inputs ``body_poses``, ``body_spatial_velocities`` and
-    ``body_spatial_accelerations`` (a MultibodyPlant's outputs of those names) and returns them."""
-    return (system.DeclareAbstractInputPort("body_poses", Value[List[RigidTransform]]()),
-            system.DeclareAbstractInputPort("body_spatial_velocities", Value[List[SpatialVelocity]]()),
-            system.DeclareAbstractInputPort("body_spatial_accelerations", Value[List[SpatialAcceleration]]()))
 
 
 @compiled("void(float64[:, :], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:])")
@@ -68,88 +47,87 @@ def frame_motion_into(R_WB, w_WB_W, alpha_WB_W, a_WBo_W, p_BF, g_W, motion) -> N
         motion[9 + i] = R_WB[0, i] * g_W[0] + R_WB[1, i] * g_W[1] + R_WB[2, i] * g_W[2]
 
 
-class ContactWrenchAtSensor(LeafSystem):
-    """The contact part of the sensor's wrench (Eq. 11): minus the sum of the
-    environment's contact forces on the load bodies, moved to S and expressed in S.
+TRUTH_PARTS = (("acceleration", 6), ("omega", 3), ("gravity", 3), ("wrench", 6), ("wrench_object", 6),
+               ("accelerometer_reading", 6), ("wrench_sensor", 6), ("wrench_contact", 6))
+"""The parts of ``WristTruth``'s output ``truth``, in its order: (name, size)."""
 
-    Inputs: the plant's ``contact_results`` and ``body_poses``. Output ``wrench`` (6).
-    Point contact only (the station's plant uses contact_model "point").
+
+class WristTruth(LeafSystem):
+    """The truth at the wrist sensor, read off the slave plant's ports: S's motion, the load's non-contact wrench,
+    the accelerometer's ideal reading, the weld's reaction and the contact wrench. S is fixed at p_BS (m) in the
+    sensor body B's frame, with B's axes. One system reads the plant's lists (each Eval builds a Python list of
+    every body's or joint's value, which costs more than the arithmetic) once a step, and one port carries every
+    part, so that a step calls into Python once for all of them (a ``Demultiplexer`` parts them).
+
+    Inputs: the plant's ``reaction_forces``, ``contact_results``, ``body_poses``, ``body_spatial_velocities`` and
+    ``body_spatial_accelerations``; ``phi`` (10, the load's true φ about L's origin in L) and ``phi_gripper`` (10,
+    the gripper's share, Eq. 14). Output ``truth`` (42): the parts ``TRUTH_PARTS`` names end to end,
+
+    - ``acceleration`` [a; α] of S in S (m/s², rad/s²), ``omega`` ω_WS in S (rad/s), ``gravity`` g in S (m/s²);
+    - ``wrench``: V(a, α, ω, g)·φ (Eq. 12) of the true φ with the true motion of the load's own frame L (at S when
+      the load is welded there; on a compliant mount it moves against S), moved from L to S, in S, so that it
+      equals the sensor's reaction minus the contact wrench (Eq. 11) on either mount; ``wrench_object`` the same
+      for the gripped object's share φ − φ_gripper (zero without a split);
+    - ``accelerometer_reading``: what an ideal accelerometer in the sensor reports (``accelerometer_reading`` with
+      the ``accelerometer`` convention: at p_SA, in its axes and unit);
+    - ``wrench_sensor``: the reaction of the sensor's weld joint ``sensor_weld_index``, [f; τ] on the child body
+      at the child's joint frame, in it;
+    - ``wrench_contact``: the contact part of the sensor's wrench (Eq. 11), minus the sum of the environment's
+      point contact forces on the ``load_body_indices``, moved to S, in S (the station's plant uses contact_model
+      "point").
     """
 
-    def __init__(self, load_body_indices, sensor_body_index, p_BS):
-        super().__init__()
-        self._load = {int(i) for i in load_body_indices}
-        self._sensor = int(sensor_body_index)
-        self._p_BS = np.asarray(p_BS, dtype=float)
-        self._contacts = self.DeclareAbstractInputPort("contact_results", AbstractValue.Make(ContactResults()))
-        self._poses = self.DeclareAbstractInputPort("body_poses", Value[List[RigidTransform]]())
-        self.DeclareVectorOutputPort("wrench", 6, self._calc)
-
-    def _calc(self, context, output):
-        results = self._contacts.Eval(context)
-        if results.num_hydroelastic_contacts():
-            raise RuntimeError("ContactWrenchAtSensor sums point contacts only; "
-                               "build the plant with contact_model='point'")
-        count = results.num_point_pair_contacts()
-        if not count:
-            output.SetZero()
-            return
-        X_WB = self._poses.Eval(context)[self._sensor]
-        p_WS = X_WB @ self._p_BS
-        f_W, tau_W = np.zeros(3), np.zeros(3)  # environment on load, about S
-        for i in range(count):
-            info = results.point_pair_contact_info(i)
-            sign = (int(info.bodyB_index()) in self._load) - (int(info.bodyA_index()) in self._load)
-            if sign:
-                f = sign * info.contact_force()
-                f_W += f
-                tau_W += np.cross(info.contact_point() - p_WS, f)
-        R_SW = X_WB.rotation().inverse().matrix()
-        output.SetFromVector(-np.concatenate((R_SW @ f_W, R_SW @ tau_W)))
-
-
-MOTION_PARTS = (("acceleration", 6), ("omega", 3), ("gravity", 3), ("wrench", 6), ("wrench_object", 6),
-                ("accelerometer_reading", 6))
-"""The parts of ``SensorAndLoadMotion``'s output ``motion``, in its order: (name, size)."""
-
-
-class SensorAndLoadMotion(LeafSystem):
-    """Motion of the sensor frame S, fixed at p_BS (m) in body B's frame, and the load's non-contact
-    wrench at S: V(a, α, ω, g)·φ (Eq. 12) of the true φ with the true motion of the load's own frame L
-    (at S when the load is welded there; on a compliant mount it moves against S), moved from L to S,
-    in S. So the wrench equals the sensor's reaction minus the contact wrench (Eq. 11) on either mount.
-    One system for both: each reads the plant's body lists, which cost more than the arithmetic.
-
-    Inputs: the plant's ``body_poses``, ``body_spatial_velocities``, ``body_spatial_accelerations``;
-    ``phi`` (10, the load's true φ about L's origin in L) and ``phi_gripper`` (10, the gripper's share,
-    Eq. 14). Output ``motion`` (30): the parts ``MOTION_PARTS`` names end to end, ``acceleration`` [a; α]
-    of S in S (m/s², rad/s²), ``omega`` ω_WS in S (rad/s), ``gravity`` g in S (m/s²), ``wrench`` (6, for
-    φ) and ``wrench_object`` (6, for the gripped object's share φ − φ_gripper; zero without a split),
-    ``accelerometer_reading``, what an ideal accelerometer in the sensor reports (``accelerometer_reading``
-    with the ``accelerometer`` convention: at p_SA, in S's axes). One port, so that a step calls into
-    Python once for all of them (a ``Demultiplexer`` parts them).
-    """
-
-    def __init__(self, sensor_body_index, p_BS, load_body_index, gravity_W,
+    def __init__(self, sensor_body_index, p_BS, load_body_indices, sensor_weld_index, gravity_W,
                  accelerometer: AccelerometerConvention = AT_S):
         super().__init__()
-        self._sensor, self._load = int(sensor_body_index), int(load_body_index)
+        self._sensor, self._weld = int(sensor_body_index), int(sensor_weld_index)
+        self._loads = {int(i) for i in load_body_indices}
+        self._load = int(load_body_indices[0])
+        self._p_BS = np.array(p_BS, dtype=float)
         self._truth, arrays = record_views(TRUTH)
         arrays["p_BS"][:], arrays["g_W"][:] = p_BS, gravity_W
         self._accelerometer = convention_record(accelerometer)
-        self._poses, self._velocities, self._accelerations = declare_body_motion_inputs(self)
+        self._reactions = self.DeclareAbstractInputPort("reaction_forces", Value[List[SpatialForce]]())
+        self._contacts = self.DeclareAbstractInputPort("contact_results", AbstractValue.Make(ContactResults()))
+        self._poses = self.DeclareAbstractInputPort("body_poses", Value[List[RigidTransform]]())
+        self._velocities = self.DeclareAbstractInputPort("body_spatial_velocities", Value[List[SpatialVelocity]]())
+        self._accelerations = self.DeclareAbstractInputPort("body_spatial_accelerations",
+                                                            Value[List[SpatialAcceleration]]())
         self._phi = self.DeclareVectorInputPort("phi", 10)
         self._phi_gripper = self.DeclareVectorInputPort("phi_gripper", 10)
-        self.DeclareVectorOutputPort("motion", sum(size for _, size in MOTION_PARTS), self._calc,
+        self.DeclareVectorOutputPort("truth", sum(size for _, size in TRUTH_PARTS), self._calc,
                                      prerequisites_of_calc={self.all_input_ports_ticket()})
 
     def _calc(self, context, output):
+        out = output.get_mutable_value()
         poses, velocities = self._poses.Eval(context), self._velocities.Eval(context)
         accelerations, B, L = self._accelerations.Eval(context), self._sensor, self._load
         motion_and_wrenches_into(poses[B].GetAsMatrix34(), velocities[B].get_coeffs(), accelerations[B].get_coeffs(),
                                  poses[L].GetAsMatrix34(), velocities[L].get_coeffs(), accelerations[L].get_coeffs(),
                                  self._phi.Eval(context), self._phi_gripper.Eval(context), self._truth,
-                                 self._accelerometer, output.get_mutable_value())
+                                 self._accelerometer, out)
+        out[30:36] = swap_halves(self._reactions.Eval(context)[self._weld].get_coeffs())  # [τ; f] → [f; τ]
+        self._contact_wrench_into(self._contacts.Eval(context), poses[B], out[36:42])
+
+    def _contact_wrench_into(self, results, X_WB, out) -> None:
+        """``wrench_contact`` of the plant's contact ``results`` with B at ``X_WB``, into ``out`` (6)."""
+        if results.num_hydroelastic_contacts():
+            raise RuntimeError("WristTruth sums point contacts only; build the plant with contact_model='point'")
+        count = results.num_point_pair_contacts()
+        if not count:
+            out[:] = 0.0
+            return
+        p_WS = X_WB @ self._p_BS
+        f_W, tau_W = np.zeros(3), np.zeros(3)  # environment on load, about S
+        for i in range(count):
+            info = results.point_pair_contact_info(i)
+            sign = (int(info.bodyB_index()) in self._loads) - (int(info.bodyA_index()) in self._loads)
+            if sign:
+                f = sign * info.contact_force()
+                f_W += f
+                tau_W += np.cross(info.contact_point() - p_WS, f)
+        R_SW = X_WB.rotation().inverse().matrix()
+        out[:3], out[3:] = -(R_SW @ f_W), -(R_SW @ tau_W)
 
 
 TRUTH = np.dtype([("p_BS", float, 3), ("g_W", float, 3), ("origin", float, 3), ("load_motion", float, 12),
@@ -185,12 +163,12 @@ def wrenches_at_S_into(motion, phi, phi_gripper, R_SL, p_SL, V, out) -> None:
 @compiled("void(float64[:, :], float64[:], float64[:], float64[:, :], float64[:], float64[:], float64[:], float64[:], "
           "TRUTH[:], CONVENTION[:], float64[:])", TRUTH=TRUTH, CONVENTION=CONVENTION)
 def motion_and_wrenches_into(X_WB, V_WB, A_WB, X_WL, V_WL, A_WL, phi, phi_gripper, truth, accelerometer, out) -> None:
-    """``SensorAndLoadMotion``'s arithmetic into ``out`` (``MOTION_PARTS``), from Drake's values in W of the sensor
-    body B and of the load body: poses [R p] (3×4), spatial velocities [ω; v] and accelerations [α; a] (6). S's
-    [a; α; ω; g] (``frame_motion_into`` of S at p_BS in B) into out[:12]; the load's wrenches
+    """``WristTruth``'s arithmetic into ``out`` (30: its ``TRUTH_PARTS`` up to the reading), from Drake's values in
+    W of the sensor body B and of the load body: poses [R p] (3×4), spatial velocities [ω; v] and accelerations
+    [α; a] (6). S's [a; α; ω; g] (``frame_motion_into`` of S at p_BS in B) into out[:12]; the load's wrenches
     (``wrenches_at_S_into`` of the motion of L, the load body's frame) into out[12:24], with X_SL = X_SW·X_WL (S
     has B's axes: R_SL = R_WBᵀ·R_WL, p_SL = R_WBᵀ·(p_WL − p_WB) − p_BS); the accelerometer's reading of S's motion
-    (``reading_into``, its ``CONVENTION`` record) into out[24:]. ``truth``: a ``TRUTH`` record."""
+    (``reading_into``, its ``CONVENTION`` record) into out[24:30]. ``truth``: a ``TRUTH`` record."""
     t = truth[0]
     p_BS, X_SL = t["p_BS"], t["X_SL"]
     for i in range(3):
