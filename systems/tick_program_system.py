@@ -36,6 +36,7 @@ class TickProgramSystem(LeafSystem):
             self._inputs.append((self.DeclareVectorInputPort(port.get_name(), port.size()),
                                  program.input(port.get_name()), program.input(port.get_name()).copy()))
         self._valued = [False] * len(self._inputs)  # whether each input had a value when last read
+        self._defaulted = [False] * len(self._inputs)  # whether each input's array holds its default
         self._state = self.DeclareDiscreteState(program.initial_state)
         self._signals = self.DeclareCacheEntry(
             "signals", ValueProducer(allocate=lambda: AbstractValue.Make(np.zeros(program.signals.size)),
@@ -87,8 +88,9 @@ class TickProgramSystem(LeafSystem):
 
     def _load(self, context) -> None:
         """The program's inputs and state from ``context``'s (an unconnected input at its default). An input
-        that had a value is read without asking again (a connection stays; Eval refuses one that has none)."""
-        valued = self._valued
+        that had a value is read without asking again (a connection stays; Eval refuses one that has none); the
+        default is written once, until a value replaces it."""
+        valued, defaulted = self._valued, self._defaulted
         for i, (port, array, default) in enumerate(self._inputs):
             if valued[i]:
                 try:
@@ -97,9 +99,9 @@ class TickProgramSystem(LeafSystem):
                 except RuntimeError:
                     valued[i] = False
             if port.HasValue(context):
-                array[:], valued[i] = port.Eval(context), True
-            else:
-                array[:] = default
+                array[:], valued[i], defaulted[i] = port.Eval(context), True, False
+            elif not defaulted[i]:
+                array[:], defaulted[i] = default, True
         self.program.state[:] = context.get_discrete_state(self._state).get_value()
 
     def _calculate(self, context, value) -> None:

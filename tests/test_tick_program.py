@@ -87,6 +87,37 @@ def test_the_one_system_keeps_the_diagrams_ports_and_closes_loops_as_it_does():
     assert not system.HasDirectFeedthrough(system.GetOutputPort("master.torque_commanded").get_index())
 
 
+def test_the_one_system_reads_each_contexts_own_inputs():
+    """Two contexts of one system, σ fixed in one and at its default in the other, stepped in turn: each tick
+    takes its own σ, as a system of its own would."""
+    diagram, scenario = make_controller()
+    inputs = input_sequence(both_runs_scenario(), PERIOD)[50]
+    sigma = np.array([0.1 if scenario.controller.force.sigma > 0.5 else 0.9])  # not the default
+
+    def context_of(system, fixed):
+        context = system.CreateDefaultContext()
+        for name, value in inputs.items():
+            system.GetInputPort(name).FixValue(context, value)
+        if fixed:
+            system.GetInputPort("sigma").FixValue(context, sigma)
+        return context
+
+    def step(system, context):
+        return system.EvalUniquePeriodicDiscreteUpdate(context).get_vector().CopyToVector()
+
+    expected = []
+    for fixed in (True, False):
+        alone = TickProgramSystem(diagram)
+        expected.append(step(alone, context_of(alone, fixed)))
+    assert np.abs(expected[0] - expected[1]).max() > 1e-3  # σ shows in the tick
+    system = TickProgramSystem(diagram)
+    contexts = [context_of(system, fixed) for fixed in (True, False)]
+    for _ in range(3):
+        for context, reference in zip(contexts, expected):
+            system.GetInputPort("ft.wrench_measured").FixValue(context, inputs["ft.wrench_measured"])  # a new value
+            np.testing.assert_array_equal(step(system, context), reference)
+
+
 def test_the_recording_exercises_what_it_claims(recorded):
     """Guards the equality against a sequence that leaves the controller's branches untouched."""
     _, expected = recorded
