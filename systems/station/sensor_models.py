@@ -175,6 +175,9 @@ def _sample_into(t, normals, walk, advance_walk, drift_on, offsets_on, initial, 
 
 
 _NO_DRAWS, _NO_LOWPASS = np.zeros((1, 2 * NUM_AXES)), np.zeros(5)  # stand-ins where a model draws none, filters not
+WALK, NEXT_INDEX, LAST_TIME, LOWPASS = slice(0, NUM_AXES), NUM_AXES, NUM_AXES + 1, slice(NUM_AXES + 2, 3 * NUM_AXES + 2)
+"""A sampled sensor's memory: the random walk of its offsets (6), the next sample's index, the last sample's time
+(s) and its low-pass filter's state (2 × 6)."""
 
 
 class HeldLowpass:
@@ -310,6 +313,13 @@ class SixAxisMeasurement:
                           advance_walk, *self._disturbance_settings, offsets, disturbed)
         return offsets, disturbed, walk
 
+    def sample_arguments(self, lowpass_coefficients: np.ndarray | None) -> tuple[tuple, tuple]:
+        """``_sample_into``'s settings for this model and the low-pass ``lowpass_coefficients`` (None: no filter):
+        (those after the draws, the walk and whether it advances; those after the filter's state and the value)."""
+        filtered = lowpass_coefficients is not None
+        return ((*self._disturbance_settings, filtered, lowpass_coefficients if filtered else _NO_LOWPASS),
+                (self.limits, self.steps))
+
     def sample_into(self, time: np.ndarray, normals: np.ndarray | None, walk: np.ndarray, advance_walk: bool,
                     lowpass_coefficients: np.ndarray | None, lowpass_state: np.ndarray, value: np.ndarray,
                     offsets: np.ndarray, measured: np.ndarray, saturated: np.ndarray) -> None:
@@ -317,10 +327,9 @@ class SixAxisMeasurement:
         into ``offsets``, ``walk`` advanced in place, then the measurement of ``value`` (1, 6) low-passed
         (``lowpass``, its ``lowpass_state`` (2, 6) started; no filter for None) into ``measured`` and
         ``saturated`` (1, 6 each)."""
-        filtered = lowpass_coefficients is not None
-        _sample_into(time, _NO_DRAWS if normals is None else normals, walk, advance_walk, *self._disturbance_settings,
-                     filtered, lowpass_coefficients if filtered else _NO_LOWPASS, lowpass_state, value, self.limits,
-                     self.steps, offsets, measured, saturated)
+        before, after = self.sample_arguments(lowpass_coefficients)
+        _sample_into(time, _NO_DRAWS if normals is None else normals, walk, advance_walk, *before, lowpass_state, value,
+                     *after, offsets, measured, saturated)
 
     def measure(self, value, out: np.ndarray | None = None,
                 saturated: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -352,6 +361,7 @@ class _SampledSixAxisSensor(LeafSystem):
         super().__init__()
         self._model = SixAxisMeasurement(params, stream, params.sample_period)
         self._lowpass = lowpass_coefficients(params.lowpass_cutoff, params.sample_period)
+        self._before, self._after = self._model.sample_arguments(self._lowpass)  # ``_sample_into``'s settings
         # (first sample index, draws): a memo of the pure function standard_normals,
         # not generator state, so Contexts and their clones stay independent.
         self._noise_block = (0, np.empty((0, 2 * NUM_AXES)))
@@ -361,11 +371,10 @@ class _SampledSixAxisSensor(LeafSystem):
         self._measured = self.DeclareDiscreteState(NUM_AXES)
         self._offsets = self.DeclareDiscreteState(NUM_AXES)
         self._saturated = self.DeclareDiscreteState(NUM_AXES)
-        # The random-walk part of the offsets (6), the index of the next sample, and the
-        # time of the last sample.
-        self._walk_and_index = self.DeclareDiscreteState(np.append(np.zeros(NUM_AXES + 1), -np.inf))
-        # The low-pass filter's state (2 × 6, NaN until the first sample).
-        self._lowpass_state = self.DeclareDiscreteState(np.full(2 * NUM_AXES, np.nan))
+        # The memory (``WALK``, ``NEXT_INDEX``, ``LAST_TIME``, ``LOWPASS``), the filter's state NaN until the first
+        # sample.
+        self._memory = self.DeclareDiscreteState(np.concatenate((np.zeros(NUM_AXES + 1), [-np.inf],
+                                                                 np.full(2 * NUM_AXES, np.nan))))
         # Offset 0, like a discrete plant's steps: sample instants k·T then coincide exactly
         # with the plant's (an offset of T gives T + k·T, which round-off can put just after).
         self.DeclareInitializationDiscreteUpdateEvent(self._take_first_sample)
@@ -375,16 +384,15 @@ class _SampledSixAxisSensor(LeafSystem):
         self.DeclareStateOutputPort("saturated", self._saturated)
 
     def _take_first_sample(self, context, discrete_state):
-        self._take_sample(context, discrete_state, discrete_state.get_mutable_value(self._walk_and_index),
-                          advance_walk=False)
+        self._take_sample(context, discrete_state, discrete_state.get_mutable_value(self._memory), advance_walk=False)
 
     def _take_next_sample(self, context, discrete_state):
         # discrete_state holds the current values: each group is updated in place. The periodic event also
         # fires at the start time, already sampled at initialization: one sample per instant, so it stays.
-        walk_and_index = discrete_state.get_mutable_value(self._walk_and_index)
-        if context.get_time() == walk_and_index[-1]:
+        memory = discrete_state.get_mutable_value(self._memory)
+        if context.get_time() == memory[LAST_TIME]:
             return
-        self._take_sample(context, discrete_state, walk_and_index, advance_walk=True)
+        self._take_sample(context, discrete_state, memory, advance_walk=True)
 
     def _normals(self, index: int) -> np.ndarray | None:
         """The draws of sample ``index`` (1, 12), from a memo of ``_NOISE_BLOCK`` samples."""
@@ -397,19 +405,20 @@ class _SampledSixAxisSensor(LeafSystem):
             self._noise_block = (start, block)
         return block[index - start:index - start + 1]
 
-    def _take_sample(self, context, discrete_state, walk_and_index: np.ndarray, advance_walk: bool):
-        index, t = int(walk_and_index[NUM_AXES]), context.get_time()
+    def _take_sample(self, context, discrete_state, memory: np.ndarray, advance_walk: bool):
+        index, t = int(memory[NEXT_INDEX]), context.get_time()
         value = self._input.Eval(context)[np.newaxis]
-        lowpass_state = discrete_state.get_mutable_value(self._lowpass_state).reshape(2, NUM_AXES)
+        lowpass_state = memory[LOWPASS].reshape(2, NUM_AXES)
         if self._lowpass is not None:
             start_lowpass(self._lowpass, lowpass_state, value[0])
         self._time[0] = t
-        self._model.sample_into(self._time, self._normals(index), walk_and_index[:NUM_AXES], advance_walk,
-                                self._lowpass, lowpass_state, value,
-                                discrete_state.get_mutable_value(self._offsets)[np.newaxis],
-                                discrete_state.get_mutable_value(self._measured)[np.newaxis],
-                                discrete_state.get_mutable_value(self._saturated)[np.newaxis])
-        walk_and_index[NUM_AXES:] = index + 1, t
+        normals = self._normals(index)
+        _sample_into(self._time, _NO_DRAWS if normals is None else normals, memory[WALK], advance_walk, *self._before,
+                     lowpass_state, value, *self._after,
+                     discrete_state.get_mutable_value(self._offsets)[np.newaxis],
+                     discrete_state.get_mutable_value(self._measured)[np.newaxis],
+                     discrete_state.get_mutable_value(self._saturated)[np.newaxis])
+        memory[NEXT_INDEX], memory[LAST_TIME] = index + 1, t
 
 
 class ForceTorqueSensorModel(_SampledSixAxisSensor):
