@@ -11,11 +11,13 @@ from pydrake.systems.analysis import Simulator
 
 from heft.diagrams.scenario import IDEAL_STATION, NOISE_OFF, Scenario, layered, load_scenario, overrides_text
 from heft.diagrams.mount import modes_on_fixed_sensor
-from heft.diagrams.plants import AddSlave, mount_for
+from heft.diagrams.master_params import BUNDLED_MASTERS
+from heft.diagrams.plants import AddSlave, MakeMasterPlant, mount_for
 from heft.diagrams.stations.sim_station import MakeSimStation
 from heft.systems.accelerometer_reading import motion_from_reading
 from heft.systems.load_dynamics import InertialParameters, regressor
-from heft.systems.station.operator_hand import hand_wrench_into, reference_into, smooth_sine_offset, stroke_windows
+from heft.systems.station.operator_hand import (OperatorHand, hand_force_into, hand_record, hand_wrench_into,
+                                               reference_into, smooth_sine_offset, stroke_windows)
 from heft.systems.station.station_truth import frame_motion_into
 
 STATION_PORTS = {
@@ -117,6 +119,33 @@ def test_the_hands_reference_and_impedance_against_drakes_rotations():
         tau = 2.0 * angle_axis.angle() * angle_axis.axis() + 0.05 * (w_ref - w_WE)
         f = 800.0 * (p_ref - p_WE) + 15.0 * (v_ref - v_WE)
         np.testing.assert_allclose(out, np.concatenate((tau, f)), rtol=0, atol=1e-11)
+
+
+@pytest.mark.parametrize("master", sorted(BUNDLED_MASTERS))
+def test_the_hand_takes_the_stylus_pose_and_twist_from_the_masters_state_as_drake_has_them(master):
+    """``OperatorHand`` finds the stylus's pose and twist from the master's joints (its own kinematics): its force
+    equals ``hand_force_into`` of Drake's pose and spatial velocity of the stylus body, at random states."""
+    plant = MakeMasterPlant(master)
+    stylus = plant.GetFrameByName("stylus").body()
+    spec = Scenario().operator
+    hand = OperatorHand(plant, stylus, spec)
+    context, plant_context = hand.CreateDefaultContext(), plant.CreateDefaultContext()
+    reference = hand_record(spec, plant.EvalBodyPoseInWorld(plant_context, stylus))
+    rng = np.random.default_rng(4)
+    for t in (0.0, 0.31, 0.47):
+        state = np.concatenate((rng.uniform(-0.8, 0.8, plant.num_positions()),
+                                rng.normal(0, 2, plant.num_velocities())))
+        plant.SetPositionsAndVelocities(plant_context, state)
+        hand.get_input_port().FixValue(context, state)
+        context.SetTime(t)
+        expected = np.empty(6)
+        hand_force_into(t, plant.EvalBodyPoseInWorld(plant_context, stylus).GetAsMatrix34(),
+                        plant.EvalBodySpatialVelocityInWorld(plant_context, stylus).get_coeffs(),
+                        np.array(spec.stroke_scales, dtype=float), reference, expected)
+        force, = hand.get_output_port().Eval(context)
+        assert force.body_index == stylus.index()
+        np.testing.assert_allclose(force.F_Bq_W.get_coeffs(), expected, rtol=0, atol=1e-9)
+        assert np.abs(expected).max() > 1.0  # the stylus away from its reference
 
 
 def test_station_exports_the_design_ports(free_space):

@@ -225,12 +225,8 @@ def _add_master(builder: DiagramBuilder, scenario: Scenario):
         builder.Connect(select.get_output_port(), amplifiers.get_input_port())
         builder.ExportInput(select.get_input_port(), "master.torque_commanded")
 
-    context = master.CreateDefaultContext()
-    operator = builder.AddSystem(OperatorHand(stylus.index(), master.EvalBodyPoseInWorld(context, stylus),
-                                              scenario.operator))
-    operator.set_name("operator")
-    builder.Connect(master.get_body_poses_output_port(), operator.GetInputPort("body_poses"))
-    builder.Connect(master.get_body_spatial_velocities_output_port(), operator.GetInputPort("body_spatial_velocities"))
+    operator = builder.AddNamedSystem("operator", OperatorHand(master, stylus, scenario.operator))
+    builder.Connect(master.get_state_output_port(), operator.GetInputPort("state"))
     builder.Connect(operator.get_output_port(), master.get_applied_spatial_force_input_port())
 
     state = builder.AddSystem(Demultiplexer([6, 6]))

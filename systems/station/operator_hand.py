@@ -9,12 +9,14 @@ import numpy as np
 from pydrake.common.cpp_param import List
 from pydrake.common.value import Value
 from pydrake.math import RigidTransform
-from pydrake.multibody.math import SpatialForce, SpatialVelocity
-from pydrake.multibody.plant import ExternallyAppliedSpatialForce
+from pydrake.multibody.math import SpatialForce
+from pydrake.multibody.plant import ExternallyAppliedSpatialForce, MultibodyPlant
+from pydrake.multibody.tree import RigidBody
 from pydrake.systems.framework import LeafSystem
 
 from heft.systems.compiled import compiled, float_array, record_views
 from heft.systems.pose_vectors import pose_into
+from heft.systems.serial_chain import SerialChain, chain_dtype, chain_kinematics
 
 
 @compiled("UniTuple(float64, 2)(float64, float64, float64, float64[:])")
@@ -122,33 +124,73 @@ def hand_force_into(t, X_WE, V_WE, stroke_scales, hand, out) -> None:
                      h["damping"], h["rotational_stiffness"], h["rotational_damping"], h["error"], h["quaternion"], out)
 
 
-class OperatorHand(LeafSystem):
-    """Hand impedance on the stylus body of a master MultibodyPlant.
+STYLUS_JOINTS = 6
+"""The joints between the world and a master's stylus (both bundled masters: ``MasterKinematics``' six)."""
+STYLUS = np.dtype([("rows", np.int64, 2 * STYLUS_JOINTS), ("q", float, STYLUS_JOINTS), ("qd", float, STYLUS_JOINTS),
+                   ("X_WE", float, (3, 4)), ("V_WE", float, 6)])
+"""Where the stylus's joints sit in the master plant's state [q; q̇] (``rows``: the positions', then the
+velocities'), and ``hand_force_from_state_into``'s scratch: the joints' q, q̇ and the stylus's pose and twist."""
 
-    Input ``body_poses`` / ``body_spatial_velocities``: the master plant's ports.
-    Output ``spatial_force``: [ExternallyAppliedSpatialForce] on the stylus, for the
-    plant's ``applied_spatial_force`` port. Reference: the start pose X_WE0 moved by
-    smooth sines (``amplitude`` m in W, ``rotation_amplitude`` rad as roll-pitch-yaw),
+
+@compiled("void(float64, float64[:], CHAIN[:], STYLUS[:], float64[:], HAND[:], float64[:])",
+          CHAIN=chain_dtype(STYLUS_JOINTS), STYLUS=STYLUS, HAND=HAND)
+def hand_force_from_state_into(t, state, chain, stylus, stroke_scales, hand, out) -> None:
+    """``hand_force_into`` of the stylus at the master plant's ``state`` [q; q̇]: its pose X_WE and twist
+    [ω; v] in W from the joints' q and q̇ (``chain_kinematics`` from the world to the stylus body, ``chain``;
+    the twist J·q̇), into ``out`` = [τ; f] (6). ``stylus``: a ``STYLUS`` record."""
+    s, c = stylus[0], chain[0]
+    q, qd, rows, X, V = s["q"], s["qd"], s["rows"], s["X_WE"], s["V_WE"]
+    n = q.shape[0]
+    for j in range(n):
+        q[j], qd[j] = state[rows[j]], state[rows[n + j]]
+    R, p, J = c["R"], c["p"], c["J"]
+    chain_kinematics(c["axes"], c["points"], c["M_R"], c["M_p"], q, c["zeros"], c["zeros"], c["gravity_B"], R, p, J,
+                     c["motion"], c["work"])
+    for i in range(3):
+        for k in range(3):
+            X[i, k] = R[i, k]
+        X[i, 3] = p[i]
+    for r in range(6):  # J's rows [v; ω], the twist's [ω; v]
+        rate = 0.0
+        for j in range(n):
+            rate += J[r, j] * qd[j]
+        V[(r + 3) % 6] = rate
+    hand_force_into(t, X, V, stroke_scales, hand, out)
+
+
+class OperatorHand(LeafSystem):
+    """Hand impedance on the stylus body of a master MultibodyPlant (finalized; the stylus reached from the world
+    through six revolute joints and welds, as ``SerialChain`` takes them).
+
+    Input ``state``: the master plant's [q; q̇] (its ``state`` port), from which the stylus's pose and twist
+    follow (``hand_force_from_state_into``). Output ``spatial_force``: [ExternallyAppliedSpatialForce] on the
+    stylus, for the plant's ``applied_spatial_force`` port. Reference: the stylus's pose in the plant's default
+    context, X_WE0, moved by smooth sines (``amplitude`` m in W, ``rotation_amplitude`` rad as roll-pitch-yaw),
     stroke k scaled by ``stroke_scales[k]`` (``smooth_sine_offset``).
     """
 
-    def __init__(self, stylus_body_index, X_WE0: RigidTransform, spec):
+    def __init__(self, plant: MultibodyPlant, stylus: RigidBody, spec):
         super().__init__()
-        self._stylus = int(stylus_body_index)
-        self._spec = spec
-        # ``hand_force_into``'s arguments after the stylus's motion, and its [τ; f].
+        chain = SerialChain(plant, plant.world_frame(), stylus.body_frame())
+        if chain.num_joints != STYLUS_JOINTS:
+            raise ValueError(f"the operator's hand takes a stylus {STYLUS_JOINTS} joints from the world; "
+                             f"{stylus.name()!r} is {chain.num_joints}")
+        record, arrays = record_views(STYLUS)
+        arrays["rows"][:] = [joint.position_start() for joint in chain.joints] + [
+            plant.num_positions() + joint.velocity_start() for joint in chain.joints]
+        X_WE0 = plant.EvalBodyPoseInWorld(plant.CreateDefaultContext(), stylus)
+        # ``hand_force_from_state_into``'s arguments after the state, and its [τ; f].
         self._wrench = np.empty(6)
-        self._settings = (float_array(spec.stroke_scales), hand_record(spec, X_WE0), self._wrench)
-        self._poses = self.DeclareAbstractInputPort("body_poses", Value[List[RigidTransform]]())
-        self._velocities = self.DeclareAbstractInputPort("body_spatial_velocities", Value[List[SpatialVelocity]]())
+        self._settings = (chain.record, record, float_array(spec.stroke_scales), hand_record(spec, X_WE0),
+                          self._wrench)
+        self._state = self.DeclareVectorInputPort("state", plant.num_multibody_states())
         # The force's body and point, set once; each calculation sets its wrench (the output holds a copy).
         self._force = ExternallyAppliedSpatialForce()
-        self._force.body_index, self._force.p_BoBq_B = stylus_body_index, np.zeros(3)
+        self._force.body_index, self._force.p_BoBq_B = stylus.index(), np.zeros(3)
         self.DeclareAbstractOutputPort("spatial_force", lambda: Value[List[ExternallyAppliedSpatialForce]](),
                                        self._calc_force)
 
     def _calc_force(self, context, output):
-        hand_force_into(context.get_time(), self._poses.Eval(context)[self._stylus].GetAsMatrix34(),
-                        self._velocities.Eval(context)[self._stylus].get_coeffs(), *self._settings)
+        hand_force_from_state_into(context.get_time(), self._state.Eval(context), *self._settings)
         self._force.F_Bq_W = SpatialForce(self._wrench)  # [τ; f]
         output.set_value([self._force])
