@@ -64,8 +64,9 @@ class WristTruth(LeafSystem):
     the gripper's share, Eq. 14). Output ``truth`` (42): the parts ``TRUTH_PARTS`` names end to end,
 
     - ``acceleration`` [a; α] of S in S (m/s², rad/s²), ``omega`` ω_WS in S (rad/s), ``gravity`` g in S (m/s²);
-    - ``wrench``: V(a, α, ω, g)·φ (Eq. 12) of the true φ with the true motion of the load's own frame L (at S when
-      the load is welded there; on a compliant mount it moves against S), moved from L to S, in S, so that it
+    - ``wrench``: V(a, α, ω, g)·φ (Eq. 12) of the true φ with the true motion of the load's own frame L (the body
+      frame of the first of ``load_body_indices``: at S when the load is welded there; on a compliant mount it
+      moves against S), moved from L to S, in S, so that it
       equals the sensor's reaction minus the contact wrench (Eq. 11) on either mount; ``wrench_object`` the same
       for the gripped object's share φ − φ_gripper (zero without a split);
     - ``accelerometer_reading``: what an ideal accelerometer in the sensor reports (``accelerometer_reading`` with
