@@ -66,9 +66,9 @@ class WristTruth(LeafSystem):
     - ``acceleration`` [a; α] of S in S (m/s², rad/s²), ``omega`` ω_WS in S (rad/s), ``gravity`` g in S (m/s²);
     - ``wrench``: V(a, α, ω, g)·φ (Eq. 12) of the true φ with the true motion of the load's own frame L (the body
       frame of the first of ``load_body_indices``: at S when the load is welded there; on a compliant mount it
-      moves against S), moved from L to S, in S, so that it
-      equals the sensor's reaction minus the contact wrench (Eq. 11) on either mount; ``wrench_object`` the same
-      for the gripped object's share φ − φ_gripper (zero without a split);
+      moves against S), moved from L to S, in S, so that it equals the sensor's reaction minus the contact wrench
+      (Eq. 11) on either mount; ``wrench_object`` the same for the gripped object's share φ − φ_gripper (zero
+      without a split);
     - ``accelerometer_reading``: what an ideal accelerometer in the sensor reports (``accelerometer_reading`` with
       the ``accelerometer`` convention: at p_SA, in its axes and unit);
     - ``wrench_sensor``: the reaction of the sensor's weld joint ``sensor_weld_index``, [f; τ] on the child body
@@ -84,9 +84,9 @@ class WristTruth(LeafSystem):
         self._sensor, self._weld = int(sensor_body_index), int(sensor_weld_index)
         self._loads = {int(i) for i in load_body_indices}
         self._load = int(load_body_indices[0])
-        self._p_BS = np.array(p_BS, dtype=float)
         self._truth, arrays = record_views(TRUTH)
         arrays["p_BS"][:], arrays["g_W"][:] = p_BS, gravity_W
+        self._p_BS = arrays["p_BS"]
         self._accelerometer = convention_record(accelerometer)
         self._reactions = self.DeclareAbstractInputPort("reaction_forces", Value[List[SpatialForce]]())
         self._contacts = self.DeclareAbstractInputPort("contact_results", AbstractValue.Make(ContactResults()))
