@@ -1,12 +1,15 @@
 """Shared fixtures."""
 
 import contextlib
+import logging
 import os
 import shutil
 import subprocess
 import uuid
 
 import pytest
+
+from heft.diagrams.commands import console
 
 
 def _ip(*args, check=True):
@@ -68,3 +71,13 @@ class FakeClock:
 def fake_clock():
     return FakeClock()
 
+
+
+@pytest.fixture(autouse=True)
+def heft_logger_at_info():
+    """Each test ends with the ``heft`` logger back at INFO once something configured it: a command run
+    in-process with ``-q`` left it at WARNING, which silenced a later test's command that calls ``run``
+    directly (``console.logger`` configures only a logger nobody has)."""
+    yield
+    if logging.getLogger(console.ROOT).handlers:
+        console.configure()
