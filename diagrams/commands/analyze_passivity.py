@@ -108,7 +108,7 @@ def analyze_log(log: dict, robot: str = "rx90", twist=None, observer_lag: int = 
     dissipated (J) (zero up to rounding when the log and the observer agree); where the log has the
     wrench applied on the hand (``master_force_applied``), what the device's clamp
     withheld from the hand, Σ (f_PC − f_applied)·v·T (J, ``passivity_controller`` key
-    ``c_clamp_withheld_J``), which the observer counts back; with the environment keys, the
+    ``{channel}_clamp_withheld_J``), which the observer counts back; with the environment keys, the
     environment port's energies too. ``twist``: `stylus_twists` of the
     log, if already computed (not yet paired); ``observer_lag``: as `paired_rows`'s ``lag`` (module docstring);
     ``master``: the run's bundled master."""
