@@ -439,9 +439,9 @@ def test_drakes_own_configs_live_in_the_scenario():
 
 # --- the realistic station ------------------------------------------------------------------
 
-@pytest.fixture(scope="module")
+@pytest.fixture
 def compliant():
-    """The default (realistic) station, noise-free sensors, free space."""
+    """The default (realistic) station, noise-free sensors, free space, at its start (a test steps it)."""
     scenario = layered(Scenario(), overrides_text({**NOISE_OFF, "environment.kind": "none"}))
     assert not scenario.load.mount.rigid
     return Run(scenario)
