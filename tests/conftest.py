@@ -72,7 +72,6 @@ def fake_clock():
     return FakeClock()
 
 
-
 @pytest.fixture(autouse=True)
 def heft_logger_at_info():
     """Each test ends with the ``heft`` logger back at INFO once something configured it: a command run
