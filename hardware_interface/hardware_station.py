@@ -308,10 +308,20 @@ class HardwareStation:
         none did. The bus's messages are handled meanwhile, into the mailboxes ``receive`` reads: a
         loop anchored here (``run_realtime``'s ``anchor``) ticks as the arm's status arrives, so that
         each arm step receives one command."""
-        mailbox, deadline = self._mail[1], time.perf_counter() + seconds
+        return self._handle_until(time.perf_counter() + seconds, self._mail[1])
+
+    def idle(self, seconds: float) -> None:
+        """Waits ``seconds`` (s), handling the bus's messages into the mailboxes as they arrive (unchecked:
+        ``receive`` checks them): the loop's wait between ticks (``run_realtime``'s ``sleep``), which leaves a
+        tick only the checks of what arrived."""
+        self._handle_until(time.perf_counter() + seconds)
+
+    def _handle_until(self, deadline: float, mailbox: LcmMailbox | None = None) -> bool:
+        """Handles the bus's messages as they arrive until ``deadline`` (s, ``time.perf_counter``): False then,
+        or True as soon as ``mailbox`` (if given) has a payload."""
         while True:
             pump(self._bus)
-            if mailbox.waiting:
+            if mailbox is not None and mailbox.waiting:
                 return True
             left = deadline - time.perf_counter()
             if left <= 0.0:

@@ -5,6 +5,7 @@ timeout of wall time, forces ramp back without a jump; slave commands are rate
 limited by measured time and latched at a fault; the clutch button; FT sign flip."""
 
 import math
+import time
 
 import lcm
 import numpy as np
@@ -240,6 +241,26 @@ def test_what_arrived_before_the_loop_is_drained_and_its_newest_read_at_the_firs
     assert rig.station.received == {"master_state": 50, "slave_status": 50, "ft_sample": 50, "gripper_state": 0}
     np.testing.assert_array_equal(rig.station.wrench, -RAW * 1.49)
     np.testing.assert_array_equal(rig.station.slave_position, Q_SLAVE)
+    assert rig.station.healthy and not any(rig.station.rejections.values())
+
+
+def test_between_ticks_the_station_handles_what_arrives_and_the_tick_checks_it():
+    """``idle``, the loop's wait between ticks: what the drivers publish meanwhile is handled into the
+    mailboxes (counted) but not read until the tick's ``receive`` checks it; the wait lasts its time."""
+    rig = Rig()
+    rig.run(0.01)
+    rig.now += PERIOD
+    rig.publish(wrench=2 * RAW, q_slave=Q_SLAVE + 0.001)
+    start = time.perf_counter()
+    rig.station.idle(0.01)
+    assert time.perf_counter() - start >= 0.01
+    assert rig.station.received == {"master_state": 21, "slave_status": 21, "ft_sample": 21, "gripper_state": 0}
+    assert pump(rig.bus) == 0  # nothing left for the tick's pump
+    np.testing.assert_array_equal(rig.station.wrench, -RAW)
+    np.testing.assert_array_equal(rig.station.slave_position, Q_SLAVE)
+    rig.tick()
+    np.testing.assert_array_equal(rig.station.wrench, -2 * RAW)
+    np.testing.assert_array_equal(rig.station.slave_position, Q_SLAVE + 0.001)
     assert rig.station.healthy and not any(rig.station.rejections.values())
 
 

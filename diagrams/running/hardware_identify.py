@@ -175,7 +175,7 @@ def record_on_hardware(scenario: Scenario, trajectory, duration: float, channels
         with StopOnSignal() as stop:
             try:
                 times = run_realtime(lambda now, dt: run.tick(now, dt) or stop.requested, period, budget,
-                                     anchor=anchor)
+                                     sleep=run.station.idle, anchor=anchor)
             finally:
                 run.station.stop(run.now)
                 run.station.publish_status(run.now, force=True)

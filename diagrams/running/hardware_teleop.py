@@ -436,7 +436,7 @@ def run_hardware_teleop(scenario: Scenario, load: LoadEstimate, duration: float,
             say.info("teleop: running (Ctrl-C stops with forces off and the slave held)")
             try:
                 times = run_realtime(lambda now, dt: teleop.tick(now, dt) or stop.requested, 1.0 / rate, duration,
-                                     busy_wait=busy_wait, anchor=anchor)
+                                     sleep=teleop.station.idle, busy_wait=busy_wait, anchor=anchor)
                 summary = teleop.summary(times.elapsed)
             finally:
                 teleop.station.stop(teleop.now)
