@@ -46,7 +46,8 @@ draws = np.random.default_rng(12)  # its own stream: the draws below stay those 
 walk, filter_state, out["sampled"] = np.zeros(6), draws.normal(0, 1, (2, 6)), []
 for k in range(1, 30):  # the simulated sensor's samples: drift, walk, noise, low-pass, saturation, counts
     offsets, measured, saturated = np.empty((3, 1, 6))
-    model.sample_into(np.array([5e-4 * k]), model.normals(np.array([k])), walk, True, coefficients if k % 3 else None,
+    model.sample_into(np.array([5e-4 * k]), model.normals(np.array([k])), walk, True,
+                      model.sample_arguments(coefficients if k % 3 else None),
                       filter_state, draws.normal(0, 1, (1, 6)) * np.array(params.full_scale), offsets, measured,
                       saturated)
     out["sampled"].append(np.concatenate((offsets[0], measured[0], saturated[0], walk)))

@@ -314,20 +314,21 @@ class SixAxisMeasurement:
         return offsets, disturbed, walk
 
     def sample_arguments(self, lowpass_coefficients: np.ndarray | None) -> tuple[tuple, tuple]:
-        """``_sample_into``'s settings for this model and the low-pass ``lowpass_coefficients`` (None: no filter):
-        (those after the draws, the walk and whether it advances; those after the filter's state and the value)."""
+        """``sample_into``'s ``settings`` for this model and the low-pass ``lowpass_coefficients`` (None: no filter):
+        (those of ``_sample_into`` after the draws, the walk and whether it advances; those after the filter's state
+        and the value), bound once by a sensor that samples often."""
         filtered = lowpass_coefficients is not None
         return ((*self._disturbance_settings, filtered, lowpass_coefficients if filtered else _NO_LOWPASS),
                 (self.limits, self.steps))
 
     def sample_into(self, time: np.ndarray, normals: np.ndarray | None, walk: np.ndarray, advance_walk: bool,
-                    lowpass_coefficients: np.ndarray | None, lowpass_state: np.ndarray, value: np.ndarray,
+                    settings: tuple[tuple, tuple], lowpass_state: np.ndarray, value: np.ndarray,
                     offsets: np.ndarray, measured: np.ndarray, saturated: np.ndarray) -> None:
         """One sample at ``time`` (1,) (s) with its draws ``normals`` (1, 12) or None: ``disturbance``
         into ``offsets``, ``walk`` advanced in place, then the measurement of ``value`` (1, 6) low-passed
-        (``lowpass``, its ``lowpass_state`` (2, 6) started; no filter for None) into ``measured`` and
-        ``saturated`` (1, 6 each)."""
-        before, after = self.sample_arguments(lowpass_coefficients)
+        (``settings``: ``sample_arguments`` of the filter's coefficients; its ``lowpass_state`` (2, 6) started)
+        into ``measured`` and ``saturated`` (1, 6 each)."""
+        before, after = settings
         _sample_into(time, _NO_DRAWS if normals is None else normals, walk, advance_walk, *before, lowpass_state, value,
                      *after, offsets, measured, saturated)
 
@@ -361,7 +362,7 @@ class _SampledSixAxisSensor(LeafSystem):
         super().__init__()
         self._model = SixAxisMeasurement(params, stream, params.sample_period)
         self._lowpass = lowpass_coefficients(params.lowpass_cutoff, params.sample_period)
-        self._before, self._after = self._model.sample_arguments(self._lowpass)  # ``_sample_into``'s settings
+        self._settings = self._model.sample_arguments(self._lowpass)
         # (first sample index, draws): a memo of the pure function standard_normals,
         # not generator state, so Contexts and their clones stay independent.
         self._noise_block = (0, np.empty((0, 2 * NUM_AXES)))
@@ -412,12 +413,10 @@ class _SampledSixAxisSensor(LeafSystem):
         if self._lowpass is not None:
             start_lowpass(self._lowpass, lowpass_state, value[0])
         self._time[0] = t
-        normals = self._normals(index)
-        _sample_into(self._time, _NO_DRAWS if normals is None else normals, memory[WALK], advance_walk, *self._before,
-                     lowpass_state, value, *self._after,
-                     discrete_state.get_mutable_value(self._offsets)[np.newaxis],
-                     discrete_state.get_mutable_value(self._measured)[np.newaxis],
-                     discrete_state.get_mutable_value(self._saturated)[np.newaxis])
+        self._model.sample_into(self._time, self._normals(index), memory[WALK], advance_walk, self._settings,
+                                lowpass_state, value, discrete_state.get_mutable_value(self._offsets)[np.newaxis],
+                                discrete_state.get_mutable_value(self._measured)[np.newaxis],
+                                discrete_state.get_mutable_value(self._saturated)[np.newaxis])
         memory[NEXT_INDEX], memory[LAST_TIME] = index + 1, t
 
 
