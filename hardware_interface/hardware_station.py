@@ -157,6 +157,25 @@ def encode_slave_command(buffer, at, utime, position) -> None:
         put_wire_double(buffer, at[1] + 8 * j, position[j])
 
 
+@compiled("boolean(uint8[:], int64[:], int64, int64, boolean, float64, float64[:], float64[:])")
+def master_command_into(buffer, at, utime, master_utime, healthy, gain, torque, torque_sent) -> bool:
+    """The master command ``send`` publishes: ``torque_sent`` gated (``gate_torque_into``) and written with ``utime``
+    and ``master_utime`` (µs) into ``buffer`` (``encode_master_command``). Returns whether forces are enabled."""
+    enable = gate_torque_into(healthy, gain, torque, torque_sent)
+    encode_master_command(buffer, at, utime, master_utime, torque_sent, enable)
+    return enable
+
+
+@compiled("void(uint8[:], int64[:], int64, boolean, float64[:], boolean, float64[:], float64, float64[:], float64[:], "
+          "float64[:], float64[:])")
+def slave_command_into(buffer, at, utime, healthy, position, has_position, measured, dt, speed_limits, gate, command,
+                       hold) -> None:
+    """The slave command ``send`` publishes: ``command`` gated (``gate_position_into``) and written with ``utime`` (µs)
+    into ``buffer`` (``encode_slave_command``)."""
+    gate_position_into(healthy, position, has_position, measured, dt, speed_limits, gate, command, hold)
+    encode_slave_command(buffer, at, utime, command)
+
+
 # Per checked channel, the counts a status reports (``encode_station_status``'s ``counts``' columns).
 RECEIVED, UNREAD, RESTARTS = range(3)
 
@@ -198,7 +217,7 @@ class HardwareStation:
     ``slave_position``, ``slave_velocity`` (rad, rad/s), ``wrench`` ([f; τ] the sensor
     exerts on the load, at S, in S; N, N·m), ``acceleration`` (the accelerometer's
     reading as the sensor reports it: ``accelerometer_reading``); ``ages`` (s, per
-    ``WATCHED_CHANNELS``) and ``oldest_age`` (s, their largest), ``healthy``, ``gain``,
+    ``WATCHED_CHANNELS``), ``healthy``, ``gain``,
     ``fault`` (bitmask), ``slave_known`` (a slave status has arrived), ``rejections`` and
     ``conflicts`` per channel, ``gripper_events``.
     """
@@ -270,12 +289,6 @@ class HardwareStation:
         """The utimes (µs, each on its driver's clock) of the master state, slave status and FT
         sample in the readings (0 before a channel's first)."""
         return self._master.utime, self._slave.utime, self._ft.utime
-
-    @property
-    def oldest_age(self) -> float:
-        """The age (s) of the oldest of the readings (``ages``' largest)."""
-        ages = self.ages
-        return float(max(ages[0], ages[1], ages[2]))
 
     @property
     def slave_known(self) -> bool:
@@ -406,16 +419,14 @@ class HardwareStation:
         utime = round((self.epoch + now) * 1e6)
         dt = 0.0 if self._last_send is None else min(now - self._last_send, self._params.watchdog.timeout)
         self._last_send = now
-        enable = gate_torque_into(self.healthy, self.gain, float_array(torque), self.torque_sent)
-        encode_master_command(self._master_command, self._master_at, utime, self._master.utime, self.torque_sent,
-                              enable)
+        master_command_into(self._master_command, self._master_at, utime, self._master.utime, self.healthy, self.gain,
+                            float_array(torque), self.torque_sent)
         self._command_bus.publish(self._channels.master_command.name, self._master_command.tobytes())
         if not self.slave_known:
             return
-        gate_position_into(self.healthy, self._no_position if position is None else float_array(position),
-                           position is not None, self.slave_position, dt, self._limits, self._gate, self._position,
-                           self._hold)
+        slave_command_into(self._slave_command, self._slave_at, utime, self.healthy,
+                           self._no_position if position is None else float_array(position), position is not None,
+                           self.slave_position, dt, self._limits, self._gate, self._position, self._hold)
         self.position_sent = self._position
-        encode_slave_command(self._slave_command, self._slave_at, utime, self._position)
         self._command_bus.publish(self._channels.slave_command.name, self._slave_command.tobytes())
         self.command_echo.sent(self._position, self._echo_utime)

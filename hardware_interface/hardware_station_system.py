@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from heft.hardware_interface.hardware_station import HardwareStation
+from heft.systems.compiled import compiled
 from heft.systems.controller.master_kinematics import NUM_JOINTS as MASTER_JOINTS
 from heft.systems.station_ports import CLUTCH, INPUT_AGE, STATION_INPUTS_DRIVEN, STATION_OUTPUTS_READ
 from heft.systems.tick_system import TickSystem
@@ -23,6 +24,25 @@ CLUTCH_AT, AGE_AT, HEALTHY_AT = -3, -2, -1
 """Where the station's state (``readings``) ends: after the six readings (in ``STATION_OUTPUTS_READ``'s order:
 q_M, q̇_M of the master's 6 joints, q_S, q̇_S of the slave's n, the wrench and the accelerometer's reading, 6
 each), the clutch (1), the oldest reading's age (1, s) and the health (1: 1.0 healthy)."""
+
+
+@compiled("void(float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], float64[:], boolean, "
+          "float64[:], boolean)")
+def readings_into(readings, master_position, master_velocity, slave_position, slave_velocity, wrench, acceleration,
+                  clutch, ages, healthy) -> None:
+    """The station's state ``readings`` (module constants) from its readings, ``clutch``, the largest of ``ages`` (s)
+    and ``healthy``."""
+    end = 0
+    for reading in (master_position, master_velocity, slave_position, slave_velocity, wrench, acceleration):
+        for i in range(reading.shape[0]):
+            readings[end + i] = reading[i]
+        end += reading.shape[0]
+    oldest = ages[0]
+    for i in range(1, ages.shape[0]):
+        oldest = max(oldest, ages[i])
+    readings[readings.shape[0] + CLUTCH_AT] = 1.0 if clutch else 0.0
+    readings[readings.shape[0] + AGE_AT] = oldest
+    readings[readings.shape[0] + HEALTHY_AT] = 1.0 if healthy else 0.0
 
 
 class HardwareStationSystem(TickSystem):
@@ -43,18 +63,16 @@ class HardwareStationSystem(TickSystem):
         n = station.num_joints
         for name, size in zip(STATION_INPUTS_DRIVEN, (MASTER_JOINTS, n)):
             self.DeclareTickInput(name, size)
-        # Where each reading (the station's arrays, updated in place by its receive) goes in the state.
-        self._readings, end = [], 0
-        for width, reading in zip((MASTER_JOINTS, MASTER_JOINTS, n, n, 6, 6), (
-                station.master_position, station.master_velocity, station.slave_position, station.slave_velocity,
-                station.wrench, station.acceleration)):
-            self._readings.append((slice(end, end + width), reading))
-            end += width
-        size = end + 3
+        # The station's arrays, updated in place by its receive, in the state's order.
+        self._readings = (station.master_position, station.master_velocity, station.slave_position,
+                          station.slave_velocity, station.wrench, station.acceleration)
+        size = sum(reading.size for reading in self._readings) + 3
         self.DeclareTickState("readings", np.zeros(size))
         self.DeclareTickReceive(self.receive_into, "next:readings")
-        for name, (at, _) in zip(STATION_OUTPUTS_READ, self._readings):
-            self.DeclareTickOutput(name, "x:readings", at.start, at.stop)
+        end = 0
+        for name, reading in zip(STATION_OUTPUTS_READ, self._readings):
+            self.DeclareTickOutput(name, "x:readings", end, end + reading.size)
+            end += reading.size
         for name, at in ((CLUTCH, CLUTCH_AT), (INPUT_AGE, AGE_AT), ("healthy", HEALTHY_AT)):
             self.DeclareTickOutput(name, "x:readings", size + at, size + at + 1)
         self.DeclareTickPublish(self.send, *(f"in:{name}" for name in STATION_INPUTS_DRIVEN))
@@ -63,11 +81,7 @@ class HardwareStationSystem(TickSystem):
         """One pump of the lab's channels at ``now`` into ``readings`` (the station's state)."""
         station = self.station
         station.receive(self.now)
-        for at, reading in self._readings:
-            readings[at] = reading
-        readings[CLUTCH_AT] = 1.0 if station.clutch else 0.0
-        readings[AGE_AT] = station.oldest_age
-        readings[HEALTHY_AT] = 1.0 if station.healthy else 0.0
+        readings_into(readings, *self._readings, station.clutch, station.ages, station.healthy)
 
     def send(self, torque: np.ndarray, position: np.ndarray) -> None:
         """The controller's commands at ``now``, gated by the station (``HardwareStation.send``: while it is not

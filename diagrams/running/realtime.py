@@ -136,10 +136,11 @@ def run_realtime(tick, period: float, duration: float, clock=time.perf_counter, 
                     now = clock() - start
             if now >= duration:
                 break
-            c0 = time.thread_time()
+            c0 = time.thread_time()  # a system call: read before the tick's wall time starts
+            began = clock() - start
             stop = tick(now, now - last if ticks else 0.0)
             done = clock() - start
-            wall[ticks], cpu[ticks], lateness[ticks] = done - now, time.thread_time() - c0, now - due
+            wall[ticks], cpu[ticks], lateness[ticks] = done - began, time.thread_time() - c0, now - due
             busy_before = min(busy_wait * period, max(0.0, MAX_DUTY * period - wall[ticks]))
             ticks += 1
             last = now
