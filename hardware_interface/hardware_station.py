@@ -5,13 +5,15 @@ docs/design.md §3 (master and slave joint state, the wrist wrench and accelerat
 the clutch button — and gates what goes back. Every age, timeout and rate limit
 is measured on the caller's clock (s, wall-clock, monotonic), never in ticks:
 
-- ``receive(now)`` pumps LCM once, checks every message that arrived since the last
-  tick (``message_checks``: what fails is counted per channel and reason, never
+- ``receive(now)`` pumps LCM once, checks every message not checked yet
+  (``message_checks``: what fails is counted per channel and reason, never
   raised, and never reaches the controller), keeps the newest accepted state of
   each channel and the gripper's grasps and releases (``gripper_events``), and
   runs the watchdog over the channels' ages, the controller's own
   tick spacing (a stalled controller is a fault too) and the channels' conflicts
   (a second publisher on a channel, ``message_order``, is a fault until it stops).
+  The loop's waits between ticks (``idle``, ``wait_for_slave_status``) check each message as it
+  arrives, at the station time of its arrival, so that a tick is left with little to check.
 - ``send(now, torque, position)`` publishes (on the command bus) the master torque scaled by the
   watchdog's gain (zero and ``enable`` false while unhealthy or non-finite) and the
   slave command: none before the first slave status (there is nothing safe to
@@ -250,8 +252,11 @@ class HardwareStation:
         """How late the arm stepped on the slave commands sent, from its status's echo (``command_echo``)."""
         self._echo_utime = 0
         self.gripper_events: list[str] = []
-        """The grasps and releases the gripper's driver reported since the last ``receive``
+        """The grasps and releases the gripper's driver reported since the ``receive`` before the last
         (``gripper_state_reader``: GRASP, RELEASE)."""
+        self._gripper_pending: list[str] = []  # those checked since the last receive
+        self._origin = None  # time.perf_counter() at station time 0 (s), learned at each receive
+        self._statuses_received = 0  # the arm's statuses received by the last receive
         self.conflicts = 0
         """Bit i set while channel i of ``WATCHED_CHANNELS`` has a second publisher."""
         self.master_position, self.master_velocity = self._master.position, self._master.velocity
@@ -306,8 +311,8 @@ class HardwareStation:
 
     @property
     def unread(self) -> dict[str, int]:
-        """Per checked channel, the messages pushed out of its mailbox by newer ones before a tick
-        read them (more arrived between two ticks than it keeps: a stalled controller, or a flood)."""
+        """Per checked channel, the messages pushed out of its mailbox by newer ones before they were
+        checked (more arrived in one pump than it keeps: a stalled controller, or a flood)."""
         return {name: mailbox.pushed_out for name, mailbox in zip(CHECKED_CHANNELS, self._mail)}
 
     @property
@@ -317,24 +322,27 @@ class HardwareStation:
 
     def wait_for_slave_status(self, seconds: float) -> bool:
         """Waits up to ``seconds`` (s) for the arm driver's status: True once one has arrived since the
-        last ``receive`` (at once if one already has; valid or not, ``receive`` checks it), False if
-        none did. The bus's messages are handled meanwhile, into the mailboxes ``receive`` reads: a
-        loop anchored here (``run_realtime``'s ``anchor``) ticks as the arm's status arrives, so that
-        each arm step receives one command."""
+        last ``receive`` (at once if one already has; valid or not), False if none did. The bus's messages
+        are handled meanwhile as ``idle`` handles them: a loop anchored here (``run_realtime``'s ``anchor``)
+        ticks as the arm's status arrives, so that each arm step receives one command."""
         return self._handle_until(time.perf_counter() + seconds, self._mail[1])
 
     def idle(self, seconds: float) -> None:
-        """Waits ``seconds`` (s), handling the bus's messages into the mailboxes as they arrive (unchecked:
-        ``receive`` checks them): the loop's wait between ticks (``run_realtime``'s ``sleep``), which leaves a
-        tick only the checks of what arrived."""
+        """Waits ``seconds`` (s), handling the bus's messages as they arrive: the loop's wait between ticks
+        (``run_realtime``'s ``sleep``). Once a ``receive`` has told the station its time, each message is
+        checked as ``receive`` checks it, at the station time of its arrival (the loop's clock is
+        ``time.perf_counter``'s, from the origin that ``receive`` learns), and the tick that follows has
+        only the watchdog's judgement and what arrived last to check; before, it waits in its mailbox."""
         self._handle_until(time.perf_counter() + seconds)
 
     def _handle_until(self, deadline: float, mailbox: LcmMailbox | None = None) -> bool:
-        """Handles the bus's messages as they arrive until ``deadline`` (s, ``time.perf_counter``): False then,
-        or True as soon as ``mailbox`` (if given) has a payload."""
+        """Handles the bus's messages as they arrive (``idle``) until ``deadline`` (s, ``time.perf_counter``):
+        False then, or True as soon as ``mailbox`` (if given) has received a message since the last
+        ``receive``."""
         while True:
-            pump(self._bus)
-            if mailbox is not None and mailbox.waiting:
+            if pump(self._bus) and self._origin is not None:
+                self._check(max(self._last_tick, time.perf_counter() - self._origin))
+            if mailbox is not None and mailbox.count != self._statuses_received:
                 return True
             left = deadline - time.perf_counter()
             if left <= 0.0:
@@ -363,24 +371,37 @@ class HardwareStation:
         return pump(self._bus)
 
     def receive(self, now: float) -> None:
-        """Pumps LCM, checks every new message, updates the readings, ages and watchdog at ``now`` (s)."""
+        """Pumps LCM, checks every message not checked yet, updates the readings, ages and watchdog at ``now``
+        (s)."""
+        self._origin = time.perf_counter() - now
         pump(self._bus)
-        mail, master, slave, ft = self._mail, self._master, self._slave, self._ft
-        master.take(mail[0].take(), now)
-        self.clutch = bool(master.buttons & CLUTCH_BUTTON)
-        slave.take(mail[1].take(), now)
-        utime = slave.utime
-        if utime != self._echo_utime:
-            self._echo_utime = utime
-            self.command_echo.heard(utime, slave.commanded)
-        ft.take(mail[2].take(), now)
-        self.gripper_events = self._gripper.take(mail[3].take(), now)
+        self._check(now)
+        self._statuses_received = self._mail[1].count
+        self.clutch = bool(self._master.buttons & CLUTCH_BUTTON)
+        events, pending = self.gripper_events, self._gripper_pending
+        events.clear()
+        events += pending
+        pending.clear()
+        master, slave, ft = self._master, self._slave, self._ft
         watchdog = self._params.watchdog
         spacing = 0.0 if self._last_tick is None else now - self._last_tick
         self._last_tick = now
         self.healthy, self.gain, self.fault, self.conflicts = station_health(
             now, spacing, self.gain, watchdog.timeout, watchdog.ramp_time, master.clock.state, slave.clock.state,
             ft.clock.state, self.ages)
+
+    def _check(self, now: float) -> None:
+        """Checks the messages handled since the last check, at station time ``now`` (s): each channel's newest
+        accepted state, the arm's echo of our command, the gripper's events."""
+        mail, slave = self._mail, self._slave
+        self._master.take(mail[0].take(), now)
+        slave.take(mail[1].take(), now)
+        utime = slave.utime
+        if utime != self._echo_utime:
+            self._echo_utime = utime
+            self.command_echo.heard(utime, slave.commanded)
+        self._ft.take(mail[2].take(), now)
+        self._gripper_pending += self._gripper.take(mail[3].take(), now)
 
     def publish_status(self, now: float, force: bool = False) -> bytes | None:
         """Publishes ``heft_station_status`` (health, per channel the messages received, unread,

@@ -40,11 +40,6 @@ class LcmMailbox:
             del self._pending[0]
             self.pushed_out += 1
 
-    @property
-    def waiting(self) -> bool:
-        """A payload arrived since the last ``take()``."""
-        return bool(self._pending)
-
     def take(self) -> list[bytes]:
         """The payloads since the last call, oldest first (empty if none)."""
         pending, self._pending = self._pending, []

@@ -244,24 +244,67 @@ def test_what_arrived_before_the_loop_is_drained_and_its_newest_read_at_the_firs
     assert rig.station.healthy and not any(rig.station.rejections.values())
 
 
-def test_between_ticks_the_station_handles_what_arrives_and_the_tick_checks_it():
-    """``idle``, the loop's wait between ticks: what the drivers publish meanwhile is handled into the
-    mailboxes (counted) but not read until the tick's ``receive`` checks it; the wait lasts its time."""
+def test_between_ticks_the_station_checks_what_arrives_at_its_arrival():
+    """``idle``, the loop's wait between ticks: once a ``receive`` has set the station's time, what the drivers
+    publish meanwhile is checked as it arrives, at its arrival's station time (so that the next tick finds it
+    as old as it is), and the tick has nothing left to pump; bad messages are counted there, as a tick counts
+    them; the wait lasts its time."""
     rig = Rig()
     rig.run(0.01)
     rig.now += PERIOD
+    rig.publish()
+    before = time.perf_counter()
+    rig.station.receive(rig.now)  # the tick that sets the station's time: perf_counter() − origin
+    after = time.perf_counter()
+    ticked = rig.now
+    rig.now += PERIOD
     rig.publish(wrench=2 * RAW, q_slave=Q_SLAVE + 0.001)
+    rig.bus.publish(CHANNELS.master_state.name, b"garbage")
     start = time.perf_counter()
-    rig.station.idle(0.01)
-    assert time.perf_counter() - start >= 0.01
-    assert rig.station.received == {"master_state": 21, "slave_status": 21, "ft_sample": 21, "gripper_state": 0}
+    rig.station.idle(0.002)
+    end = time.perf_counter()
+    assert end - start >= 0.002
+    assert rig.station.received == {"master_state": 23, "slave_status": 22, "ft_sample": 22, "gripper_state": 0}
     assert pump(rig.bus) == 0  # nothing left for the tick's pump
-    np.testing.assert_array_equal(rig.station.wrench, -RAW)
-    np.testing.assert_array_equal(rig.station.slave_position, Q_SLAVE)
-    rig.tick()
     np.testing.assert_array_equal(rig.station.wrench, -2 * RAW)
     np.testing.assert_array_equal(rig.station.slave_position, Q_SLAVE + 0.001)
-    assert rig.station.healthy and not any(rig.station.rejections.values())
+    assert rig.station.rejections["master_state"] == {"undecodable": 1}
+    rig.now += 0.01
+    rig.station.receive(rig.now)
+    # Checked during the wait: on the station's clock, between its start and its end (the origin known to
+    # within the first receive's duration), so its age at this tick is what the test's clock gained over the
+    # real wait (about 8 ms), not 0 as if this tick had checked it.
+    youngest, oldest = rig.now - (end - before + ticked), rig.now - (start - after + ticked)
+    assert all(youngest <= age <= oldest for age in rig.station.ages)
+    assert rig.station.healthy
+
+
+def test_before_the_first_tick_the_wait_leaves_messages_unchecked():
+    """Before a ``receive`` has set the station's time there is none to check a message at: the wait only
+    handles what arrives into the mailboxes, and the first tick checks it."""
+    rig = Rig()
+    rig.now += PERIOD
+    rig.publish()
+    rig.station.idle(0.001)
+    assert rig.station.received["slave_status"] == 1 and not rig.station.slave_known
+    rig.tick()
+    assert rig.station.slave_known
+    np.testing.assert_array_equal(rig.station.slave_position, Q_SLAVE)
+
+
+def test_the_wait_for_the_arms_status_sees_one_checked_as_it_arrived():
+    rig = Rig()
+    rig.run(0.01)
+    assert not rig.station.wait_for_slave_status(0.002)  # none since the last tick
+    rig.now += PERIOD
+    rig.publish(("slave",), q_slave=Q_SLAVE + 0.001)
+    start = time.perf_counter()
+    assert rig.station.wait_for_slave_status(1.0)
+    assert time.perf_counter() - start < 0.5
+    np.testing.assert_array_equal(rig.station.slave_position, Q_SLAVE + 0.001)  # checked on arrival
+    assert rig.station.wait_for_slave_status(1.0)  # and still, at once, until the next tick
+    rig.tick()
+    assert not rig.station.wait_for_slave_status(0.0)
 
 
 def test_published_utime_is_wall_clock_and_names_the_master_state():
