@@ -39,6 +39,17 @@ def echoed_status_utime(sent, answered, count, commanded) -> int:
     return -1
 
 
+@compiled("void(float64[:, :], int64[:], int64[:], float64[:], int64)")
+def remember_sent(sent, answered, count, position, answered_utime) -> None:
+    """The command ``position`` (n, rad), sent in answer to the status stamped ``answered_utime`` (µs), as the
+    newest of ring ``sent`` (K, n) and ``answered`` (K,), of which ``count`` (1) have been sent."""
+    row = count[0] % sent.shape[0]
+    for j in range(position.shape[0]):
+        sent[row, j] = position[j]
+    answered[row] = answered_utime
+    count[0] += 1
+
+
 class CommandEcho:
     """The lag of the commands the arm stepped on (module docstring), for an arm of ``num_joints`` joints stepping
     every ``step`` s. After each ``heard``: ``lag`` (steps; −1 unmeasured), and over the run ``statuses``
@@ -50,27 +61,26 @@ class CommandEcho:
 
     def __init__(self, step: float, num_joints: int):
         self._step_us = step * 1e6
-        self._sent, self._answered, self._count = np.zeros((SENT_KEEP, num_joints)), np.zeros(SENT_KEEP, np.int64), 0
+        self._sent, self._answered = np.zeros((SENT_KEEP, num_joints)), np.zeros(SENT_KEEP, np.int64)
+        self._count = np.zeros(1, np.int64)  # commands sent since the driver's clock last started
         self._last_utime, self._first_utime, self._matched = None, None, False
         self.lag, self.statuses, self.late, self.unmeasured, self.max_lag, self.max_lag_at = -1, 0, 0, 0, 0, 0.0
 
     def sent(self, position: np.ndarray, answered_utime: int) -> None:
         """A command ``position`` (n, rad) sent in answer to the status stamped ``answered_utime`` (µs)."""
-        row = self._count % SENT_KEEP
-        self._sent[row] = position
-        self._answered[row] = answered_utime
-        self._count += 1
+        remember_sent(self._sent, self._answered, self._count, position, answered_utime)
 
     def heard(self, utime: int, commanded: np.ndarray) -> None:
         """A new status stamped ``utime`` (µs) echoing ``commanded`` (n, rad, float64)."""
         if self._last_utime is not None and utime <= self._last_utime:
-            self._count, self._matched, self._first_utime = 0, False, None
+            self._count[0], self._matched, self._first_utime = 0, False, None
         self._last_utime = utime
-        if not self._count:
+        count = int(self._count[0])
+        if not count:
             return
         if self._first_utime is None:
             self._first_utime = utime
-        answered = echoed_status_utime(self._sent, self._answered, self._count, commanded)
+        answered = echoed_status_utime(self._sent, self._answered, count, commanded)
         if answered < 0 or utime <= answered:
             self.lag = -1
             if self._matched:

@@ -32,8 +32,9 @@ import lcm
 import numpy as np
 from drake import lcmt_iiwa_command
 
-from heft.systems.compiled import compiled, float_array
+from heft.systems.compiled import compiled, float_array, record_views
 from heft.systems.controller.master_kinematics import NUM_JOINTS as MASTER_JOINTS
+from heft.systems.controller.slave_kinematics import CHAIN_JOINTS
 
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.command_echo import CommandEcho
@@ -45,8 +46,8 @@ from heft.hardware_interface.joint_state_reader import HAPTIC_STATE, JointStateR
 from heft.hardware_interface.lcm_mailbox import LcmMailbox, pump
 from heft.hardware_interface.lcmtypes import heft_haptic_command, heft_station_status
 from heft.hardware_interface.message_checks import REASONS, DeviceLimits, JointRange
-from heft.hardware_interface.message_order import (SILENCE_PER_TIMEOUT, clock_conflict, clock_on_probation,
-                                                   clock_since_last)
+from heft.hardware_interface.message_order import (LAST_ACCEPT, SILENCE_PER_TIMEOUT, clock_conflict,
+                                                   clock_on_probation, clock_since_last)
 from heft.hardware_interface.watchdog import watchdog_step
 
 WATCHED_CHANNELS = ("master_state", "slave_status", "ft_sample")
@@ -159,23 +160,50 @@ def encode_slave_command(buffer, at, utime, position) -> None:
         put_wire_double(buffer, at[1] + 8 * j, position[j])
 
 
-@compiled("boolean(uint8[:], int64[:], int64, int64, boolean, float64, float64[:], float64[:])")
-def master_command_into(buffer, at, utime, master_utime, healthy, gain, torque, torque_sent) -> bool:
-    """The master command ``send`` publishes: ``torque_sent`` gated (``gate_torque_into``) and written with ``utime``
-    and ``master_utime`` (µs) into ``buffer`` (``encode_master_command``). Returns whether forces are enabled."""
-    enable = gate_torque_into(healthy, gain, torque, torque_sent)
-    encode_master_command(buffer, at, utime, master_utime, torque_sent, enable)
-    return enable
+MASTER_COMMAND_FIELDS = ("utime", "master_utime", "torque", "enable")
+SLAVE_COMMAND_FIELDS = ("utime", "joint_position")
 
 
-@compiled("void(uint8[:], int64[:], int64, boolean, float64[:], boolean, float64[:], float64, float64[:], float64[:], "
-          "float64[:], float64[:])")
-def slave_command_into(buffer, at, utime, healthy, position, has_position, measured, dt, speed_limits, gate, command,
-                       hold) -> None:
-    """The slave command ``send`` publishes: ``command`` gated (``gate_position_into``) and written with ``utime`` (µs)
-    into ``buffer`` (``encode_slave_command``)."""
-    gate_position_into(healthy, position, has_position, measured, dt, speed_limits, gate, command, hold)
-    encode_slave_command(buffer, at, utime, command)
+def commands_dtype(n: int) -> np.dtype:
+    """The record of what ``send`` keeps for an arm of ``n`` joints (``commands_into``): the two commands'
+    messages (``master_command``, ``slave_command``: bytes of their layouts, ``FixedLayout.buffer``) and where their
+    fields lie (``master_at``, ``slave_at``), the master torque sent (``torque_sent``, N·m), the slave command
+    sent (``command``, rad) and the hold latched at a fault (``hold``, rad), the gate's memory (``gate``:
+    ``EVER_HEALTHY`` …), the joints' ``speed_limits`` (rad/s), the time of the last send (``last_send``, s;
+    NaN before the first) and the longest step a send may take (``timeout``, s: the watchdog's)."""
+    master = FixedLayout(heft_haptic_command, num_joints=MASTER_JOINTS)
+    slave = FixedLayout(lcmt_iiwa_command, num_joints=n, num_torques=0)
+    return np.dtype([("master_command", np.uint8, master.size), ("master_at", np.int64, len(MASTER_COMMAND_FIELDS)),
+                     ("slave_command", np.uint8, slave.size), ("slave_at", np.int64, len(SLAVE_COMMAND_FIELDS)),
+                     ("torque_sent", float, MASTER_JOINTS), ("command", float, n), ("hold", float, n),
+                     ("gate", float, 3), ("speed_limits", float, n), ("last_send", float), ("timeout", float)])
+
+
+def _commands_into(commands, now, epoch, torque, position, has_position, healthy, gain, master_utime, measured,
+                   slave_clock) -> bool:
+    """``send``'s two commands at ``now`` (s; stamped ``epoch`` + ``now``, in µs) into ``commands``
+    (``commands_dtype``): the master's from the controller's ``torque`` (``gate_torque_into``), naming the
+    master state stamped ``master_utime`` (µs), and, once the arm's status has been heard (its source's
+    ``slave_clock`` has accepted one: ``message_order``), the slave's from ``position`` (if ``has_position``) and
+    the ``measured`` position (``gate_position_into``). Returns whether the slave's is to be sent."""
+    c = commands[0]
+    utime = round((epoch + now) * 1e6)
+    dt = 0.0 if math.isnan(c["last_send"]) else min(now - c["last_send"], c["timeout"])
+    c["last_send"] = now
+    enable = gate_torque_into(healthy, gain, torque, c["torque_sent"])
+    encode_master_command(c["master_command"], c["master_at"], utime, master_utime, c["torque_sent"], enable)
+    if not math.isfinite(slave_clock[LAST_ACCEPT]):
+        return False
+    gate_position_into(healthy, position, has_position, measured, dt, c["speed_limits"], c["gate"], c["command"],
+                       c["hold"])
+    encode_slave_command(c["slave_command"], c["slave_at"], utime, c["command"])
+    return True
+
+
+commands_into = {n: compiled("boolean(COMMANDS[:], float64, float64, float64[:], float64[:], boolean, boolean, "
+                             "float64, int64, float64[:], float64[:])", COMMANDS=commands_dtype(n))(_commands_into)
+                 for n in CHAIN_JOINTS}
+"""``_commands_into`` compiled for each arm's record, by its number of joints."""
 
 
 # Per checked channel, the counts a status reports (``encode_station_status``'s ``counts``' columns).
@@ -203,8 +231,6 @@ def encode_station_status(buffer, at, utime, healthy, fault, gain, conflicts, co
 
 STATUS_FIELDS = ("utime", "healthy", "fault", "gain", "received", "unread", "rejected", "restarts",
                  "second_publisher")
-MASTER_COMMAND_FIELDS = ("utime", "master_utime", "torque", "enable")
-SLAVE_COMMAND_FIELDS = ("utime", "joint_position")
 
 
 class HardwareStation:
@@ -231,8 +257,10 @@ class HardwareStation:
         self._bus, self._channels, self._params = bus, channels, params
         self._command_bus = bus if command_bus is None else command_bus
         self._bus_fd = [bus.fileno()]
-        self._limits = np.asarray(limits.slave_velocity, dtype=float)
-        self.num_joints = n = len(self._limits)
+        self.num_joints = n = len(limits.slave_velocity)
+        if n not in CHAIN_JOINTS:
+            raise ValueError(f"the hardware station drives an arm of {' or '.join(map(str, CHAIN_JOINTS))} joints; "
+                             f"the scenario's has {n}")
         """The slave's joints (6 or 7)."""
         self._mail = (LcmMailbox(bus, channels.master_state.name, keep=JOINT_KEEP),
                       LcmMailbox(bus, channels.slave_status.name, keep=JOINT_KEEP),
@@ -257,6 +285,7 @@ class HardwareStation:
         self._gripper_pending: list[str] = []  # those checked since the last receive
         self._origin = None  # time.perf_counter() at station time 0 (s), learned at each receive
         self._statuses_received = 0  # the arm's statuses received by the last receive
+        self._checked = 0  # the messages handled into the mailboxes by the last check
         self.conflicts = 0
         """Bit i set while channel i of ``WATCHED_CHANNELS`` has a second publisher."""
         self.master_position, self.master_velocity = self._master.position, self._master.velocity
@@ -266,14 +295,19 @@ class HardwareStation:
         self.ages = np.full(len(WATCHED_CHANNELS), math.inf)
         self.healthy, self.gain, self.fault = False, 0.0, (1 << len(WATCHED_CHANNELS)) - 1
         self._last_tick = None
-        # The gate's memory (``gate_position_into``), the published slave command, the hold latched at a fault.
-        self._gate = np.zeros(3)
-        self._position, self._hold = np.zeros(n), np.zeros(n)
-        self._last_send = None
-        self._master_command, self._master_at = FixedLayout(heft_haptic_command, num_joints=MASTER_JOINTS).buffer(
-            MASTER_COMMAND_FIELDS)
-        self._slave_command, self._slave_at = FixedLayout(lcmt_iiwa_command, num_joints=n, num_torques=0).buffer(
-            SLAVE_COMMAND_FIELDS)
+        # What send keeps: the commands' messages, the gate's memory, the slave command, the hold, the last send.
+        self._commands, commands = record_views(commands_dtype(n))
+        self._commands_into = commands_into[n]
+        commands["master_command"][:], commands["master_at"][:] = FixedLayout(
+            heft_haptic_command, num_joints=MASTER_JOINTS).buffer(MASTER_COMMAND_FIELDS)
+        commands["slave_command"][:], commands["slave_at"][:] = FixedLayout(
+            lcmt_iiwa_command, num_joints=n, num_torques=0).buffer(SLAVE_COMMAND_FIELDS)
+        commands["speed_limits"][:] = limits.slave_velocity
+        self._commands["last_send"], self._commands["timeout"] = math.nan, params.watchdog.timeout
+        self._master_command, self._slave_command = commands["master_command"], commands["slave_command"]
+        self._gate, self._position = commands["gate"], commands["command"]
+        self._slave_clock = self._slave.clock.state
+        self._master_channel, self._slave_channel = channels.master_command.name, channels.slave_command.name
         self._no_position, self._no_torque = np.zeros(n), np.zeros(MASTER_JOINTS)
         checked = len(CHECKED_CHANNELS)
         self._status, self._status_at = FixedLayout(
@@ -282,7 +316,7 @@ class HardwareStation:
         self._status_counts = np.zeros((checked, 3), dtype=np.int64)
         self._status_rejected = np.zeros((checked, len(REASONS)), dtype=np.int64)
         self._next_status = 0.0
-        self.torque_sent = np.zeros(MASTER_JOINTS)
+        self.torque_sent = commands["torque_sent"]
         """The master torque last published (N·m), zero while forces are off."""
         self.position_sent = None
         """The slave command last published (rad), None before the first."""
@@ -377,11 +411,11 @@ class HardwareStation:
         pump(self._bus)
         self._check(now)
         self._statuses_received = self._mail[1].count
-        self.clutch = bool(self._master.buttons & CLUTCH_BUTTON)
         events, pending = self.gripper_events, self._gripper_pending
-        events.clear()
-        events += pending
-        pending.clear()
+        if events or pending:
+            events.clear()
+            events += pending
+            pending.clear()
         master, slave, ft = self._master, self._slave, self._ft
         watchdog = self._params.watchdog
         spacing = 0.0 if self._last_tick is None else now - self._last_tick
@@ -392,9 +426,14 @@ class HardwareStation:
 
     def _check(self, now: float) -> None:
         """Checks the messages handled since the last check, at station time ``now`` (s): each channel's newest
-        accepted state, the arm's echo of our command, the gripper's events."""
+        accepted state, the clutch, the arm's echo of our command, the gripper's events."""
         mail, slave = self._mail, self._slave
+        handled = mail[0].count + mail[1].count + mail[2].count + mail[3].count
+        if handled == self._checked:
+            return
+        self._checked = handled
         self._master.take(mail[0].take(), now)
+        self.clutch = bool(self._master.buttons & CLUTCH_BUTTON)
         slave.take(mail[1].take(), now)
         utime = slave.utime
         if utime != self._echo_utime:
@@ -437,17 +476,14 @@ class HardwareStation:
     def send(self, now: float, torque, position) -> None:
         """Publishes the gated master ``torque`` (6, N·m) and slave ``position`` (``num_joints``, rad, or None:
         no command from the controller) at ``now`` (s)."""
-        utime = round((self.epoch + now) * 1e6)
-        dt = 0.0 if self._last_send is None else min(now - self._last_send, self._params.watchdog.timeout)
-        self._last_send = now
-        master_command_into(self._master_command, self._master_at, utime, self._master.utime, self.healthy, self.gain,
-                            float_array(torque), self.torque_sent)
-        self._command_bus.publish(self._channels.master_command.name, self._master_command.tobytes())
-        if not self.slave_known:
-            return
-        slave_command_into(self._slave_command, self._slave_at, utime, self.healthy,
-                           self._no_position if position is None else float_array(position), position is not None,
-                           self.slave_position, dt, self._limits, self._gate, self._position, self._hold)
-        self.position_sent = self._position
-        self._command_bus.publish(self._channels.slave_command.name, self._slave_command.tobytes())
-        self.command_echo.sent(self._position, self._echo_utime)
+        has_position = position is not None
+        slave = self._commands_into(self._commands, now, self.epoch, float_array(torque),
+                                    float_array(position) if has_position else self._no_position, has_position,
+                                    self.healthy, self.gain, self._master.utime, self.slave_position,
+                                    self._slave_clock)
+        bus = self._command_bus
+        bus.publish(self._master_channel, self._master_command.tobytes())
+        if slave:
+            self.position_sent = self._position
+            bus.publish(self._slave_channel, self._slave_command.tobytes())
+            self.command_echo.sent(self._position, self._echo_utime)
