@@ -191,8 +191,7 @@ class TeleopController:
         if healthy:
             if not self._was_healthy:
                 self.start(station.station.slave_position)
-            program.calculate()
-            program.update()
+            program.step()
         self._was_healthy = healthy
         program.publish()
         return healthy

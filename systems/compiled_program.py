@@ -1,15 +1,15 @@
-"""A ``TickProgram``'s calculations and updates as two compiled functions, generated from its order.
+"""A ``TickProgram``'s calculations and updates as compiled functions, generated from its order.
 
 ``compile_program(calls, constants)`` writes the source of ``calculate(signals, state, next_state, bounds,
-*constants)`` and ``update(…)``: each calls the kernels of the program's calculations (in the program's order) or
-of its updates (in the blocks' order, between copying ``state`` into ``next_state`` and back), on slices of the
+*constants)``, ``update(…)`` and ``step(…)``: the first calls the kernels of the program's calculations (in the
+program's order), the second those of its updates (in the blocks' order, between copying ``state`` into
+``next_state`` and back), the third both, one after the other (a tick's one call from Python), on slices of the
 three flat arrays whose bounds are read from ``bounds`` (so Diagrams of the same blocks wired alike share one
 compiled function), and with the blocks' other arguments (records, parameters, scratch arrays) passed through.
-numba compiles the two for the types of the arguments given, before any tick, and caches the machine code on disk
+numba compiles the three for the types of the arguments given, before any tick, and caches the machine code on disk
 beside a source file named by a digest of the source and of every kernel (its name, signature and module's text),
 so that a changed kernel is never linked stale; a kernel no file defines (a script's) has its program compiled
-anew in each process. A tick is then two calls from Python instead of one per kernel, each with its arguments to
-type.
+anew in each process. A tick is then one call from Python instead of one per kernel, with its arguments to type.
 """
 
 from __future__ import annotations
@@ -28,6 +28,8 @@ from heft.systems.compiled import PURE_PYTHON, numba
 
 ARRAYS = ("signals", "state", "next_state")
 """The flat arrays a kernel's named arguments are slices of, as the generated functions name them."""
+FUNCTIONS = ("calculate", "update", "step")
+"""The generated functions (module docstring), in ``compile_program``'s order."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -55,14 +57,14 @@ def _source_file(kernel) -> Path | None:
 
 
 def _source(calls: dict[str, list], constants: int, names: dict[int, str]) -> str:
-    """The module source of ``calculate`` and ``update`` (module docstring); ``calls[which]`` lists (kernel, args),
-    an argument a ``Slice`` or a constant's index, ``names`` each kernel's global name by ``id``."""
+    """The module source of ``calculate``, ``update`` and ``step`` (module docstring); ``calls[which]`` lists
+    (kernel, args), an argument a ``Slice`` or a constant's index, ``names`` each kernel's global name by ``id``."""
     parameters = ", ".join([*ARRAYS, "bounds", *(f"c{i}" for i in range(constants))])
-    lines, bound = [], 0
+    bodies, bound = {}, 0
     for which in ("calculate", "update"):
-        lines += [f"def {which}({parameters}):"]
+        body = []
         if which == "update":
-            lines += ["    for i in range(state.shape[0]):", "        next_state[i] = state[i]"]
+            body += ["    for i in range(state.shape[0]):", "        next_state[i] = state[i]"]
         for kernel, args in calls[which]:
             texts = []
             for arg in args:
@@ -72,16 +74,20 @@ def _source(calls: dict[str, list], constants: int, names: dict[int, str]) -> st
                     texts.append(text if arg.shape is None else f"{text}.reshape({arg.shape!r})")
                 else:
                     texts.append(f"c{arg}")
-            lines += [f"    {names[id(kernel)]}({', '.join(texts)})"]
+            body += [f"    {names[id(kernel)]}({', '.join(texts)})"]
         if which == "update":
-            lines += ["    for i in range(state.shape[0]):", "        state[i] = next_state[i]"]
-        lines += ["    return", "", ""]
+            body += ["    for i in range(state.shape[0]):", "        state[i] = next_state[i]"]
+        bodies[which] = body
+    bodies["step"] = bodies["calculate"] + bodies["update"]
+    lines = []
+    for which in FUNCTIONS:
+        lines += [f"def {which}({parameters}):", *bodies[which], "    return", "", ""]
     return "\n".join(lines)
 
 
 def compile_program(calls: dict[str, list], constants: list):
-    """(calculate, update, bounds) for ``calls`` (``_source``) and ``constants``, compiled for the flat arrays'
-    and the constants' types; ``bounds`` (int64) holds every ``Slice``'s start and stop in call order."""
+    """(calculate, update, step, bounds) for ``calls`` (``_source``) and ``constants``, compiled for the flat
+    arrays' and the constants' types; ``bounds`` (int64) holds every ``Slice``'s start and stop in call order."""
     kernels = {id(kernel): kernel for which in calls.values() for kernel, _ in which}
     names = {key: f"k{i}" for i, key in enumerate(kernels)}
     body = _source(calls, len(constants), names)
@@ -116,9 +122,9 @@ def compile_program(calls: dict[str, list], constants: list):
         exec(compile(body, "<heft program>", "exec"), namespace)
     signature = tuple(numba.typeof(value) for value in (np.zeros(0), np.zeros(0), np.zeros(0), bounds, *constants))
     functions = []
-    for which in ("calculate", "update"):
+    for which in FUNCTIONS:
         function = numba.njit(cache=cache)(namespace[which])
         function.compile(signature)
         function.disable_compile()  # a tick never stops to compile
         functions.append(function)
-    return functions[0], functions[1], bounds
+    return (*functions, bounds)

@@ -38,9 +38,9 @@ class TickProgram:
     state the tick left and a calculation what the tick computed from its inputs (before the update),
     as Drake's ``EvalUniquePeriodicDiscreteUpdate`` sees them. ``reset`` then ``initialize`` is Drake's
     ``ExecuteInitializationEvents`` on a default context with the inputs as they are. With ``compile`` (and every
-    kernel compiled by numba), the calculations and the updates each run as one compiled function generated from
-    the program's order (``systems.compiled_program``); else each kernel is called from Python. The two agree
-    to the bit."""
+    kernel compiled by numba), the calculations, the updates and the two together (``step``) each run as one
+    compiled function generated from the program's order (``systems.compiled_program``); else each kernel is
+    called from Python. The two agree to the bit."""
 
     def __init__(self, diagram: Diagram, compile: bool = True):
         self.diagram = diagram
@@ -126,7 +126,7 @@ class TickProgram:
         self._calcs = [self._bind(block, kernel, args, None) for block, kernel, args in calculations]
         self._updates = [self._bind(block, kernel, args, self._next) for block, kernel, args in updates]
         self.compiled = compile and compilable([kernel for _, kernel, _ in calculations + updates])
-        """Whether a tick calls the calculations and updates compiled as two functions (``_compile``)."""
+        """Whether a tick calls the calculations and updates compiled (``_compile``)."""
         if self.compiled:
             self._compile(calculations, updates)
         self._initializations = [self._bind(block, kernel, args, self._next) for block in blocks
@@ -258,7 +258,7 @@ class TickProgram:
         return functools.partial(kernel, *values)
 
     def _compile(self, calculations, updates) -> None:
-        """The calculations and updates as two compiled functions (``systems.compiled_program``)."""
+        """The calculations, the updates and the two together as compiled functions (``systems.compiled_program``)."""
         constants, index = [], {}
 
         def described(block, args):
@@ -274,10 +274,10 @@ class TickProgram:
 
         calls = {"calculate": [(kernel, described(block, args)) for block, kernel, args in calculations],
                  "update": [(kernel, described(block, args)) for block, kernel, args in updates]}
-        calculate, update, bounds = compile_program(calls, constants)
-        self._compiled_calculate = functools.partial(calculate, self.signals, self.state, self._next, bounds,
-                                                     *constants)
-        self._compiled_update = functools.partial(update, self.signals, self.state, self._next, bounds, *constants)
+        *functions, bounds = compile_program(calls, constants)
+        self._compiled_calculate, self._compiled_update, self._compiled_step = (
+            functools.partial(function, self.signals, self.state, self._next, bounds, *constants)
+            for function in functions)
 
     # --- running ------------------------------------------------------------------------
 
@@ -328,6 +328,14 @@ class TickProgram:
             update()
         np.copyto(self.state, self._next)
 
+    def step(self) -> None:
+        """``calculate``, then ``update`` (compiled: one call)."""
+        if self.compiled:
+            self._compiled_step()
+            return
+        self.calculate()
+        self.update()
+
     def receive(self) -> None:
         """Every block's receives (what came from outside) into the state."""
         for receive in self._receives:
@@ -339,10 +347,9 @@ class TickProgram:
             publish()
 
     def tick(self) -> None:
-        """One tick: ``receive``, ``calculate``, ``update``, ``publish``."""
+        """One tick: ``receive``, ``step`` (``calculate``, ``update``), ``publish``."""
         self.receive()
-        self.calculate()
-        self.update()
+        self.step()
         self.publish()
 
     def reset(self) -> None:
