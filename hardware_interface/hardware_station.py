@@ -258,10 +258,10 @@ class HardwareStation:
         self._command_bus = bus if command_bus is None else command_bus
         self._bus_fd = [bus.fileno()]
         self.num_joints = n = len(limits.slave_velocity)
+        """The slave's joints (6 or 7)."""
         if n not in CHAIN_JOINTS:
             raise ValueError(f"the hardware station drives an arm of {' or '.join(map(str, CHAIN_JOINTS))} joints; "
-                             f"the scenario's has {n}")
-        """The slave's joints (6 or 7)."""
+                             f"the limits given are of {n}")
         self._mail = (LcmMailbox(bus, channels.master_state.name, keep=JOINT_KEEP),
                       LcmMailbox(bus, channels.slave_status.name, keep=JOINT_KEEP),
                       LcmMailbox(bus, channels.ft_sample.name, keep=FT_KEEP),
@@ -280,8 +280,8 @@ class HardwareStation:
         """How late the arm stepped on the slave commands sent, from its status's echo (``command_echo``)."""
         self._echo_utime = 0
         self.gripper_events: list[str] = []
-        """The grasps and releases the gripper's driver reported since the ``receive`` before the last
-        (``gripper_state_reader``: GRASP, RELEASE)."""
+        """The grasps and releases (``gripper_state_reader``: GRASP, RELEASE) that the gripper's driver reported in
+        the messages checked by the last ``receive`` and the wait before it."""
         self._gripper_pending: list[str] = []  # those checked since the last receive
         self._origin = None  # time.perf_counter() at station time 0 (s), learned at each receive
         self._statuses_received = 0  # the arm's statuses received by the last receive

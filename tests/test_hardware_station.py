@@ -4,6 +4,7 @@ every channel is fresh; a stale channel or a stalled controller faults within th
 timeout of wall time, forces ramp back without a jump; slave commands are rate
 limited by measured time and latched at a fault; the clutch button; FT sign flip."""
 
+import dataclasses
 import math
 import time
 
@@ -104,6 +105,13 @@ def test_rate_limit_moves_at_most_the_step():
     command = np.zeros(3)
     rate_limit_into(command, np.array([1.0, -0.01, 0.5]), np.full(3, 0.2), 0.5)
     np.testing.assert_allclose(command, [0.1, -0.01, 0.1])
+
+
+def test_an_arm_of_another_joint_count_is_refused_by_name():
+    five = dataclasses.replace(LIMITS, slave_lower=LIMITS.slave_lower[:5], slave_upper=LIMITS.slave_upper[:5],
+                               slave_velocity=LIMITS.slave_velocity[:5])
+    with pytest.raises(ValueError, match="an arm of 6 or 7 joints; the limits given are of 5"):
+        HardwareStation(lcm.LCM("memq://"), CHANNELS, five, PARAMS)
 
 
 def test_no_slave_command_before_the_slave_is_known():
