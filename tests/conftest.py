@@ -80,3 +80,16 @@ def heft_logger_at_info():
     yield
     if logging.getLogger(console.ROOT).handlers:
         console.configure()
+
+
+@pytest.fixture(autouse=True)
+def process_keeps_its_cpus():
+    """Each test ends with every thread of the test process back on the CPUs it started on: a command run
+    in-process (`heft stand-in`, `heft driver`) leaves the real-time loop's CPU in its own process, which
+    then ran the rest of the suite on one CPU and skipped the tests that need two."""
+    cpus = os.sched_getaffinity(0)
+    yield
+    if os.sched_getaffinity(0) != cpus:
+        for task in os.listdir("/proc/self/task"):
+            with contextlib.suppress(OSError):  # a thread that ended meanwhile
+                os.sched_setaffinity(int(task), cpus)
