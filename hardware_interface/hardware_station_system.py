@@ -4,9 +4,9 @@
 publishers, the watchdog) in a ``TickSystem`` whose ports carry the names of ``station_ports``, as Drake's
 ``MakeHardwareStation(hardware=True)`` stands in for its simulation: one function connects the controller
 to either (``diagrams.teleop.ConnectControllerToStation``). At the start of each tick it receives (one LCM
-pump, every message checked, the newest of each channel, the watchdog judged) into its state, which its
-outputs show; at the end it sends the controller's commands, gated by the station's health: while the
-station is not healthy, zero torque and the slave held. The loop sets ``now`` (s, its monotonic clock)
+pump, the messages the wait before it left unchecked checked, the newest of each channel, the watchdog judged)
+into its state, which its outputs show; at the end it sends the controller's commands, gated by the station's
+health: while the station is not healthy, zero torque and the slave held. The loop sets ``now`` (s, its monotonic clock)
 before each tick.
 """
 
