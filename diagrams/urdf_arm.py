@@ -24,9 +24,8 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JointActuatorIndex
 
 from heft.diagrams.arm_params import ArmParams
+from heft.systems.serial_chain import CHAIN_JOINTS
 
-CHAIN_JOINTS = (6, 7)
-"""How many joints heft's inverse kinematics takes on the chain."""
 
 _UNITS = {"revolute": ("rad", "rad/s", "N·m"), "prismatic": ("m", "m/s", "N")}
 

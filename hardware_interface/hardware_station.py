@@ -34,7 +34,7 @@ from drake import lcmt_iiwa_command
 
 from heft.systems.compiled import compiled, float_array, record_views
 from heft.systems.controller.master_kinematics import NUM_JOINTS as MASTER_JOINTS
-from heft.systems.controller.slave_kinematics import CHAIN_JOINTS
+from heft.systems.serial_chain import CHAIN_JOINTS
 
 from heft.hardware_interface.channels import LcmChannels
 from heft.hardware_interface.command_echo import CommandEcho

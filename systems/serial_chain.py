@@ -17,6 +17,9 @@ from pydrake.multibody.tree import Frame
 
 from heft.systems.compiled import compiled, float_array, record_views
 
+CHAIN_JOINTS = (6, 7)
+"""The slave arms' numbers of joints heft drives: the per-chain kernels are compiled for each, and an arm's
+model must have one of them."""
 MOTION_SIZE = 12
 """``SerialChain.motion``: [a (3, m/s²); α (3, rad/s²); ω (3, rad/s); g (3, m/s²)], all in E."""
 ACCELERATION, OMEGA, GRAVITY = slice(0, 6), slice(6, 9), slice(9, 12)

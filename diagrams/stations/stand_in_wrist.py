@@ -23,7 +23,7 @@ from heft.systems.load_dynamics import GRAVITY_W, regressor_into
 from heft.systems.serial_chain import ACCELERATION, GRAVITY, OMEGA, SerialChain, chain_dtype, chain_kinematics
 from heft.systems.station.sensor_models import (NUM_AXES, HeldLowpass, SixAxisMeasurement, SixAxisSensorParams, lowpass,
                                         lowpass_coefficients)
-from heft.systems.controller.slave_kinematics import CHAIN_JOINTS
+from heft.systems.serial_chain import CHAIN_JOINTS
 
 GRIPPER_CLOSING_S = 0.2
 """How long (s) the gripper's fingers take from open to closed on the object (assumed: a Schunk

@@ -36,7 +36,7 @@ from pydrake.multibody.tree import Frame
 
 from heft.systems.compiled import compiled, float_array, record_views
 from heft.systems.pose_vectors import POSE_SIZE, rotation_into
-from heft.systems.serial_chain import MOTION_SIZE, SerialChain, chain_kinematics
+from heft.systems.serial_chain import CHAIN_JOINTS, MOTION_SIZE, SerialChain, chain_kinematics
 from heft.systems.tick_system import TickSystem
 
 NON_FINITE = 1
@@ -44,8 +44,6 @@ NOT_CONVERGED = 2
 JOINT_LIMIT = 4
 SLEWING = 8
 
-CHAIN_JOINTS = (6, 7)
-"""The chains the kernel serves, by their number of joints."""
 
 # ``dls_ik_step``'s settings (a float64 array: λ (m), the null rate (1/s), the tolerance (m and rad)), and
 # the rows of its scratch for a chain of n joints (n + _ROWS rows, max(n, MOTION_SIZE) columns).

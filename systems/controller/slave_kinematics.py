@@ -10,11 +10,8 @@ from pydrake.multibody.plant import MultibodyPlant
 from heft.systems.load_dynamics import GRAVITY_W
 from heft.systems.pose_vectors import POSE_SIZE, pose_into
 from heft.systems.compiled import compiled
-from heft.systems.serial_chain import GRAVITY, SerialChain, chain_dtype, chain_kinematics
+from heft.systems.serial_chain import CHAIN_JOINTS, GRAVITY, SerialChain, chain_dtype, chain_kinematics
 from heft.systems.tick_system import TickSystem
-
-CHAIN_JOINTS = (6, 7)
-"""The slave arms' numbers of joints ``SlaveKinematics`` takes."""
 
 
 def position_size(n: int) -> int:
